@@ -1,0 +1,278 @@
+//! Neighbour search: a cell linked list built by counting sort (seed 004), and the per-particle
+//! neighbour lists used by every gather pass.
+//!
+//! Cells are anchored to the global domain origin, with edge ≥ the kernel support radius
+//! (each axis holds a whole number of cells, so periodic images land on cell boundaries), plus
+//! one margin cell on each side for ghosts. A pair interacts when `r < support` (strict); the
+//! brute-force oracle [`brute_force`] uses the same convention.
+//!
+//! **Order.** Particle i visits the 3ᴰ cells around its own in a fixed order of relative
+//! offsets, and within a cell its neighbours in ascending sort key (`id`, image code). The
+//! order therefore depends only on global positions and ids, never on local indices, so
+//! sums come out bit-identical whatever the thread or rank count.
+
+use crate::particles::Particles;
+use crate::Vector;
+use rayon::prelude::*;
+
+/// The global cell grid.
+#[derive(Debug, Clone)]
+pub struct CellGrid<const D: usize> {
+    /// Corner of the margin cell (domain min − one edge) (m).
+    pub origin: Vector<D>,
+    /// Cell edge per axis (m), ≥ the support radius.
+    pub edge: Vector<D>,
+    inv_edge: Vector<D>,
+    /// Cells per axis, margins included.
+    pub dims: [usize; D],
+}
+
+impl<const D: usize> CellGrid<D> {
+    /// Grid over `[min, max)` with cells no smaller than `support`.
+    pub fn new(min: &Vector<D>, max: &Vector<D>, support: f64) -> Self {
+        let mut dims = [0usize; D];
+        let mut edge = Vector::zeros();
+        for a in 0..D {
+            let len = max[a] - min[a];
+            let n = ((len / support).floor() as usize).max(1);
+            edge[a] = len / n as f64;
+            dims[a] = n + 2;
+        }
+        CellGrid {
+            origin: min - edge,
+            edge,
+            inv_edge: edge.map(|e| 1.0 / e),
+            dims,
+        }
+    }
+
+    /// Total number of cells.
+    pub fn len(&self) -> usize {
+        self.dims.iter().product()
+    }
+
+    /// True if the grid has no cells (never, for a valid scene).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Integer cell coordinates of `x`, or `None` outside the grid.
+    #[inline]
+    pub fn coords(&self, x: &Vector<D>) -> Option<[usize; D]> {
+        let mut c = [0usize; D];
+        for a in 0..D {
+            let f = ((x[a] - self.origin[a]) * self.inv_edge[a]).floor();
+            if !(f >= 0.0 && (f as usize) < self.dims[a]) {
+                return None;
+            }
+            c[a] = f as usize;
+        }
+        Some(c)
+    }
+
+    /// Linear index of cell coordinates (axis 0 slowest).
+    #[inline]
+    pub fn linear(&self, c: &[usize; D]) -> usize {
+        let mut l = 0;
+        for a in 0..D {
+            l = l * self.dims[a] + c[a];
+        }
+        l
+    }
+
+    /// The 3ᴰ relative offsets in their fixed visiting order (lexicographic).
+    pub fn stencil() -> Vec<[isize; D]> {
+        let mut out = Vec::with_capacity(3usize.pow(D as u32));
+        for k in 0..3usize.pow(D as u32) {
+            let mut o = [0isize; D];
+            let mut r = k;
+            for a in (0..D).rev() {
+                o[a] = (r % 3) as isize - 1;
+                r /= 3;
+            }
+            out.push(o);
+        }
+        out
+    }
+}
+
+/// Particles binned into cells: `order[start[c]..start[c+1]]` are the particles of cell `c`,
+/// ascending by sort key.
+#[derive(Debug, Clone, Default)]
+pub struct CellList {
+    /// Offsets into `order`, one per cell plus one.
+    pub start: Vec<u32>,
+    /// Particle indices grouped by cell.
+    pub order: Vec<u32>,
+    /// Cell of each particle.
+    pub cell: Vec<u32>,
+}
+
+impl CellList {
+    /// Bin all particles (owned and ghost). Returns the index of a particle outside the grid
+    /// as an error.
+    pub fn build<const D: usize>(&mut self, grid: &CellGrid<D>, p: &Particles<D>) -> Result<(), usize> {
+        let n = p.len();
+        self.cell.resize(n, 0);
+        let bad = self
+            .cell
+            .par_iter_mut()
+            .enumerate()
+            .map(|(i, c)| match grid.coords(&p.x[i]) {
+                Some(cc) => {
+                    *c = grid.linear(&cc) as u32;
+                    usize::MAX
+                }
+                None => i,
+            })
+            .min()
+            .unwrap_or(usize::MAX);
+        if bad != usize::MAX {
+            return Err(bad);
+        }
+        // counting sort by cell
+        let nc = grid.len();
+        self.start.clear();
+        self.start.resize(nc + 1, 0);
+        for &c in &self.cell {
+            self.start[c as usize + 1] += 1;
+        }
+        for c in 0..nc {
+            self.start[c + 1] += self.start[c];
+        }
+        self.order.resize(n, 0);
+        let mut fill = self.start.clone();
+        for (i, &c) in self.cell.iter().enumerate() {
+            let f = &mut fill[c as usize];
+            self.order[*f as usize] = i as u32;
+            *f += 1;
+        }
+        // ascending key within each cell
+        let keys = &p.key;
+        let start = &self.start;
+        let mut slices: Vec<&mut [u32]> = Vec::with_capacity(nc);
+        let mut rest: &mut [u32] = &mut self.order;
+        for c in 0..nc {
+            let len = (start[c + 1] - start[c]) as usize;
+            let (a, b) = rest.split_at_mut(len);
+            if len > 1 {
+                slices.push(a);
+            }
+            rest = b;
+        }
+        slices
+            .par_iter_mut()
+            .for_each(|s| s.sort_unstable_by_key(|&i| keys[i as usize]));
+        Ok(())
+    }
+}
+
+/// Neighbour lists of the owned particles: for particle i, the indices j (owned or ghost) with
+/// `|x_i − x_j| < support`, j ≠ i, in the fixed order described in the module docs.
+#[derive(Debug, Clone, Default)]
+pub struct NeighbourList {
+    /// `start[i]..start[i+1]` indexes `nbr` for owned particle i.
+    pub start: Vec<usize>,
+    /// Neighbour indices.
+    pub nbr: Vec<u32>,
+    chunks: Vec<Vec<u32>>,
+    counts: Vec<u32>,
+}
+
+/// Particles per block of the parallel neighbour-list build.
+const CHUNK: usize = 512;
+
+impl NeighbourList {
+    /// Build lists for owned particles for which `wanted(i)` holds (others get empty lists).
+    pub fn build<const D: usize>(
+        &mut self,
+        grid: &CellGrid<D>,
+        cells: &CellList,
+        p: &Particles<D>,
+        support: f64,
+        wanted: impl Fn(usize) -> bool + Sync,
+    ) {
+        let n = p.n_owned;
+        let r2max = support * support;
+        let stencil = CellGrid::<D>::stencil();
+        let nchunks = n.div_ceil(CHUNK);
+        self.chunks.resize_with(nchunks, Vec::new);
+        self.counts.resize(n, 0);
+        self.chunks
+            .par_iter_mut()
+            .zip(self.counts.par_chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(|(ci, (list, counts))| {
+                list.clear();
+                for (k, cnt) in counts.iter_mut().enumerate() {
+                    let i = ci * CHUNK + k;
+                    let before = list.len();
+                    if wanted(i) {
+                        let xi = p.x[i];
+                        let c = grid.coords(&xi).expect("binned particles lie in the grid");
+                        for off in &stencil {
+                            let mut cc = [0usize; D];
+                            let mut inside = true;
+                            for a in 0..D {
+                                let v = c[a] as isize + off[a];
+                                if v < 0 || v as usize >= grid.dims[a] {
+                                    inside = false;
+                                    break;
+                                }
+                                cc[a] = v as usize;
+                            }
+                            if !inside {
+                                continue;
+                            }
+                            let l = grid.linear(&cc);
+                            let (s, e) = (cells.start[l] as usize, cells.start[l + 1] as usize);
+                            for &j in &cells.order[s..e] {
+                                if j as usize != i && (xi - p.x[j as usize]).norm_squared() < r2max {
+                                    list.push(j);
+                                }
+                            }
+                        }
+                    }
+                    *cnt = (list.len() - before) as u32;
+                }
+            });
+        self.start.clear();
+        self.start.reserve(n + 1);
+        self.start.push(0);
+        let mut acc = 0usize;
+        for &c in &self.counts[..n] {
+            acc += c as usize;
+            self.start.push(acc);
+        }
+        self.nbr.clear();
+        self.nbr.reserve(acc);
+        for list in &self.chunks {
+            self.nbr.extend_from_slice(list);
+        }
+    }
+
+    /// Neighbours of owned particle `i`.
+    #[inline]
+    pub fn of(&self, i: usize) -> &[u32] {
+        &self.nbr[self.start[i]..self.start[i + 1]]
+    }
+
+    /// Total number of (directed) pairs.
+    pub fn pairs(&self) -> usize {
+        self.nbr.len()
+    }
+}
+
+/// Brute-force neighbour oracle over all particles: sorted `j` for each owned `i` with
+/// `|x_i − x_j| < support`, j ≠ i (the same convention as [`NeighbourList`]).
+pub fn brute_force<const D: usize>(p: &Particles<D>, support: f64) -> Vec<Vec<u32>> {
+    let r2 = support * support;
+    (0..p.n_owned)
+        .map(|i| {
+            (0..p.len())
+                .filter(|&j| j != i && (p.x[i] - p.x[j]).norm_squared() < r2)
+                .map(|j| j as u32)
+                .collect()
+        })
+        .collect()
+}

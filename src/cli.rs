@@ -1,0 +1,250 @@
+//! The `hsph` command line (clap derive): `run`, `check`, `bench`.
+//!
+//! Every user-facing failure becomes an [`Error`] whose exit status is 2 for bad input (scene,
+//! flags, a feature the build lacks) and 1 for a run that failed; nothing here panics.
+
+use crate::bench::{self, BenchOptions};
+use crate::driver::{self, RunOptions};
+use crate::error::{Error, Result};
+use crate::scene::{load_scene, Scene};
+use clap::{Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+const EXAMPLES: &str = "\
+Examples:
+  hsph run inputs/dam_break_2d.toml                  run the default scene (output in runs/)
+  hsph run inputs/poiseuille_2d.toml --out runs/poi --threads 2
+  hsph run inputs/dam_break_2d.toml --set time.t_end=0.2 --set discretisation.dx=0.005
+  hsph check inputs/dam_break_3d.toml                validate, count particles, estimate dt and memory
+  hsph bench --threads 1,2                           particle-steps/s of the benchmark scenes";
+
+/// hsph: hybrid MPI + threads smoothed-particle hydrodynamics (weakly compressible δ-SPH).
+#[derive(Debug, Parser)]
+#[command(name = "hsph", version, about, after_help = EXAMPLES)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Communication back end (issue 3 adds `local` and `mpi`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Backend {
+    /// MPI when launched by mpirun/srun and built with `mpi`, else serial.
+    Auto,
+    /// One rank in this process.
+    Serial,
+    /// MPI (cargo feature `mpi`).
+    Mpi,
+}
+
+/// Subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run a scene and write a run directory.
+    #[command(after_help = "\
+The run directory holds scene.toml (resolved), timeseries.csv (deterministic physics),
+diagnostics.csv (timers), final.csv (every particle, sorted by id), probes/*.csv,
+snapshots/series.pvd (open in ParaView) and, last, summary.json.
+
+Examples:
+  hsph run inputs/dam_break_2d.toml
+  hsph run inputs/couette_2d.toml --out runs/couette --force --threads 2
+  hsph run inputs/dam_break_2d.toml --set physics.artificial_viscosity=0.05 --set fluid[0].max=[0.6,0.6]")]
+    Run {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Output directory (default runs/<scene>-<UTC timestamp>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Overwrite a non-empty output directory.
+        #[arg(long)]
+        force: bool,
+        /// Rayon threads per rank (default: one per core).
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+        /// Override a scene key by its dotted TOML path, e.g. --set time.t_end=0.5 (repeatable).
+        #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
+        set: Vec<String>,
+        /// Communication back end.
+        #[arg(long, value_enum, default_value_t = Backend::Auto)]
+        backend: Backend,
+        /// No progress output.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Validate a scene and print what a run would do, without running it.
+    #[command(after_help = "Example:\n  hsph check inputs/dam_break_3d.toml --set discretisation.dx=0.01")]
+    Check {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Override a scene key (repeatable).
+        #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
+        set: Vec<String>,
+    },
+    /// Measure particle-steps/s and pair interactions/s (no output files).
+    #[command(after_help = "\
+Examples:
+  hsph bench                                   the two benchmark scenes, 1 and 2 threads
+  hsph bench inputs/dam_break_2d.toml --threads 2 --steps 200")]
+    Bench {
+        /// Scenes (default: inputs/dam_break_2d_dsph.toml and inputs/dam_break_3d_bench.toml).
+        scenes: Vec<PathBuf>,
+        /// Thread counts to measure, comma separated.
+        #[arg(long, value_delimiter = ',', default_values_t = vec![1usize, 2])]
+        threads: Vec<usize>,
+        /// Timed steps per measurement (after 5 warm-up steps).
+        #[arg(long, default_value_t = 100)]
+        steps: u64,
+        /// Repetitions per measurement; the median is reported.
+        #[arg(long, default_value_t = 3)]
+        repeat: usize,
+        /// Override a scene key (repeatable).
+        #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
+        set: Vec<String>,
+    },
+}
+
+/// Entry point of the binary: parse, dispatch, print any error and return the exit status.
+pub fn main() -> i32 {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return code;
+        }
+    };
+    match dispatch(cli.command) {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("hsph: {e}");
+            e.exit_code()
+        }
+    }
+}
+
+fn dispatch(cmd: Command) -> Result<()> {
+    match cmd {
+        Command::Run {
+            scene,
+            out,
+            force,
+            threads,
+            set,
+            backend,
+            quiet,
+        } => {
+            if backend == Backend::Mpi && !cfg!(feature = "mpi") {
+                return Err(Error::missing_feature("--backend", "mpi"));
+            }
+            let (scene, _) = load_scene(&scene, &set)?;
+            driver::run_scene(
+                &scene,
+                &RunOptions {
+                    out,
+                    force,
+                    threads,
+                    quiet,
+                },
+            )
+            .map(|_| ())
+        }
+        Command::Check { scene, set } => {
+            let (scene, _) = load_scene(&scene, &set)?;
+            print!("{}", check_report(&scene)?);
+            Ok(())
+        }
+        Command::Bench {
+            scenes,
+            threads,
+            steps,
+            repeat,
+            set,
+        } => {
+            let scenes = if scenes.is_empty() {
+                bench::default_scenes()
+            } else {
+                scenes
+            };
+            let opts = BenchOptions {
+                threads,
+                steps,
+                repeat,
+                overrides: set,
+            };
+            let rows = bench::run(&scenes, &opts)?;
+            print!("{}", bench::table(&rows));
+            Ok(())
+        }
+    }
+}
+
+/// The text `hsph check` prints: counts, physics, dt and memory estimates.
+pub fn check_report(scene: &Scene) -> Result<String> {
+    match scene.dimension {
+        2 => check_dim::<2>(scene),
+        3 => check_dim::<3>(scene),
+        d => Err(Error::input("dimension", format!("must be 2 or 3, got {d}"))),
+    }
+}
+
+fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
+    use crate::particles::{Kind, Particles};
+    use std::fmt::Write;
+    let sim = crate::sim::Simulation::<D>::new(scene)?;
+    let n = sim.p.n_owned;
+    let count = |k: Kind| sim.p.kind[..n].iter().filter(|&&x| x == k).count();
+    let (fluid, dummy, rep) = (count(Kind::Fluid), count(Kind::Dummy), count(Kind::Repulsive));
+    let mut s = String::new();
+    let w = &mut s;
+    let _ = writeln!(
+        w,
+        "scene       {} ({}D): {}",
+        scene.name,
+        D,
+        scene.description.trim()
+    );
+    let _ = writeln!(
+        w,
+        "particles   {n} = {fluid} fluid + {dummy} dummy wall + {rep} repulsive wall"
+    );
+    let _ = writeln!(w, "ghosts      {} (periodic and mirror images)", sim.ghosts.len());
+    let _ = writeln!(
+        w,
+        "neighbours  {:.1} per particle on average",
+        sim.nl.pairs() as f64 / n.max(1) as f64
+    );
+    let _ = writeln!(w, "physics");
+    for line in sim.model.describe() {
+        let _ = writeln!(w, "  - {line}");
+    }
+    let _ = writeln!(
+        w,
+        "expected    speed {:.4e} m/s (c0 must be ≥ 10×)",
+        crate::scene::expected_speed(scene)
+    );
+    let steps = (scene.time.t_end / sim.dt).ceil();
+    let _ = writeln!(
+        w,
+        "time        t_end {} s, dt₀ {:.4e} s, about {:.0} steps, {} output steps",
+        scene.time.t_end,
+        sim.dt,
+        steps,
+        (scene.time.t_end / scene.output.interval).round()
+    );
+    let bytes = (n + sim.ghosts.len()) * Particles::<D>::bytes_per_particle()
+        + sim.nl.pairs() * 4
+        + sim.cells.order.len() * 8;
+    let _ = writeln!(
+        w,
+        "memory      about {:.1} MiB ({:.0} B per particle incl. neighbour lists)",
+        bytes as f64 / (1024.0 * 1024.0),
+        bytes as f64 / n.max(1) as f64
+    );
+    let _ = writeln!(w, "probes      {}", scene.probes.len());
+    if let Some(r) = &scene.reference {
+        let _ = writeln!(w, "reference   {r:?}");
+    }
+    Ok(s)
+}

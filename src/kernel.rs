@@ -1,0 +1,200 @@
+//! Smoothing kernels W(r, h) and their radial derivatives (methods.md §1b).
+//!
+//! `q = r/h`; every kernel is normalised so that ∫W dV = 1 in `D` dimensions (checked
+//! numerically in the tests). Units: W in m⁻ᴰ, dW/dr in m⁻ᴰ⁻¹.
+
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// The kernels a scene can choose.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum KernelKind {
+    /// Wendland C2: (1 − q/2)⁴ (2q + 1), support 2h.
+    WendlandC2,
+    /// Cubic B-spline (M4), support 2h.
+    CubicSpline,
+    /// Quintic spline of Morris et al. (1997), support 3h.
+    QuinticSpline,
+}
+
+/// A kernel bound to a smoothing length and a dimension.
+#[derive(Debug, Clone, Copy)]
+pub struct Kernel {
+    /// Which kernel.
+    pub kind: KernelKind,
+    /// Smoothing length h (m).
+    pub h: f64,
+    /// Support radius κh (m): pairs with r < support interact.
+    pub support: f64,
+    sigma: f64,
+    inv_h: f64,
+}
+
+impl KernelKind {
+    /// Support radius in units of h.
+    pub fn support_factor(self) -> f64 {
+        match self {
+            KernelKind::WendlandC2 | KernelKind::CubicSpline => 2.0,
+            KernelKind::QuinticSpline => 3.0,
+        }
+    }
+
+    /// Normalisation σ_D for h = 1 (methods.md §1b table).
+    pub fn sigma(self, dim: usize) -> f64 {
+        match (self, dim) {
+            (KernelKind::CubicSpline, 2) => 10.0 / (7.0 * PI),
+            (KernelKind::CubicSpline, _) => 1.0 / PI,
+            (KernelKind::WendlandC2, 2) => 7.0 / (4.0 * PI),
+            (KernelKind::WendlandC2, _) => 21.0 / (16.0 * PI),
+            (KernelKind::QuinticSpline, 2) => 7.0 / (478.0 * PI),
+            (KernelKind::QuinticSpline, _) => 1.0 / (120.0 * PI),
+        }
+    }
+
+    /// Scene-file name of the kernel.
+    pub fn name(self) -> &'static str {
+        match self {
+            KernelKind::WendlandC2 => "wendland_c2",
+            KernelKind::CubicSpline => "cubic_spline",
+            KernelKind::QuinticSpline => "quintic_spline",
+        }
+    }
+}
+
+impl Kernel {
+    /// Kernel `kind` with smoothing length `h` (m) in `dim` dimensions.
+    pub fn new(kind: KernelKind, h: f64, dim: usize) -> Self {
+        Kernel {
+            kind,
+            h,
+            support: kind.support_factor() * h,
+            sigma: kind.sigma(dim) / h.powi(dim as i32),
+            inv_h: 1.0 / h,
+        }
+    }
+
+    /// W(r, h) (m⁻ᴰ).
+    #[inline]
+    pub fn w(&self, r: f64) -> f64 {
+        let q = r * self.inv_h;
+        self.sigma * shape(self.kind, q)
+    }
+
+    /// dW/dr (m⁻ᴰ⁻¹); negative inside the support.
+    #[inline]
+    pub fn dw_dr(&self, r: f64) -> f64 {
+        let q = r * self.inv_h;
+        self.sigma * self.inv_h * dshape(self.kind, q)
+    }
+}
+
+/// Dimensionless shape f(q), W = σ_D/hᴰ · f(q).
+#[inline]
+fn shape(kind: KernelKind, q: f64) -> f64 {
+    match kind {
+        KernelKind::WendlandC2 => {
+            if q < 2.0 {
+                let a = 1.0 - 0.5 * q;
+                let a2 = a * a;
+                a2 * a2 * (2.0 * q + 1.0)
+            } else {
+                0.0
+            }
+        }
+        KernelKind::CubicSpline => {
+            if q < 1.0 {
+                1.0 - 1.5 * q * q + 0.75 * q * q * q
+            } else if q < 2.0 {
+                let a = 2.0 - q;
+                0.25 * a * a * a
+            } else {
+                0.0
+            }
+        }
+        KernelKind::QuinticSpline => {
+            let p5 = |a: f64| if a > 0.0 { a * a * a * a * a } else { 0.0 };
+            p5(3.0 - q) - 6.0 * p5(2.0 - q) + 15.0 * p5(1.0 - q)
+        }
+    }
+}
+
+/// df/dq.
+#[inline]
+fn dshape(kind: KernelKind, q: f64) -> f64 {
+    match kind {
+        KernelKind::WendlandC2 => {
+            if q < 2.0 {
+                // d/dq[(1-q/2)^4 (2q+1)] = -5 q (1-q/2)^3
+                let a = 1.0 - 0.5 * q;
+                -5.0 * q * a * a * a
+            } else {
+                0.0
+            }
+        }
+        KernelKind::CubicSpline => {
+            if q < 1.0 {
+                -3.0 * q + 2.25 * q * q
+            } else if q < 2.0 {
+                let a = 2.0 - q;
+                -0.75 * a * a
+            } else {
+                0.0
+            }
+        }
+        KernelKind::QuinticSpline => {
+            let p4 = |a: f64| if a > 0.0 { a * a * a * a } else { 0.0 };
+            -5.0 * (p4(3.0 - q) - 6.0 * p4(2.0 - q) + 15.0 * p4(1.0 - q))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ALL: [KernelKind; 3] = [
+        KernelKind::WendlandC2,
+        KernelKind::CubicSpline,
+        KernelKind::QuinticSpline,
+    ];
+
+    /// ∫W dV = 1, by the midpoint rule in polar (2D) and spherical (3D) shells.
+    #[test]
+    fn kernels_are_normalised() {
+        for kind in ALL {
+            for dim in [2usize, 3] {
+                let k = Kernel::new(kind, 0.37, dim);
+                let n = 20_000;
+                let dr = k.support / n as f64;
+                let mut s = 0.0;
+                for i in 0..n {
+                    let r = (i as f64 + 0.5) * dr;
+                    let shell = if dim == 2 { 2.0 * PI * r } else { 4.0 * PI * r * r };
+                    s += k.w(r) * shell * dr;
+                }
+                assert!((s - 1.0).abs() < 1e-7, "{kind:?} {dim}D integrates to {s}");
+            }
+        }
+    }
+
+    /// dW/dr agrees with a central difference of W and vanishes at and beyond the support.
+    #[test]
+    fn derivative_matches_finite_difference() {
+        for kind in ALL {
+            let k = Kernel::new(kind, 0.5, 3);
+            for i in 1..60 {
+                let r = i as f64 * k.support / 61.0;
+                let e = 1e-6;
+                let fd = (k.w(r + e) - k.w(r - e)) / (2.0 * e);
+                assert!(
+                    (fd - k.dw_dr(r)).abs() < 1e-5 * k.w(0.0).abs() / k.h,
+                    "{kind:?} r={r}"
+                );
+            }
+            assert_eq!(k.w(k.support), 0.0);
+            assert_eq!(k.dw_dr(k.support), 0.0);
+            assert_eq!(k.w(1.5 * k.support), 0.0);
+        }
+    }
+}

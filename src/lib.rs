@@ -1,0 +1,32 @@
+//! # hsph — hybrid MPI + threads smoothed-particle hydrodynamics
+//!
+//! A weakly compressible δ-SPH solver for violent free-surface flow, in 2D and 3D, built so
+//! that one rank per subdomain (seed 000's dynamic domain decomposition) can later share the
+//! same step loop. See `ARCHITECTURE.md` for the map of modules and the glossary.
+//!
+//! Units are SI throughout (m, s, kg, Pa). Dimension is a const generic `D` (2 or 3).
+#![warn(missing_docs)]
+#![deny(unsafe_code)]
+
+pub mod bench;
+pub mod cells;
+pub mod cli;
+pub mod driver;
+pub mod error;
+pub mod exact;
+pub mod ghosts;
+pub mod kernel;
+pub mod output;
+pub mod particles;
+pub mod physics;
+pub mod probes;
+pub mod progress;
+pub mod reference;
+pub mod scene;
+pub mod setup;
+pub mod sim;
+
+/// Fixed-size position/velocity vector in `D` dimensions (m, m/s, ...).
+pub type Vector<const D: usize> = nalgebra::SVector<f64, D>;
+/// `D`×`D` matrix (renormalisation matrices, later stress tensors).
+pub type Matrix<const D: usize> = nalgebra::SMatrix<f64, D, D>;

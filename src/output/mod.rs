@@ -1,0 +1,246 @@
+//! The run directory: what a run leaves behind (README, "Run directory").
+//!
+//! - `scene.toml` — the resolved scene, every default filled in;
+//! - `timeseries.csv` — physics only, deterministic, bitwise comparable across threads/ranks;
+//! - `diagnostics.csv` — wall-clock timers and anything machine- or layout-dependent;
+//! - `final.csv` — every particle at the end, sorted by id, shortest round-trip floats;
+//! - `probes/<name>.csv`, `snapshots/*.vtu` + `snapshots/series.pvd`;
+//! - `summary.json` — written last and atomically: its presence marks a complete run.
+
+pub mod vtk;
+
+use crate::error::{Error, Result};
+use crate::probes;
+use crate::scene::{Scene, SnapshotFormat};
+use crate::sim::{Simulation, PHASES};
+use std::fs::{self, File};
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// Choose and create the output directory: refuses a non-empty `DIR` unless `force`.
+pub fn prepare_dir(out: Option<&Path>, scene_name: &str, force: bool) -> Result<PathBuf> {
+    let dir = match out {
+        Some(d) => d.to_path_buf(),
+        None => PathBuf::from("runs").join(format!("{scene_name}-{}", timestamp())),
+    };
+    if dir.exists() {
+        let non_empty = fs::read_dir(&dir)
+            .map_err(|e| Error::io(&dir, e))?
+            .next()
+            .is_some();
+        if non_empty && !force {
+            return Err(Error::input(
+                "--out",
+                format!(
+                    "{} is not empty; choose another directory or pass --force to overwrite",
+                    dir.display()
+                ),
+            ));
+        }
+        if non_empty {
+            // --force: remove what a previous run wrote (only our own files and folders)
+            for name in [
+                "summary.json",
+                "scene.toml",
+                "timeseries.csv",
+                "diagnostics.csv",
+                "final.csv",
+            ] {
+                let _ = fs::remove_file(dir.join(name));
+            }
+            for sub in ["probes", "snapshots"] {
+                let _ = fs::remove_dir_all(dir.join(sub));
+            }
+        }
+    }
+    fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    Ok(dir)
+}
+
+/// UTC time as `YYYYMMDD-HHMMSS` (civil-from-days, no time-zone database needed).
+pub fn timestamp() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs() as i64)
+        .unwrap_or(0);
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}{m:02}{d:02}-{:02}{:02}{:02}",
+        rem / 3600,
+        rem % 3600 / 60,
+        rem % 60
+    )
+}
+
+fn create(path: &Path) -> Result<BufWriter<File>> {
+    Ok(BufWriter::new(
+        File::create(path).map_err(|e| Error::io(path, e))?,
+    ))
+}
+
+/// Writes everything of one run except `summary.json` (see [`write_summary`]).
+pub struct RunWriter {
+    dir: PathBuf,
+    timeseries: BufWriter<File>,
+    diagnostics: BufWriter<File>,
+    probes: Vec<BufWriter<File>>,
+    snapshots: Vec<(f64, String)>,
+    format: SnapshotFormat,
+    fields: Vec<String>,
+}
+
+impl RunWriter {
+    /// Create the files of a run in `dir` (already prepared) and write `scene.toml`.
+    pub fn new(dir: &Path, scene: &Scene) -> Result<Self> {
+        let d = scene.dimension;
+        let resolved = toml::to_string(scene).map_err(|e| Error::run(format!("scene.toml: {e}")))?;
+        let header = "# Resolved scene written by hsph: every default filled in. Run it again with\n\
+                      # `hsph run scene.toml`.\n";
+        let sp = dir.join("scene.toml");
+        fs::write(&sp, format!("{header}{resolved}")).map_err(|e| Error::io(&sp, e))?;
+        let mut timeseries = create(&dir.join("timeseries.csv"))?;
+        let axes = ["x", "y", "z"];
+        let mom: Vec<String> = axes[..d].iter().map(|a| format!("momentum_{a}")).collect();
+        writeln!(timeseries, "step,t,dt,kinetic_energy,{},max_speed", mom.join(","))
+            .map_err(|e| Error::io(dir, e))?;
+        let mut diagnostics = create(&dir.join("diagnostics.csv"))?;
+        let ph: Vec<String> = PHASES.iter().map(|p| format!("{p}_s")).collect();
+        writeln!(
+            diagnostics,
+            "step,t,wall_s,{},ghosts,pairs,particle_steps_per_s",
+            ph.join(",")
+        )
+        .map_err(|e| Error::io(dir, e))?;
+        let mut probes = Vec::new();
+        if !scene.probes.is_empty() {
+            let pd = dir.join("probes");
+            fs::create_dir_all(&pd).map_err(|e| Error::io(&pd, e))?;
+            for pr in &scene.probes {
+                let mut f = create(&pd.join(format!("{}.csv", pr.name())))?;
+                writeln!(f, "t,{}", probes::columns(pr, d).join(",")).map_err(|e| Error::io(&pd, e))?;
+                probes.push(f);
+            }
+        }
+        if scene.output.format == SnapshotFormat::Vtk {
+            let sd = dir.join("snapshots");
+            fs::create_dir_all(&sd).map_err(|e| Error::io(&sd, e))?;
+        }
+        Ok(RunWriter {
+            dir: dir.to_path_buf(),
+            timeseries,
+            diagnostics,
+            probes,
+            snapshots: Vec::new(),
+            format: scene.output.format,
+            fields: scene.output.fields.clone(),
+        })
+    }
+
+    /// Write one output step: timeseries row, diagnostics row, probes and a snapshot.
+    pub fn output_step<const D: usize>(&mut self, sim: &Simulation<D>, wall_s: f64) -> Result<()> {
+        let io = |e| Error::io(&self.dir, e);
+        let o = sim.observables();
+        let mom: Vec<String> = o.momentum.iter().map(|m| format!("{m}")).collect();
+        writeln!(
+            self.timeseries,
+            "{},{},{},{},{},{}",
+            sim.step,
+            sim.t,
+            sim.dt,
+            o.kinetic_energy,
+            mom.join(","),
+            o.max_speed
+        )
+        .map_err(io)?;
+        let ph: Vec<String> = sim.timers.seconds.iter().map(|s| format!("{s:.6}")).collect();
+        let rate = if wall_s > 0.0 {
+            sim.n_particles() as f64 * sim.step as f64 / wall_s
+        } else {
+            0.0
+        };
+        writeln!(
+            self.diagnostics,
+            "{},{},{wall_s:.6},{},{},{},{rate:.1}",
+            sim.step,
+            sim.t,
+            ph.join(","),
+            sim.ghosts.len(),
+            sim.nl.pairs()
+        )
+        .map_err(|e| Error::io(&self.dir, e))?;
+        let order = sim.by_id();
+        for (pr, f) in sim.scene.probes.iter().zip(self.probes.iter_mut()) {
+            let vals: Vec<String> = probes::sample(sim, &order, pr)
+                .iter()
+                .map(|v| format!("{v}"))
+                .collect();
+            writeln!(f, "{},{}", sim.t, vals.join(",")).map_err(|e| Error::io(&self.dir, e))?;
+        }
+        if self.format == SnapshotFormat::Vtk {
+            let name = format!("snapshot_{:05}.vtu", self.snapshots.len());
+            vtk::write_vtu(&self.dir.join("snapshots").join(&name), sim, &order, &self.fields)?;
+            self.snapshots.push((sim.t, name));
+            vtk::write_pvd(&self.dir.join("snapshots").join("series.pvd"), &self.snapshots)?;
+        }
+        Ok(())
+    }
+
+    /// Flush the series and write `final.csv`.
+    pub fn finish<const D: usize>(&mut self, sim: &Simulation<D>) -> Result<()> {
+        let dir = self.dir.clone();
+        let io = |e| Error::io(&dir, e);
+        self.timeseries.flush().map_err(io)?;
+        self.diagnostics.flush().map_err(io)?;
+        for f in &mut self.probes {
+            f.flush().map_err(io)?;
+        }
+        write_final(&self.dir.join("final.csv"), sim)
+    }
+}
+
+/// `final.csv`: every owned particle sorted by id, all state fields, shortest round-trip floats.
+pub fn write_final<const D: usize>(path: &Path, sim: &Simulation<D>) -> Result<()> {
+    let io = |e| Error::io(path, e);
+    let mut f = create(path)?;
+    let axes = ["x", "y", "z"];
+    let xs: Vec<String> = axes[..D].iter().map(|a| a.to_string()).collect();
+    let vs: Vec<String> = axes[..D].iter().map(|a| format!("v{a}")).collect();
+    writeln!(f, "id,kind,body,{},{},mass,rho,p", xs.join(","), vs.join(",")).map_err(io)?;
+    let p = &sim.p;
+    for i in sim.by_id() {
+        let x: Vec<String> = p.x[i].iter().map(|c| format!("{c}")).collect();
+        let v: Vec<String> = p.v[i].iter().map(|c| format!("{c}")).collect();
+        writeln!(
+            f,
+            "{},{},{},{},{},{},{},{}",
+            p.id[i],
+            p.kind[i].code(),
+            p.body[i],
+            x.join(","),
+            v.join(","),
+            p.mass[i],
+            p.rho[i],
+            p.p[i]
+        )
+        .map_err(io)?;
+    }
+    f.flush().map_err(io)
+}
+
+/// Write `summary.json` atomically (temporary file, then rename).
+pub fn write_summary(dir: &Path, summary: &serde_json::Value) -> Result<()> {
+    let tmp = dir.join(".summary.json.tmp");
+    let text = serde_json::to_string_pretty(summary).map_err(|e| Error::run(e.to_string()))?;
+    fs::write(&tmp, text + "\n").map_err(|e| Error::io(&tmp, e))?;
+    let fin = dir.join("summary.json");
+    fs::rename(&tmp, &fin).map_err(|e| Error::io(&fin, e))
+}

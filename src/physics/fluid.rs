@@ -1,0 +1,186 @@
+//! Rates of change of fluid particles: continuity with δ-SPH diffusion, pressure gradient,
+//! Morris laminar viscosity, Monaghan artificial viscosity, repulsive walls and body force.
+//!
+//! For fluid particle i and neighbours j (methods.md §1–2), with x_ij = x_i − x_j,
+//! ∇_i W_ij = (dW/dr) x_ij / r, V_j = m_j/ρ_j:
+//! - continuity: dρ_i/dt = Σ_j m_j (v_i − v_j)·∇_i W_ij
+//!   + δ h c0 Σ_j ψ_ij·∇_i W_ij V_j (fluid j only), ψ_ij = 2(ρ_j − ρ_i) x_ji/|x_ij|²
+//!   − (⟨∇ρ⟩_i^L + ⟨∇ρ⟩_j^L) for Antuono, without the gradients for Molteni;
+//! - momentum: dv_i/dt = −Σ_j m_j (p_i/ρ_i² + p_j/ρ_j² + Π_ij) ∇_i W_ij
+//!   + Σ_j m_j (μ_i + μ_j) x_ij·∇_i W_ij / (ρ_i ρ_j (r² + 0.01h²)) v_ij + g,
+//!   Π_ij = −α h c0 μ_ij / ρ̄_ij for v_ij·x_ij < 0, μ_ij = v_ij·x_ij/(r² + 0.01h²);
+//! - repulsive wall particles (Monaghan 1994) add D[(r0/r)¹² − (r0/r)⁴] x_ij/r² for r < r0
+//!   and take part in nothing else.
+//!
+//! Dummy wall neighbours enter with their extrapolated p, ρ and, in the viscous terms, their
+//! velocity v_w; in continuity they move with the wall.
+
+use super::Model;
+use crate::cells::NeighbourList;
+use crate::particles::{Kind, Particles};
+use crate::scene::DensityDiffusion;
+use crate::Vector;
+use rayon::prelude::*;
+
+/// Continuity pass: `p.drho` of every owned fluid particle (zero for walls), from the current
+/// positions, velocities and densities (eq. in the module docs, with the δ-SPH term).
+pub fn continuity<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, model: &Model<D>) {
+    let n = p.n_owned;
+    let mut drho = std::mem::take(&mut p.drho);
+    {
+        let p = &*p;
+        drho[..n]
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, dr)| *dr = continuity_of(p, nl, model, i));
+    }
+    p.drho = drho;
+}
+
+/// Momentum pass: `p.acc` of every owned fluid particle (zero for walls), from the current
+/// positions, velocities, densities and pressures.
+pub fn momentum<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, model: &Model<D>) {
+    let n = p.n_owned;
+    let mut acc = std::mem::take(&mut p.acc);
+    {
+        let p = &*p;
+        acc[..n]
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, a)| *a = momentum_of(p, nl, model, i));
+    }
+    p.acc = acc;
+}
+
+/// δ-SPH diffusion term D_i alone (for the conservation test Σ V_i D_i = 0).
+pub fn diffusion_term<const D: usize>(
+    p: &Particles<D>,
+    nl: &NeighbourList,
+    model: &Model<D>,
+    i: usize,
+) -> f64 {
+    let k = &model.kernel;
+    let eos = &model.eos[p.mat[i] as usize];
+    let coef = model.delta * k.h * eos.c0;
+    let mut s = 0.0;
+    for &j in nl.of(i) {
+        let j = j as usize;
+        if p.kind[j] != Kind::Fluid {
+            continue;
+        }
+        let xij = p.x[i] - p.x[j];
+        let r2 = xij.norm_squared();
+        let r = r2.sqrt();
+        let grad_w = xij * (k.dw_dr(r) / r);
+        s += coef * psi(p, model, i, j, &xij, r2).dot(&grad_w) * (p.mass[j] / p.rho[j]);
+    }
+    s
+}
+
+/// ψ_ij of the δ-SPH term.
+#[inline]
+fn psi<const D: usize>(
+    p: &Particles<D>,
+    model: &Model<D>,
+    i: usize,
+    j: usize,
+    xij: &Vector<D>,
+    r2: f64,
+) -> Vector<D> {
+    // x_ji = −x_ij
+    let base = xij * (-2.0 * (p.rho[j] - p.rho[i]) / r2);
+    match model.diffusion {
+        DensityDiffusion::Antuono => base - (p.grad_rho[i] + p.grad_rho[j]),
+        _ => base,
+    }
+}
+
+/// dρ_i/dt = Σ_j m_j (v_i − v_j)·∇_i W_ij + δ h c0 Σ_j ψ_ij·∇_i W_ij V_j (fluid j only).
+#[inline]
+fn continuity_of<const D: usize>(p: &Particles<D>, nl: &NeighbourList, model: &Model<D>, i: usize) -> f64 {
+    if p.kind[i] != Kind::Fluid {
+        return 0.0;
+    }
+    let k = &model.kernel;
+    let c0 = model.eos[p.mat[i] as usize].c0;
+    let diffusion = model.diffusion != DensityDiffusion::None;
+    let delta_coef = model.delta * k.h * c0;
+    let (xi, vi) = (p.x[i], p.v[i]);
+    let mut drho = 0.0;
+    for &j in nl.of(i) {
+        let j = j as usize;
+        let kind_j = p.kind[j];
+        if kind_j == Kind::Repulsive {
+            continue;
+        }
+        let xij = xi - p.x[j];
+        let r2 = xij.norm_squared();
+        let r = r2.sqrt();
+        let grad_w = xij * (k.dw_dr(r) / r);
+        let mj = p.mass[j];
+        // walls enter with their own (prescribed) velocity
+        drho += mj * (vi - p.v[j]).dot(&grad_w);
+        if diffusion && kind_j == Kind::Fluid {
+            drho += delta_coef * psi(p, model, i, j, &xij, r2).dot(&grad_w) * (mj / p.rho[j]);
+        }
+    }
+    drho
+}
+
+/// dv_i/dt: pressure gradient, Monaghan artificial viscosity, Morris laminar viscosity,
+/// Monaghan repulsive wall force and the body force.
+#[inline]
+fn momentum_of<const D: usize>(
+    p: &Particles<D>,
+    nl: &NeighbourList,
+    model: &Model<D>,
+    i: usize,
+) -> Vector<D> {
+    if p.kind[i] != Kind::Fluid {
+        return Vector::zeros();
+    }
+    let k = &model.kernel;
+    let h = k.h;
+    let eta2 = 0.01 * h * h;
+    let c0 = model.eos[p.mat[i] as usize].c0;
+    let (rep_d, rep_r0) = model.repulsive;
+    let (xi, vi, rhoi, pi) = (p.x[i], p.v[i], p.rho[i], p.p[i]);
+    let pi_term = pi / (rhoi * rhoi);
+    let mut acc = Vector::<D>::zeros();
+    for &j in nl.of(i) {
+        let j = j as usize;
+        let xij = xi - p.x[j];
+        let r2 = xij.norm_squared();
+        let r = r2.sqrt();
+        let kind_j = p.kind[j];
+        if kind_j == Kind::Repulsive {
+            if r < rep_r0 {
+                let q = rep_r0 / r;
+                let q2 = q * q;
+                let q4 = q2 * q2;
+                acc += xij * (rep_d * (q4 * q4 * q4 - q4) / r2);
+            }
+            continue;
+        }
+        let grad_w = xij * (k.dw_dr(r) / r);
+        let (mj, rhoj, pj) = (p.mass[j], p.rho[j], p.p[j]);
+        // viscous terms see the extrapolated velocity of dummy walls
+        let vij = if kind_j == Kind::Dummy {
+            vi - p.vw[j]
+        } else {
+            vi - p.v[j]
+        };
+        let mut pij = pi_term + pj / (rhoj * rhoj);
+        let vx = vij.dot(&xij);
+        if model.alpha > 0.0 && vx < 0.0 {
+            let mu = h * vx / (r2 + eta2);
+            pij += -model.alpha * c0 * mu / (0.5 * (rhoi + rhoj));
+        }
+        acc -= grad_w * (mj * pij);
+        if model.nu > 0.0 {
+            let mu_sum = model.nu * (rhoi + rhoj);
+            acc += vij * (mj * mu_sum * xij.dot(&grad_w) / (rhoi * rhoj * (r2 + eta2)));
+        }
+    }
+    acc + model.g
+}

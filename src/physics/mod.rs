@@ -1,0 +1,101 @@
+//! SPH physics: pure functions of particle fields and neighbour lists. Physics never calls a
+//! communicator; the step loop (`sim`) refreshes ghosts between passes.
+//!
+//! Passes of one step, in order (each a gather loop over owned particles, parallel with rayon,
+//! each particle summing its neighbours in the fixed order of [`crate::cells::NeighbourList`]):
+//! 1. [`delta::renormalised_gradient`] — ⟨∇ρ⟩^L for Antuono's δ-SPH (only if switched on);
+//! 2. [`walls::extrapolate`] — pressure, density and velocity of dummy wall particles;
+//! 3. [`fluid::rates`] — dρ/dt and dv/dt of fluid particles.
+
+pub mod delta;
+pub mod eos;
+pub mod fluid;
+pub mod walls;
+
+use crate::kernel::Kernel;
+use crate::scene::{DensityDiffusion, Scene};
+use crate::Vector;
+use eos::Eos;
+
+/// Everything the passes need to know about the model (no particle data).
+#[derive(Debug, Clone)]
+pub struct Model<const D: usize> {
+    /// Kernel with the smoothing length.
+    pub kernel: Kernel,
+    /// EOS per material.
+    pub eos: Vec<Eos>,
+    /// Density diffusion variant.
+    pub diffusion: DensityDiffusion,
+    /// δ coefficient.
+    pub delta: f64,
+    /// Monaghan α.
+    pub alpha: f64,
+    /// Kinematic viscosity ν (m²/s).
+    pub nu: f64,
+    /// Body force g (m/s²).
+    pub g: Vector<D>,
+    /// Repulsive wall force scale D (m²/s²) and range r0 (m) (Monaghan 1994).
+    pub repulsive: (f64, f64),
+    /// Slip condition per wall body: true = no-slip.
+    pub wall_no_slip: Vec<bool>,
+    /// Wall acceleration per wall body (m/s²), updated by the step loop for moving walls.
+    pub wall_acc: Vec<Vector<D>>,
+    /// Largest c0 of all materials (m/s).
+    pub c_max: f64,
+}
+
+impl<const D: usize> Model<D> {
+    /// The model a scene asks for.
+    pub fn new(s: &Scene) -> Self {
+        let h = s.discretisation.h_over_dx * s.discretisation.dx;
+        let eos: Vec<Eos> = s.materials.iter().map(Eos::new).collect();
+        let c_max = eos.iter().fold(0.0f64, |m, e| m.max(e.c0));
+        Model {
+            kernel: Kernel::new(s.discretisation.kernel, h, D),
+            diffusion: s.physics.density_diffusion,
+            delta: s.physics.delta,
+            alpha: s.physics.artificial_viscosity,
+            nu: s.physics.laminar_viscosity,
+            g: Vector::from_fn(|a, _| s.physics.body_force[a]),
+            // D = c0²/40 ≈ 5 g H when c0 = 10 sqrt(2 g H) (Monaghan 1994 suggests 5 g H)
+            repulsive: (c_max * c_max / 40.0, s.discretisation.dx),
+            wall_no_slip: s
+                .walls
+                .iter()
+                .map(|w| w.slip == crate::scene::Slip::NoSlip)
+                .collect(),
+            wall_acc: vec![Vector::zeros(); s.walls.len()],
+            eos,
+            c_max,
+        }
+    }
+
+    /// Names of the physics this model runs (for `hsph check` and logs).
+    pub fn describe(&self) -> Vec<String> {
+        let mut v = vec![format!(
+            "kernel {} (h = {:.4e} m, support {:.4e} m)",
+            self.kernel.kind.name(),
+            self.kernel.h,
+            self.kernel.support
+        )];
+        v.push("continuity equation + EOS (weakly compressible)".into());
+        match self.diffusion {
+            DensityDiffusion::None => {}
+            DensityDiffusion::Molteni => v.push(format!("δ-SPH Molteni–Colagrossi, δ = {}", self.delta)),
+            DensityDiffusion::Antuono => v.push(format!(
+                "δ-SPH Antuono (renormalised gradient), δ = {}",
+                self.delta
+            )),
+        }
+        if self.alpha > 0.0 {
+            v.push(format!("Monaghan artificial viscosity α = {}", self.alpha));
+        }
+        if self.nu > 0.0 {
+            v.push(format!("Morris laminar viscosity ν = {:e} m²/s", self.nu));
+        }
+        if self.g.norm() > 0.0 {
+            v.push(format!("body force {:?} m/s²", self.g.as_slice()));
+        }
+        v
+    }
+}

@@ -1,0 +1,229 @@
+//! Analytic and tabulated references a scene can declare; the named relative errors (as
+//! fractions: 0.004 means 0.4 %) go to `summary.json` under `errors`.
+
+use crate::particles::Kind;
+use crate::scene::Reference;
+use crate::sim::Simulation;
+use std::collections::BTreeMap;
+use std::f64::consts::PI;
+
+/// Koshizuka & Oka (1996) experimental surge front, Z = z/L against T = t sqrt(2g/L)
+/// (`inputs/reference/dambreak2d_koshizuka_oka1996_front.csv`, with its sources).
+const KO_FRONT: &str = include_str!("../inputs/reference/dambreak2d_koshizuka_oka1996_front.csv");
+
+/// Transient plane Poiseuille flow (Morris et al. 1997; analytic.md §1a), u(y, t) (m/s) for
+/// body force `f` (m/s²), kinematic viscosity `nu` (m²/s), plates at y = 0 and y = `l`.
+pub fn poiseuille(y: f64, t: f64, f: f64, nu: f64, l: f64) -> f64 {
+    let mut u = f / (2.0 * nu) * y * (l - y);
+    for n in 0..400 {
+        let k = (2 * n + 1) as f64;
+        let term = 4.0 * f * l * l / (nu * PI.powi(3) * k.powi(3))
+            * (k * PI * y / l).sin()
+            * (-k * k * PI * PI * nu * t / (l * l)).exp();
+        u -= term;
+        if term.abs() < 1e-20 * f * l * l / nu {
+            break;
+        }
+    }
+    u
+}
+
+/// Impulsively started Couette flow (analytic.md §1b), u(y, t) (m/s), upper plate speed `v0`.
+pub fn couette(y: f64, t: f64, v0: f64, nu: f64, l: f64) -> f64 {
+    let mut u = v0 * y / l;
+    for n in 1..4000 {
+        let nf = n as f64;
+        let decay = (-nu * nf * nf * PI * PI * t / (l * l)).exp();
+        if decay < 1e-18 {
+            break;
+        }
+        let sign = if n % 2 == 0 { 1.0 } else { -1.0 };
+        u += 2.0 * v0 * sign / (nf * PI) * (nf * PI * y / l).sin() * decay;
+    }
+    u
+}
+
+/// Tracks a scene's reference during a run.
+#[derive(Debug, Default)]
+pub struct Tracker {
+    /// Named errors measured so far.
+    pub errors: BTreeMap<String, f64>,
+    next_time: usize,
+    front: Vec<(f64, f64)>,
+}
+
+impl Tracker {
+    /// Called after every step: measures the errors due at this time.
+    pub fn after_step<const D: usize>(&mut self, sim: &Simulation<D>) {
+        let Some(r) = &sim.scene.reference else { return };
+        match r {
+            Reference::Poiseuille { gap, times } | Reference::Couette { gap, times, .. } => {
+                while self.next_time < times.len() && sim.t >= times[self.next_time] * (1.0 - 1e-12) {
+                    let label = times[self.next_time];
+                    let e = channel_error(sim, r, *gap);
+                    self.errors.insert(format!("velocity_linf_t{label}"), e);
+                    self.next_time += 1;
+                }
+            }
+            Reference::DamBreakFront { .. } => {}
+            Reference::Hydrostatic { .. } => {}
+        }
+    }
+
+    /// Called at every output step (front history for the dam break).
+    pub fn at_output<const D: usize>(&mut self, sim: &Simulation<D>) {
+        if let Some(Reference::DamBreakFront { .. }) = &sim.scene.reference {
+            let front = (0..sim.p.n_owned)
+                .filter(|&i| sim.p.kind[i] == Kind::Fluid)
+                .map(|i| sim.p.x[i][0])
+                .fold(f64::NEG_INFINITY, f64::max);
+            self.front
+                .push((sim.t, front + 0.5 * sim.scene.discretisation.dx));
+        }
+    }
+
+    /// Called once at the end of the run.
+    pub fn finish<const D: usize>(&mut self, sim: &Simulation<D>) {
+        match &sim.scene.reference {
+            Some(Reference::Hydrostatic { surface, bottom }) => {
+                let g = sim.model.g.norm();
+                let rho0 = sim.model.eos[0].rho0;
+                let h = surface - bottom;
+                let mid = bottom + 0.5 * h;
+                let mut ep: f64 = 0.0;
+                let mut vmax: f64 = 0.0;
+                let mut inside = 0usize;
+                let n_fluid = (0..sim.p.n_owned)
+                    .filter(|&i| sim.p.kind[i] == Kind::Fluid)
+                    .count();
+                for i in 0..sim.p.n_owned {
+                    if sim.p.kind[i] != Kind::Fluid {
+                        continue;
+                    }
+                    let y = sim.p.x[i][D - 1];
+                    if y < mid {
+                        let exact = rho0 * g * (surface - y);
+                        ep = ep.max((sim.p.p[i] - exact).abs() / (rho0 * g * h));
+                    }
+                    vmax = vmax.max(sim.p.v[i].norm());
+                    if !inside_fluid_region(sim, i) {
+                        inside += 1;
+                    }
+                }
+                self.errors.insert("pressure_linf_below_mid_depth".into(), ep);
+                self.errors
+                    .insert("max_speed_over_sqrt_gh".into(), vmax / (g * h).sqrt());
+                self.errors.insert(
+                    "fluid_in_walls_fraction".into(),
+                    inside as f64 / n_fluid.max(1) as f64,
+                );
+            }
+            Some(Reference::DamBreakFront { column_width, origin }) => {
+                let g = sim.model.g.norm();
+                let l = *column_width;
+                let tscale = (2.0 * g / l).sqrt();
+                let mut sum = 0.0;
+                let mut n = 0;
+                for line in KO_FRONT.lines().filter(|l| l.starts_with("experiment,")) {
+                    let f: Vec<f64> = line.split(',').skip(1).filter_map(|s| s.parse().ok()).collect();
+                    let (tt, z) = (f[0], f[1]);
+                    let t = tt / tscale;
+                    if t <= 0.0 || t > sim.t || self.front.len() < 2 {
+                        continue;
+                    }
+                    if let Some(sim_front) = interpolate(&self.front, t) {
+                        sum += ((sim_front - origin) / l - z).abs() / z;
+                        n += 1;
+                    }
+                }
+                if n > 0 {
+                    self.errors
+                        .insert("front_mean_rel_vs_koshizuka_oka".into(), sum / n as f64);
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// A fluid particle lies outside every wall particle's region: it is not closer to any wall
+/// body's box than half a spacing inside it (checked against wall bodies of the scene).
+fn inside_fluid_region<const D: usize>(sim: &Simulation<D>, i: usize) -> bool {
+    let x = sim.p.x[i];
+    sim.scene.walls.iter().all(|w| {
+        use crate::scene::WallShape;
+        match w.shape {
+            // the fluid must stay inside the inner box of a container (open faces excepted)
+            WallShape::Container => (0..D).all(|a| {
+                let lo_open = w
+                    .open
+                    .iter()
+                    .any(|o| crate::scene::face_of(o, D) == Some((a, false)));
+                let hi_open = w
+                    .open
+                    .iter()
+                    .any(|o| crate::scene::face_of(o, D) == Some((a, true)));
+                (lo_open || x[a] >= w.min[a]) && (hi_open || x[a] <= w.max[a])
+            }),
+            WallShape::Block => !(0..D).all(|a| x[a] >= w.min[a] && x[a] <= w.max[a]),
+        }
+    })
+}
+
+fn interpolate(series: &[(f64, f64)], t: f64) -> Option<f64> {
+    let k = series.iter().position(|&(ts, _)| ts >= t)?;
+    if k == 0 {
+        return Some(series[0].1);
+    }
+    let (t0, f0) = series[k - 1];
+    let (t1, f1) = series[k];
+    Some(f0 + (f1 - f0) * (t - t0) / (t1 - t0).max(1e-300))
+}
+
+/// max over fluid particles of |u − u_exact| / u_max for the channel references.
+fn channel_error<const D: usize>(sim: &Simulation<D>, r: &Reference, gap: f64) -> f64 {
+    let nu = sim.model.nu;
+    let (umax, exact): (f64, Box<dyn Fn(f64) -> f64>) = match r {
+        Reference::Poiseuille { .. } => {
+            let f = sim.model.g[0];
+            (
+                f * gap * gap / (8.0 * nu),
+                Box::new(move |y| poiseuille(y, sim.t, f, nu, gap)),
+            )
+        }
+        Reference::Couette { v0, .. } => {
+            let v0 = *v0;
+            (v0, Box::new(move |y| couette(y, sim.t, v0, nu, gap)))
+        }
+        _ => unreachable!("channel references only"),
+    };
+    let mut e: f64 = 0.0;
+    for i in 0..sim.p.n_owned {
+        if sim.p.kind[i] == Kind::Fluid {
+            let y = sim.p.x[i][1];
+            e = e.max((sim.p.v[i][0] - exact(y)).abs() / umax.abs());
+        }
+    }
+    e
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The series match the project's computed tables (analytic.md §1).
+    #[test]
+    fn series_match_tabulated_centreline_values() {
+        let (nu, l, f, v0) = (1e-6, 1e-3, 2e-4, 2.5e-5);
+        for (t, up, uc) in [
+            (0.0225, 4.4655e-6, 4.6055e-7),
+            (0.1125, 1.6500e-5, 7.2569e-6),
+            (0.5, 2.4814e-5, 1.2386e-5),
+            (1.0, 2.4999e-5, 1.2499e-5),
+        ] {
+            assert!((poiseuille(l / 2.0, t, f, nu, l) - up).abs() < 1e-4 * up, "t={t}");
+            assert!((couette(l / 2.0, t, v0, nu, l) - uc).abs() < 1e-4 * uc, "t={t}");
+        }
+        assert!(poiseuille(0.3e-3, 0.0, f, nu, l).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,310 @@
+//! Reading a scene: file → `--set` overrides → typed [`Scene`] → validation, with every error
+//! located by file, line and dotted key.
+
+use super::Scene;
+use crate::error::{Error, Location, Result};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use toml_edit::{DocumentMut, ImDocument, Item, TableLike, Value};
+
+/// The text a scene was read from, kept to locate keys when reporting errors.
+#[derive(Debug, Clone)]
+pub struct SceneSource {
+    /// File name shown in messages.
+    pub file: PathBuf,
+    /// Text after `--set` overrides.
+    pub text: String,
+    /// Dotted keys changed by `--set` (their errors point at the command line).
+    pub overridden: Vec<String>,
+}
+
+/// One step of a key path: a table key or an array index.
+#[derive(Debug, Clone, PartialEq)]
+enum Seg {
+    Key(String),
+    Index(usize),
+}
+
+/// Parse `fluid.0.min` or `fluid[0].min` into segments.
+fn parse_path(path: &str) -> Vec<Seg> {
+    path.replace('[', ".")
+        .replace(']', "")
+        .split('.')
+        .filter(|s| !s.is_empty())
+        .map(|s| match s.parse::<usize>() {
+            Ok(i) => Seg::Index(i),
+            Err(_) => Seg::Key(s.to_string()),
+        })
+        .collect()
+}
+
+/// Display segments as `fluid[0].min`.
+fn display_path(segs: &[Seg]) -> String {
+    let mut s = String::new();
+    for seg in segs {
+        match seg {
+            Seg::Key(k) => {
+                if !s.is_empty() {
+                    s.push('.');
+                }
+                s.push_str(k);
+            }
+            Seg::Index(i) => s.push_str(&format!("[{i}]")),
+        }
+    }
+    s
+}
+
+/// Read and validate a scene file, applying `--set key.path=value` overrides.
+pub fn load_scene(path: &Path, overrides: &[String]) -> Result<(Scene, SceneSource)> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::Input {
+        at: Some(Location {
+            file: path.to_path_buf(),
+            line: None,
+        }),
+        key: String::new(),
+        message: format!("cannot read the scene file: {e}"),
+    })?;
+    let stem = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("scene")
+        .to_string();
+    load_scene_str(&text, path, &stem, overrides)
+}
+
+/// Parse scene text (as if read from `file`), apply overrides, deserialise and validate.
+pub fn load_scene_str(
+    text: &str,
+    file: &Path,
+    default_name: &str,
+    overrides: &[String],
+) -> Result<(Scene, SceneSource)> {
+    let at_file = |line: Option<usize>| {
+        Some(Location {
+            file: file.to_path_buf(),
+            line,
+        })
+    };
+    let mut doc: DocumentMut = text.parse().map_err(|e: toml_edit::TomlError| Error::Input {
+        at: at_file(e.span().map(|s| line_of(text, s.start))),
+        key: String::new(),
+        message: format!("not valid TOML: {}", first_line(e.message())),
+    })?;
+    let mut overridden = Vec::new();
+    for o in overrides {
+        overridden.push(apply_override(&mut doc, o)?);
+    }
+    let text = if overrides.is_empty() {
+        text.to_string()
+    } else {
+        doc.to_string()
+    };
+    let src = SceneSource {
+        file: file.to_path_buf(),
+        text,
+        overridden,
+    };
+    let mut scene: Scene = toml::from_str(&src.text).map_err(|e| src.serde_error(&e))?;
+    if scene.name.is_empty() {
+        scene.name = default_name.to_string();
+    }
+    super::validate(&mut scene).map_err(|e| src.locate(e))?;
+    Ok((scene, src))
+}
+
+/// Apply one `key.path=value` override; returns the dotted key.
+fn apply_override(doc: &mut DocumentMut, o: &str) -> Result<String> {
+    let Some((key, raw)) = o.split_once('=') else {
+        return Err(Error::input(
+            "--set",
+            format!("`{o}` is not key.path=value; e.g. --set time.t_end=0.5"),
+        ));
+    };
+    let key = key.trim();
+    let segs = parse_path(key);
+    let value: Value = raw
+        .trim()
+        .parse::<Value>()
+        .unwrap_or_else(|_| Value::from(raw.trim().to_string()));
+    set_path(doc.as_table_mut(), &segs, value)
+        .map_err(|why| Error::input("--set", format!("cannot set `{key}`: {why}")))?;
+    Ok(display_path(&segs))
+}
+
+/// Set the value at `segs` below table `t`, creating missing tables on the way.
+fn set_path(t: &mut dyn TableLike, segs: &[Seg], value: Value) -> std::result::Result<(), String> {
+    let Some((Seg::Key(k), rest)) = segs.split_first() else {
+        return Err("a key path starts with a key, e.g. fluid.0.min".into());
+    };
+    if rest.is_empty() {
+        t.insert(k, Item::Value(value));
+        return Ok(());
+    }
+    if t.get(k).is_none() {
+        t.insert(k, Item::Table(toml_edit::Table::new()));
+    }
+    let item = t.get_mut(k).ok_or("missing parent")?;
+    match (item, &rest[0]) {
+        (Item::ArrayOfTables(a), Seg::Index(i)) => {
+            let len = a.len();
+            let tab = a
+                .get_mut(*i)
+                .ok_or(format!("index {i} is past the end of `{k}` (length {len})"))?;
+            set_path(tab, &rest[1..], value)
+        }
+        (Item::Value(Value::Array(arr)), Seg::Index(i)) if rest.len() == 1 => {
+            let len = arr.len();
+            let slot = arr
+                .get_mut(*i)
+                .ok_or(format!("index {i} is past the end of `{k}` (length {len})"))?;
+            *slot = value;
+            Ok(())
+        }
+        (Item::Table(tab), Seg::Key(_)) => set_path(tab, rest, value),
+        (Item::Value(Value::InlineTable(tab)), Seg::Key(_)) => set_path(tab, rest, value),
+        _ => Err(format!("`{k}` cannot be indexed that way")),
+    }
+}
+
+impl SceneSource {
+    /// Attach file and line to an error produced by validation (which knows only the key).
+    pub fn locate(&self, e: Error) -> Error {
+        match e {
+            Error::Input {
+                at: None,
+                key,
+                message,
+            } => {
+                let at = if self.overridden.iter().any(|o| key.starts_with(o.as_str())) {
+                    Some(Location {
+                        file: PathBuf::from("--set"),
+                        line: None,
+                    })
+                } else {
+                    let line = span_of(&self.text, &parse_path(&key)).map(|s| line_of(&self.text, s.start));
+                    Some(Location {
+                        file: self.file.clone(),
+                        line,
+                    })
+                };
+                Error::Input { at, key, message }
+            }
+            other => other,
+        }
+    }
+
+    /// Turn a deserialisation error into a located input error naming the key.
+    fn serde_error(&self, e: &toml::de::Error) -> Error {
+        let span = e.span();
+        let key = span
+            .clone()
+            .and_then(|s| ImDocument::parse(self.text.clone()).ok().map(|d| key_at(&d, &s)))
+            .unwrap_or_default();
+        let line = span.map(|s| line_of(&self.text, s.start));
+        let mut message = first_line(e.message()).to_string();
+        if message.starts_with("missing field") {
+            message.push_str(" (see README, 'Scene files', for every key and its default)");
+        }
+        Error::Input {
+            at: Some(Location {
+                file: self.file.clone(),
+                line,
+            }),
+            key,
+            message,
+        }
+    }
+}
+
+fn first_line(s: &str) -> &str {
+    s.lines().next().unwrap_or(s).trim()
+}
+
+/// 1-based line of byte offset `pos`.
+fn line_of(text: &str, pos: usize) -> usize {
+    text.as_bytes()[..pos.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+/// Span of the key at `path` (or of its nearest existing ancestor).
+fn span_of(text: &str, path: &[Seg]) -> Option<Range<usize>> {
+    let doc = ImDocument::parse(text.to_string()).ok()?;
+    let mut best = None;
+    span_in(doc.as_table(), path, &mut best);
+    best
+}
+
+fn span_in(t: &dyn TableLike, path: &[Seg], best: &mut Option<Range<usize>>) {
+    let Some((Seg::Key(k), rest)) = path.split_first() else {
+        return;
+    };
+    let Some((key, item)) = t.get_key_value(k) else {
+        return;
+    };
+    if let Some(s) = key.span().or_else(|| item.span()) {
+        *best = Some(s);
+    }
+    match (item, rest.first()) {
+        (Item::ArrayOfTables(a), Some(Seg::Index(i))) => {
+            if let Some(tab) = a.get(*i) {
+                if let Some(s) = tab.span() {
+                    *best = Some(s);
+                }
+                span_in(tab, &rest[1..], best);
+            }
+        }
+        (Item::Value(Value::Array(arr)), Some(Seg::Index(i))) => {
+            if let Some(s) = arr.get(*i).and_then(|v| v.span()) {
+                *best = Some(s);
+            }
+        }
+        (Item::Table(tab), Some(Seg::Key(_))) => span_in(tab, rest, best),
+        (Item::Value(Value::InlineTable(tab)), Some(Seg::Key(_))) => span_in(tab, rest, best),
+        _ => {}
+    }
+}
+
+/// The dotted key path of the deepest item whose span contains `span`.
+fn key_at(doc: &ImDocument<String>, span: &Range<usize>) -> String {
+    fn walk(item: &Item, span: &Range<usize>, path: &mut Vec<Seg>, best: &mut Vec<Seg>) {
+        let contains = |s: Option<Range<usize>>| {
+            s.map(|s| s.start <= span.start && span.start < s.end.max(s.start + 1))
+                .unwrap_or(false)
+        };
+        if let Some(t) = item.as_table_like() {
+            for (k, v) in t.iter() {
+                path.push(Seg::Key(k.to_string()));
+                let key_span = t.get_key_value(k).and_then(|(key, _)| key.span());
+                if contains(v.span()) || contains(key_span) {
+                    *best = path.clone();
+                }
+                walk(v, span, path, best);
+                path.pop();
+            }
+        } else if let Item::ArrayOfTables(a) = item {
+            for (i, t) in a.iter().enumerate() {
+                path.push(Seg::Index(i));
+                if contains(t.span()) {
+                    *best = path.clone();
+                }
+                walk(&Item::Table(t.clone()), span, path, best);
+                path.pop();
+            }
+        } else if let Item::Value(Value::Array(arr)) = item {
+            for (i, v) in arr.iter().enumerate() {
+                path.push(Seg::Index(i));
+                if contains(v.span()) {
+                    *best = path.clone();
+                }
+                path.pop();
+            }
+        }
+    }
+    let mut best = Vec::new();
+    walk(doc.as_item(), span, &mut Vec::new(), &mut best);
+    display_path(&best)
+}

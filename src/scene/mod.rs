@@ -1,0 +1,453 @@
+//! Scene files: the TOML contract between users and hsph (SI units throughout).
+//!
+//! The structs here are dimension-agnostic (vectors are `Vec<f64>` checked against
+//! `dimension` in [`validate`]); `sim` turns them into const-generic state. Every optional key
+//! has a default, and `hsph run` writes the resolved scene (defaults filled in) to the run
+//! directory. The key reference lives in README.md ("Scene files").
+
+mod load;
+mod validate;
+
+pub use load::{load_scene, load_scene_str, SceneSource};
+pub use validate::{expected_speed, face as face_of, validate};
+
+use crate::kernel::KernelKind;
+use serde::{Deserialize, Serialize};
+
+/// A whole scene.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Scene name (defaults to the file stem); names the run directory.
+    #[serde(default)]
+    pub name: String,
+    /// Free text shown by `hsph check`.
+    #[serde(default)]
+    pub description: String,
+    /// 2 or 3.
+    pub dimension: usize,
+    /// Simulation box and periodic axes.
+    pub domain: Domain,
+    /// Particle spacing and kernel.
+    pub discretisation: Discretisation,
+    /// Fluid materials (`[[material]]`).
+    #[serde(rename = "material")]
+    pub materials: Vec<Material>,
+    /// Physics switches; everything off by default.
+    #[serde(default)]
+    pub physics: Physics,
+    /// Fluid blocks filled on the lattice (`[[fluid]]`).
+    #[serde(default, rename = "fluid")]
+    pub fluids: Vec<FluidBody>,
+    /// Walls (`[[wall]]`).
+    #[serde(default, rename = "wall")]
+    pub walls: Vec<WallBody>,
+    /// Time integration.
+    pub time: Time,
+    /// Output schedule and snapshot fields.
+    #[serde(default)]
+    pub output: Output,
+    /// Probes (`[[probe]]`), each written to `probes/<name>.csv`.
+    #[serde(default, rename = "probe")]
+    pub probes: Vec<Probe>,
+    /// Optional analytic or tabulated reference: errors land in `summary.json`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference: Option<Reference>,
+}
+
+/// Axis-aligned simulation box (m). Particles leaving it (on a non-periodic axis) stop the run.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Domain {
+    /// Lower corner (m), `dimension` values.
+    pub min: Vec<f64>,
+    /// Upper corner (m).
+    pub max: Vec<f64>,
+    /// Periodic flag per axis (default: none periodic).
+    #[serde(default)]
+    pub periodic: Vec<bool>,
+}
+
+/// Particle spacing and kernel choice.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Discretisation {
+    /// Lattice spacing dx (m); every particle sits on the global lattice of this spacing.
+    pub dx: f64,
+    /// Smoothing length over spacing, h/dx.
+    #[serde(default = "default_h_over_dx")]
+    pub h_over_dx: f64,
+    /// `wendland_c2`, `cubic_spline` or `quintic_spline`.
+    #[serde(default = "default_kernel")]
+    pub kernel: KernelKind,
+}
+
+fn default_h_over_dx() -> f64 {
+    1.3
+}
+fn default_kernel() -> KernelKind {
+    KernelKind::WendlandC2
+}
+
+/// Equation of state of a weakly compressible fluid.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum EosKind {
+    /// Tait: p = ρ0 c0²/γ [(ρ/ρ0)^γ − 1].
+    Tait,
+    /// Linear: p = c0² (ρ − ρ0).
+    Linear,
+}
+
+/// A fluid material.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    /// Name referred to by bodies.
+    pub name: String,
+    /// Reference density ρ0 (kg/m³).
+    pub rho0: f64,
+    /// Numerical sound speed c0 (m/s); must be ≥ 10 × the expected speed.
+    pub c0: f64,
+    /// `tait` or `linear`.
+    #[serde(default = "default_eos")]
+    pub eos: EosKind,
+    /// Tait exponent γ (ignored by `linear`).
+    #[serde(default = "default_gamma")]
+    pub gamma: f64,
+}
+
+fn default_eos() -> EosKind {
+    EosKind::Tait
+}
+fn default_gamma() -> f64 {
+    7.0
+}
+
+/// Density diffusion (δ-SPH) variants.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum DensityDiffusion {
+    /// Plain weakly compressible SPH.
+    #[default]
+    None,
+    /// Molteni & Colagrossi (2009): ψ_ij = 2 (ρ_j − ρ_i) x_ji/|x_ij|².
+    Molteni,
+    /// Antuono et al. (2010): Molteni's term minus the renormalised gradients.
+    Antuono,
+}
+
+/// Physics switches: a scene switches on only what it needs.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Physics {
+    /// `none`, `molteni` or `antuono`.
+    #[serde(default)]
+    pub density_diffusion: DensityDiffusion,
+    /// δ coefficient of the density diffusion (dimensionless).
+    #[serde(default = "default_delta")]
+    pub delta: f64,
+    /// Monaghan artificial viscosity α (dimensionless; 0 = off).
+    #[serde(default)]
+    pub artificial_viscosity: f64,
+    /// Laminar kinematic viscosity ν (m²/s; 0 = off), Morris et al. (1997).
+    #[serde(default)]
+    pub laminar_viscosity: f64,
+    /// Body force per unit mass (m/s²), e.g. gravity `[0, -9.81]`; default zero.
+    #[serde(default)]
+    pub body_force: Vec<f64>,
+}
+
+fn default_delta() -> f64 {
+    0.1
+}
+
+impl Default for Physics {
+    fn default() -> Self {
+        Physics {
+            density_diffusion: DensityDiffusion::None,
+            delta: default_delta(),
+            artificial_viscosity: 0.0,
+            laminar_viscosity: 0.0,
+            body_force: Vec::new(),
+        }
+    }
+}
+
+/// A block of fluid filled on the lattice: every lattice site with its centre in [min, max).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FluidBody {
+    /// Name (used in `final.csv` as the body index order).
+    pub name: String,
+    /// Material name.
+    pub material: String,
+    /// Lower corner (m).
+    pub min: Vec<f64>,
+    /// Upper corner (m).
+    pub max: Vec<f64>,
+    /// Initial velocity (m/s); default zero.
+    #[serde(default)]
+    pub velocity: Vec<f64>,
+    /// Start from the hydrostatic density profile under the body force (free surface at the
+    /// top of the block along the body force), instead of ρ0 everywhere.
+    #[serde(default)]
+    pub hydrostatic: bool,
+}
+
+/// Shape of a wall body.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum WallShape {
+    /// A solid block: every lattice site in [min, max) is a wall particle.
+    Block,
+    /// A container around the inner box [min, max): `layers` layers outside each face except
+    /// the faces listed in `open`.
+    Container,
+}
+
+/// Boundary method of a wall.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum WallMethod {
+    /// Fixed dummy particles with pressure and velocity extrapolation (Adami et al. 2012).
+    Dummy,
+    /// Monaghan repulsive particles (Lennard-Jones-like force, Monaghan 1994).
+    Repulsive,
+    /// Mirror (image) particles across the inner faces of a container; no wall particles.
+    Mirror,
+}
+
+/// Tangential condition of a wall.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Slip {
+    /// Velocity of the fluid at the wall equals the wall's.
+    NoSlip,
+    /// Only the normal velocity is constrained.
+    FreeSlip,
+}
+
+/// Prescribed motion law x(t) of a wall (a piston or wave maker).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, tag = "law", rename_all = "snake_case")]
+pub enum Motion {
+    /// x(t) = x0 + A sin(2π t/T + φ).
+    Sine {
+        /// Amplitude vector A (m).
+        amplitude: Vec<f64>,
+        /// Period T (s).
+        period: f64,
+        /// Phase φ (rad).
+        #[serde(default)]
+        phase: f64,
+    },
+    /// x(t) = x0 + u t.
+    ConstantVelocity {
+        /// Velocity u (m/s).
+        velocity: Vec<f64>,
+    },
+}
+
+/// A wall body.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct WallBody {
+    /// Name.
+    pub name: String,
+    /// `block` or `container`.
+    pub shape: WallShape,
+    /// Lower corner (m) of the block, or of the container's inner box.
+    pub min: Vec<f64>,
+    /// Upper corner (m).
+    pub max: Vec<f64>,
+    /// Container wall thickness in particle layers (default: enough to cover the support).
+    #[serde(default)]
+    pub layers: usize,
+    /// Open faces of a container, e.g. `["y+"]` for an open-top tank.
+    #[serde(default)]
+    pub open: Vec<String>,
+    /// `dummy`, `repulsive` or `mirror`.
+    #[serde(default = "default_method")]
+    pub method: WallMethod,
+    /// `no_slip` or `free_slip`.
+    #[serde(default = "default_slip")]
+    pub slip: Slip,
+    /// Material whose EOS converts extrapolated pressure to density (default: the first).
+    #[serde(default)]
+    pub material: String,
+    /// Surface velocity (m/s) seen by the fluid while the particles stay put (a sliding lid or
+    /// a Couette plate); default zero.
+    #[serde(default)]
+    pub velocity: Vec<f64>,
+    /// Prescribed motion of the particles (a piston); exclusive with `velocity`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion: Option<Motion>,
+}
+
+fn default_method() -> WallMethod {
+    WallMethod::Dummy
+}
+fn default_slip() -> Slip {
+    Slip::NoSlip
+}
+
+/// Time integration settings.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Time {
+    /// End time (s).
+    pub t_end: f64,
+    /// Courant number for dt = CFL · h/(c0 + |v|max) (and the force limit).
+    #[serde(default = "default_cfl")]
+    pub cfl: f64,
+    /// Fixed time step (s), overriding the adaptive one (0 = adaptive).
+    #[serde(default)]
+    pub dt: f64,
+    /// Stop after this many steps (0 = no limit).
+    #[serde(default)]
+    pub max_steps: u64,
+}
+
+fn default_cfl() -> f64 {
+    0.2
+}
+
+/// Snapshot formats.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum SnapshotFormat {
+    /// VTK XML unstructured grid (`.vtu` + `.pvd`), ParaView opens it.
+    Vtk,
+    /// netCDF-4 (needs the `netcdf` cargo feature; roadmap item 3).
+    Netcdf,
+    /// No snapshots.
+    None,
+}
+
+/// Output schedule.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Output {
+    /// Simulated time between output steps (s); 0 = 50 outputs over the run.
+    #[serde(default)]
+    pub interval: f64,
+    /// Snapshot format.
+    #[serde(default = "default_format")]
+    pub format: SnapshotFormat,
+    /// Fields written to snapshots (any of `velocity`, `density`, `pressure`, `mass`, `kind`).
+    #[serde(default = "default_fields")]
+    pub fields: Vec<String>,
+}
+
+fn default_format() -> SnapshotFormat {
+    SnapshotFormat::Vtk
+}
+fn default_fields() -> Vec<String> {
+    ["velocity", "density", "pressure", "kind"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect()
+}
+
+impl Default for Output {
+    fn default() -> Self {
+        Output {
+            interval: 0.0,
+            format: default_format(),
+            fields: default_fields(),
+        }
+    }
+}
+
+/// Snapshot field names accepted in `output.fields`.
+pub const SNAPSHOT_FIELDS: [&str; 5] = ["velocity", "density", "pressure", "mass", "kind"];
+
+/// A probe, sampled at every output step.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, tag = "kind", rename_all = "snake_case")]
+pub enum Probe {
+    /// Kernel-interpolated (Shepard) fluid pressure at a point: column `p`.
+    Pressure {
+        /// Probe name (file `probes/<name>.csv`).
+        name: String,
+        /// Point (m).
+        point: Vec<f64>,
+    },
+    /// Kernel-interpolated velocity at `points` points from `from` to `to`.
+    VelocityLine {
+        /// Probe name.
+        name: String,
+        /// Start (m).
+        from: Vec<f64>,
+        /// End (m).
+        to: Vec<f64>,
+        /// Number of sample points (≥ 2).
+        points: usize,
+    },
+    /// Free-surface elevation at a station: highest fluid particle (plus dx/2) within dx of the
+    /// vertical line through `point`, measured along the last axis: column `eta`.
+    Gauge {
+        /// Probe name.
+        name: String,
+        /// A point on the vertical line (m); its last coordinate is ignored.
+        point: Vec<f64>,
+    },
+    /// Front position: largest coordinate of any fluid particle along `axis` (0 = x): column `front`.
+    Front {
+        /// Probe name.
+        name: String,
+        /// Axis index.
+        #[serde(default)]
+        axis: usize,
+    },
+}
+
+impl Probe {
+    /// The probe's name.
+    pub fn name(&self) -> &str {
+        match self {
+            Probe::Pressure { name, .. }
+            | Probe::VelocityLine { name, .. }
+            | Probe::Gauge { name, .. }
+            | Probe::Front { name, .. } => name,
+        }
+    }
+}
+
+/// An analytic or tabulated reference the run is checked against; the named relative errors
+/// (fractions) land in `summary.json` under `errors`.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, tag = "kind", rename_all = "snake_case")]
+pub enum Reference {
+    /// Morris et al. (1997) body-force-driven start-up between plates at y = 0 and y = gap.
+    Poiseuille {
+        /// Plate gap L (m).
+        gap: f64,
+        /// Times (s) at which the error is measured (the first step at or after each).
+        times: Vec<f64>,
+    },
+    /// Impulsively started Couette flow; the upper plate's speed is the reference `v0`.
+    Couette {
+        /// Plate gap L (m).
+        gap: f64,
+        /// Upper plate speed v0 (m/s).
+        v0: f64,
+        /// Times (s).
+        times: Vec<f64>,
+    },
+    /// Still water: p = ρ0 g (H − y) with the free surface at `surface`.
+    Hydrostatic {
+        /// Free-surface height (m) along the last axis.
+        surface: f64,
+        /// Bottom height (m) of the fluid.
+        bottom: f64,
+    },
+    /// Koshizuka & Oka (1996) surge front Z = z/L vs T = t·sqrt(2g/L), experiment.
+    DamBreakFront {
+        /// Column width L (m).
+        column_width: f64,
+        /// Left wall position (m) from which the front is measured.
+        origin: f64,
+    },
+}

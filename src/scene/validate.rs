@@ -1,0 +1,450 @@
+//! Semantic checks of a scene, with defaults that depend on other keys filled in.
+//!
+//! Each error names the dotted key and what would be valid; [`super::SceneSource::locate`]
+//! adds the file and line.
+
+use super::*;
+use crate::error::{Error, Result};
+
+fn err<T>(key: impl Into<String>, msg: impl Into<String>) -> Result<T> {
+    Err(Error::input(key, msg))
+}
+
+/// Check a vector key has `d` components, all finite; fill an empty one with zeros if allowed.
+fn check_vec(v: &mut Vec<f64>, d: usize, key: &str, empty_is_zero: bool) -> Result<()> {
+    if v.is_empty() && empty_is_zero {
+        *v = vec![0.0; d];
+    }
+    if v.len() != d {
+        return err(
+            key,
+            format!("needs {d} components (dimension = {d}), got {}", v.len()),
+        );
+    }
+    if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+        return err(key, format!("components must be finite numbers, got {x}"));
+    }
+    Ok(())
+}
+
+fn check_box(min: &[f64], max: &[f64], key: &str) -> Result<()> {
+    for a in 0..min.len() {
+        if max[a] <= min[a] {
+            return err(
+                format!("{key}.max"),
+                format!(
+                    "max must exceed min on every axis; axis {a}: min {} ≥ max {}",
+                    min[a], max[a]
+                ),
+            );
+        }
+    }
+    Ok(())
+}
+
+fn positive(x: f64, key: &str, example: &str) -> Result<()> {
+    if !(x > 0.0 && x.is_finite()) {
+        return err(
+            key,
+            format!("must be a positive number (got {x}); e.g. {example}"),
+        );
+    }
+    Ok(())
+}
+
+fn non_negative(x: f64, key: &str) -> Result<()> {
+    if !(x >= 0.0 && x.is_finite()) {
+        return err(key, format!("must be ≥ 0 (got {x})"));
+    }
+    Ok(())
+}
+
+/// The face names of a container's `open` list.
+pub fn face(name: &str, dim: usize) -> Option<(usize, bool)> {
+    let axes = ["x", "y", "z"];
+    let (ax, side) = name.split_at(name.len().saturating_sub(1));
+    let a = axes.iter().position(|&n| n == ax)?;
+    if a >= dim {
+        return None;
+    }
+    match side {
+        "-" => Some((a, false)),
+        "+" => Some((a, true)),
+        _ => None,
+    }
+}
+
+/// Validate a scene and fill the defaults that depend on other keys.
+pub fn validate(s: &mut Scene) -> Result<()> {
+    let d = s.dimension;
+    if d != 2 && d != 3 {
+        return err("dimension", format!("must be 2 or 3, got {d}"));
+    }
+    check_vec(&mut s.domain.min, d, "domain.min", false)?;
+    check_vec(&mut s.domain.max, d, "domain.max", false)?;
+    check_box(&s.domain.min, &s.domain.max, "domain")?;
+    if s.domain.periodic.is_empty() {
+        s.domain.periodic = vec![false; d];
+    }
+    if s.domain.periodic.len() != d {
+        return err(
+            "domain.periodic",
+            format!("needs {d} booleans, e.g. [true, false]"),
+        );
+    }
+    let disc = &s.discretisation;
+    positive(disc.dx, "discretisation.dx", "dx = 0.01")?;
+    if !(disc.h_over_dx >= 0.5 && disc.h_over_dx <= 4.0) {
+        return err(
+            "discretisation.h_over_dx",
+            format!("must lie in [0.5, 4] (got {}); 1.3 is typical", disc.h_over_dx),
+        );
+    }
+    let support = disc.kernel.support_factor() * disc.h_over_dx * disc.dx;
+    for a in 0..d {
+        let len = s.domain.max[a] - s.domain.min[a];
+        if len < disc.dx {
+            return err(
+                "domain.max",
+                format!("axis {a} is shorter than one particle spacing"),
+            );
+        }
+        if s.domain.periodic[a] && len < 3.0 * support {
+            return err(
+                "domain.periodic",
+                format!(
+                    "periodic axis {a} is {len} m long but must span at least 3 kernel supports \
+                     ({} m); lengthen the domain or refine dx",
+                    3.0 * support
+                ),
+            );
+        }
+    }
+    if s.materials.is_empty() {
+        return err("material", "at least one [[material]] is needed");
+    }
+    for (i, m) in s.materials.iter().enumerate() {
+        let k = format!("material[{i}]");
+        positive(m.rho0, &format!("{k}.rho0"), "rho0 = 1000.0")?;
+        positive(m.c0, &format!("{k}.c0"), "c0 = 20.0")?;
+        positive(m.gamma, &format!("{k}.gamma"), "gamma = 7.0")?;
+        if s.materials[..i].iter().any(|o| o.name == m.name) {
+            return err(
+                format!("{k}.name"),
+                format!("material `{}` is defined twice", m.name),
+            );
+        }
+    }
+    let mat_names: Vec<String> = s.materials.iter().map(|m| m.name.clone()).collect();
+    let known = |n: &str| mat_names.iter().any(|m| m == n);
+    let ph = &mut s.physics;
+    non_negative(ph.delta, "physics.delta")?;
+    non_negative(ph.artificial_viscosity, "physics.artificial_viscosity")?;
+    non_negative(ph.laminar_viscosity, "physics.laminar_viscosity")?;
+    check_vec(&mut ph.body_force, d, "physics.body_force", true)?;
+
+    let in_domain = |min: &[f64], max: &[f64], key: &str, dom: &Domain| -> Result<()> {
+        let tol = 1e-9 * disc_scale(dom);
+        for a in 0..d {
+            if min[a] < dom.min[a] - tol || max[a] > dom.max[a] + tol {
+                return err(
+                    key.to_string(),
+                    format!(
+                        "the body [{:?}, {:?}] lies outside the domain [{:?}, {:?}] on axis {a}; \
+                         enlarge domain.min/domain.max or move the body",
+                        min, max, dom.min, dom.max
+                    ),
+                );
+            }
+        }
+        Ok(())
+    };
+    if s.fluids.is_empty() {
+        return err("fluid", "at least one [[fluid]] block is needed");
+    }
+    for (i, f) in s.fluids.iter_mut().enumerate() {
+        let k = format!("fluid[{i}]");
+        if !known(&f.material) {
+            return err(
+                format!("{k}.material"),
+                format!(
+                    "unknown material `{}`; defined: {}",
+                    f.material,
+                    mat_names.join(", ")
+                ),
+            );
+        }
+        check_vec(&mut f.min, d, &format!("{k}.min"), false)?;
+        check_vec(&mut f.max, d, &format!("{k}.max"), false)?;
+        check_box(&f.min, &f.max, &k)?;
+        check_vec(&mut f.velocity, d, &format!("{k}.velocity"), true)?;
+        in_domain(&f.min, &f.max, &format!("{k}.min"), &s.domain)?;
+    }
+    let dx = s.discretisation.dx;
+    for (i, w) in s.walls.iter_mut().enumerate() {
+        let k = format!("wall[{i}]");
+        check_vec(&mut w.min, d, &format!("{k}.min"), false)?;
+        check_vec(&mut w.max, d, &format!("{k}.max"), false)?;
+        check_box(&w.min, &w.max, &k)?;
+        check_vec(&mut w.velocity, d, &format!("{k}.velocity"), true)?;
+        if w.material.is_empty() {
+            w.material = mat_names[0].clone();
+        } else if !known(&w.material) {
+            return err(
+                format!("{k}.material"),
+                format!(
+                    "unknown material `{}`; defined: {}",
+                    w.material,
+                    mat_names.join(", ")
+                ),
+            );
+        }
+        for (j, o) in w.open.iter().enumerate() {
+            if face(o, d).is_none() {
+                let valid: Vec<&str> = ["x-", "x+", "y-", "y+", "z-", "z+"]
+                    .into_iter()
+                    .take(2 * d)
+                    .collect();
+                return err(
+                    format!("{k}.open[{j}]"),
+                    format!("unknown face `{o}`; valid faces: {}", valid.join(", ")),
+                );
+            }
+        }
+        match w.shape {
+            WallShape::Container => {
+                if w.layers == 0 {
+                    w.layers = (support / dx - 1e-9).ceil().max(1.0) as usize;
+                }
+                let mut lo = w.min.clone();
+                let mut hi = w.max.clone();
+                for a in 0..d {
+                    if !w.open.iter().any(|o| face(o, d) == Some((a, false))) {
+                        lo[a] -= w.layers as f64 * dx;
+                    }
+                    if !w.open.iter().any(|o| face(o, d) == Some((a, true))) {
+                        hi[a] += w.layers as f64 * dx;
+                    }
+                }
+                if w.method != WallMethod::Mirror {
+                    in_domain(&lo, &hi, &format!("{k}.min"), &s.domain)?;
+                }
+            }
+            WallShape::Block => {
+                if w.method == WallMethod::Mirror {
+                    return err(
+                        format!("{k}.method"),
+                        "mirror walls reflect across the inner faces of a container: use \
+                         shape = \"container\", or method = \"dummy\" for a block",
+                    );
+                }
+                if !w.open.is_empty() {
+                    return err(format!("{k}.open"), "only a container has open faces");
+                }
+                in_domain(&w.min, &w.max, &format!("{k}.min"), &s.domain)?;
+            }
+        }
+        if let Some(m) = &mut w.motion {
+            if w.velocity.iter().any(|&v| v != 0.0) {
+                return err(
+                    format!("{k}.motion"),
+                    "a wall has either a surface `velocity` or a `motion` law, not both",
+                );
+            }
+            match m {
+                Motion::Sine {
+                    amplitude, period, ..
+                } => {
+                    check_vec(amplitude, d, &format!("{k}.motion.amplitude"), false)?;
+                    positive(*period, &format!("{k}.motion.period"), "period = 1.0")?;
+                }
+                Motion::ConstantVelocity { velocity } => {
+                    check_vec(velocity, d, &format!("{k}.motion.velocity"), false)?;
+                }
+            }
+        }
+    }
+    let t = &s.time;
+    positive(t.t_end, "time.t_end", "t_end = 1.0")?;
+    if !(t.cfl > 0.0 && t.cfl <= 1.0) {
+        return err(
+            "time.cfl",
+            format!("must lie in (0, 1] (got {}); 0.2 is typical", t.cfl),
+        );
+    }
+    non_negative(t.dt, "time.dt")?;
+    non_negative(s.output.interval, "output.interval")?;
+    if s.output.interval == 0.0 {
+        s.output.interval = s.time.t_end / 50.0;
+    }
+    if s.output.format == SnapshotFormat::Netcdf && !cfg!(feature = "netcdf") {
+        return Err(Error::missing_feature("output.format", "netcdf"));
+    }
+    for (j, f) in s.output.fields.iter().enumerate() {
+        if !SNAPSHOT_FIELDS.contains(&f.as_str()) {
+            return err(
+                format!("output.fields[{j}]"),
+                format!("unknown field `{f}`; valid: {}", SNAPSHOT_FIELDS.join(", ")),
+            );
+        }
+    }
+    validate_probes(s)?;
+    validate_reference(s)?;
+    check_sound_speed(s)
+}
+
+fn disc_scale(dom: &Domain) -> f64 {
+    dom.min
+        .iter()
+        .chain(dom.max.iter())
+        .fold(1e-300f64, |m, x| m.max(x.abs()))
+}
+
+fn validate_probes(s: &mut Scene) -> Result<()> {
+    let d = s.dimension;
+    for i in 0..s.probes.len() {
+        let k = format!("probe[{i}]");
+        let name = s.probes[i].name().to_string();
+        if name.is_empty()
+            || !name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        {
+            return err(
+                format!("{k}.name"),
+                format!("`{name}` must be non-empty letters, digits, _ or -"),
+            );
+        }
+        if s.probes[..i].iter().any(|p| p.name() == name) {
+            return err(format!("{k}.name"), format!("probe `{name}` is defined twice"));
+        }
+        match &mut s.probes[i] {
+            Probe::Pressure { point, .. } | Probe::Gauge { point, .. } => {
+                check_vec(point, d, &format!("{k}.point"), false)?
+            }
+            Probe::VelocityLine { from, to, points, .. } => {
+                check_vec(from, d, &format!("{k}.from"), false)?;
+                check_vec(to, d, &format!("{k}.to"), false)?;
+                if *points < 2 {
+                    return err(format!("{k}.points"), "needs at least 2 points");
+                }
+            }
+            Probe::Front { axis, .. } => {
+                if *axis >= d {
+                    return err(format!("{k}.axis"), format!("must be below dimension {d}"));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+fn validate_reference(s: &Scene) -> Result<()> {
+    let Some(r) = &s.reference else { return Ok(()) };
+    let times = match r {
+        Reference::Poiseuille { gap, times } | Reference::Couette { gap, times, .. } => {
+            positive(*gap, "reference.gap", "gap = 1e-3")?;
+            if s.physics.laminar_viscosity <= 0.0 {
+                return err(
+                    "physics.laminar_viscosity",
+                    "the Poiseuille/Couette references need a laminar viscosity ν > 0",
+                );
+            }
+            times.as_slice()
+        }
+        Reference::Hydrostatic { surface, bottom } => {
+            if surface <= bottom {
+                return err("reference.surface", "must lie above reference.bottom");
+            }
+            &[]
+        }
+        Reference::DamBreakFront { column_width, .. } => {
+            positive(*column_width, "reference.column_width", "column_width = 0.146")?;
+            &[]
+        }
+    };
+    for (j, t) in times.iter().enumerate() {
+        if !(*t > 0.0 && *t <= s.time.t_end) {
+            return err(
+                format!("reference.times[{j}]"),
+                format!("must lie in (0, time.t_end = {}], got {t}", s.time.t_end),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The speed the flow is expected to reach (m/s): the largest of sqrt(2 g H) (g along the
+/// non-periodic axes, H the fluid's extent along it), wall surface and motion speeds, initial
+/// speeds, and the reference solution's peak speed.
+pub fn expected_speed(s: &Scene) -> f64 {
+    let d = s.dimension;
+    let g: Vec<f64> = (0..d)
+        .map(|a| {
+            if s.domain.periodic[a] {
+                0.0
+            } else {
+                s.physics.body_force[a]
+            }
+        })
+        .collect();
+    let gmag = g.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let mut speed: f64 = 0.0;
+    if gmag > 0.0 {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for f in &s.fluids {
+            // extreme corners of the box along ĝ
+            let (mut a, mut b) = (0.0, 0.0);
+            for ax in 0..d {
+                let e = g[ax] / gmag;
+                a += (f.min[ax] * e).min(f.max[ax] * e);
+                b += (f.min[ax] * e).max(f.max[ax] * e);
+            }
+            lo = lo.min(a);
+            hi = hi.max(b);
+        }
+        speed = speed.max((2.0 * gmag * (hi - lo)).sqrt());
+    }
+    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    for f in &s.fluids {
+        speed = speed.max(norm(&f.velocity));
+    }
+    for w in &s.walls {
+        speed = speed.max(norm(&w.velocity));
+        match &w.motion {
+            Some(Motion::Sine {
+                amplitude, period, ..
+            }) => speed = speed.max(2.0 * std::f64::consts::PI * norm(amplitude) / period),
+            Some(Motion::ConstantVelocity { velocity }) => speed = speed.max(norm(velocity)),
+            None => {}
+        }
+    }
+    match &s.reference {
+        Some(Reference::Poiseuille { gap, .. }) if s.physics.laminar_viscosity > 0.0 => {
+            let f = norm(&s.physics.body_force);
+            speed = speed.max(f * gap * gap / (8.0 * s.physics.laminar_viscosity));
+        }
+        Some(Reference::Couette { v0, .. }) => speed = speed.max(v0.abs()),
+        _ => {}
+    }
+    speed
+}
+
+fn check_sound_speed(s: &Scene) -> Result<()> {
+    let u = expected_speed(s);
+    for (i, m) in s.materials.iter().enumerate() {
+        if m.c0 < 10.0 * u {
+            return err(
+                format!("material[{i}].c0"),
+                format!(
+                    "c0 = {} m/s is below 10 × the expected speed {u:.4e} m/s (from gravity × \
+                     fluid height, wall and initial speeds); weakly compressible SPH needs \
+                     c0 ≥ {:.4e}",
+                    m.c0,
+                    10.0 * u
+                ),
+            );
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,207 @@
+//! Initial particles from a scene: every body is filled on one global lattice.
+//!
+//! The lattice has spacing dx and sites at `domain.min + (i + ½) dx` along each axis; a
+//! particle's id is the linear index of its site (axis 0 slowest), so ids are deterministic
+//! and independent of anything but the scene. Two bodies claiming one site is an input error.
+
+use crate::error::{Error, Result};
+use crate::particles::{Kind, Particles};
+use crate::physics::eos::Eos;
+use crate::scene::{Scene, WallMethod, WallShape};
+use crate::Vector;
+
+/// The global lattice of a scene.
+#[derive(Debug, Clone)]
+pub struct Lattice<const D: usize> {
+    /// Lower corner of the domain (m).
+    pub origin: Vector<D>,
+    /// Spacing dx (m).
+    pub dx: f64,
+    /// Sites per axis.
+    pub n: [u64; D],
+}
+
+impl<const D: usize> Lattice<D> {
+    /// The lattice covering the scene's domain.
+    pub fn new(s: &Scene) -> Self {
+        let dx = s.discretisation.dx;
+        let mut n = [0u64; D];
+        for (a, na) in n.iter_mut().enumerate() {
+            *na = ((s.domain.max[a] - s.domain.min[a]) / dx + 1e-9).floor().max(1.0) as u64;
+        }
+        Lattice {
+            origin: Vector::from_fn(|a, _| s.domain.min[a]),
+            dx,
+            n,
+        }
+    }
+
+    /// Site index range `[lo, hi)` along `axis` whose centres lie in `[min, max)`.
+    fn range(&self, axis: usize, min: f64, max: f64) -> (u64, u64) {
+        let t = 1e-9;
+        let lo = ((min - self.origin[axis]) / self.dx - 0.5 - t).ceil().max(0.0) as u64;
+        let hi = ((max - self.origin[axis]) / self.dx - 0.5 - t).ceil().max(0.0) as u64;
+        (lo.min(self.n[axis]), hi.min(self.n[axis]))
+    }
+
+    /// Visit every site in the box `[min, max)`: `(id, centre)`.
+    pub fn for_each_in(&self, min: &[f64], max: &[f64], mut f: impl FnMut(u64, Vector<D>)) {
+        let r: Vec<(u64, u64)> = (0..D).map(|a| self.range(a, min[a], max[a])).collect();
+        if r.iter().any(|(lo, hi)| hi <= lo) {
+            return;
+        }
+        let mut idx: Vec<u64> = r.iter().map(|(lo, _)| *lo).collect();
+        loop {
+            let mut id = 0u64;
+            for a in 0..D {
+                id = id * self.n[a] + idx[a];
+            }
+            let x = Vector::from_fn(|a, _| self.origin[a] + (idx[a] as f64 + 0.5) * self.dx);
+            f(id, x);
+            // odometer, last axis fastest
+            let mut a = D;
+            loop {
+                if a == 0 {
+                    return;
+                }
+                a -= 1;
+                idx[a] += 1;
+                if idx[a] < r[a].1 {
+                    break;
+                }
+                idx[a] = r[a].0;
+            }
+        }
+    }
+}
+
+/// Build the owned particles of a scene (sorted by id).
+pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
+    let lat = Lattice::<D>::new(s);
+    let dx = s.discretisation.dx;
+    let vol = dx.powi(D as i32);
+    let eos: Vec<Eos> = s.materials.iter().map(Eos::new).collect();
+    let mat_index = |name: &str| s.materials.iter().position(|m| m.name == name).unwrap_or(0) as u16;
+    let g = Vector::<D>::from_fn(|a, _| s.physics.body_force[a]);
+    let gmag = g.norm();
+    struct Proto<const D: usize> {
+        id: u64,
+        kind: Kind,
+        body: u16,
+        mat: u16,
+        x: Vector<D>,
+        v: Vector<D>,
+        rho: f64,
+        who: String,
+    }
+    let mut protos: Vec<Proto<D>> = Vec::new();
+    for (b, f) in s.fluids.iter().enumerate() {
+        let mat = mat_index(&f.material);
+        let e = eos[mat as usize];
+        let v = Vector::<D>::from_fn(|a, _| f.velocity[a]);
+        // top of the block along -ĝ, for the hydrostatic profile
+        let top = if gmag > 0.0 {
+            (0..D)
+                .map(|a| (f.min[a] * g[a]).min(f.max[a] * g[a]))
+                .sum::<f64>()
+                / gmag
+        } else {
+            0.0
+        };
+        lat.for_each_in(&f.min, &f.max, |id, x| {
+            let rho = if f.hydrostatic && gmag > 0.0 {
+                let depth = x.dot(&g) / gmag - top;
+                e.density(e.rho0 * gmag * depth.max(0.0))
+            } else {
+                e.rho0
+            };
+            protos.push(Proto {
+                id,
+                kind: Kind::Fluid,
+                body: b as u16,
+                mat,
+                x,
+                v,
+                rho,
+                who: format!("fluid[{b}]"),
+            });
+        });
+    }
+    for (b, w) in s.walls.iter().enumerate() {
+        let kind = match w.method {
+            WallMethod::Dummy => Kind::Dummy,
+            WallMethod::Repulsive => Kind::Repulsive,
+            WallMethod::Mirror => continue,
+        };
+        let mat = mat_index(&w.material);
+        let rho0 = eos[mat as usize].rho0;
+        let v = Vector::<D>::from_fn(|a, _| w.velocity[a]);
+        let mut push = |id, x| {
+            protos.push(Proto {
+                id,
+                kind,
+                body: b as u16,
+                mat,
+                x,
+                v,
+                rho: rho0,
+                who: format!("wall[{b}]"),
+            })
+        };
+        match w.shape {
+            WallShape::Block => lat.for_each_in(&w.min, &w.max, &mut push),
+            WallShape::Container => {
+                let d = s.dimension;
+                let mut lo = w.min.clone();
+                let mut hi = w.max.clone();
+                for a in 0..d {
+                    let open = |up| {
+                        w.open
+                            .iter()
+                            .any(|o| crate::scene::face_of(o, d) == Some((a, up)))
+                    };
+                    if !open(false) {
+                        lo[a] -= w.layers as f64 * dx;
+                    }
+                    if !open(true) {
+                        hi[a] += w.layers as f64 * dx;
+                    }
+                }
+                let inner = lat_box_ids(&lat, &w.min, &w.max);
+                lat.for_each_in(&lo, &hi, |id, x| {
+                    if inner.binary_search(&id).is_err() {
+                        push(id, x)
+                    }
+                });
+            }
+        }
+    }
+    protos.sort_by_key(|p| p.id);
+    for pair in protos.windows(2) {
+        if pair[0].id == pair[1].id {
+            let x = pair[0].x;
+            return Err(Error::input(
+                pair[1].who.clone(),
+                format!(
+                    "overlaps {} at the lattice site {:?}: bodies must not share particles; \
+                     shrink one of them",
+                    pair[0].who,
+                    x.as_slice()
+                ),
+            ));
+        }
+    }
+    let mut p = Particles::<D>::default();
+    for q in protos {
+        p.push_owned(q.id, q.kind, q.body, q.mat, q.x, q.v, q.rho * vol, q.rho);
+    }
+    Ok(p)
+}
+
+/// Sorted ids of the sites inside a box.
+fn lat_box_ids<const D: usize>(lat: &Lattice<D>, min: &[f64], max: &[f64]) -> Vec<u64> {
+    let mut ids = Vec::new();
+    lat.for_each_in(min, max, |id, _| ids.push(id));
+    ids.sort_unstable();
+    ids
+}
