@@ -92,6 +92,32 @@ impl<const D: usize> Particles<D> {
         self.grad_rho.truncate(n);
     }
 
+    /// Reorder the owned particles (ghosts must have been dropped): new particle k is old
+    /// particle `perm[k]`. Results never depend on local order (sums follow global keys), so
+    /// this only changes memory locality.
+    pub fn permute_owned(&mut self, perm: &[usize]) {
+        debug_assert_eq!(self.len(), self.n_owned, "drop ghosts before permuting");
+        debug_assert_eq!(perm.len(), self.n_owned);
+        fn gather<T: Copy>(v: &mut Vec<T>, perm: &[usize]) {
+            let old = std::mem::take(v);
+            v.extend(perm.iter().map(|&i| old[i]));
+        }
+        gather(&mut self.id, perm);
+        gather(&mut self.key, perm);
+        gather(&mut self.kind, perm);
+        gather(&mut self.body, perm);
+        gather(&mut self.mat, perm);
+        gather(&mut self.x, perm);
+        gather(&mut self.v, perm);
+        gather(&mut self.mass, perm);
+        gather(&mut self.rho, perm);
+        gather(&mut self.p, perm);
+        gather(&mut self.vw, perm);
+        gather(&mut self.grad_rho, perm);
+        gather(&mut self.drho, perm);
+        gather(&mut self.acc, perm);
+    }
+
     /// Append a ghost copy of owned particle `src` at position `x` with sort key `key`;
     /// its other fields are filled by [`crate::ghosts::GhostPlan::refresh`].
     pub fn push_ghost(&mut self, src: usize, x: Vector<D>, key: u64) {

@@ -20,6 +20,9 @@ use crate::Vector;
 use rayon::prelude::*;
 use std::time::Instant;
 
+/// Steps between reorderings of the owned particles into cell order.
+const REORDER_EVERY: u64 = 16;
+
 /// Names of the timed phases, in the order of `diagnostics.csv`.
 pub const PHASES: [&str; 5] = ["neighbours", "forces", "integrate", "ghosts", "output"];
 
@@ -211,19 +214,38 @@ impl<const D: usize> Simulation<D> {
         self.ghosts.refresh(&mut self.p, &self.space);
         self.timers.add(3, t0);
         let t0 = Instant::now();
-        if let Err(i) = self.cells.build(&self.grid, &self.p) {
-            let src = if i < self.p.n_owned {
-                i
-            } else {
-                self.ghosts.src[i - self.p.n_owned] as usize
-            };
-            return Err(self.particle_error(src, "left the cell grid"));
+        self.bin()?;
+        if self.step % REORDER_EVERY == 0 {
+            // owned particles in cell order (then key order) for memory locality
+            let n = self.p.n_owned;
+            let perm: Vec<usize> = self
+                .cells
+                .order
+                .iter()
+                .map(|&i| i as usize)
+                .filter(|&i| i < n)
+                .collect();
+            self.p.truncate_ghosts();
+            self.p.permute_owned(&perm);
+            self.ghosts.build(&mut self.p, &self.space, support);
+            self.ghosts.refresh(&mut self.p, &self.space);
+            self.bin()?;
         }
         let kind = &self.p.kind;
         self.nl.build(&self.grid, &self.cells, &self.p, support, |i| {
             kind[i] != Kind::Repulsive
         });
         self.timers.add(0, t0);
+        Ok(())
+    }
+
+    /// Bin owned particles and ghosts into cells.
+    fn bin(&mut self) -> Result<()> {
+        if let Err(i) = self.cells.build(&self.grid, &self.p) {
+            let n = self.p.n_owned;
+            let src = if i < n { i } else { self.ghosts.src[i - n] as usize };
+            return Err(self.particle_error(src, "left the cell grid"));
+        }
         Ok(())
     }
 
