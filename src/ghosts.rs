@@ -37,7 +37,8 @@ pub enum AxisOp {
 }
 
 impl AxisOp {
-    fn code(self, planes: &[impl HasSide]) -> u64 {
+    /// Image code of this axis operation (3 bits) in a sort key.
+    pub fn code(self, planes: &[impl HasSide]) -> u64 {
         match self {
             AxisOp::Keep => 0,
             AxisOp::Shift(s) if s > 0.0 => 1,
@@ -53,7 +54,9 @@ impl AxisOp {
     }
 }
 
-trait HasSide {
+/// A mirror plane's side (which side the fluid is on).
+pub trait HasSide {
+    /// True if the fluid lies above the plane.
     fn above(&self) -> bool;
 }
 impl<const D: usize> HasSide for MirrorPlane<D> {

@@ -11,10 +11,12 @@
 pub mod bench;
 pub mod cells;
 pub mod cli;
+pub mod comm;
 pub mod driver;
 pub mod error;
 pub mod exact;
 pub mod ghosts;
+pub mod halo;
 pub mod kernel;
 pub mod output;
 pub mod particles;

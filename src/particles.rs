@@ -92,12 +92,12 @@ impl<const D: usize> Particles<D> {
         self.grad_rho.truncate(n);
     }
 
-    /// Reorder the owned particles (ghosts must have been dropped): new particle k is old
-    /// particle `perm[k]`. Results never depend on local order (sums follow global keys), so
-    /// this only changes memory locality.
+    /// Reorder (or select) the owned particles (ghosts must have been dropped): new particle
+    /// k is old particle `perm[k]`; particles not listed are dropped. Results never depend on
+    /// local order (sums follow global keys), so reordering only changes memory locality.
     pub fn permute_owned(&mut self, perm: &[usize]) {
         debug_assert_eq!(self.len(), self.n_owned, "drop ghosts before permuting");
-        debug_assert_eq!(perm.len(), self.n_owned);
+        self.n_owned = perm.len();
         fn gather<T: Copy>(v: &mut Vec<T>, perm: &[usize]) {
             let old = std::mem::take(v);
             v.extend(perm.iter().map(|&i| old[i]));
@@ -133,6 +133,35 @@ impl<const D: usize> Particles<D> {
         self.p.push(self.p[src]);
         self.vw.push(self.vw[src]);
         self.grad_rho.push(self.grad_rho[src]);
+    }
+
+    /// Append a ghost from a whole record (another rank's particle or an image); its pressure,
+    /// wall velocity and gradient are set by the caller.
+    #[allow(clippy::too_many_arguments)]
+    pub fn push_ghost_record(
+        &mut self,
+        id: u64,
+        key: u64,
+        kind: Kind,
+        body: u16,
+        mat: u16,
+        x: Vector<D>,
+        v: Vector<D>,
+        mass: f64,
+        rho: f64,
+    ) {
+        self.id.push(id);
+        self.key.push(key);
+        self.kind.push(kind);
+        self.body.push(body);
+        self.mat.push(mat);
+        self.x.push(x);
+        self.v.push(v);
+        self.mass.push(mass);
+        self.rho.push(rho);
+        self.p.push(0.0);
+        self.vw.push(v);
+        self.grad_rho.push(Vector::zeros());
     }
 
     /// Append an owned particle (before any ghost exists).
