@@ -6,7 +6,7 @@
 use crate::bench::{self, BenchOptions};
 use crate::driver::{self, RunOptions};
 use crate::error::{Error, Result};
-use crate::scene::{load_scene, Scene};
+use crate::scene::{load_scene, Scene, SceneSource};
 use clap::{Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
@@ -138,7 +138,7 @@ fn dispatch(cmd: Command) -> Result<()> {
             if backend == Backend::Mpi && !cfg!(feature = "mpi") {
                 return Err(Error::missing_feature("--backend", "mpi"));
             }
-            let (scene, _) = load_scene(&scene, &set)?;
+            let (scene, src) = load_scene(&scene, &set)?;
             driver::run_scene(
                 &scene,
                 &RunOptions {
@@ -149,10 +149,11 @@ fn dispatch(cmd: Command) -> Result<()> {
                 },
             )
             .map(|_| ())
+            .map_err(|e| locate(&src, e))
         }
         Command::Check { scene, set } => {
-            let (scene, _) = load_scene(&scene, &set)?;
-            print!("{}", check_report(&scene)?);
+            let (scene, src) = load_scene(&scene, &set)?;
+            print!("{}", check_report(&scene).map_err(|e| locate(&src, e))?);
             Ok(())
         }
         Command::Bench {
@@ -177,6 +178,15 @@ fn dispatch(cmd: Command) -> Result<()> {
             print!("{}", bench::table(&rows));
             Ok(())
         }
+    }
+}
+
+/// Give a scene error found after loading (e.g. overlapping bodies, found while filling the
+/// lattice) the file and line of its key; flag errors (`--out`, ...) stay as they are.
+fn locate(src: &SceneSource, e: Error) -> Error {
+    match &e {
+        Error::Input { at: None, key, .. } if !key.starts_with("--") => src.locate(e),
+        _ => e,
     }
 }
 

@@ -135,7 +135,9 @@ impl ExactSum {
             acc |= 1;
         }
         let scale = BASE_EXP + LIMB_BITS * lo as i32;
-        let mag = (acc as f64) * pow2(scale);
+        // two exact power-of-two steps keep the intermediate normal (2^-1088 alone underflows)
+        let half = scale / 2;
+        let mag = (acc as f64) * pow2(half) * pow2(scale - half);
         if neg {
             -mag
         } else {

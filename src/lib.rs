@@ -12,6 +12,7 @@ pub mod bench;
 pub mod cells;
 pub mod cli;
 pub mod comm;
+pub mod decomp;
 pub mod driver;
 pub mod error;
 pub mod exact;

@@ -16,6 +16,8 @@ pub struct SceneSource {
     pub text: String,
     /// Dotted keys changed by `--set` (their errors point at the command line).
     pub overridden: Vec<String>,
+    /// The file's own text, before overrides: line numbers refer to it.
+    pub original: String,
 }
 
 /// One step of a key path: a table key or an array index.
@@ -75,7 +77,7 @@ pub fn load_scene(path: &Path, overrides: &[String]) -> Result<(Scene, SceneSour
 
 /// Parse scene text (as if read from `file`), apply overrides, deserialise and validate.
 pub fn load_scene_str(
-    text: &str,
+    text_in: &str,
     file: &Path,
     default_name: &str,
     overrides: &[String],
@@ -86,6 +88,7 @@ pub fn load_scene_str(
             line,
         })
     };
+    let text = text_in;
     let mut doc: DocumentMut = text.parse().map_err(|e: toml_edit::TomlError| Error::Input {
         at: at_file(e.span().map(|s| line_of(text, s.start))),
         key: String::new(),
@@ -104,6 +107,7 @@ pub fn load_scene_str(
         file: file.to_path_buf(),
         text,
         overridden,
+        original: text_in.to_string(),
     };
     let mut scene: Scene = toml::from_str(&src.text).map_err(|e| src.serde_error(&e))?;
     if scene.name.is_empty() {
@@ -115,11 +119,16 @@ pub fn load_scene_str(
 
 /// Apply one `key.path=value` override; returns the dotted key.
 fn apply_override(doc: &mut DocumentMut, o: &str) -> Result<String> {
+    let at_set = Some(Location {
+        file: PathBuf::from("--set"),
+        line: None,
+    });
     let Some((key, raw)) = o.split_once('=') else {
-        return Err(Error::input(
-            "--set",
-            format!("`{o}` is not key.path=value; e.g. --set time.t_end=0.5"),
-        ));
+        return Err(Error::Input {
+            at: at_set,
+            key: o.trim().to_string(),
+            message: format!("`{o}` is not key.path=value; e.g. --set time.t_end=0.5"),
+        });
     };
     let key = key.trim();
     let segs = parse_path(key);
@@ -127,8 +136,11 @@ fn apply_override(doc: &mut DocumentMut, o: &str) -> Result<String> {
         .trim()
         .parse::<Value>()
         .unwrap_or_else(|_| Value::from(raw.trim().to_string()));
-    set_path(doc.as_table_mut(), &segs, value)
-        .map_err(|why| Error::input("--set", format!("cannot set `{key}`: {why}")))?;
+    set_path(doc.as_table_mut(), &segs, value).map_err(|why| Error::Input {
+        at: at_set,
+        key: display_path(&segs),
+        message: format!("cannot set it: {why}"),
+    })?;
     Ok(display_path(&segs))
 }
 
@@ -176,41 +188,69 @@ impl SceneSource {
                 key,
                 message,
             } => {
-                let at = if self.overridden.iter().any(|o| key.starts_with(o.as_str())) {
-                    Some(Location {
-                        file: PathBuf::from("--set"),
-                        line: None,
-                    })
-                } else {
-                    let line = span_of(&self.text, &parse_path(&key)).map(|s| line_of(&self.text, s.start));
-                    Some(Location {
-                        file: self.file.clone(),
-                        line,
-                    })
-                };
+                let at = self.location_of(&key, None);
                 Error::Input { at, key, message }
             }
             other => other,
         }
     }
 
+    /// True if `key` is, or lies below, a key set by `--set`.
+    fn is_overridden(&self, key: &str) -> bool {
+        self.overridden.iter().any(|o| {
+            key == o
+                || key
+                    .strip_prefix(o.as_str())
+                    .is_some_and(|rest| rest.starts_with('.') || rest.starts_with('['))
+        })
+    }
+
+    /// `--set` for an overridden key, else the file and the line of the key (or of its
+    /// nearest existing ancestor) in the file's own text, else `fallback_line`.
+    fn location_of(&self, key: &str, fallback_line: Option<usize>) -> Option<Location> {
+        if self.is_overridden(key) {
+            return Some(Location {
+                file: PathBuf::from("--set"),
+                line: None,
+            });
+        }
+        let line = span_of(&self.original, &parse_path(key))
+            .map(|s| line_of(&self.original, s.start))
+            .or(fallback_line);
+        Some(Location {
+            file: self.file.clone(),
+            line,
+        })
+    }
+
     /// Turn a deserialisation error into a located input error naming the key.
     fn serde_error(&self, e: &toml::de::Error) -> Error {
         let span = e.span();
-        let key = span
+        let mut key = span
             .clone()
             .and_then(|s| ImDocument::parse(self.text.clone()).ok().map(|d| key_at(&d, &s)))
             .unwrap_or_default();
-        let line = span.map(|s| line_of(&self.text, s.start));
         let mut message = first_line(e.message()).to_string();
-        if message.starts_with("missing field") {
+        if let Some(field) = message
+            .strip_prefix("missing field `")
+            .and_then(|r| r.split('`').next())
+        {
+            // name the missing key itself, not only the table it is missing from
+            key = if key.is_empty() {
+                field.to_string()
+            } else {
+                format!("{key}.{field}")
+            };
             message.push_str(" (see README, 'Scene files', for every key and its default)");
         }
+        // the span is in the text after overrides; without overrides it is the file's own
+        let fallback = if self.overridden.is_empty() {
+            span.map(|s| line_of(&self.text, s.start))
+        } else {
+            None
+        };
         Error::Input {
-            at: Some(Location {
-                file: self.file.clone(),
-                line,
-            }),
+            at: self.location_of(&key, fallback),
             key,
             message,
         }

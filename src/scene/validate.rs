@@ -62,16 +62,14 @@ fn non_negative(x: f64, key: &str) -> Result<()> {
 /// The face names of a container's `open` list.
 pub fn face(name: &str, dim: usize) -> Option<(usize, bool)> {
     let axes = ["x", "y", "z"];
-    let (ax, side) = name.split_at(name.len().saturating_sub(1));
+    // strip_suffix, not split_at: a name ending in a multi-byte character must not panic
+    let (ax, up) = match (name.strip_suffix('-'), name.strip_suffix('+')) {
+        (Some(ax), _) => (ax, false),
+        (_, Some(ax)) => (ax, true),
+        _ => return None,
+    };
     let a = axes.iter().position(|&n| n == ax)?;
-    if a >= dim {
-        return None;
-    }
-    match side {
-        "-" => Some((a, false)),
-        "+" => Some((a, true)),
-        _ => None,
-    }
+    (a < dim).then_some((a, up))
 }
 
 /// Validate a scene and fill the defaults that depend on other keys.
@@ -120,6 +118,20 @@ pub fn validate(s: &mut Scene) -> Result<()> {
             );
         }
     }
+    // The cell list spans the whole domain (cells of the support size, plus margins) with
+    // u32 offsets: refuse a grid that could not be allocated rather than abort or overflow.
+    let cells: f64 = (0..d)
+        .map(|a| ((s.domain.max[a] - s.domain.min[a]) / support).floor().max(1.0) + 2.0)
+        .product();
+    if cells.is_nan() || cells > MAX_CELLS {
+        return err(
+            "domain.max",
+            format!(
+                "the domain spans {cells:.3e} cells of the kernel support ({support:.3e} m), \
+                 more than the {MAX_CELLS:.3e} hsph allows; shrink the domain or coarsen dx"
+            ),
+        );
+    }
     if s.materials.is_empty() {
         return err("material", "at least one [[material]] is needed");
     }
@@ -143,12 +155,14 @@ pub fn validate(s: &mut Scene) -> Result<()> {
     non_negative(ph.laminar_viscosity, "physics.laminar_viscosity")?;
     check_vec(&mut ph.body_force, d, "physics.body_force", true)?;
 
-    let in_domain = |min: &[f64], max: &[f64], key: &str, dom: &Domain| -> Result<()> {
+    // `body` is the key of the body; the error names its `min` or `max`, whichever is out
+    let in_domain = |min: &[f64], max: &[f64], body: &str, dom: &Domain| -> Result<()> {
         let tol = 1e-9 * disc_scale(dom);
         for a in 0..d {
-            if min[a] < dom.min[a] - tol || max[a] > dom.max[a] + tol {
+            let low = min[a] < dom.min[a] - tol;
+            if low || max[a] > dom.max[a] + tol {
                 return err(
-                    key.to_string(),
+                    format!("{body}.{}", if low { "min" } else { "max" }),
                     format!(
                         "the body [{:?}, {:?}] lies outside the domain [{:?}, {:?}] on axis {a}; \
                          enlarge domain.min/domain.max or move the body",
@@ -178,7 +192,7 @@ pub fn validate(s: &mut Scene) -> Result<()> {
         check_vec(&mut f.max, d, &format!("{k}.max"), false)?;
         check_box(&f.min, &f.max, &k)?;
         check_vec(&mut f.velocity, d, &format!("{k}.velocity"), true)?;
-        in_domain(&f.min, &f.max, &format!("{k}.min"), &s.domain)?;
+        in_domain(&f.min, &f.max, &k, &s.domain)?;
     }
     let dx = s.discretisation.dx;
     for (i, w) in s.walls.iter_mut().enumerate() {
@@ -227,7 +241,7 @@ pub fn validate(s: &mut Scene) -> Result<()> {
                     }
                 }
                 if w.method != WallMethod::Mirror {
-                    in_domain(&lo, &hi, &format!("{k}.min"), &s.domain)?;
+                    in_domain(&lo, &hi, &k, &s.domain)?;
                 }
             }
             WallShape::Block => {
@@ -241,7 +255,7 @@ pub fn validate(s: &mut Scene) -> Result<()> {
                 if !w.open.is_empty() {
                     return err(format!("{k}.open"), "only a container has open faces");
                 }
-                in_domain(&w.min, &w.max, &format!("{k}.min"), &s.domain)?;
+                in_domain(&w.min, &w.max, &k, &s.domain)?;
             }
         }
         if let Some(m) = &mut w.motion {
@@ -288,9 +302,56 @@ pub fn validate(s: &mut Scene) -> Result<()> {
             );
         }
     }
+    check_particle_count(s)?;
     validate_probes(s)?;
     validate_reference(s)?;
     check_sound_speed(s)
+}
+
+/// Largest number of cells of the global cell grid (1 GiB of u32 cell offsets).
+const MAX_CELLS: f64 = (1u64 << 28) as f64;
+
+/// Largest number of particles (neighbour indices are u32, ghosts included).
+const MAX_PARTICLES: f64 = (1u64 << 31) as f64;
+
+/// Upper bound on the lattice sites of a box: ⌈len/dx⌉ + 1 per axis.
+fn sites_in(min: &[f64], max: &[f64], dx: f64) -> f64 {
+    min.iter()
+        .zip(max)
+        .map(|(lo, hi)| ((hi - lo) / dx).ceil() + 1.0)
+        .product()
+}
+
+fn check_particle_count(s: &Scene) -> Result<()> {
+    let dx = s.discretisation.dx;
+    let mut n = 0.0;
+    let mut key = "fluid";
+    for f in &s.fluids {
+        n += sites_in(&f.min, &f.max, dx);
+    }
+    for w in &s.walls {
+        let grow = if w.shape == WallShape::Container {
+            w.layers as f64 * dx
+        } else {
+            0.0
+        };
+        let lo: Vec<f64> = w.min.iter().map(|x| x - grow).collect();
+        let hi: Vec<f64> = w.max.iter().map(|x| x + grow).collect();
+        if w.method != WallMethod::Mirror {
+            n += sites_in(&lo, &hi, dx);
+            key = "wall";
+        }
+    }
+    if n.is_nan() || n > MAX_PARTICLES {
+        return err(
+            key,
+            format!(
+                "the bodies hold up to {n:.3e} particles at dx = {dx}, more than the \
+                 {MAX_PARTICLES:.3e} hsph allows; shrink the bodies or coarsen dx"
+            ),
+        );
+    }
+    Ok(())
 }
 
 fn disc_scale(dom: &Domain) -> f64 {

@@ -1,0 +1,472 @@
+//! Bad input: every mistake exits with status 2 and one located message on stderr, never a
+//! panic and never a `summary.json`; randomly mutated scenes never panic the loader.
+
+mod common;
+
+use common::{repo_path, temp_dir, Rng};
+use hsph::error::Error;
+use hsph::scene::load_scene_str;
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn shipped() -> String {
+    fs::read_to_string(repo_path("inputs/dam_break_2d.toml")).unwrap()
+}
+
+fn hsph(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hsph"))
+        .args(args)
+        .output()
+        .expect("the hsph binary runs")
+}
+
+/// 1-based line of the first line of `text` containing `pat`.
+fn line_of(text: &str, pat: &str) -> usize {
+    text.lines()
+        .position(|l| l.contains(pat))
+        .unwrap_or_else(|| panic!("`{pat}` not in the scene"))
+        + 1
+}
+
+/// Write `text` as a scene file in a fresh temp dir; returns (scene path, an unused --out).
+fn write_scene(tag: &str, text: &str) -> (PathBuf, PathBuf) {
+    let dir = temp_dir(tag);
+    let scene = dir.join("scene.toml");
+    fs::write(&scene, text).unwrap();
+    (scene, dir.join("out"))
+}
+
+/// Exit status 2, exactly one non-empty line on stderr containing every needle, no panic.
+fn assert_input_error(out: &Output, needles: &[&str]) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "exit status; stderr:\n{stderr}");
+    assert!(!stderr.contains("panicked"), "panic:\n{stderr}");
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "one message expected, got:\n{stderr}");
+    for n in needles {
+        assert!(stderr.contains(n), "`{n}` missing from:\n{stderr}");
+    }
+    stderr
+}
+
+/// `hsph run` on a mutated scene: located error, no run directory, no summary.json.
+fn run_bad_scene(tag: &str, text: &str, key: &str, line_pat: &str, valid: &[&str]) {
+    let (scene, out) = write_scene(tag, text);
+    let o = hsph(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let loc = format!("{}:{}:", scene.display(), line_of(text, line_pat));
+    let key = format!("key `{key}`");
+    let mut needles = vec![loc.as_str(), key.as_str()];
+    needles.extend_from_slice(valid);
+    assert_input_error(&o, &needles);
+    assert!(!out.join("summary.json").exists());
+    assert!(!out.exists(), "no run directory for a bad scene");
+    // `hsph check` reports the same error
+    let o = hsph(&["check", scene.to_str().unwrap()]);
+    assert_input_error(&o, &needles);
+    let _ = fs::remove_dir_all(scene.parent().unwrap());
+}
+
+#[test]
+fn unknown_key() {
+    let text = shipped().replace("delta = 0.1\n", "delta = 0.1\nviscosity = 0.1\n");
+    run_bad_scene(
+        "unknown",
+        &text,
+        "physics.viscosity",
+        "viscosity = 0.1",
+        &[
+            "unknown field `viscosity`",
+            "expected one of",
+            "laminar_viscosity",
+        ],
+    );
+}
+
+#[test]
+fn missing_key() {
+    let text = shipped().replace("dx = 0.006\n", "");
+    run_bad_scene(
+        "missing",
+        &text,
+        "discretisation.dx",
+        "[discretisation]",
+        &["missing field `dx`", "README"],
+    );
+}
+
+#[test]
+fn wrong_type() {
+    let text = shipped().replace("dx = 0.006", "dx = \"6 mm\"");
+    run_bad_scene(
+        "wrongtype",
+        &text,
+        "discretisation.dx",
+        "dx = \"6 mm\"",
+        &["invalid type", "expected f64"],
+    );
+}
+
+#[test]
+fn negative_spacing() {
+    let text = shipped().replace("dx = 0.006", "dx = -0.006");
+    run_bad_scene(
+        "negdx",
+        &text,
+        "discretisation.dx",
+        "dx = -0.006",
+        &["must be a positive number", "-0.006", "e.g. dx ="],
+    );
+}
+
+#[test]
+fn body_outside_domain() {
+    let text = shipped().replace("max = [0.146, 0.292]", "max = [0.146, 0.9]");
+    run_bad_scene(
+        "outside",
+        &text,
+        "fluid[0].max",
+        "max = [0.146, 0.9]",
+        &["outside the domain", "axis 1", "enlarge domain"],
+    );
+}
+
+#[test]
+fn sound_speed_too_low() {
+    let text = shipped().replace("c0 = 25.0", "c0 = 5.0");
+    run_bad_scene(
+        "c0",
+        &text,
+        "material[0].c0",
+        "c0 = 5.0",
+        &["below 10 × the expected speed", "c0 ≥"],
+    );
+}
+
+#[test]
+fn overlapping_bodies_are_located() {
+    // found only while filling the lattice, after validation
+    let text = format!(
+        "{}\n[[fluid]]\nname = \"drop\"\nmaterial = \"water\"\nmin = [0.05, 0.05]\nmax = [0.1, 0.1]\n",
+        shipped()
+    );
+    // the second [[fluid]] table is fluid[1]
+    let at = text.rfind("[[fluid]]").unwrap();
+    let line = text[..at].lines().count() + 1;
+    let (scene, out) = write_scene("overlap", &text);
+    let o = hsph(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    let loc = format!("{}:{line}:", scene.display());
+    assert_input_error(&o, &[&loc, "key `fluid[1]`", "overlaps fluid[0]", "shrink"]);
+    assert!(!out.join("summary.json").exists());
+}
+
+#[test]
+fn non_ascii_face_name() {
+    let text = shipped().replace("open = [\"y+\"]", "open = [\"é\"]");
+    run_bad_scene(
+        "face",
+        &text,
+        "wall[0].open[0]",
+        "open = [\"é\"]",
+        &["unknown face `é`", "valid faces: x-, x+, y-, y+"],
+    );
+}
+
+#[test]
+fn bad_set() {
+    let scene = repo_path("inputs/dam_break_2d.toml");
+    let s = scene.to_str().unwrap();
+    let dir = temp_dir("badset");
+    let out = dir.join("out");
+    let o_s = out.to_str().unwrap();
+    let cases: [(&str, &[&str]); 5] = [
+        (
+            "time.t_end",
+            &[
+                "key `time.t_end`",
+                "not key.path=value",
+                "e.g. --set time.t_end=0.5",
+            ],
+        ),
+        (
+            "time.t_end=soon",
+            &["key `time.t_end`", "invalid type", "expected f64"],
+        ),
+        ("time.t_edn=1", &["key `time.t_edn`", "unknown field", "t_end"]),
+        (
+            "fluid[3].min=[0,0]",
+            &["key `fluid[3].min`", "past the end", "length 1"],
+        ),
+        (
+            "discretisation.dx=-1",
+            &["key `discretisation.dx`", "positive", "e.g. dx ="],
+        ),
+    ];
+    for (set, needles) in cases {
+        let o = hsph(&["run", s, "--out", o_s, "-q", "--set", set]);
+        let msg = assert_input_error(&o, needles);
+        // the mistake is on the command line, not in the file
+        assert!(msg.contains("--set"), "{set}: {msg}");
+        assert!(
+            !msg.contains("dam_break_2d.toml"),
+            "{set}: blames the file: {msg}"
+        );
+        assert!(!out.exists());
+    }
+}
+
+#[test]
+fn non_empty_out_without_force() {
+    let dir = temp_dir("nonempty");
+    let out = dir.join("out");
+    fs::create_dir_all(out.join("mine")).unwrap();
+    fs::write(out.join("keep.txt"), "precious").unwrap();
+    fs::write(out.join("timeseries.csv"), "not from hsph").unwrap();
+    let scene = repo_path("inputs/dam_break_2d.toml");
+    let o = hsph(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "-q",
+        "--set",
+        "time.t_end=0.001",
+    ]);
+    let o_disp = out.display().to_string();
+    assert_input_error(&o, &["key `--out`", &o_disp, "not empty", "--force"]);
+    assert_eq!(fs::read_to_string(out.join("keep.txt")).unwrap(), "precious");
+    assert_eq!(
+        fs::read_to_string(out.join("timeseries.csv")).unwrap(),
+        "not from hsph"
+    );
+    let mut names: Vec<String> = fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["keep.txt", "mine", "timeseries.csv"]);
+    let _ = fs::remove_dir_all(&dir);
+}
+
+#[cfg(not(feature = "mpi"))]
+#[test]
+fn mpi_backend_without_feature() {
+    let dir = temp_dir("mpi");
+    let out = dir.join("out");
+    let scene = repo_path("inputs/dam_break_2d.toml");
+    let o = hsph(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--backend",
+        "mpi",
+        "--out",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_input_error(&o, &["key `--backend`", "`mpi` cargo feature", "--features mpi"]);
+    assert!(!out.exists());
+}
+
+// ---------------------------------------------------------------------------------------
+// Property test: mutated scene text never panics the loader.
+
+const REPLACEMENTS: [&str; 16] = [
+    "-1.0",
+    "-0.0",
+    "0",
+    "1e308",
+    "-1e308",
+    "1e300",
+    "nan",
+    "inf",
+    "-inf",
+    "\"abc\"",
+    "[]",
+    "true",
+    "18446744073709551616",
+    "-7",
+    "[1.0, 2.0, 3.0, 4.0]",
+    "{ a = 1 }",
+];
+
+/// Byte ranges of number tokens (a digit, or a sign before a digit, not inside a word).
+fn number_tokens(text: &str) -> Vec<(usize, usize)> {
+    let b = text.as_bytes();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < b.len() {
+        let starts = b[i].is_ascii_digit()
+            || ((b[i] == b'-' || b[i] == b'+') && i + 1 < b.len() && b[i + 1].is_ascii_digit());
+        let in_word = i > 0 && (b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'_' || b[i - 1] == b'.');
+        if starts && !in_word {
+            let s = i;
+            i += 1;
+            while i < b.len() && (b[i].is_ascii_digit() || b"._eE+-".contains(&b[i])) {
+                i += 1;
+            }
+            out.push((s, i));
+        } else {
+            i += 1;
+        }
+    }
+    out
+}
+
+fn mutate(text: &str, rng: &mut Rng) -> String {
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    if lines.is_empty() {
+        return text.to_string();
+    }
+    match rng.below(7) {
+        0 => {
+            let k = rng.below(lines.len());
+            lines.remove(k);
+        }
+        1 => {
+            let k = rng.below(lines.len());
+            let l = lines[k].clone();
+            lines.insert(k, l);
+        }
+        2 | 3 => {
+            let joined = lines.join("\n");
+            let toks = number_tokens(&joined);
+            if toks.is_empty() {
+                return joined;
+            }
+            let (s, e) = toks[rng.below(toks.len())];
+            let r = REPLACEMENTS[rng.below(REPLACEMENTS.len())];
+            return format!("{}{}{}", &joined[..s], r, &joined[e..]);
+        }
+        4 => {
+            // swap the keys of two `key = value` lines
+            let keyed: Vec<usize> = (0..lines.len())
+                .filter(|&k| lines[k].contains(" = ") && !lines[k].trim_start().starts_with('#'))
+                .collect();
+            if keyed.is_empty() {
+                return text.to_string();
+            }
+            let (a, b) = (keyed[rng.below(keyed.len())], keyed[rng.below(keyed.len())]);
+            let (ka, va) = lines[a]
+                .split_once(" = ")
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .unwrap();
+            let (kb, vb) = lines[b]
+                .split_once(" = ")
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .unwrap();
+            lines[a] = format!("{kb} = {va}");
+            lines[b] = format!("{ka} = {vb}");
+        }
+        5 => {
+            let joined = lines.join("\n");
+            let mut cut = rng.below(joined.len() + 1);
+            while !joined.is_char_boundary(cut) {
+                cut -= 1;
+            }
+            return joined[..cut].to_string();
+        }
+        _ => {
+            // replace a quoted string value with an odd one
+            let odd = ["", "é", "x+", "z-", "y", "water ", "∞", "fluid", "tank", "none"];
+            let quoted: Vec<usize> = (0..lines.len()).filter(|&k| lines[k].contains('"')).collect();
+            if quoted.is_empty() {
+                return text.to_string();
+            }
+            let k = quoted[rng.below(quoted.len())];
+            if let Some((head, rest)) = lines[k].split_once('"') {
+                if let Some((_, tail)) = rest.split_once('"') {
+                    lines[k] = format!("{head}\"{}\"{tail}", odd[rng.below(odd.len())]);
+                }
+            }
+        }
+    }
+    lines.join("\n") + "\n"
+}
+
+/// Mutants of the shipped scene (1–3 mutations each), deterministic.
+fn mutants(count: usize, seed: u64) -> Vec<String> {
+    let base = shipped();
+    let mut rng = Rng(seed);
+    (0..count)
+        .map(|_| {
+            let mut t = base.clone();
+            for _ in 0..1 + rng.below(3) {
+                t = mutate(&t, &mut rng);
+            }
+            t
+        })
+        .collect()
+}
+
+#[test]
+fn mutated_scenes_never_panic() {
+    let file = Path::new("mutant.toml");
+    let (mut ok, mut errs, mut built) = (0, 0, 0);
+    for (n, text) in mutants(600, 0xbad_5eed).iter().enumerate() {
+        let r = std::panic::catch_unwind(|| load_scene_str(text, file, "mutant", &[]));
+        let r = r.unwrap_or_else(|_| panic!("mutant {n} panicked the loader:\n{text}"));
+        match r {
+            Ok((scene, _)) => {
+                ok += 1;
+                // a scene that loads must also build (what `hsph check` does) without panic
+                let c = std::panic::catch_unwind(|| hsph::cli::check_report(&scene));
+                match c.unwrap_or_else(|_| panic!("mutant {n} panicked `check`:\n{text}")) {
+                    Ok(_) => built += 1,
+                    Err(Error::Input { key, .. }) => assert!(!key.is_empty(), "mutant {n}"),
+                    Err(e) => panic!("mutant {n}: check gave a non-input error {e}:\n{text}"),
+                }
+            }
+            Err(Error::Input { at, key, message }) => {
+                errs += 1;
+                let at = at.unwrap_or_else(|| panic!("mutant {n}: no location for `{key}`: {message}"));
+                assert_eq!(at.file, file, "mutant {n}: {message}");
+                assert!(
+                    !key.is_empty() || at.line.is_some(),
+                    "mutant {n}: neither key nor line: {message}\n{text}"
+                );
+                assert!(!message.is_empty());
+            }
+            Err(e) => panic!("mutant {n}: not an input error: {e}"),
+        }
+    }
+    eprintln!("{ok} mutants loaded ({built} built), {errs} rejected with located errors");
+    assert!(errs > 300 && ok > 20, "the mutations must exercise both outcomes");
+}
+
+#[test]
+fn mutated_files_through_hsph_check() {
+    let dir = temp_dir("mutants");
+    let (mut zero, mut two) = (0, 0);
+    for (n, text) in mutants(12, 0xc4ec_4000).iter().enumerate() {
+        let path = dir.join(format!("mutant_{n}.toml"));
+        fs::write(&path, text).unwrap();
+        let o = hsph(&["check", path.to_str().unwrap()]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(!stderr.contains("panicked"), "mutant {n}:\n{stderr}\n{text}");
+        match o.status.code() {
+            Some(0) => zero += 1,
+            Some(2) => {
+                two += 1;
+                eprint!("mutant {n}: {stderr}");
+                assert_eq!(stderr.lines().count(), 1, "{stderr}");
+                assert!(stderr.contains(&path.display().to_string()), "{stderr}");
+            }
+            c => panic!("mutant {n}: exit status {c:?}\n{stderr}\n{text}"),
+        }
+    }
+    eprintln!("hsph check on 12 mutants: {zero} ok, {two} rejected");
+    assert!(two > 0);
+    let _ = fs::remove_dir_all(&dir);
+}

@@ -1,0 +1,217 @@
+//! Conservation: momentum in a periodic box, zero sum of the δ-SPH diffusion term, and the
+//! renormalised gradient of a linear field.
+
+mod common;
+
+use common::Rng;
+use hsph::particles::Kind;
+use hsph::physics::delta::renormalised_gradient_of;
+use hsph::physics::fluid::diffusion_term;
+use hsph::scene::load_scene_str;
+use hsph::sim::Simulation;
+use hsph::Vector;
+use std::path::Path;
+
+/// A fully periodic box filled with fluid (no walls, no body force), or, with `periodic =
+/// false`, a free block of fluid in a larger box.
+fn box_scene(dim: usize, periodic: bool, diffusion: &str, alpha: f64, nu: f64) -> String {
+    let n = if dim == 2 { 16.0 } else { 10.0 };
+    let dx = 1.0 / 64.0;
+    let l = n * dx;
+    let v = |x: f64| vec![format!("{x:?}"); dim].join(", ");
+    let dom_min = if periodic { 0.0 } else { -0.25 };
+    let dom_max = if periodic { l } else { l + 0.25 };
+    format!(
+        r#"
+dimension = {dim}
+[domain]
+min = [{dmin}]
+max = [{dmax}]
+periodic = [{per}]
+[discretisation]
+dx = {dx:?}
+h_over_dx = 1.3
+[[material]]
+name = "water"
+rho0 = 1000.0
+c0 = 20.0
+[physics]
+density_diffusion = "{diffusion}"
+delta = 0.1
+artificial_viscosity = {alpha:?}
+laminar_viscosity = {nu:?}
+[[fluid]]
+name = "f"
+material = "water"
+min = [{zero}]
+max = [{lmax}]
+[time]
+t_end = 1.0
+"#,
+        dmin = v(dom_min),
+        dmax = v(dom_max),
+        per = vec![periodic.to_string(); dim].join(", "),
+        zero = v(0.0),
+        lmax = v(l),
+    )
+}
+
+fn sim_of<const D: usize>(text: &str) -> Simulation<D> {
+    let (scene, _) = load_scene_str(text, Path::new("box.toml"), "box", &[]).unwrap();
+    Simulation::<D>::new(&scene).unwrap()
+}
+
+/// Random velocities (|v| up to 0.5 m/s), density perturbation of ±1 %, optional position
+/// jitter; ghosts and neighbour lists rebuilt.
+fn perturb<const D: usize>(sim: &mut Simulation<D>, seed: u64, jitter: f64) {
+    let mut rng = Rng(seed);
+    let dx = sim.scene.discretisation.dx;
+    for i in 0..sim.p.n_owned {
+        if sim.p.kind[i] != Kind::Fluid {
+            continue;
+        }
+        sim.p.v[i] = Vector::<D>::from_fn(|_, _| rng.range(-0.3, 0.3));
+        sim.p.rho[i] *= 1.0 + rng.range(-0.01, 0.01);
+        let mut x = sim.p.x[i];
+        for a in 0..D {
+            x[a] += rng.range(-jitter, jitter) * dx;
+        }
+        sim.space.wrap(&mut x);
+        sim.p.x[i] = x;
+    }
+    sim.compute_density_rate().unwrap();
+}
+
+fn momentum_scale<const D: usize>(sim: &Simulation<D>) -> f64 {
+    (0..sim.p.n_owned)
+        .filter(|&i| sim.p.kind[i] == Kind::Fluid)
+        .map(|i| sim.p.mass[i] * sim.p.v[i].norm())
+        .sum()
+}
+
+/// Largest per-step |ΔP|∞ / Σ m|v| over `steps` steps.
+fn momentum_drift<const D: usize>(diffusion: &str, alpha: f64, nu: f64, steps: usize) -> f64 {
+    let mut sim = sim_of::<D>(&box_scene(D, true, diffusion, alpha, nu));
+    perturb(&mut sim, 42 + D as u64, 0.2);
+    let ke0 = sim.observables().kinetic_energy;
+    let mut worst = 0.0f64;
+    for _ in 0..steps {
+        let before = sim.observables().momentum;
+        sim.advance().unwrap();
+        let after = sim.observables().momentum;
+        let scale = momentum_scale(&sim);
+        let rel = (after - before).amax() / scale;
+        assert!(
+            rel <= 1e-12,
+            "{D}D {diffusion} α={alpha} ν={nu}: step {} changed the momentum by {:?} (Σ m|v| = {scale:e}), relative {rel:e}",
+            sim.step,
+            (after - before).as_slice()
+        );
+        worst = worst.max(rel);
+    }
+    let ke1 = sim.observables().kinetic_energy;
+    assert!(
+        (ke1 - ke0).abs() > 1e-6 * ke0,
+        "the flow must evolve (kinetic energy {ke0} → {ke1})"
+    );
+    worst
+}
+
+#[test]
+fn periodic_box_conserves_momentum_2d() {
+    for diffusion in ["none", "molteni", "antuono"] {
+        for (alpha, nu) in [(0.0, 0.0), (0.05, 1e-3)] {
+            let w = momentum_drift::<2>(diffusion, alpha, nu, 50);
+            eprintln!("2D {diffusion:8} α={alpha} ν={nu}: worst per-step |ΔP|/Σm|v| = {w:.2e}");
+        }
+    }
+}
+
+#[test]
+fn periodic_box_conserves_momentum_3d() {
+    for diffusion in ["molteni", "antuono"] {
+        let w = momentum_drift::<3>(diffusion, 0.05, 1e-3, 30);
+        eprintln!("3D {diffusion:8} α=0.05 ν=1e-3: worst per-step |ΔP|/Σm|v| = {w:.2e}");
+    }
+}
+
+/// Σ_i V_i D_i / Σ_i |V_i D_i| for the given diffusion variant.
+fn diffusion_sum<const D: usize>(diffusion: &str, periodic: bool, seed: u64) -> f64 {
+    let mut sim = sim_of::<D>(&box_scene(D, periodic, diffusion, 0.0, 0.0));
+    perturb(&mut sim, seed, 0.25);
+    let (mut sum, mut abs) = (0.0, 0.0);
+    for i in 0..sim.p.n_owned {
+        let vd = sim.p.mass[i] / sim.p.rho[i] * diffusion_term(&sim.p, &sim.nl, &sim.model, i);
+        sum += vd;
+        abs += vd.abs();
+    }
+    assert!(abs > 0.0, "the density perturbation must diffuse");
+    if diffusion == "antuono" {
+        let g = (0..sim.p.n_owned)
+            .map(|i| sim.p.grad_rho[i].norm())
+            .fold(0.0, f64::max);
+        assert!(g > 0.0, "Antuono's term must use the renormalised gradient");
+    }
+    sum.abs() / abs
+}
+
+#[test]
+fn diffusion_term_sums_to_zero() {
+    for diffusion in ["molteni", "antuono"] {
+        for periodic in [true, false] {
+            for seed in 0..3 {
+                let r2 = diffusion_sum::<2>(diffusion, periodic, seed);
+                let r3 = diffusion_sum::<3>(diffusion, periodic, seed);
+                eprintln!("{diffusion:8} periodic {periodic:5} seed {seed}: |Σ V D|/Σ|V D| = {r2:.1e} (2D), {r3:.1e} (3D)");
+                assert!(r2 < 1e-13, "2D {diffusion} periodic {periodic}: {r2:e}");
+                assert!(r3 < 1e-13, "3D {diffusion} periodic {periodic}: {r3:e}");
+            }
+        }
+    }
+}
+
+/// Worst relative error of the renormalised gradient of f = a·x + b at particles whose
+/// support lies inside the fluid (`interior`), and the number of such particles.
+fn linear_gradient<const D: usize>(periodic: bool, seed: u64) -> (f64, usize, f64) {
+    let mut sim = sim_of::<D>(&box_scene(D, periodic, "antuono", 0.0, 0.0));
+    perturb(&mut sim, seed, 0.3);
+    let mut rng = Rng(seed ^ 0xfeed);
+    let a = Vector::<D>::from_fn(|_, _| rng.range(-5.0, 5.0));
+    let b = rng.range(-2.0, 2.0);
+    let f: Vec<f64> = sim.p.x.iter().map(|x| a.dot(x) + b).collect();
+    let n = sim.p.n_owned;
+    let mut out = vec![Vector::<D>::zeros(); n];
+    renormalised_gradient_of(&sim.p, &sim.nl, &sim.model, &f, &mut out);
+    let support = sim.model.kernel.support;
+    let dx = sim.scene.discretisation.dx;
+    let (lo, hi) = (0.0, sim.scene.fluids[0].max[0]);
+    let (mut worst, mut count, mut worst_edge) = (0.0f64, 0, 0.0f64);
+    for (g, x) in out.iter().zip(&sim.p.x) {
+        let err = (g - a).norm() / a.norm();
+        // jitter moves particles by ≤ 0.3 dx: keep a margin
+        let interior = periodic || (0..D).all(|k| x[k] - lo > support + dx && hi - x[k] > support + dx);
+        if interior {
+            worst = worst.max(err);
+            count += 1;
+        } else {
+            worst_edge = worst_edge.max(err);
+        }
+    }
+    (worst, count, worst_edge)
+}
+
+#[test]
+fn renormalised_gradient_of_linear_field_is_exact() {
+    for seed in 0..3 {
+        for periodic in [false, true] {
+            let (e2, n2, edge2) = linear_gradient::<2>(periodic, seed);
+            let (e3, n3, edge3) = linear_gradient::<3>(periodic, seed);
+            eprintln!(
+                "periodic {periodic:5} seed {seed}: interior error {e2:.1e} ({n2} particles, 2D), {e3:.1e} ({n3}, 3D); free-surface {edge2:.1e} / {edge3:.1e}"
+            );
+            assert!(n2 > 0 && n3 > 0);
+            assert!(e2 < 1e-12, "2D periodic {periodic}: {e2:e}");
+            assert!(e3 < 1e-12, "3D periodic {periodic}: {e3:e}");
+        }
+    }
+}

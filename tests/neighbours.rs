@@ -1,0 +1,376 @@
+//! Neighbour lists (cell list + ghosts) against brute-force oracles, 2D and 3D, periodic and
+//! not, on lattices (many pairs exactly at the support radius) and jittered particles.
+
+mod common;
+
+use common::Rng;
+use hsph::cells::{brute_force, CellGrid, CellList, NeighbourList};
+use hsph::ghosts::{GhostPlan, ImageSpace};
+use hsph::particles::{Kind, Particles};
+use hsph::scene::load_scene_str;
+use hsph::sim::Simulation;
+use hsph::Vector;
+use std::path::Path;
+
+struct Built<const D: usize> {
+    p: Particles<D>,
+    nl: NeighbourList,
+    plan: GhostPlan<D>,
+    space: ImageSpace<D>,
+}
+
+/// Owned fluid particles at `xs`, ghosts, cell list and neighbour lists, built directly.
+fn build<const D: usize>(
+    xs: &[Vector<D>],
+    min: Vector<D>,
+    max: Vector<D>,
+    periodic: [bool; D],
+    support: f64,
+) -> Built<D> {
+    let mut p = Particles::<D>::default();
+    for (k, x) in xs.iter().enumerate() {
+        p.push_owned(k as u64, Kind::Fluid, 0, 0, *x, Vector::zeros(), 1.0, 1.0);
+    }
+    let space = ImageSpace {
+        min,
+        max,
+        periodic,
+        planes: Vec::new(),
+    };
+    let mut plan = GhostPlan::default();
+    plan.build(&mut p, &space, support);
+    plan.refresh(&mut p, &space);
+    let grid = CellGrid::new(&min, &max, support);
+    let mut cells = CellList::default();
+    cells
+        .build(&grid, &p)
+        .unwrap_or_else(|i| panic!("particle {i} at {:?} left the grid", p.x[i]));
+    let mut nl = NeighbourList::default();
+    nl.build(&grid, &cells, &p, support, |_| true);
+    Built { p, nl, plan, space }
+}
+
+fn sorted(v: &[u32]) -> Vec<u32> {
+    let mut v = v.to_vec();
+    v.sort_unstable();
+    v
+}
+
+/// Neighbour lists equal the brute-force oracle over owned + ghost particles.
+fn assert_matches_brute_force<const D: usize>(
+    p: &Particles<D>,
+    nl: &NeighbourList,
+    support: f64,
+    what: &str,
+) -> usize {
+    let bf = brute_force(p, support);
+    let mut pairs = 0;
+    for (i, expect) in bf.iter().enumerate() {
+        let got = sorted(nl.of(i));
+        assert_eq!(&got, expect, "{what}: neighbours of particle {i} at {:?}", p.x[i]);
+        pairs += got.len();
+    }
+    assert_eq!(nl.pairs(), pairs, "{what}: no stray entries");
+    pairs
+}
+
+/// Independent oracle for the periodic images: for owned i, every (owned j, image shift)
+/// with |x_i − (x_j + shift)| < support, shift ∈ {−L, 0, L} per periodic axis, computed the
+/// way a ghost's position is (x_j[a] + L[a]). Compared with the neighbour list mapped back
+/// to (source id, shift), this checks that the ghost plan makes every needed image once.
+fn assert_matches_image_oracle<const D: usize>(b: &Built<D>, support: f64, what: &str) -> usize {
+    let p = &b.p;
+    let n = p.n_owned;
+    let l: Vector<D> = b.space.max - b.space.min;
+    let n_shifts = 3usize.pow(D as u32);
+    let r2 = support * support;
+    let mut exact_hits = 0;
+    for i in 0..n {
+        let mut expect: Vec<(u64, [i8; D])> = Vec::new();
+        for j in 0..n {
+            for code in 0..n_shifts {
+                let mut s = [0i8; D];
+                let mut c = code;
+                let mut ok = true;
+                for (a, sa) in s.iter_mut().enumerate() {
+                    *sa = (c % 3) as i8 - 1;
+                    c /= 3;
+                    ok &= *sa == 0 || b.space.periodic[a];
+                }
+                if !ok || (j == i && s.iter().all(|&x| x == 0)) {
+                    continue;
+                }
+                let mut xj = p.x[j];
+                for a in 0..D {
+                    if s[a] != 0 {
+                        xj[a] += f64::from(s[a]) * l[a];
+                    }
+                }
+                let d2 = (p.x[i] - xj).norm_squared();
+                if d2 == r2 {
+                    exact_hits += 1;
+                }
+                if d2 < r2 {
+                    expect.push((p.id[j], s));
+                }
+            }
+        }
+        let mut got: Vec<(u64, [i8; D])> =
+            b.nl.of(i)
+                .iter()
+                .map(|&k| {
+                    let k = k as usize;
+                    let src = if k < n { k } else { b.plan.src[k - n] as usize };
+                    let mut s = [0i8; D];
+                    for a in 0..D {
+                        s[a] = ((p.x[k][a] - p.x[src][a]) / l[a]).round() as i8;
+                    }
+                    (p.id[k], s)
+                })
+                .collect();
+        expect.sort_unstable();
+        got.sort_unstable();
+        assert_eq!(got, expect, "{what}: images seen by particle {i} at {:?}", p.x[i]);
+    }
+    exact_hits
+}
+
+/// Lattice sites (k + ½) dx from `min`, `n` per axis.
+fn lattice<const D: usize>(min: Vector<D>, dx: f64, n: usize) -> Vec<Vector<D>> {
+    let total = n.pow(D as u32);
+    (0..total)
+        .map(|mut k| {
+            let mut x = min;
+            for a in 0..D {
+                x[a] += ((k % n) as f64 + 0.5) * dx;
+                k /= n;
+            }
+            x
+        })
+        .collect()
+}
+
+fn jitter<const D: usize>(xs: &mut [Vector<D>], space: &ImageSpace<D>, amp: f64, rng: &mut Rng) {
+    for x in xs.iter_mut() {
+        for a in 0..D {
+            x[a] += rng.range(-amp, amp);
+        }
+        space.wrap(x);
+        for a in 0..D {
+            x[a] = x[a].clamp(space.min[a], space.max[a]);
+        }
+    }
+}
+
+/// Runs every configuration of one dimension; returns (pairs, pairs exactly at the support).
+fn cases<const D: usize>() -> (usize, usize) {
+    let mut rng = Rng(0x5eed_0000 + D as u64);
+    let (mut pairs, mut exact) = (0, 0);
+    // dyadic lattice: support = 2 dx exactly, so many pairs sit exactly at the support radius
+    let dx = 0.125;
+    let support = 0.25;
+    let n = if D == 2 { 14 } else { 8 };
+    let min = Vector::<D>::from_element(0.0);
+    let max = Vector::<D>::from_element(n as f64 * dx);
+    let periodic_sets: Vec<[bool; D]> = vec![[false; D], [true; D], {
+        let mut m = [false; D];
+        m[0] = true;
+        m
+    }];
+    for per in &periodic_sets {
+        let what = format!("{D}D lattice periodic {per:?}");
+        let xs = lattice(min, dx, n);
+        let b = build(&xs, min, max, *per, support);
+        pairs += assert_matches_brute_force(&b.p, &b.nl, support, &what);
+        let hits = assert_matches_image_oracle(&b, support, &what);
+        assert!(
+            hits > 0,
+            "{what}: the lattice must have pairs exactly at the support"
+        );
+        exact += hits;
+        // jittered copies of the same lattice
+        for rep in 0..2 {
+            let mut xs = lattice(min, dx, n);
+            jitter(&mut xs, &b.space, 0.4 * dx, &mut rng);
+            let what = format!("{what}, jitter {rep}");
+            let b = build(&xs, min, max, *per, support);
+            pairs += assert_matches_brute_force(&b.p, &b.nl, support, &what);
+            assert_matches_image_oracle(&b, support, &what);
+        }
+    }
+    // non-dyadic, non-commensurate box and support, random particles (including some placed
+    // exactly on cell boundaries and at the domain faces)
+    for rep in 0..4 {
+        let support = rng.range(0.05, 0.12);
+        let min = Vector::<D>::from_fn(|_, _| rng.range(-1.0, 1.0));
+        let len = Vector::<D>::from_fn(|_, _| {
+            if rep % 2 == 0 {
+                // an exact multiple of the support in decimal, not in binary
+                support * (3 + rng.below(3)) as f64
+            } else {
+                rng.range(3.0 * support, 6.0 * support)
+            }
+        });
+        let max = min + len;
+        let per: [bool; D] = std::array::from_fn(|_| rng.below(2) == 0);
+        let count = if D == 2 { 400 } else { 700 };
+        let mut xs: Vec<Vector<D>> = (0..count)
+            .map(|_| Vector::<D>::from_fn(|a, _| rng.range(min[a], max[a])))
+            .collect();
+        let grid = CellGrid::<D>::new(&min, &max, support);
+        for x in xs.iter_mut().take(40) {
+            let a = rng.below(D);
+            let c = 1 + rng.below(grid.dims[a] - 2);
+            x[a] = grid.origin[a] + c as f64 * grid.edge[a];
+        }
+        xs[40] = min;
+        // a partner exactly `support` away along an axis, when it stays inside
+        for k in 0..60 {
+            let mut y = xs[k];
+            let a = rng.below(D);
+            y[a] += support;
+            if y[a] < max[a] {
+                xs.push(y);
+            }
+        }
+        let space = ImageSpace {
+            min,
+            max,
+            periodic: per,
+            planes: Vec::new(),
+        };
+        for x in xs.iter_mut() {
+            space.wrap(x);
+        }
+        let what = format!("{D}D random box {rep} periodic {per:?}, support {support}");
+        let b = build(&xs, min, max, per, support);
+        pairs += assert_matches_brute_force(&b.p, &b.nl, support, &what);
+        exact += assert_matches_image_oracle(&b, support, &what);
+    }
+    (pairs, exact)
+}
+
+#[test]
+fn cell_list_matches_oracles_2d() {
+    let (pairs, exact) = cases::<2>();
+    eprintln!("2D: {pairs} directed pairs checked, {exact} exactly at the support");
+    assert!(pairs > 10_000);
+}
+
+#[test]
+fn cell_list_matches_oracles_3d() {
+    let (pairs, exact) = cases::<3>();
+    eprintln!("3D: {pairs} directed pairs checked, {exact} exactly at the support");
+    assert!(pairs > 10_000);
+}
+
+const CHANNEL_2D: &str = r#"
+dimension = 2
+[domain]
+min = [0.0, -0.0625]
+max = [0.25, 0.3125]
+periodic = [true, false]
+[discretisation]
+dx = 0.015625
+h_over_dx = 1.0
+[[material]]
+name = "water"
+rho0 = 1000.0
+c0 = 10.0
+[[fluid]]
+name = "f"
+material = "water"
+min = [0.0, 0.0]
+max = [0.25, 0.25]
+[[wall]]
+name = "plates"
+shape = "container"
+min = [0.0, 0.0]
+max = [0.25, 0.25]
+open = ["x-", "x+"]
+method = "METHOD"
+[time]
+t_end = 0.01
+"#;
+
+const BOX_3D: &str = r#"
+dimension = 3
+[domain]
+min = [0.0, 0.0, 0.0]
+max = [0.125, 0.125, 0.15625]
+periodic = [true, true, PER_Z]
+[discretisation]
+dx = 0.015625
+h_over_dx = 1.0
+[[material]]
+name = "water"
+rho0 = 1000.0
+c0 = 10.0
+[[fluid]]
+name = "f"
+material = "water"
+min = [0.0, 0.0, 0.0]
+max = [0.125, 0.125, 0.125]
+[time]
+t_end = 0.01
+"#;
+
+/// Neighbour lists the step loop builds (ghosts from periodic axes, mirror walls and dummy
+/// walls) equal the oracle, on the lattice and after jittering the fluid.
+fn check_sim<const D: usize>(text: &str, what: &str) -> usize {
+    let (scene, _) = load_scene_str(text, Path::new("test.toml"), "t", &[]).unwrap();
+    let mut sim = Simulation::<D>::new(&scene).unwrap();
+    let support = sim.model.kernel.support;
+    let check = |sim: &Simulation<D>, what: &str| {
+        let bf = brute_force(&sim.p, support);
+        let mut pairs = 0;
+        for (i, expect) in bf.iter().enumerate() {
+            if sim.p.kind[i] == Kind::Repulsive {
+                continue;
+            }
+            assert_eq!(
+                &sorted(sim.nl.of(i)),
+                expect,
+                "{what}: particle {i} at {:?}",
+                sim.p.x[i]
+            );
+            pairs += expect.len();
+        }
+        pairs
+    };
+    let mut pairs = check(&sim, what);
+    let mut rng = Rng(0xab5e_71ce);
+    let dx = scene.discretisation.dx;
+    for i in 0..sim.p.n_owned {
+        if sim.p.kind[i] == Kind::Fluid {
+            let mut x = sim.p.x[i];
+            for a in 0..D {
+                x[a] += rng.range(-0.3 * dx, 0.3 * dx);
+            }
+            sim.space.wrap(&mut x);
+            sim.p.x[i] = x;
+        }
+    }
+    sim.compute_density_rate().unwrap();
+    pairs += check(&sim, &format!("{what}, jittered"));
+    assert!(!sim.ghosts.is_empty(), "{what}: the scene must make ghosts");
+    pairs
+}
+
+#[test]
+fn simulation_lists_match_brute_force() {
+    let mut total = 0;
+    for method in ["dummy", "mirror", "repulsive"] {
+        total += check_sim::<2>(
+            &CHANNEL_2D.replace("METHOD", method),
+            &format!("2D channel, {method} walls"),
+        );
+    }
+    for per_z in ["true", "false"] {
+        total += check_sim::<3>(
+            &BOX_3D.replace("PER_Z", per_z),
+            &format!("3D box, periodic z {per_z}"),
+        );
+    }
+    assert!(total > 10_000);
+}
