@@ -12,7 +12,7 @@
 //!
 //! Prints `comm selftest ok: …` (rank 0) and exits 0 when every check passed.
 
-use hsph::comm::{selftest, Comm};
+use hsph::comm::{launched_by_mpi, selftest, Comm};
 use hsph::error::{Error, Result};
 
 struct Args {
@@ -81,7 +81,7 @@ fn body(comm: &dyn Comm, args: &Args) -> Result<usize> {
 
 fn run(args: &Args) -> Result<String> {
     let backend = match args.backend.as_str() {
-        "auto" if cfg!(feature = "mpi") && launched_by_mpi() => "mpi",
+        "auto" if launched_by_mpi() => "mpi",
         "auto" if args.ranks > 1 => "local",
         "auto" => "serial",
         b => b,
@@ -104,16 +104,6 @@ fn run(args: &Args) -> Result<String> {
             format!("`{other}` is not one of auto, serial, local, mpi"),
         )),
     }
-}
-
-#[cfg(feature = "mpi")]
-fn launched_by_mpi() -> bool {
-    hsph::comm::mpi::launched_by_mpi()
-}
-
-#[cfg(not(feature = "mpi"))]
-fn launched_by_mpi() -> bool {
-    false
 }
 
 #[cfg(feature = "mpi")]
