@@ -98,13 +98,16 @@ struct Shared {
     abort: Abort,
 }
 
+/// Buffered messages per (source, stream), each queue in arrival order.
+type Pending = BTreeMap<(usize, Key), VecDeque<Vec<u8>>>;
+
 /// One rank's communicator in a [`run_local`] run.
 pub struct LocalComm {
     rank: usize,
     size: usize,
     shared: Arc<Shared>,
     inbox: Receiver<Envelope>,
-    pending: Mutex<BTreeMap<(usize, Key), VecDeque<Vec<u8>>>>,
+    pending: Mutex<Pending>,
     finished: Mutex<Vec<bool>>,
     accounting: Accounting,
 }

@@ -43,6 +43,15 @@ pub type Tag = u16;
 /// Largest tag a caller may use.
 pub const MAX_TAG: Tag = 32767;
 
+/// True if this process looks started by an MPI launcher (mpirun, mpiexec, or srun with
+/// PMIx/PMI), judged from the environment variables they set. Needs no MPI library, so a
+/// build without the `mpi` feature can say that it was launched by mpirun in vain.
+pub fn launched_by_mpi() -> bool {
+    ["OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some())
+}
+
 /// Current phase and traffic log of one rank: the bookkeeping every back end shares.
 #[derive(Debug, Default)]
 pub struct Accounting {

@@ -51,13 +51,7 @@ pub struct MpiComm {
     _universe: Universe,
 }
 
-/// True if this process looks launched by an MPI launcher (mpirun, mpiexec or srun with
-/// PMIx/PMI), judged from the environment it sets.
-pub fn launched_by_mpi() -> bool {
-    ["OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE"]
-        .iter()
-        .any(|v| std::env::var_os(v).is_some())
-}
+pub use super::launched_by_mpi;
 
 impl MpiComm {
     /// Initialise MPI (asking for `MPI_THREAD_MULTIPLE`) and return this process's rank.
