@@ -11,6 +11,7 @@
 pub mod bench;
 pub mod cells;
 pub mod cli;
+pub mod comm;
 pub mod decomp;
 pub mod driver;
 pub mod error;
