@@ -4,6 +4,7 @@
 //! step loop with no output; it is repeated `repeat` times and the median is reported, since
 //! these machines are shared and noisy. Particle-steps count every particle, walls included.
 
+use crate::comm::serial::SerialComm;
 use crate::driver::pool;
 use crate::error::Result;
 use crate::scene::load_scene;
@@ -92,14 +93,15 @@ fn measure<const D: usize>(
     let mut particles = 0;
     for _ in 0..o.repeat.max(1) {
         let r = pool.install(|| -> Result<(f64, f64, usize)> {
-            let mut sim = Simulation::<D>::new(scene)?;
+            let comm = SerialComm::new();
+            let mut sim = Simulation::<D>::new(scene, &comm)?;
             for _ in 0..5 {
-                sim.advance()?;
+                sim.advance(&comm)?;
             }
             let pairs0 = sim.pair_count;
             let start = Instant::now();
             for _ in 0..o.steps {
-                sim.advance()?;
+                sim.advance(&comm)?;
             }
             let wall = start.elapsed().as_secs_f64();
             let n = sim.n_particles();

@@ -14,6 +14,8 @@ const EXAMPLES: &str = "\
 Examples:
   hsph run inputs/dam_break_2d.toml                  run the default scene (output in runs/)
   hsph run inputs/poiseuille_2d.toml --out runs/poi --threads 2
+  hsph run inputs/dam_break_3d.toml --ranks 4 --threads 1    4 subdomains as threads, no MPI
+  mpirun -np 4 hsph run inputs/dam_break_3d.toml             MPI (build with --features mpi)
   hsph run inputs/dam_break_2d.toml --set time.t_end=0.2 --set discretisation.dx=0.005
   hsph check inputs/dam_break_3d.toml                validate, count particles, estimate dt and memory
   hsph bench --threads 1,2                           particle-steps/s of the benchmark scenes";
@@ -27,15 +29,29 @@ pub struct Cli {
     pub command: Command,
 }
 
-/// Communication back end (issue 3 adds `local` and `mpi`).
+/// Communication back end.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Backend {
-    /// MPI when launched by mpirun/srun and built with `mpi`, else serial.
+    /// MPI when built with `mpi` and launched by mpirun/srun, else local when --ranks > 1,
+    /// else serial.
     Auto,
     /// One rank in this process.
     Serial,
-    /// MPI (cargo feature `mpi`).
+    /// --ranks N ranks as threads of this process (no MPI needed).
+    Local,
+    /// MPI (cargo feature `mpi`); the launcher sets the rank count.
     Mpi,
+}
+
+impl From<Backend> for driver::Backend {
+    fn from(b: Backend) -> Self {
+        match b {
+            Backend::Auto => driver::Backend::Auto,
+            Backend::Serial => driver::Backend::Serial,
+            Backend::Local => driver::Backend::Local,
+            Backend::Mpi => driver::Backend::Mpi,
+        }
+    }
 }
 
 /// Subcommands.
@@ -69,6 +85,9 @@ Examples:
         /// Communication back end.
         #[arg(long, value_enum, default_value_t = Backend::Auto)]
         backend: Backend,
+        /// Ranks (subdomains) of the local back end: threads of this process, no MPI needed.
+        #[arg(long, default_value_t = 1)]
+        ranks: usize,
         /// No progress output.
         #[arg(long, short)]
         quiet: bool,
@@ -133,10 +152,14 @@ fn dispatch(cmd: Command) -> Result<()> {
             threads,
             set,
             backend,
+            ranks,
             quiet,
         } => {
             if backend == Backend::Mpi && !cfg!(feature = "mpi") {
                 return Err(Error::missing_feature("--backend", "mpi"));
+            }
+            if ranks == 0 {
+                return Err(Error::input("--ranks", "must be at least 1, e.g. --ranks 4"));
             }
             let (scene, src) = load_scene(&scene, &set)?;
             driver::run_scene(
@@ -146,6 +169,9 @@ fn dispatch(cmd: Command) -> Result<()> {
                     force,
                     threads,
                     quiet,
+                    ranks,
+                    backend: backend.into(),
+                    fault: None,
                 },
             )
             .map(|_| ())
@@ -202,7 +228,7 @@ pub fn check_report(scene: &Scene) -> Result<String> {
 fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
     use crate::particles::{Kind, Particles};
     use std::fmt::Write;
-    let sim = crate::sim::Simulation::<D>::new(scene)?;
+    let sim = crate::sim::Simulation::<D>::new(scene, &crate::comm::serial::SerialComm::new())?;
     let n = sim.p.n_owned;
     let count = |k: Kind| sim.p.kind[..n].iter().filter(|&&x| x == k).count();
     let (fluid, dummy, rep) = (count(Kind::Fluid), count(Kind::Dummy), count(Kind::Repulsive));
@@ -219,7 +245,7 @@ fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
         w,
         "particles   {n} = {fluid} fluid + {dummy} dummy wall + {rep} repulsive wall"
     );
-    let _ = writeln!(w, "ghosts      {} (periodic and mirror images)", sim.ghosts.len());
+    let _ = writeln!(w, "ghosts      {} (periodic and mirror images)", sim.halo.len());
     let _ = writeln!(
         w,
         "neighbours  {:.1} per particle on average",
@@ -243,7 +269,7 @@ fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
         steps,
         (scene.time.t_end / scene.output.interval).round()
     );
-    let bytes = (n + sim.ghosts.len()) * Particles::<D>::bytes_per_particle()
+    let bytes = (n + sim.halo.len()) * Particles::<D>::bytes_per_particle()
         + sim.nl.pairs() * 4
         + sim.cells.order.len() * 8;
     let _ = writeln!(

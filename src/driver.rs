@@ -1,5 +1,12 @@
-//! Running a scene end to end: thread pool, step loop, output schedule, references, summary.
+//! Running a scene end to end: back end and ranks, thread pools, step loop, output schedule,
+//! references, diagnostics and `summary.json`.
+//!
+//! Every rank runs [`run_rank`]; rank 0 alone writes files. The output directory is chosen and
+//! prepared before any rank starts (under MPI by rank 0, which broadcasts it), so bad input
+//! exits with status 2 before a step is taken.
 
+use crate::comm::serial::SerialComm;
+use crate::comm::{Comm, Phase};
 use crate::error::{Error, Result};
 use crate::output::{self, RunWriter};
 use crate::progress::Progress;
@@ -11,6 +18,41 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// Communication back end.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Backend {
+    /// MPI when built with `mpi` and launched by mpirun/srun, else local when ranks > 1, else
+    /// serial.
+    #[default]
+    Auto,
+    /// One rank in this process.
+    Serial,
+    /// N ranks as threads of this process.
+    Local,
+    /// MPI (cargo feature `mpi`).
+    Mpi,
+}
+
+/// A test-only fault: make `rank` fail at `step`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Fault {
+    /// Failing rank.
+    pub rank: usize,
+    /// Step at which it fails.
+    pub step: u64,
+    /// How it fails.
+    pub kind: FaultKind,
+}
+
+/// How an injected fault fails.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FaultKind {
+    /// The rank panics.
+    Panic,
+    /// One of the rank's particles gets a non-finite position (caught by the state check).
+    Nan,
+}
+
 /// How to run.
 #[derive(Debug, Clone, Default)]
 pub struct RunOptions {
@@ -18,10 +60,16 @@ pub struct RunOptions {
     pub out: Option<PathBuf>,
     /// Overwrite a non-empty output directory.
     pub force: bool,
-    /// Rayon threads per rank (0 = one per core).
+    /// Rayon threads per rank (0 = the cores divided among the ranks of this process).
     pub threads: usize,
     /// No progress output.
     pub quiet: bool,
+    /// Ranks of the local back end (0 or 1 = one); under MPI the launcher decides.
+    pub ranks: usize,
+    /// Back end.
+    pub backend: Backend,
+    /// Test-only fault injection.
+    pub fault: Option<Fault>,
 }
 
 /// What a finished run reports.
@@ -37,94 +85,267 @@ pub struct RunOutcome {
 
 /// Build a rayon pool of `threads` threads (0 = available cores).
 pub fn pool(threads: usize) -> Result<rayon::ThreadPool> {
-    let n = if threads == 0 {
-        std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
-    } else {
-        threads
-    };
+    let n = if threads == 0 { cores() } else { threads };
     rayon::ThreadPoolBuilder::new()
         .num_threads(n)
         .build()
         .map_err(|e| Error::run(format!("cannot start {n} threads: {e}")))
 }
 
+fn cores() -> usize {
+    std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
+}
+
+/// The back end `opts` resolves to.
+pub fn resolve_backend(opts: &RunOptions) -> Result<Backend> {
+    let b = match opts.backend {
+        Backend::Auto if cfg!(feature = "mpi") && crate::comm::launched_by_mpi() => Backend::Mpi,
+        Backend::Auto if opts.ranks > 1 => Backend::Local,
+        Backend::Auto => Backend::Serial,
+        b => b,
+    };
+    if b == Backend::Mpi && !cfg!(feature = "mpi") {
+        return Err(Error::missing_feature("--backend", "mpi"));
+    }
+    if b == Backend::Serial && opts.ranks > 1 {
+        return Err(Error::input(
+            "--ranks",
+            format!("the serial back end runs one rank, not {}; use --backend local", opts.ranks),
+        ));
+    }
+    Ok(b)
+}
+
 /// Run a validated scene. The output directory is prepared first; `summary.json` is written
 /// only when the run completes.
 pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
-    let dir = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
-    let pool = pool(opts.threads)?;
-    let threads = pool.current_num_threads();
-    pool.install(|| match scene.dimension {
-        2 => run_dim::<2>(scene, &dir, threads, opts.quiet),
-        3 => run_dim::<3>(scene, &dir, threads, opts.quiet),
-        d => Err(Error::input("dimension", format!("must be 2 or 3, got {d}"))),
-    })
+    match resolve_backend(opts)? {
+        Backend::Serial | Backend::Auto => {
+            let dir = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
+            let pool = pool(opts.threads)?;
+            let comm = SerialComm::new();
+            let out = pool.install(|| run_rank(scene, &dir, &comm, "serial", opts))?;
+            out.ok_or_else(|| Error::run("rank 0 produced no outcome"))
+        }
+        Backend::Local => {
+            let ranks = opts.ranks.max(1);
+            let threads = if opts.threads == 0 { (cores() / ranks).max(1) } else { opts.threads };
+            let dir = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
+            let outs = crate::comm::local::run_local(ranks, threads, |comm| {
+                run_rank(scene, &dir, comm, "local", opts)
+            })?;
+            outs.into_iter().flatten().next().ok_or_else(|| Error::run("rank 0 produced no outcome"))
+        }
+        Backend::Mpi => run_mpi(scene, opts),
+    }
 }
 
-fn run_dim<const D: usize>(scene: &Scene, dir: &Path, threads: usize, quiet: bool) -> Result<RunOutcome> {
-    let mut sim = Simulation::<D>::new(scene)?;
-    let mut writer = RunWriter::new(dir, &sim.scene)?;
+#[cfg(feature = "mpi")]
+fn run_mpi(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
+    use crate::comm::mpi::MpiComm;
+    let comm = MpiComm::init()?;
+    // rank 0 chooses and prepares the directory; a failure there is everyone's input error
+    let prepared = if comm.rank() == 0 {
+        match output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force) {
+            Ok(d) => format!("ok:{}", d.display()),
+            Err(e) => format!("err:{e}"),
+        }
+    } else {
+        String::new()
+    };
+    let text = String::from_utf8_lossy(&comm.broadcast_bytes(0, prepared.into_bytes())?).into_owned();
+    let dir = match text.strip_prefix("ok:") {
+        Some(d) => PathBuf::from(d),
+        None => {
+            let msg = text.strip_prefix("err:").unwrap_or(&text).trim_start_matches("error: ");
+            return Err(Error::input("--out", msg.to_string()));
+        }
+    };
+    let pool = pool(opts.threads)?;
+    match pool.install(|| run_rank(scene, &dir, &comm, "mpi", opts)) {
+        Ok(Some(out)) => Ok(out),
+        Ok(None) => {
+            // other ranks: nothing to report; exit quietly with success
+            std::process::exit(0)
+        }
+        Err(e) => Err(comm.abort(&format!("rank {}: {e}", comm.rank()))),
+    }
+}
+
+#[cfg(not(feature = "mpi"))]
+fn run_mpi(_scene: &Scene, _opts: &RunOptions) -> Result<RunOutcome> {
+    Err(Error::missing_feature("--backend", "mpi"))
+}
+
+/// One rank's whole run; `Some(outcome)` on rank 0.
+pub fn run_rank(
+    scene: &Scene,
+    dir: &Path,
+    comm: &dyn Comm,
+    backend: &str,
+    opts: &RunOptions,
+) -> Result<Option<RunOutcome>> {
+    match scene.dimension {
+        2 => run_dim::<2>(scene, dir, comm, backend, opts),
+        3 => run_dim::<3>(scene, dir, comm, backend, opts),
+        d => Err(Error::input("dimension", format!("must be 2 or 3, got {d}"))),
+    }
+}
+
+/// Header of `diagnostics.csv`.
+fn diag_header() -> String {
+    let mut h = String::from("step,t,wall_s");
+    for p in PHASES {
+        for s in ["min", "mean", "max"] {
+            h.push_str(&format!(",{p}_s_{s}"));
+        }
+    }
+    h.push_str(",ghosts,remote_ghosts,ghost_fraction,imbalance,migrated,rebalances,particle_steps_per_s");
+    h
+}
+
+/// Per-rank figures reduced over ranks (collective).
+struct Reduced {
+    /// Per phase: min, mean, max over ranks (s).
+    timers: Vec<[f64; 3]>,
+    ghosts: u64,
+    remote: u64,
+    particles: u64,
+    migrated: u64,
+}
+
+fn reduce<const D: usize>(sim: &Simulation<D>, comm: &dyn Comm) -> Result<Reduced> {
+    let prev = comm.set_phase(Phase::Output);
+    let mut mine: Vec<u8> = Vec::new();
+    for s in sim.timers.seconds {
+        mine.extend_from_slice(&s.to_le_bytes());
+    }
+    let all = comm.all_gather_bytes(mine)?;
+    let mut counts = [sim.halo.len() as u64, sim.halo.remote() as u64, sim.p.n_owned as u64, sim.balance.migrated];
+    comm.all_reduce_sum_u64(&mut counts)?;
+    comm.set_phase(prev);
+    let timers = (0..PHASES.len())
+        .map(|k| {
+            let v: Vec<f64> = all
+                .iter()
+                .map(|b| f64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes")))
+                .collect();
+            let (mut lo, mut hi, mut sum) = (f64::INFINITY, 0.0f64, 0.0);
+            for x in &v {
+                lo = lo.min(*x);
+                hi = hi.max(*x);
+                sum += x;
+            }
+            [lo, sum / v.len() as f64, hi]
+        })
+        .collect();
+    Ok(Reduced { timers, ghosts: counts[0], remote: counts[1], particles: counts[2], migrated: counts[3] })
+}
+
+fn run_dim<const D: usize>(
+    scene: &Scene,
+    dir: &Path,
+    comm: &dyn Comm,
+    backend: &str,
+    opts: &RunOptions,
+) -> Result<Option<RunOutcome>> {
+    let root = comm.rank() == 0;
+    let quiet = opts.quiet || !root;
+    let threads = rayon::current_num_threads();
+    let mut sim = Simulation::<D>::new(scene, comm)?;
+    let mut writer = if root { Some(RunWriter::new(dir, &sim.scene, &diag_header())?) } else { None };
     let mut tracker = Tracker::default();
+    let mut n_total = [sim.p.n_owned as u64];
+    comm.all_reduce_sum_u64(&mut n_total)?;
+    let n_total = n_total[0] as usize;
     if !quiet {
-        let n_fluid = sim.p.kind[..sim.p.n_owned]
-            .iter()
-            .filter(|k| **k == crate::particles::Kind::Fluid)
-            .count();
         eprintln!(
-            "hsph: {} ({}D), {} particles ({} fluid, {} wall), 1 rank × {threads} thread(s), dt₀ = {:.3e} s, output in {}",
+            "hsph: {} ({}D), {} particles, {} rank(s) × {threads} thread(s) [{backend}], dt₀ = {:.3e} s, output in {}",
             scene.name,
             D,
-            sim.n_particles(),
-            n_fluid,
-            sim.n_particles() - n_fluid,
+            n_total,
+            comm.size(),
             sim.dt,
             dir.display()
         );
     }
     let loop_start = Instant::now();
-    let t0 = Instant::now();
-    writer.output_step(&sim, 0.0)?;
-    tracker.at_output(&sim);
-    sim.timers.add(4, t0);
+    let output = |sim: &mut Simulation<D>, tracker: &mut Tracker, writer: &mut Option<RunWriter>| -> Result<()> {
+        let t0 = Instant::now();
+        let obs = sim.observables(comm)?;
+        let r = reduce(sim, comm)?;
+        let view = sim.gather(comm)?;
+        let wall = loop_start.elapsed().as_secs_f64();
+        if let (Some(v), Some(w)) = (view, writer.as_mut()) {
+            tracker.at_output(&v);
+            let mut row = format!("{},{},{wall:.6}", v.step, v.t);
+            for t in &r.timers {
+                row.push_str(&format!(",{:.6},{:.6},{:.6}", t[0], t[1], t[2]));
+            }
+            let rate = if wall > 0.0 { r.particles as f64 * v.step as f64 / wall } else { 0.0 };
+            row.push_str(&format!(
+                ",{},{},{:.6},{:.6},{},{},{rate:.1}",
+                r.ghosts,
+                r.remote,
+                r.remote as f64 / r.particles.max(1) as f64,
+                sim.balance.imbalance,
+                r.migrated,
+                sim.balance.rebalance_steps.len()
+            ));
+            w.output_step(&v, &obs, &row)?;
+        }
+        sim.timers.add(6, t0);
+        Ok(())
+    };
+    output(&mut sim, &mut tracker, &mut writer)?;
     let interval = scene.output.interval;
     let mut next_out = interval;
-    let mut progress = Progress::new(sim.n_particles(), quiet);
-    let t_output_total_before = sim.timers.seconds[4];
+    let mut progress = Progress::new(n_total, quiet);
+    let step_start = Instant::now();
     while !sim.done() {
-        sim.advance()?;
-        tracker.after_step(&sim);
+        if let Some(f) = opts.fault {
+            if f.rank == comm.rank() && f.step == sim.step + 1 {
+                match f.kind {
+                    FaultKind::Panic => panic!("injected fault on rank {} at step {}", f.rank, f.step),
+                    FaultKind::Nan => sim.p.x[0][0] = f64::NAN,
+                }
+            }
+        }
+        sim.advance(comm)?;
+        if tracker.due(scene, sim.t) {
+            let view = sim.gather(comm)?;
+            match &view {
+                Some(v) => tracker.after_step(v),
+                None => tracker.skip(scene, sim.t),
+            }
+        }
         if sim.t >= next_out * (1.0 - 1e-12) || sim.done() {
-            let t0 = Instant::now();
             while next_out <= sim.t * (1.0 + 1e-12) {
                 next_out += interval;
             }
-            writer.output_step(&sim, loop_start.elapsed().as_secs_f64())?;
-            tracker.at_output(&sim);
-            sim.timers.add(4, t0);
+            output(&mut sim, &mut tracker, &mut writer)?;
         }
         progress.update(sim.step, sim.t, scene.time.t_end);
     }
     progress.finish();
-    let wall = loop_start.elapsed().as_secs_f64();
-    let _ = t_output_total_before;
-    tracker.finish(&sim);
-    writer.finish(&sim)?;
-    let n = sim.n_particles();
+    let wall = step_start.elapsed().as_secs_f64();
+    let r = reduce(&sim, comm)?;
+    let final_view = sim.gather(comm)?;
+    let (Some(view), Some(mut writer)) = (final_view, writer) else {
+        return Ok(None);
+    };
+    tracker.finish(&view);
+    writer.finish(&view)?;
+    let n = r.particles as usize;
     let steps = sim.step;
-    let timers: serde_json::Map<String, serde_json::Value> = PHASES
-        .iter()
-        .zip(sim.timers.seconds.iter())
-        .map(|(k, v)| (format!("{k}_s"), json!(v)))
-        .collect();
-    let errors: serde_json::Map<String, serde_json::Value> = tracker
-        .errors
-        .iter()
-        .map(|(k, v)| (k.clone(), json!(v)))
-        .collect();
-    let n_fluid = sim.p.kind[..n]
-        .iter()
-        .filter(|k| **k == crate::particles::Kind::Fluid)
-        .count();
+    let mut timers = serde_json::Map::new();
+    for (k, p) in PHASES.iter().enumerate() {
+        timers.insert(format!("{p}_s"), json!({"min": r.timers[k][0], "mean": r.timers[k][1], "max": r.timers[k][2]}));
+    }
+    let comm_s = r.timers[3][1] + r.timers[4][1];
+    let errors: serde_json::Map<String, serde_json::Value> =
+        tracker.errors.iter().map(|(k, v)| (k.clone(), json!(v))).collect();
+    let n_fluid = view.p.kind.iter().filter(|k| **k == crate::particles::Kind::Fluid).count();
     let summary = json!({
         "hsph_version": env!("CARGO_PKG_VERSION"),
         "scene": scene.name,
@@ -137,10 +358,20 @@ fn run_dim<const D: usize>(scene: &Scene, dir: &Path, threads: usize, quiet: boo
         "t": sim.t,
         "wall_s": wall,
         "particle_steps_per_s": if wall > 0.0 { n as f64 * steps as f64 / wall } else { 0.0 },
-        "pair_interactions_per_s": if wall > 0.0 { sim.pair_count as f64 / wall } else { 0.0 },
+        "pair_interactions_per_s": if wall > 0.0 { sim.pair_count as f64 * comm.size() as f64 / wall } else { 0.0 },
         "threads": threads,
-        "ranks": 1,
-        "backend": "serial",
+        "ranks": comm.size(),
+        "backend": backend,
+        "decomposition": sim.decomp.factors().to_vec(),
+        "ghost_fraction": r.remote as f64 / n.max(1) as f64,
+        "imbalance": sim.balance.imbalance,
+        "migrations": r.migrated,
+        "migrations_per_step": r.migrated as f64 / steps.max(1) as f64,
+        "rebalances": sim.balance.rebalance_steps.len(),
+        "rebalance_steps": sim.balance.rebalance_steps,
+        "max_plane_shift_m": sim.balance.max_plane_shift,
+        "communication_fraction": comm_s / wall.max(1e-12),
+        "balance_fraction": r.timers[5][1] / wall.max(1e-12),
         "timers": timers,
         "errors": errors,
     });
@@ -155,9 +386,5 @@ fn run_dim<const D: usize>(scene: &Scene, dir: &Path, threads: usize, quiet: boo
             eprintln!("hsph: error {k} = {:.4} %", v * 100.0);
         }
     }
-    Ok(RunOutcome {
-        dir: dir.to_path_buf(),
-        summary,
-        errors: tracker.errors,
-    })
+    Ok(Some(RunOutcome { dir: dir.to_path_buf(), summary, errors: tracker.errors }))
 }

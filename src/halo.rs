@@ -239,7 +239,7 @@ impl Reader<'_> {
 
 /// Words of a whole particle record: id, key, kind|body|mat, x, v, mass, ρ, p, v_w, ∇ρ.
 fn record_words(d: usize) -> usize {
-    3 + 4 * d + 3 + d
+    6 + 4 * d
 }
 
 fn kind_of(code: u64) -> Result<Kind> {
@@ -527,4 +527,26 @@ pub fn migrate<const D: usize>(p: &mut Particles<D>, boxes: &Boxes<D>, comm: &dy
     }
     comm.set_phase(prev);
     Ok(sent)
+}
+
+/// Every owned particle as whole records (for gathering output on one rank).
+pub fn pack_owned<const D: usize>(p: &Particles<D>) -> Vec<u8> {
+    let mut buf = Vec::with_capacity(p.n_owned * record_words(D) * 8);
+    for i in 0..p.n_owned {
+        pack_record(&mut buf, p, i, &p.x[i], p.key[i], &p.v[i], &p.grad_rho[i]);
+    }
+    buf
+}
+
+/// Append the records of [`pack_owned`] to `p` as owned particles (no ghosts may exist).
+pub fn unpack_owned<const D: usize>(bytes: &[u8], p: &mut Particles<D>) -> Result<()> {
+    let w = record_words(D) * 8;
+    if bytes.len() % w != 0 {
+        return Err(Error::run("gather: message of unexpected length"));
+    }
+    let mut r = Reader { b: bytes, at: 0 };
+    for _ in 0..bytes.len() / w {
+        unpack_record(&mut r, p, true)?;
+    }
+    Ok(())
 }

@@ -5,7 +5,7 @@
 
 use crate::particles::Kind;
 use crate::scene::Probe;
-use crate::sim::Simulation;
+use crate::sim::View;
 use crate::Vector;
 
 /// Column names of a probe (after `t`).
@@ -22,7 +22,7 @@ pub fn columns(probe: &Probe, dim: usize) -> Vec<String> {
 }
 
 /// Sample a probe.
-pub fn sample<const D: usize>(sim: &Simulation<D>, order: &[usize], probe: &Probe) -> Vec<f64> {
+pub fn sample<const D: usize>(sim: &View<D>, order: &[usize], probe: &Probe) -> Vec<f64> {
     let p = &sim.p;
     let fluid = || order.iter().copied().filter(|&i| p.kind[i] == Kind::Fluid);
     let shepard = |at: Vector<D>, f: &dyn Fn(usize) -> Vector<D>| -> Option<Vector<D>> {

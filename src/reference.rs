@@ -3,7 +3,7 @@
 
 use crate::particles::Kind;
 use crate::scene::Reference;
-use crate::sim::Simulation;
+use crate::sim::View;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
@@ -53,8 +53,26 @@ pub struct Tracker {
 }
 
 impl Tracker {
+    /// True if a measurement of the reference is due at time `t` (the same answer on every
+    /// rank, so all ranks gather the state together).
+    pub fn due(&self, scene: &crate::scene::Scene, t: f64) -> bool {
+        match &scene.reference {
+            Some(Reference::Poiseuille { times, .. }) | Some(Reference::Couette { times, .. }) => {
+                self.next_time < times.len() && t >= times[self.next_time] * (1.0 - 1e-12)
+            }
+            _ => false,
+        }
+    }
+
+    /// Advance past the measurements due at `t` without measuring (ranks other than 0).
+    pub fn skip(&mut self, scene: &crate::scene::Scene, t: f64) {
+        while self.due(scene, t) {
+            self.next_time += 1;
+        }
+    }
+
     /// Called after every step: measures the errors due at this time.
-    pub fn after_step<const D: usize>(&mut self, sim: &Simulation<D>) {
+    pub fn after_step<const D: usize>(&mut self, sim: &View<D>) {
         let Some(r) = &sim.scene.reference else { return };
         match r {
             Reference::Poiseuille { gap, times } | Reference::Couette { gap, times, .. } => {
@@ -71,7 +89,7 @@ impl Tracker {
     }
 
     /// Called at every output step (front history for the dam break).
-    pub fn at_output<const D: usize>(&mut self, sim: &Simulation<D>) {
+    pub fn at_output<const D: usize>(&mut self, sim: &View<D>) {
         if let Some(Reference::DamBreakFront { .. }) = &sim.scene.reference {
             let front = (0..sim.p.n_owned)
                 .filter(|&i| sim.p.kind[i] == Kind::Fluid)
@@ -83,7 +101,7 @@ impl Tracker {
     }
 
     /// Called once at the end of the run.
-    pub fn finish<const D: usize>(&mut self, sim: &Simulation<D>) {
+    pub fn finish<const D: usize>(&mut self, sim: &View<D>) {
         match &sim.scene.reference {
             Some(Reference::Hydrostatic { surface, bottom }) => {
                 let g = sim.model.g.norm();
@@ -148,7 +166,7 @@ impl Tracker {
 
 /// A fluid particle lies outside every wall particle's region: it is not closer to any wall
 /// body's box than half a spacing inside it (checked against wall bodies of the scene).
-fn inside_fluid_region<const D: usize>(sim: &Simulation<D>, i: usize) -> bool {
+fn inside_fluid_region<const D: usize>(sim: &View<D>, i: usize) -> bool {
     let x = sim.p.x[i];
     sim.scene.walls.iter().all(|w| {
         use crate::scene::WallShape;
@@ -181,7 +199,7 @@ fn interpolate(series: &[(f64, f64)], t: f64) -> Option<f64> {
 }
 
 /// max over fluid particles of |u − u_exact| / u_max for the channel references.
-fn channel_error<const D: usize>(sim: &Simulation<D>, r: &Reference, gap: f64) -> f64 {
+fn channel_error<const D: usize>(sim: &View<D>, r: &Reference, gap: f64) -> f64 {
     let nu = sim.model.nu;
     let (umax, exact): (f64, Box<dyn Fn(f64) -> f64>) = match r {
         Reference::Poiseuille { .. } => {

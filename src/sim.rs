@@ -5,13 +5,21 @@
 //! [δ-SPH gradient → ghost refresh] → continuity → ρ update, EOS → ghost refresh →
 //! [dummy-wall extrapolation → ghost refresh] → momentum → kick ½ (v) → dt`
 //! (see [`Simulation::advance`] for why continuity and momentum are separate passes).
-//! The parallel engine (issue 3) inserts migration before `ghosts` and halo exchanges at the
-//! ghost refreshes; nothing in the physics changes.
+//! On many ranks, migration (and every `check_every` steps a load-balance check) comes before
+//! `ghosts`, and every ghost build or refresh is a halo exchange through [`Comm`] sending only
+//! the fields the next pass reads; one rank goes through the same path (self-sends).
 
 use crate::cells::{CellGrid, CellList, NeighbourList};
 use crate::error::{Error, Result};
 use crate::exact::ExactSum;
-use crate::ghosts::{GhostPlan, ImageSpace, MirrorPlane};
+use crate::comm::{Comm, Phase};
+use crate::decomp::{factorise, imbalance, BalanceParams, Decomposition};
+use crate::ghosts::{ImageSpace, MirrorPlane};
+use crate::comm::Tag;
+use crate::halo::{migrate, pack_owned, unpack_owned, Fields, HaloPlan};
+
+/// Tag of the output gather.
+const TAG_GATHER: Tag = 110;
 use crate::particles::{Kind, Particles};
 use crate::physics::{delta, fluid, walls, Model};
 use crate::scene::{DensityDiffusion, Motion, Scene, WallMethod, WallShape};
@@ -24,13 +32,13 @@ use std::time::Instant;
 const REORDER_EVERY: u64 = 16;
 
 /// Names of the timed phases, in the order of `diagnostics.csv`.
-pub const PHASES: [&str; 5] = ["neighbours", "forces", "integrate", "ghosts", "output"];
+pub const PHASES: [&str; 7] = ["neighbours", "forces", "integrate", "halo", "migration", "balance", "output"];
 
 /// Wall-clock seconds spent per phase.
 #[derive(Debug, Clone, Default)]
 pub struct PhaseTimers {
     /// Seconds per phase, indexed like [`PHASES`].
-    pub seconds: [f64; 5],
+    pub seconds: [f64; 7],
 }
 
 impl PhaseTimers {
@@ -49,6 +57,35 @@ pub struct Observables<const D: usize> {
     pub momentum: Vector<D>,
     /// Largest fluid speed (m/s).
     pub max_speed: f64,
+}
+
+/// The whole state gathered on rank 0 for output: every owned particle of every rank, sorted by
+/// id, no ghosts. Field names follow [`Simulation`] so output code reads either alike.
+pub struct View<'a, const D: usize> {
+    /// Every particle, sorted by id.
+    pub p: Particles<D>,
+    /// Simulated time (s).
+    pub t: f64,
+    /// Steps taken.
+    pub step: u64,
+    /// Time step for the next step (s).
+    pub dt: f64,
+    /// The resolved scene.
+    pub scene: &'a Scene,
+    /// Physics constants.
+    pub model: &'a Model<D>,
+}
+
+impl<const D: usize> View<'_, D> {
+    /// Number of particles (fluid and wall).
+    pub fn n_particles(&self) -> usize {
+        self.p.n_owned
+    }
+
+    /// Indices in id order (the identity: a view is sorted).
+    pub fn by_id(&self) -> Vec<usize> {
+        (0..self.p.n_owned).collect()
+    }
 }
 
 /// Prescribed motion of one wall body.
@@ -84,6 +121,21 @@ impl<const D: usize> WallKinematics<D> {
     }
 }
 
+/// Load-balance settings and what happened (`[balance]` in the scene).
+#[derive(Debug, Clone, Default)]
+pub struct BalanceStats {
+    /// Particles this rank sent away by migration, in total.
+    pub migrated: u64,
+    /// Load-balance checks made.
+    pub checks: u64,
+    /// Rebalances done, with the step of each.
+    pub rebalance_steps: Vec<u64>,
+    /// max/mean load after the last check or rebalance.
+    pub imbalance: f64,
+    /// Largest cut-plane displacement of any rebalance (m).
+    pub max_plane_shift: f64,
+}
+
 /// The state of one rank.
 pub struct Simulation<const D: usize> {
     /// The resolved scene.
@@ -100,8 +152,18 @@ pub struct Simulation<const D: usize> {
     pub cells: CellList,
     /// Neighbour lists of owned particles.
     pub nl: NeighbourList,
-    /// Ghost plan.
-    pub ghosts: GhostPlan<D>,
+    /// Halo plan (ghosts from this rank's images and from other ranks).
+    pub halo: HaloPlan<D>,
+    /// Decomposition of the domain into one block per rank (block i on rank i).
+    pub decomp: Decomposition<D>,
+    /// Box of every rank (m), from `decomp`.
+    pub boxes: Vec<(Vector<D>, Vector<D>)>,
+    /// This rank.
+    pub rank: usize,
+    /// Number of ranks.
+    pub ranks: usize,
+    /// Load balancing and migration counters.
+    pub balance: BalanceStats,
     /// Simulated time (s).
     pub t: f64,
     /// Steps taken.
@@ -117,9 +179,12 @@ pub struct Simulation<const D: usize> {
 }
 
 impl<const D: usize> Simulation<D> {
-    /// Build particles and compute the initial rates and time step.
-    pub fn new(scene: &Scene) -> Result<Self> {
-        let p = build_particles::<D>(scene)?;
+    /// Build this rank's particles, decompose the domain over `comm.size()` ranks and compute
+    /// the initial rates and time step. Every rank builds the whole lattice and balances the
+    /// cut planes on it (identical on every rank, no communication), then keeps its block.
+    pub fn new(scene: &Scene, comm: &dyn Comm) -> Result<Self> {
+        let all = build_particles::<D>(scene)?;
+        let (rank, ranks) = (comm.rank(), comm.size());
         let model = Model::<D>::new(scene);
         let min = Vector::<D>::from_fn(|a, _| scene.domain.min[a]);
         let max = Vector::<D>::from_fn(|a, _| scene.domain.max[a]);
@@ -157,7 +222,9 @@ impl<const D: usize> Simulation<D> {
             .filter_map(|(b, w)| w.motion.clone().map(|m| WallKinematics { body: b, motion: m }))
             .collect();
         let grid = CellGrid::new(&min, &max, model.kernel.support);
-        let has_dummy = p.kind.contains(&Kind::Dummy);
+        let has_dummy = all.kind.contains(&Kind::Dummy);
+        let (decomp, p) = decompose(all, &min, &max, ranks, rank);
+        let boxes = (0..ranks).map(|r| decomp.block_box(r)).collect();
         let mut sim = Simulation {
             scene: scene.clone(),
             model,
@@ -171,7 +238,12 @@ impl<const D: usize> Simulation<D> {
             grid,
             cells: CellList::default(),
             nl: NeighbourList::default(),
-            ghosts: GhostPlan::default(),
+            halo: HaloPlan::default(),
+            decomp,
+            boxes,
+            rank,
+            ranks,
+            balance: BalanceStats::default(),
             t: 0.0,
             step: 0,
             dt: 0.0,
@@ -183,9 +255,10 @@ impl<const D: usize> Simulation<D> {
         sim.apply_wall_motion(0.0, 0.0);
         sim.check_state()?;
         sim.update_pressure();
-        sim.rebuild_neighbours()?;
-        sim.forces();
-        sim.dt = sim.next_dt();
+        sim.rebuild_neighbours(comm)?;
+        sim.forces(comm)?;
+        sim.balance.imbalance = sim.load_imbalance(comm)?;
+        sim.dt = sim.next_dt(comm)?;
         Ok(sim)
     }
 
@@ -207,35 +280,35 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Ghosts (positions and every field), binning and neighbour lists at the current state.
-    fn rebuild_neighbours(&mut self) -> Result<()> {
+    fn rebuild_neighbours(&mut self, comm: &dyn Comm) -> Result<()> {
         let support = self.model.kernel.support;
+        self.p.truncate_ghosts();
+        if self.step % REORDER_EVERY == 0 {
+            // owned particles in cell order (then key order) for memory locality
+            let t0 = Instant::now();
+            let grid = &self.grid;
+            let (x, key) = (&self.p.x, &self.p.key);
+            let mut perm: Vec<usize> = (0..self.p.n_owned).collect();
+            perm.sort_unstable_by_key(|&i| (grid.coords(&x[i]).map(|c| grid.linear(&c)), key[i]));
+            self.p.permute_owned(&perm);
+            self.timers.add(0, t0);
+        }
         let t0 = Instant::now();
-        self.ghosts.build(&mut self.p, &self.space, support);
-        self.ghosts.refresh(&mut self.p, &self.space);
+        self.halo.build(&mut self.p, &self.space, &self.boxes, support, comm)?;
         self.timers.add(3, t0);
         let t0 = Instant::now();
         self.bin()?;
-        if self.step % REORDER_EVERY == 0 {
-            // owned particles in cell order (then key order) for memory locality
-            let n = self.p.n_owned;
-            let perm: Vec<usize> = self
-                .cells
-                .order
-                .iter()
-                .map(|&i| i as usize)
-                .filter(|&i| i < n)
-                .collect();
-            self.p.truncate_ghosts();
-            self.p.permute_owned(&perm);
-            self.ghosts.build(&mut self.p, &self.space, support);
-            self.ghosts.refresh(&mut self.p, &self.space);
-            self.bin()?;
-        }
         let kind = &self.p.kind;
-        self.nl.build(&self.grid, &self.cells, &self.p, support, |i| {
-            kind[i] != Kind::Repulsive
-        });
+        self.nl.build(&self.grid, &self.cells, &self.p, support, |i| kind[i] != Kind::Repulsive);
         self.timers.add(0, t0);
+        Ok(())
+    }
+
+    /// Refresh `fields` on every ghost (a halo exchange), timed as `halo`.
+    fn refresh(&mut self, fields: Fields, comm: &dyn Comm) -> Result<()> {
+        let t0 = Instant::now();
+        self.halo.refresh(&mut self.p, &self.space, fields, comm)?;
+        self.timers.add(3, t0);
         Ok(())
     }
 
@@ -243,42 +316,103 @@ impl<const D: usize> Simulation<D> {
     fn bin(&mut self) -> Result<()> {
         if let Err(i) = self.cells.build(&self.grid, &self.p) {
             let n = self.p.n_owned;
-            let src = if i < n { i } else { self.ghosts.src[i - n] as usize };
-            return Err(self.particle_error(src, "left the cell grid"));
+            let what = if i < n { "left the cell grid" } else { "(a ghost) lies outside the cell grid" };
+            return Err(self.particle_error(i, what));
         }
         Ok(())
     }
 
-    /// Density pass: [⟨∇ρ⟩^L → ghosts] → dρ/dt of fluid particles.
-    fn density_rate(&mut self) {
-        let t0 = Instant::now();
+    /// Density pass: [⟨∇ρ⟩^L → halo] → dρ/dt of fluid particles.
+    fn density_rate(&mut self, comm: &dyn Comm) -> Result<()> {
         if self.model.diffusion == DensityDiffusion::Antuono {
+            let t0 = Instant::now();
             delta::renormalised_gradient(&mut self.p, &self.nl, &self.model);
-            self.ghosts.refresh(&mut self.p, &self.space);
             self.pair_count += self.nl.pairs() as u64;
+            self.timers.add(1, t0);
+            self.refresh(Fields::GRAD_RHO, comm)?;
         }
+        let t0 = Instant::now();
         fluid::continuity(&mut self.p, &self.nl, &self.model);
         self.pair_count += self.nl.pairs() as u64;
         self.timers.add(1, t0);
+        Ok(())
     }
 
-    /// Force pass: [dummy-wall extrapolation → ghosts] → dv/dt of fluid particles.
-    fn forces(&mut self) {
-        let t0 = Instant::now();
+    /// Force pass: [dummy-wall extrapolation → halo] → dv/dt of fluid particles.
+    fn forces(&mut self, comm: &dyn Comm) -> Result<()> {
         if self.has_dummy {
+            let t0 = Instant::now();
             walls::extrapolate(&mut self.p, &self.nl, &self.model);
-            self.ghosts.refresh(&mut self.p, &self.space);
             self.pair_count += self.nl.pairs() as u64;
+            self.timers.add(1, t0);
+            self.refresh(Fields::P.or(Fields::RHO).or(Fields::VW), comm)?;
         }
+        let t0 = Instant::now();
         fluid::momentum(&mut self.p, &self.nl, &self.model);
         self.pair_count += self.nl.pairs() as u64;
         self.timers.add(1, t0);
+        Ok(())
     }
 
     /// dρ/dt of the current state (for tests and diagnostics).
-    pub fn compute_density_rate(&mut self) -> Result<()> {
-        self.rebuild_neighbours()?;
-        self.density_rate();
+    pub fn compute_density_rate(&mut self, comm: &dyn Comm) -> Result<()> {
+        self.rebuild_neighbours(comm)?;
+        self.density_rate(comm)
+    }
+
+    /// max/mean of the owned-particle counts over ranks.
+    fn load_imbalance(&self, comm: &dyn Comm) -> Result<f64> {
+        let mut loads = vec![0u64; self.ranks];
+        loads[self.rank] = self.p.n_owned as u64;
+        let prev = comm.set_phase(Phase::Balance);
+        comm.all_reduce_sum_u64(&mut loads)?;
+        comm.set_phase(prev);
+        Ok(imbalance(&loads))
+    }
+
+    /// Migrate particles that left this rank's box; every `check_every` steps check the load
+    /// balance and, above the threshold, move the cut planes (starting from the current ones)
+    /// and migrate again.
+    fn migrate_and_balance(&mut self, comm: &dyn Comm) -> Result<()> {
+        let t0 = Instant::now();
+        self.p.truncate_ghosts();
+        self.balance.migrated += migrate(&mut self.p, &self.boxes, comm)? as u64;
+        self.timers.add(4, t0);
+        let b = &self.scene.balance;
+        if self.ranks == 1 || b.check_every == 0 || self.step % b.check_every != 0 {
+            return Ok(());
+        }
+        let t0 = Instant::now();
+        self.balance.checks += 1;
+        let imb = self.load_imbalance(comm)?;
+        self.balance.imbalance = imb;
+        if imb > b.threshold {
+            let prev = comm.set_phase(Phase::Balance);
+            let x = &self.p.x[..self.p.n_owned];
+            let mut err = None;
+            let (next, report) = self.decomp.rebalance(&BalanceParams::default(), self.scene.discretisation.dx, |stage| {
+                let mut counts = stage.count_local(x.iter().map(|x| (*x, 1u64)));
+                if let Err(e) = comm.all_reduce_sum_u64(&mut counts) {
+                    err.get_or_insert(e);
+                }
+                counts
+            });
+            comm.set_phase(prev);
+            if let Some(e) = err {
+                return Err(e);
+            }
+            self.balance.max_plane_shift = self.balance.max_plane_shift.max(report.max_displacement());
+            self.balance.rebalance_steps.push(self.step);
+            self.decomp = next;
+            self.boxes = (0..self.ranks).map(|r| self.decomp.block_box(r)).collect();
+            self.timers.add(5, t0);
+            let t1 = Instant::now();
+            self.balance.migrated += migrate(&mut self.p, &self.boxes, comm)? as u64;
+            self.timers.add(4, t1);
+            self.balance.imbalance = self.load_imbalance(comm)?;
+        } else {
+            self.timers.add(5, t0);
+        }
         Ok(())
     }
 
@@ -315,7 +449,7 @@ impl<const D: usize> Simulation<D> {
     /// ρ_{n+1} = ρ_n + dt (dρ/dt)(x_{n+1}, v_{n+½}, ρ_n); v_{n+1} = v_{n+½} + ½dt a_{n+1}.
     /// Evaluating dρ/dt and dv/dt from one state instead (one fused pass) makes the acoustic
     /// (ρ, v) coupling grow by 1 + (ω dt)²/4 per step, which is why the passes are split.
-    pub fn advance(&mut self) -> Result<()> {
+    pub fn advance(&mut self, comm: &dyn Comm) -> Result<()> {
         let dt = self.dt;
         let t0 = Instant::now();
         self.half_kick(dt);
@@ -336,8 +470,9 @@ impl<const D: usize> Simulation<D> {
         self.step += 1;
         self.check_state()?;
         self.timers.add(2, t0);
-        self.rebuild_neighbours()?;
-        self.density_rate();
+        self.migrate_and_balance(comm)?;
+        self.rebuild_neighbours(comm)?;
+        self.density_rate(comm)?;
         let t0 = Instant::now();
         {
             let n = self.p.n_owned;
@@ -350,21 +485,19 @@ impl<const D: usize> Simulation<D> {
         }
         self.update_pressure();
         self.timers.add(2, t0);
-        let t0 = Instant::now();
-        self.ghosts.refresh(&mut self.p, &self.space);
-        self.timers.add(3, t0);
-        self.forces();
+        self.refresh(Fields::RHO.or(Fields::P), comm)?;
+        self.forces(comm)?;
         let t0 = Instant::now();
         self.half_kick(dt);
         self.check_finite()?;
-        self.dt = self.next_dt();
         self.timers.add(2, t0);
+        self.dt = self.next_dt(comm)?;
         Ok(())
     }
 
     /// The time step for the next step (s): min of CFL·h/(c0 + |v|max), 0.25 sqrt(h/|a|max)
     /// and 0.125 h²/ν, or the scene's fixed dt; never past t_end.
-    pub fn next_dt(&self) -> f64 {
+    pub fn next_dt(&self, comm: &dyn Comm) -> Result<f64> {
         let n = self.p.n_owned;
         let h = self.model.kernel.h;
         let dt = if self.scene.time.dt > 0.0 {
@@ -376,6 +509,10 @@ impl<const D: usize> Simulation<D> {
                 .filter(|&i| kind[i] == Kind::Fluid)
                 .map(|i| (v[i].norm(), a[i].norm()))
                 .reduce(|| (0.0f64, 0.0f64), |x, y| (x.0.max(y.0), x.1.max(y.1)));
+            // max is exact, so the all-reduce gives the same bits on any number of ranks
+            let mut m = [vmax, amax];
+            comm.all_reduce_max_f64(&mut m)?;
+            let (vmax, amax) = (m[0], m[1]);
             let mut dt = self.scene.time.cfl * h / (self.model.c_max + vmax);
             if amax > 0.0 {
                 dt = dt.min(0.25 * (h / amax).sqrt());
@@ -386,11 +523,7 @@ impl<const D: usize> Simulation<D> {
             dt
         };
         let left = self.scene.time.t_end - self.t;
-        if left > 0.0 && left < dt * (1.0 + 1e-9) {
-            left
-        } else {
-            dt
-        }
+        Ok(if left > 0.0 && left < dt * (1.0 + 1e-9) { left } else { dt })
     }
 
     /// True once t_end (or max_steps) is reached.
@@ -401,7 +534,8 @@ impl<const D: usize> Simulation<D> {
 
     fn particle_error(&self, i: usize, what: &str) -> Error {
         Error::run(format!(
-            "rank 0, step {}, t = {:.6e} s: particle id {} {} at position {:?}",
+            "rank {}, step {}, t = {:.6e} s: particle id {} {} at position {:?}",
+            self.rank,
             self.step,
             self.t,
             self.p.id[i],
@@ -443,30 +577,71 @@ impl<const D: usize> Simulation<D> {
         }
     }
 
-    /// Kinetic energy, momentum and max speed of the fluid, summed exactly (independent of
-    /// order, threads and ranks).
-    pub fn observables(&self) -> Observables<D> {
+    /// Kinetic energy, momentum and max speed of the fluid over all ranks, summed exactly
+    /// (independent of order, threads and ranks: integer limbs all-reduced).
+    pub fn observables(&self, comm: &dyn Comm) -> Result<Observables<D>> {
         let n = self.p.n_owned;
         let p = &self.p;
-        let mut ke = ExactSum::new();
-        let mut mom: Vec<ExactSum> = (0..D).map(|_| ExactSum::new()).collect();
+        let mut sums: Vec<ExactSum> = (0..=D).map(|_| ExactSum::new()).collect();
         let mut vmax = 0.0f64;
         for i in 0..n {
             if p.kind[i] != Kind::Fluid {
                 continue;
             }
             let v2 = p.v[i].norm_squared();
-            ke.add(0.5 * p.mass[i] * v2);
+            sums[D].add(0.5 * p.mass[i] * v2);
             for a in 0..D {
-                mom[a].add(p.mass[i] * p.v[i][a]);
+                sums[a].add(p.mass[i] * p.v[i][a]);
             }
             vmax = vmax.max(v2.sqrt());
         }
-        Observables {
-            kinetic_energy: ke.value(),
-            momentum: Vector::from_fn(|a, _| mom[a].value()),
-            max_speed: vmax,
+        let per = sums[0].limbs().len();
+        let mut limbs: Vec<i64> = sums.iter().flat_map(|s| s.limbs()).collect();
+        let prev = comm.set_phase(Phase::Output);
+        comm.all_reduce_sum_i64(&mut limbs)?;
+        let mut m = [vmax];
+        comm.all_reduce_max_f64(&mut m)?;
+        comm.set_phase(prev);
+        let value = |k: usize| ExactSum::from_limbs(&limbs[k * per..(k + 1) * per]).value();
+        Ok(Observables {
+            kinetic_energy: value(D),
+            momentum: Vector::from_fn(|a, _| value(a)),
+            max_speed: m[0],
+        })
+    }
+
+    /// Gather every owned particle of every rank on rank 0, sorted by id (`None` on the other
+    /// ranks). Collective: every rank must call it.
+    pub fn gather(&self, comm: &dyn Comm) -> Result<Option<View<'_, D>>> {
+        let mut all = Particles::<D>::default();
+        if self.ranks == 1 {
+            for i in 0..self.p.n_owned {
+                all.push_owned(
+                    self.p.id[i], self.p.kind[i], self.p.body[i], self.p.mat[i], self.p.x[i], self.p.v[i],
+                    self.p.mass[i], self.p.rho[i],
+                );
+                all.p[i] = self.p.p[i];
+                all.vw[i] = self.p.vw[i];
+                all.grad_rho[i] = self.p.grad_rho[i];
+            }
+        } else {
+            let prev = comm.set_phase(Phase::Output);
+            let mine = pack_owned(&self.p);
+            if self.rank != 0 {
+                comm.send(0, TAG_GATHER, mine)?;
+                comm.set_phase(prev);
+                return Ok(None);
+            }
+            unpack_owned(&mine, &mut all)?;
+            for r in 1..self.ranks {
+                unpack_owned(&comm.recv(r, TAG_GATHER)?, &mut all)?;
+            }
+            comm.set_phase(prev);
         }
+        let mut perm: Vec<usize> = (0..all.n_owned).collect();
+        perm.sort_unstable_by_key(|&i| all.id[i]);
+        all.permute_owned(&perm);
+        Ok(Some(View { p: all, t: self.t, step: self.step, dt: self.dt, scene: &self.scene, model: &self.model }))
     }
 
     /// Indices of owned particles sorted by id.
@@ -475,4 +650,36 @@ impl<const D: usize> Simulation<D> {
         idx.sort_unstable_by_key(|&i| self.p.id[i]);
         idx
     }
+}
+
+/// Split the whole lattice over `ranks` blocks (factorisation of the particle cloud's extents,
+/// eq. 5 of seed 000, then cut planes balanced on particle counts, eq. 6) and keep block
+/// `rank`'s particles. Every rank computes the same decomposition from the same particles.
+fn decompose<const D: usize>(
+    mut all: Particles<D>,
+    min: &Vector<D>,
+    max: &Vector<D>,
+    ranks: usize,
+    rank: usize,
+) -> (Decomposition<D>, Particles<D>) {
+    let n = all.n_owned;
+    let mut lo = Vector::<D>::repeat(f64::INFINITY);
+    let mut hi = Vector::<D>::repeat(f64::NEG_INFINITY);
+    for x in &all.x[..n] {
+        lo = lo.inf(x);
+        hi = hi.sup(x);
+    }
+    let extents: Vec<f64> = (0..D).map(|a| if n > 0 { hi[a] - lo[a] } else { max[a] - min[a] }).collect();
+    let f = factorise(ranks, &extents);
+    let mut nf = [1usize; D];
+    nf.copy_from_slice(&f[..D]);
+    let x = &all.x[..n];
+    let (decomp, _) = Decomposition::balance(*min, *max, nf, &BalanceParams::default(), |stage| {
+        stage.count_local(x.iter().map(|x| (*x, 1u64)))
+    });
+    if ranks > 1 {
+        let keep: Vec<usize> = (0..n).filter(|&i| decomp.block_of(&all.x[i]) == rank).collect();
+        all.permute_owned(&keep);
+    }
+    (decomp, all)
 }

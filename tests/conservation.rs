@@ -8,6 +8,7 @@ use hsph::particles::Kind;
 use hsph::physics::delta::renormalised_gradient_of;
 use hsph::physics::fluid::diffusion_term;
 use hsph::scene::load_scene_str;
+use hsph::comm::serial::SerialComm;
 use hsph::sim::Simulation;
 use hsph::Vector;
 use std::path::Path;
@@ -58,7 +59,7 @@ t_end = 1.0
 
 fn sim_of<const D: usize>(text: &str) -> Simulation<D> {
     let (scene, _) = load_scene_str(text, Path::new("box.toml"), "box", &[]).unwrap();
-    Simulation::<D>::new(&scene).unwrap()
+    Simulation::<D>::new(&scene, &SerialComm::new()).unwrap()
 }
 
 /// Random velocities (|v| up to 0.5 m/s), density perturbation of ±1 %, optional position
@@ -79,7 +80,7 @@ fn perturb<const D: usize>(sim: &mut Simulation<D>, seed: u64, jitter: f64) {
         sim.space.wrap(&mut x);
         sim.p.x[i] = x;
     }
-    sim.compute_density_rate().unwrap();
+    sim.compute_density_rate(&SerialComm::new()).unwrap();
 }
 
 fn momentum_scale<const D: usize>(sim: &Simulation<D>) -> f64 {
@@ -93,12 +94,12 @@ fn momentum_scale<const D: usize>(sim: &Simulation<D>) -> f64 {
 fn momentum_drift<const D: usize>(diffusion: &str, alpha: f64, nu: f64, steps: usize) -> f64 {
     let mut sim = sim_of::<D>(&box_scene(D, true, diffusion, alpha, nu));
     perturb(&mut sim, 42 + D as u64, 0.2);
-    let ke0 = sim.observables().kinetic_energy;
+    let ke0 = sim.observables(&SerialComm::new()).unwrap().kinetic_energy;
     let mut worst = 0.0f64;
     for _ in 0..steps {
-        let before = sim.observables().momentum;
-        sim.advance().unwrap();
-        let after = sim.observables().momentum;
+        let before = sim.observables(&SerialComm::new()).unwrap().momentum;
+        sim.advance(&SerialComm::new()).unwrap();
+        let after = sim.observables(&SerialComm::new()).unwrap().momentum;
         let scale = momentum_scale(&sim);
         let rel = (after - before).amax() / scale;
         assert!(
@@ -109,7 +110,7 @@ fn momentum_drift<const D: usize>(diffusion: &str, alpha: f64, nu: f64, steps: u
         );
         worst = worst.max(rel);
     }
-    let ke1 = sim.observables().kinetic_energy;
+    let ke1 = sim.observables(&SerialComm::new()).unwrap().kinetic_energy;
     assert!(
         (ke1 - ke0).abs() > 1e-6 * ke0,
         "the flow must evolve (kinetic energy {ke0} → {ke1})"

@@ -20,6 +20,7 @@ fn run(scene_file: &Path, overrides: &[&str], threads: usize, tag: &str) -> Path
             force: false,
             threads,
             quiet: true,
+            ..Default::default()
         },
     )
     .unwrap();

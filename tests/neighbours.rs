@@ -8,6 +8,7 @@ use hsph::cells::{brute_force, CellGrid, CellList, NeighbourList};
 use hsph::ghosts::{GhostPlan, ImageSpace};
 use hsph::particles::{Kind, Particles};
 use hsph::scene::load_scene_str;
+use hsph::comm::serial::SerialComm;
 use hsph::sim::Simulation;
 use hsph::Vector;
 use std::path::Path;
@@ -319,7 +320,7 @@ t_end = 0.01
 /// walls) equal the oracle, on the lattice and after jittering the fluid.
 fn check_sim<const D: usize>(text: &str, what: &str) -> usize {
     let (scene, _) = load_scene_str(text, Path::new("test.toml"), "t", &[]).unwrap();
-    let mut sim = Simulation::<D>::new(&scene).unwrap();
+    let mut sim = Simulation::<D>::new(&scene, &SerialComm::new()).unwrap();
     let support = sim.model.kernel.support;
     let check = |sim: &Simulation<D>, what: &str| {
         let bf = brute_force(&sim.p, support);
@@ -351,9 +352,9 @@ fn check_sim<const D: usize>(text: &str, what: &str) -> usize {
             sim.p.x[i] = x;
         }
     }
-    sim.compute_density_rate().unwrap();
+    sim.compute_density_rate(&SerialComm::new()).unwrap();
     pairs += check(&sim, &format!("{what}, jittered"));
-    assert!(!sim.ghosts.is_empty(), "{what}: the scene must make ghosts");
+    assert!(!sim.halo.is_empty(), "{what}: the scene must make ghosts");
     pairs
 }
 

@@ -12,7 +12,7 @@ pub mod vtk;
 use crate::error::{Error, Result};
 use crate::probes;
 use crate::scene::{Scene, SnapshotFormat};
-use crate::sim::{Simulation, PHASES};
+use crate::sim::{Observables, View};
 use std::fs::{self, File};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -99,8 +99,9 @@ pub struct RunWriter {
 }
 
 impl RunWriter {
-    /// Create the files of a run in `dir` (already prepared) and write `scene.toml`.
-    pub fn new(dir: &Path, scene: &Scene) -> Result<Self> {
+    /// Create the files of a run in `dir` (already prepared) and write `scene.toml`;
+    /// `diag_header` is the header line of `diagnostics.csv`.
+    pub fn new(dir: &Path, scene: &Scene, diag_header: &str) -> Result<Self> {
         let d = scene.dimension;
         let resolved = toml::to_string(scene).map_err(|e| Error::run(format!("scene.toml: {e}")))?;
         let header = "# Resolved scene written by hsph: every default filled in. Run it again with\n\
@@ -113,13 +114,7 @@ impl RunWriter {
         writeln!(timeseries, "step,t,dt,kinetic_energy,{},max_speed", mom.join(","))
             .map_err(|e| Error::io(dir, e))?;
         let mut diagnostics = create(&dir.join("diagnostics.csv"))?;
-        let ph: Vec<String> = PHASES.iter().map(|p| format!("{p}_s")).collect();
-        writeln!(
-            diagnostics,
-            "step,t,wall_s,{},ghosts,pairs,particle_steps_per_s",
-            ph.join(",")
-        )
-        .map_err(|e| Error::io(dir, e))?;
+        writeln!(diagnostics, "{diag_header}").map_err(|e| Error::io(dir, e))?;
         let mut probes = Vec::new();
         if !scene.probes.is_empty() {
             let pd = dir.join("probes");
@@ -145,10 +140,10 @@ impl RunWriter {
         })
     }
 
-    /// Write one output step: timeseries row, diagnostics row, probes and a snapshot.
-    pub fn output_step<const D: usize>(&mut self, sim: &Simulation<D>, wall_s: f64) -> Result<()> {
+    /// Write one output step: timeseries row (physics only), the diagnostics row the driver
+    /// composed (timers, ghosts, balance: machine and layout dependent), probes and a snapshot.
+    pub fn output_step<const D: usize>(&mut self, sim: &View<D>, o: &Observables<D>, diag_row: &str) -> Result<()> {
         let io = |e| Error::io(&self.dir, e);
-        let o = sim.observables();
         let mom: Vec<String> = o.momentum.iter().map(|m| format!("{m}")).collect();
         writeln!(
             self.timeseries,
@@ -161,22 +156,7 @@ impl RunWriter {
             o.max_speed
         )
         .map_err(io)?;
-        let ph: Vec<String> = sim.timers.seconds.iter().map(|s| format!("{s:.6}")).collect();
-        let rate = if wall_s > 0.0 {
-            sim.n_particles() as f64 * sim.step as f64 / wall_s
-        } else {
-            0.0
-        };
-        writeln!(
-            self.diagnostics,
-            "{},{},{wall_s:.6},{},{},{},{rate:.1}",
-            sim.step,
-            sim.t,
-            ph.join(","),
-            sim.ghosts.len(),
-            sim.nl.pairs()
-        )
-        .map_err(|e| Error::io(&self.dir, e))?;
+        writeln!(self.diagnostics, "{diag_row}").map_err(|e| Error::io(&self.dir, e))?;
         let order = sim.by_id();
         for (pr, f) in sim.scene.probes.iter().zip(self.probes.iter_mut()) {
             let vals: Vec<String> = probes::sample(sim, &order, pr)
@@ -195,7 +175,7 @@ impl RunWriter {
     }
 
     /// Flush the series and write `final.csv`.
-    pub fn finish<const D: usize>(&mut self, sim: &Simulation<D>) -> Result<()> {
+    pub fn finish<const D: usize>(&mut self, sim: &View<D>) -> Result<()> {
         let dir = self.dir.clone();
         let io = |e| Error::io(&dir, e);
         self.timeseries.flush().map_err(io)?;
@@ -208,7 +188,7 @@ impl RunWriter {
 }
 
 /// `final.csv`: every owned particle sorted by id, all state fields, shortest round-trip floats.
-pub fn write_final<const D: usize>(path: &Path, sim: &Simulation<D>) -> Result<()> {
+pub fn write_final<const D: usize>(path: &Path, sim: &View<D>) -> Result<()> {
     let io = |e| Error::io(path, e);
     let mut f = create(path)?;
     let axes = ["x", "y", "z"];

@@ -2,7 +2,7 @@
 //! `.pvd` collection with the simulated time of each.
 
 use crate::error::{Error, Result};
-use crate::sim::Simulation;
+use crate::sim::View;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
@@ -10,7 +10,7 @@ use std::path::Path;
 /// Write one snapshot of the owned particles in id order.
 pub fn write_vtu<const D: usize>(
     path: &Path,
-    sim: &Simulation<D>,
+    sim: &View<D>,
     order: &[usize],
     fields: &[String],
 ) -> Result<()> {

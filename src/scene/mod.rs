@@ -50,9 +50,37 @@ pub struct Scene {
     /// Probes (`[[probe]]`), each written to `probes/<name>.csv`.
     #[serde(default, rename = "probe")]
     pub probes: Vec<Probe>,
+    /// Load balancing across ranks.
+    #[serde(default)]
+    pub balance: Balance,
     /// Optional analytic or tabulated reference: errors land in `summary.json`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference: Option<Reference>,
+}
+
+/// Load balancing of the domain decomposition (issue 3).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Balance {
+    /// Steps between load-balance checks (0 = never rebalance).
+    #[serde(default = "default_check_every")]
+    pub check_every: u64,
+    /// Rebalance when max/mean load exceeds this (≥ 1).
+    #[serde(default = "default_threshold")]
+    pub threshold: f64,
+}
+
+fn default_check_every() -> u64 {
+    20
+}
+fn default_threshold() -> f64 {
+    1.1
+}
+
+impl Default for Balance {
+    fn default() -> Self {
+        Balance { check_every: default_check_every(), threshold: default_threshold() }
+    }
 }
 
 /// Axis-aligned simulation box (m). Particles leaving it (on a non-periodic axis) stop the run.

@@ -303,6 +303,12 @@ pub fn validate(s: &mut Scene) -> Result<()> {
         }
     }
     check_particle_count(s)?;
+    if !(s.balance.threshold >= 1.0 && s.balance.threshold.is_finite()) {
+        return err(
+            "balance.threshold",
+            format!("must be a number ≥ 1 (max/mean load), got {}; 1.1 is typical", s.balance.threshold),
+        );
+    }
     validate_probes(s)?;
     validate_reference(s)?;
     check_sound_speed(s)

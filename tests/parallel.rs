@@ -1,0 +1,204 @@
+//! The parallel engine (issue 3) on the local back end: `timeseries.csv` and `final.csv` are
+//! bitwise identical on 1, 2, 3, 4, 7 and 8 ranks and with 1 or 2 threads per rank, while
+//! particles migrate and the cut planes are rebalanced; ghost sets give every particle exactly
+//! the neighbours it has on one rank (including subdomains thinner than the support radius);
+//! a failing rank stops the run with one message naming it, without hanging.
+
+mod common;
+
+use hsph::comm::local::run_local;
+use hsph::comm::Comm;
+use hsph::driver::{run_scene, Backend, Fault, FaultKind, RunOptions};
+use hsph::scene::{load_scene, load_scene_str, Scene};
+use hsph::sim::Simulation;
+use std::collections::BTreeMap;
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+fn scene(rel: &str, overrides: &[&str]) -> Scene {
+    let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    load_scene(&common::repo_path(rel), &o).unwrap().0
+}
+
+fn run(scene: &Scene, ranks: usize, threads: usize, tag: &str) -> (PathBuf, serde_json::Value) {
+    let out = common::temp_dir(tag).join("run");
+    let opts = RunOptions {
+        out: Some(out.clone()),
+        threads,
+        quiet: true,
+        ranks,
+        backend: if ranks == 1 { Backend::Serial } else { Backend::Local },
+        ..Default::default()
+    };
+    run_scene(scene, &opts).unwrap_or_else(|e| panic!("{tag}: {e}"));
+    let summary = serde_json::from_str(&fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    (out, summary)
+}
+
+fn read(dir: &Path, name: &str) -> String {
+    fs::read_to_string(dir.join(name)).unwrap_or_else(|e| panic!("{}/{name}: {e}", dir.display()))
+}
+
+/// Runs `scene` on every rank count and checks identical bits, migration, rebalancing and
+/// balance; `threads` are the thread counts tried on 4 ranks.
+fn same_bits_on_any_rank_count(scene: &Scene, tag: &str) {
+    let (base, s1) = run(scene, 1, 1, &format!("{tag}-r1"));
+    let ts = read(&base, "timeseries.csv");
+    let fin = read(&base, "final.csv");
+    let n = s1["particles"].as_u64().unwrap() as f64;
+    for (ranks, threads) in [(2, 1), (3, 1), (4, 1), (4, 2), (7, 1), (8, 1)] {
+        let (dir, s) = run(scene, ranks, threads, &format!("{tag}-r{ranks}t{threads}"));
+        assert_eq!(s["ranks"].as_u64(), Some(ranks as u64));
+        assert_eq!(s["threads"].as_u64(), Some(threads as u64));
+        assert!(read(&dir, "timeseries.csv") == ts, "{tag}: timeseries.csv differs on {ranks} ranks × {threads} threads");
+        assert!(read(&dir, "final.csv") == fin, "{tag}: final.csv differs on {ranks} ranks × {threads} threads");
+        assert!(s["migrations"].as_u64().unwrap() > 0, "{tag} on {ranks} ranks: no particle migrated: {s}");
+        assert!(s["rebalances"].as_u64().unwrap() >= 1, "{tag} on {ranks} ranks: no rebalance: {s}");
+        // every rank owns roughly N/P particles (the lattice rows limit the balance of small runs)
+        let imb = s["imbalance"].as_f64().unwrap();
+        assert!(imb <= 1.25, "{tag} on {ranks} ranks: max/mean load {imb} (N = {n})");
+    }
+}
+
+#[test]
+fn dam_break_2d_same_bits_on_1_to_8_ranks() {
+    let s = scene(
+        "inputs/dam_break_2d.toml",
+        &["time.t_end=0.08", "output.format=\"none\"", "balance.check_every=10", "balance.threshold=1.05"],
+    );
+    same_bits_on_any_rank_count(&s, "par-db2");
+}
+
+#[test]
+fn periodic_channel_same_bits_on_1_to_8_ranks() {
+    // flow along the periodic axis wraps particles round and across every slab
+    let s = scene(
+        "tests/data/periodic_channel_2d.toml",
+        &["time.t_end=0.4", "physics.body_force=[2.0,0.0]", "balance.check_every=5", "balance.threshold=1.0"],
+    );
+    same_bits_on_any_rank_count(&s, "par-chan");
+}
+
+#[test]
+fn dam_break_3d_same_bits_on_1_to_8_ranks() {
+    let s = scene(
+        "tests/data/dam_break_3d_small.toml",
+        &["time.t_end=0.05", "balance.check_every=5", "balance.threshold=1.05"],
+    );
+    same_bits_on_any_rank_count(&s, "par-db3");
+}
+
+/// For every owned particle on every rank: (id → sorted neighbour keys), taken after the first
+/// neighbour build of `P` ranks.
+fn neighbour_keys(scene: &Scene, ranks: usize) -> BTreeMap<u64, Vec<u64>> {
+    fn on_rank<const D: usize>(scene: &Scene, comm: &dyn Comm) -> hsph::error::Result<Vec<(u64, Vec<u64>)>> {
+        let sim = Simulation::<D>::new(scene, comm)?;
+        // ghosts are unique by (id, image code)
+        let mut keys: Vec<u64> = sim.p.key.clone();
+        keys.sort_unstable();
+        let before = keys.len();
+        keys.dedup();
+        assert_eq!(keys.len(), before, "rank {}: a ghost arrived twice with the same image", comm.rank());
+        Ok((0..sim.p.n_owned)
+            .map(|i| {
+                let mut k: Vec<u64> = sim.nl.of(i).iter().map(|&j| sim.p.key[j as usize]).collect();
+                k.sort_unstable();
+                (sim.p.id[i], k)
+            })
+            .collect())
+    }
+    let per_rank = run_local(ranks, 1, |comm| match scene.dimension {
+        2 => on_rank::<2>(scene, comm),
+        _ => on_rank::<3>(scene, comm),
+    })
+    .unwrap();
+    let mut all = BTreeMap::new();
+    for (id, k) in per_rank.into_iter().flatten() {
+        assert!(all.insert(id, k).is_none(), "particle {id} owned by two ranks");
+    }
+    all
+}
+
+fn periodic_box(dim: usize, n: usize, jitter_seed: u64) -> Scene {
+    // a fully periodic box of n lattice sites per axis with jittered velocities is enough: the
+    // neighbour sets depend on positions, which are on the lattice here
+    let dx = 0.1;
+    let l = n as f64 * dx;
+    let v = |k: usize| vec![k as f64; dim].iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(",");
+    let _ = jitter_seed;
+    let text = format!(
+        "dimension = {dim}\n[domain]\nmin = [{}]\nmax = [{}]\nperiodic = [{}]\n\
+         [discretisation]\ndx = {dx}\nh_over_dx = 1.3\n\
+         [[material]]\nname = \"w\"\nrho0 = 1000.0\nc0 = 10.0\n\
+         [[fluid]]\nname = \"f\"\nmaterial = \"w\"\nmin = [{}]\nmax = [{}]\n\
+         [time]\nt_end = 0.1\n",
+        v(0),
+        vec![format!("{l}"); dim].join(","),
+        vec!["true"; dim].join(","),
+        v(0),
+        vec![format!("{l}"); dim].join(","),
+    );
+    load_scene_str(&text, Path::new("box.toml"), "box", &[]).unwrap().0
+}
+
+#[test]
+fn ghosts_give_every_particle_its_one_rank_neighbours() {
+    let cases: Vec<(Scene, Vec<usize>)> = vec![
+        // periodic 2D box: support 0.26 m, 1.2 m wide: 8 ranks make blocks thinner than the support
+        (periodic_box(2, 12, 1), vec![2, 3, 4, 5, 8]),
+        // 3D periodic box: 27 ranks make blocks of 0.3 m against a support of 0.26 m, 64 ranks 0.225 m
+        (periodic_box(3, 9, 2), vec![2, 8, 27, 64]),
+        // walls, free surface, no periodicity
+        (scene("inputs/dam_break_2d.toml", &[]), vec![3, 7]),
+        (scene("tests/data/dam_break_3d_small.toml", &[]), vec![4, 6]),
+        (scene("tests/data/periodic_channel_2d.toml", &[]), vec![2, 5, 8]),
+    ];
+    for (s, rank_counts) in cases {
+        let serial = neighbour_keys(&s, 1);
+        assert!(serial.values().all(|k| !k.is_empty()));
+        for p in rank_counts {
+            let par = neighbour_keys(&s, p);
+            assert_eq!(par.len(), serial.len(), "{} on {p} ranks: particle count", s.name);
+            for (id, k) in &serial {
+                assert_eq!(par.get(id), Some(k), "{} on {p} ranks: neighbours of particle {id}", s.name);
+            }
+        }
+    }
+}
+
+fn fails_cleanly(kind: FaultKind) -> String {
+    let s = scene("inputs/dam_break_2d.toml", &["time.t_end=0.05", "output.format=\"none\""]);
+    let out = common::temp_dir("par-fault").join("run");
+    let opts = RunOptions {
+        out: Some(out.clone()),
+        threads: 1,
+        quiet: true,
+        ranks: 4,
+        backend: Backend::Local,
+        fault: Some(Fault { rank: 2, step: 7, kind }),
+        ..Default::default()
+    };
+    let t0 = Instant::now();
+    let err = run_scene(&s, &opts).expect_err("an injected fault must fail the run");
+    assert!(t0.elapsed().as_secs_f64() < 60.0, "the failure took too long");
+    assert!(!out.join("summary.json").exists(), "a failed run must not write summary.json");
+    assert_eq!(err.exit_code(), 1);
+    err.to_string()
+}
+
+#[test]
+fn a_panicking_rank_stops_the_run_with_its_name() {
+    let msg = fails_cleanly(FaultKind::Panic);
+    assert!(msg.contains("rank 2"), "{msg}");
+    assert!(msg.contains("step 7"), "{msg}");
+}
+
+#[test]
+fn a_particle_blowing_up_names_rank_step_id_and_position() {
+    let msg = fails_cleanly(FaultKind::Nan);
+    assert!(msg.contains("rank 2"), "{msg}");
+    assert!(msg.contains("step 7"), "{msg}");
+    assert!(msg.contains("particle id"), "{msg}");
+    assert!(msg.contains("position"), "{msg}");
+}
