@@ -87,6 +87,14 @@ impl Kernel {
         let q = r * self.inv_h;
         self.sigma * self.inv_h * dshape(self.kind, q)
     }
+
+    /// (1/r) dW/dr (m⁻ᴰ⁻²), finite at r = 0 for every kernel here (dW/dr ∝ r near the
+    /// origin): x_ij·∇_i W_ij / r² = (1/r) dW/dr without any regularisation.
+    #[inline]
+    pub fn dw_dr_over_r(&self, r: f64) -> f64 {
+        let q = r * self.inv_h;
+        self.sigma * self.inv_h * self.inv_h * dshape_over_q(self.kind, q)
+    }
 }
 
 /// Dimensionless shape f(q), W = σ_D/hᴰ · f(q).
@@ -149,6 +157,36 @@ fn dshape(kind: KernelKind, q: f64) -> f64 {
     }
 }
 
+/// (1/q) df/dq in closed form, finite as q → 0.
+#[inline]
+fn dshape_over_q(kind: KernelKind, q: f64) -> f64 {
+    match kind {
+        KernelKind::WendlandC2 => {
+            if q < 2.0 {
+                let a = 1.0 - 0.5 * q;
+                -5.0 * a * a * a
+            } else {
+                0.0
+            }
+        }
+        KernelKind::CubicSpline => {
+            if q < 1.0 {
+                -3.0 + 2.25 * q
+            } else {
+                dshape(kind, q) / q
+            }
+        }
+        KernelKind::QuinticSpline => {
+            if q < 1.0 {
+                // f(q) = 66 − 60q² + 30q⁴ − 10q⁵ for q < 1
+                -120.0 + 120.0 * q * q - 50.0 * q * q * q
+            } else {
+                dshape(kind, q) / q
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -194,6 +232,17 @@ mod tests {
             }
             assert_eq!(k.w(k.support), 0.0);
             assert_eq!(k.dw_dr(k.support), 0.0);
+            assert_eq!(k.dw_dr_over_r(k.support), 0.0);
+            // (1/r) dW/dr: the closed form agrees with the quotient and stays finite at r = 0
+            for i in 1..60 {
+                let r = i as f64 * k.support / 61.0;
+                let q = k.dw_dr(r) / r;
+                assert!((k.dw_dr_over_r(r) - q).abs() < 1e-10 * q.abs().max(1.0 / k.h.powi(5)));
+            }
+            let tiny = 1e-7 * k.h;
+            let at0 = k.dw_dr_over_r(0.0);
+            assert!(at0 < 0.0 && at0.is_finite());
+            assert!((k.dw_dr_over_r(tiny) - at0).abs() < 1e-6 * at0.abs(), "{kind:?}");
             assert_eq!(k.w(1.5 * k.support), 0.0);
         }
     }

@@ -107,6 +107,18 @@ pub fn validate(s: &mut Scene) -> Result<()> {
                 format!("axis {a} is shorter than one particle spacing"),
             );
         }
+        let cells = len / disc.dx;
+        if s.domain.periodic[a] && (cells - cells.round()).abs() > 1e-6 * cells.max(1.0) {
+            return err(
+                "domain.periodic",
+                format!(
+                    "periodic axis {a} is {len} m long, {cells:.4} spacings: it must hold a \
+                     whole number of spacings dx = {} m, or the lattice leaves a gap or an \
+                     overlap across the periodic seam",
+                    disc.dx
+                ),
+            );
+        }
         if s.domain.periodic[a] && len < 3.0 * support {
             return err(
                 "domain.periodic",

@@ -1,0 +1,122 @@
+//! Physics acceptance tests: the shipped validation scenes run through the library and their
+//! errors against analytic solutions (written by `reference.rs` into `summary.json`) must
+//! meet the acceptance figures of docs/validation.md.
+//!
+//! Each scene runs at its shipped resolution (the thresholds must hold there); the whole
+//! file takes about a minute in release mode on 2 cores.
+
+use hsph::driver::{run_scene, RunOptions, RunOutcome};
+use hsph::scene::{load_scene, Scene};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+fn scene(file: &str, overrides: &[&str]) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("inputs").join(file);
+    let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    load_scene(&path, &overrides)
+        .unwrap_or_else(|e| panic!("{file}: {e}"))
+        .0
+}
+
+fn run(s: &Scene, tag: &str) -> RunOutcome {
+    let out: PathBuf =
+        std::env::temp_dir().join(format!("hsph-physics-validation-{tag}-{}", std::process::id()));
+    let opts = RunOptions {
+        out: Some(out.clone()),
+        force: true,
+        threads: 0,
+        quiet: true,
+    };
+    let outcome = run_scene(s, &opts).unwrap_or_else(|e| panic!("{tag}: {e}"));
+    let _ = std::fs::remove_dir_all(&out);
+    outcome
+}
+
+fn error(errors: &BTreeMap<String, f64>, key: &str) -> f64 {
+    let e = *errors
+        .get(key)
+        .unwrap_or_else(|| panic!("summary.json has no error `{key}`: {errors:?}"));
+    assert!(e.is_finite(), "{key} = {e}");
+    e
+}
+
+/// Max over all fluid particles of |u − u_exact|/u_max ≤ 0.5 % at t = 0.6 s and 2 s.
+fn channel(file: &str, tag: &str) {
+    let s = scene(file, &[]);
+    assert_eq!(s.time.t_end, 2.0);
+    let out = run(&s, tag);
+    for key in ["velocity_linf_t0.6", "velocity_linf_t2"] {
+        let e = error(&out.errors, key);
+        eprintln!("{tag}: {key} = {:.4} %", 100.0 * e);
+        assert!(e <= 0.005, "{tag}: {key} = {:.4} % > 0.5 %", 100.0 * e);
+    }
+}
+
+#[test]
+fn poiseuille_matches_morris_series_within_half_a_percent() {
+    channel("poiseuille_2d.toml", "poiseuille");
+}
+
+#[test]
+fn couette_matches_morris_series_within_half_a_percent() {
+    channel("couette_2d.toml", "couette");
+}
+
+/// Still tank after ≥ 20 acoustic periods H/c0: pressure below mid-depth within 2 % of
+/// ρ0 g H, speeds below 1 % of sqrt(gH), no fluid particle in or beyond a wall.
+#[test]
+fn hydrostatic_tank_stays_at_rest_with_hydrostatic_pressure() {
+    let s = scene("hydrostatic_2d.toml", &[]);
+    let Some(hsph::scene::Reference::Hydrostatic { surface, bottom }) = s.reference.clone() else {
+        panic!("hydrostatic_2d.toml needs a hydrostatic reference");
+    };
+    let periods = s.time.t_end / ((surface - bottom) / s.materials[0].c0);
+    assert!(periods >= 20.0, "only {periods:.1} acoustic periods");
+    let out = run(&s, "hydrostatic");
+    let ep = error(&out.errors, "pressure_linf_below_mid_depth");
+    let ev = error(&out.errors, "max_speed_over_sqrt_gh");
+    let ew = error(&out.errors, "fluid_in_walls_fraction");
+    eprintln!(
+        "hydrostatic: {periods:.0} periods, pressure {:.3} %, speed {:.3} %, in walls {ew}",
+        100.0 * ep,
+        100.0 * ev
+    );
+    assert!(ep <= 0.02, "pressure error {:.3} % of ρ0 g H > 2 %", 100.0 * ep);
+    assert!(ev < 0.01, "max speed {:.3} % of sqrt(gH) ≥ 1 %", 100.0 * ev);
+    assert_eq!(ew, 0.0, "fluid particles inside or beyond a wall");
+}
+
+/// The benchmark and 3D scenes load and have the particle counts their comments state.
+#[test]
+fn dam_break_scenes_have_the_documented_particle_counts() {
+    fn counts<const D: usize>(s: &Scene) -> (usize, usize) {
+        let p = hsph::setup::build_particles::<D>(s).expect("particles");
+        let n = p.n_owned;
+        let fluid = p.kind[..n]
+            .iter()
+            .filter(|k| **k == hsph::particles::Kind::Fluid)
+            .count();
+        (fluid, n - fluid)
+    }
+    // seed 004: 25 057 particles, 12 083 wall
+    let (f, w) = counts::<3>(&scene("dam_break_3d.toml", &[]));
+    assert_eq!((f, w), (12_992, 12_070));
+    assert!((f + w).abs_diff(25_057) <= 25 && w.abs_diff(12_083) <= 25);
+    let (f, _) = counts::<2>(&scene("dam_break_2d_dsph.toml", &[]));
+    assert_eq!(f, 20_000);
+    let (f, w) = counts::<3>(&scene("dam_break_3d_bench.toml", &[]));
+    assert!(f + w >= 200_000, "{} particles", f + w);
+}
+
+/// The 3D dam break runs (here its first 0.02 s, ≈ 125 steps; `hsph run inputs/dam_break_3d.toml` runs
+/// the whole 1 s) without a particle leaving the domain or blowing up.
+#[test]
+fn dam_break_3d_starts_cleanly() {
+    let s = scene(
+        "dam_break_3d.toml",
+        &["time.t_end=0.02", "output.format=\"none\""],
+    );
+    let out = run(&s, "dam_break_3d");
+    let t = out.summary["t"].as_f64().unwrap();
+    assert!((t - 0.02).abs() < 1e-9, "stopped at t = {t}");
+}
