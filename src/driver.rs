@@ -110,7 +110,10 @@ pub fn resolve_backend(opts: &RunOptions) -> Result<Backend> {
     if b == Backend::Serial && opts.ranks > 1 {
         return Err(Error::input(
             "--ranks",
-            format!("the serial back end runs one rank, not {}; use --backend local", opts.ranks),
+            format!(
+                "the serial back end runs one rank, not {}; use --backend local",
+                opts.ranks
+            ),
         ));
     }
     Ok(b)
@@ -129,12 +132,19 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
         }
         Backend::Local => {
             let ranks = opts.ranks.max(1);
-            let threads = if opts.threads == 0 { (cores() / ranks).max(1) } else { opts.threads };
+            let threads = if opts.threads == 0 {
+                (cores() / ranks).max(1)
+            } else {
+                opts.threads
+            };
             let dir = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
             let outs = crate::comm::local::run_local(ranks, threads, |comm| {
                 run_rank(scene, &dir, comm, "local", opts)
             })?;
-            outs.into_iter().flatten().next().ok_or_else(|| Error::run("rank 0 produced no outcome"))
+            outs.into_iter()
+                .flatten()
+                .next()
+                .ok_or_else(|| Error::run("rank 0 produced no outcome"))
         }
         Backend::Mpi => run_mpi(scene, opts),
     }
@@ -157,7 +167,10 @@ fn run_mpi(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
     let dir = match text.strip_prefix("ok:") {
         Some(d) => PathBuf::from(d),
         None => {
-            let msg = text.strip_prefix("err:").unwrap_or(&text).trim_start_matches("error: ");
+            let msg = text
+                .strip_prefix("err:")
+                .unwrap_or(&text)
+                .trim_start_matches("error: ");
             return Err(Error::input("--out", msg.to_string()));
         }
     };
@@ -221,7 +234,12 @@ fn reduce<const D: usize>(sim: &Simulation<D>, comm: &dyn Comm) -> Result<Reduce
         mine.extend_from_slice(&s.to_le_bytes());
     }
     let all = comm.all_gather_bytes(mine)?;
-    let mut counts = [sim.halo.len() as u64, sim.halo.remote() as u64, sim.p.n_owned as u64, sim.balance.migrated];
+    let mut counts = [
+        sim.halo.len() as u64,
+        sim.halo.remote() as u64,
+        sim.p.n_owned as u64,
+        sim.balance.migrated,
+    ];
     comm.all_reduce_sum_u64(&mut counts)?;
     comm.set_phase(prev);
     let timers = (0..PHASES.len())
@@ -239,7 +257,13 @@ fn reduce<const D: usize>(sim: &Simulation<D>, comm: &dyn Comm) -> Result<Reduce
             [lo, sum / v.len() as f64, hi]
         })
         .collect();
-    Ok(Reduced { timers, ghosts: counts[0], remote: counts[1], particles: counts[2], migrated: counts[3] })
+    Ok(Reduced {
+        timers,
+        ghosts: counts[0],
+        remote: counts[1],
+        particles: counts[2],
+        migrated: counts[3],
+    })
 }
 
 fn run_dim<const D: usize>(
@@ -253,7 +277,11 @@ fn run_dim<const D: usize>(
     let quiet = opts.quiet || !root;
     let threads = rayon::current_num_threads();
     let mut sim = Simulation::<D>::new(scene, comm)?;
-    let mut writer = if root { Some(RunWriter::new(dir, &sim.scene, &diag_header())?) } else { None };
+    let mut writer = if root {
+        Some(RunWriter::new(dir, &sim.scene, &diag_header())?)
+    } else {
+        None
+    };
     let mut tracker = Tracker::default();
     let mut n_total = [sim.p.n_owned as u64];
     comm.all_reduce_sum_u64(&mut n_total)?;
@@ -270,33 +298,38 @@ fn run_dim<const D: usize>(
         );
     }
     let loop_start = Instant::now();
-    let output = |sim: &mut Simulation<D>, tracker: &mut Tracker, writer: &mut Option<RunWriter>| -> Result<()> {
-        let t0 = Instant::now();
-        let obs = sim.observables(comm)?;
-        let r = reduce(sim, comm)?;
-        let view = sim.gather(comm)?;
-        let wall = loop_start.elapsed().as_secs_f64();
-        if let (Some(v), Some(w)) = (view, writer.as_mut()) {
-            tracker.at_output(&v);
-            let mut row = format!("{},{},{wall:.6}", v.step, v.t);
-            for t in &r.timers {
-                row.push_str(&format!(",{:.6},{:.6},{:.6}", t[0], t[1], t[2]));
+    let output =
+        |sim: &mut Simulation<D>, tracker: &mut Tracker, writer: &mut Option<RunWriter>| -> Result<()> {
+            let t0 = Instant::now();
+            let obs = sim.observables(comm)?;
+            let r = reduce(sim, comm)?;
+            let view = sim.gather(comm)?;
+            let wall = loop_start.elapsed().as_secs_f64();
+            if let (Some(v), Some(w)) = (view, writer.as_mut()) {
+                tracker.at_output(&v);
+                let mut row = format!("{},{},{wall:.6}", v.step, v.t);
+                for t in &r.timers {
+                    row.push_str(&format!(",{:.6},{:.6},{:.6}", t[0], t[1], t[2]));
+                }
+                let rate = if wall > 0.0 {
+                    r.particles as f64 * v.step as f64 / wall
+                } else {
+                    0.0
+                };
+                row.push_str(&format!(
+                    ",{},{},{:.6},{:.6},{},{},{rate:.1}",
+                    r.ghosts,
+                    r.remote,
+                    r.remote as f64 / r.particles.max(1) as f64,
+                    sim.balance.imbalance,
+                    r.migrated,
+                    sim.balance.rebalance_steps.len()
+                ));
+                w.output_step(&v, &obs, &row)?;
             }
-            let rate = if wall > 0.0 { r.particles as f64 * v.step as f64 / wall } else { 0.0 };
-            row.push_str(&format!(
-                ",{},{},{:.6},{:.6},{},{},{rate:.1}",
-                r.ghosts,
-                r.remote,
-                r.remote as f64 / r.particles.max(1) as f64,
-                sim.balance.imbalance,
-                r.migrated,
-                sim.balance.rebalance_steps.len()
-            ));
-            w.output_step(&v, &obs, &row)?;
-        }
-        sim.timers.add(6, t0);
-        Ok(())
-    };
+            sim.timers.add(6, t0);
+            Ok(())
+        };
     output(&mut sim, &mut tracker, &mut writer)?;
     let interval = scene.output.interval;
     let mut next_out = interval;
@@ -340,12 +373,23 @@ fn run_dim<const D: usize>(
     let steps = sim.step;
     let mut timers = serde_json::Map::new();
     for (k, p) in PHASES.iter().enumerate() {
-        timers.insert(format!("{p}_s"), json!({"min": r.timers[k][0], "mean": r.timers[k][1], "max": r.timers[k][2]}));
+        timers.insert(
+            format!("{p}_s"),
+            json!({"min": r.timers[k][0], "mean": r.timers[k][1], "max": r.timers[k][2]}),
+        );
     }
     let comm_s = r.timers[3][1] + r.timers[4][1];
-    let errors: serde_json::Map<String, serde_json::Value> =
-        tracker.errors.iter().map(|(k, v)| (k.clone(), json!(v))).collect();
-    let n_fluid = view.p.kind.iter().filter(|k| **k == crate::particles::Kind::Fluid).count();
+    let errors: serde_json::Map<String, serde_json::Value> = tracker
+        .errors
+        .iter()
+        .map(|(k, v)| (k.clone(), json!(v)))
+        .collect();
+    let n_fluid = view
+        .p
+        .kind
+        .iter()
+        .filter(|k| **k == crate::particles::Kind::Fluid)
+        .count();
     let summary = json!({
         "hsph_version": env!("CARGO_PKG_VERSION"),
         "scene": scene.name,
@@ -386,5 +430,9 @@ fn run_dim<const D: usize>(
             eprintln!("hsph: error {k} = {:.4} %", v * 100.0);
         }
     }
-    Ok(Some(RunOutcome { dir: dir.to_path_buf(), summary, errors: tracker.errors }))
+    Ok(Some(RunOutcome {
+        dir: dir.to_path_buf(),
+        summary,
+        errors: tracker.errors,
+    }))
 }

@@ -202,7 +202,11 @@ pub fn owner<const D: usize>(x: &Vector<D>, boxes: &Boxes<D>) -> Option<usize> {
     boxes
         .iter()
         .position(|b| (0..D).all(|a| x[a] >= b.0[a] && x[a] < b.1[a]))
-        .or_else(|| boxes.iter().position(|b| (0..D).all(|a| x[a] >= b.0[a] && x[a] <= b.1[a])))
+        .or_else(|| {
+            boxes
+                .iter()
+                .position(|b| (0..D).all(|a| x[a] >= b.0[a] && x[a] <= b.1[a]))
+        })
 }
 
 fn push_f(buf: &mut Vec<u8>, x: f64) {
@@ -252,10 +256,21 @@ fn kind_of(code: u64) -> Result<Kind> {
 }
 
 /// Append a whole particle record (used for ghosts and migration).
-fn pack_record<const D: usize>(buf: &mut Vec<u8>, p: &Particles<D>, i: usize, x: &Vector<D>, key: u64, v: &Vector<D>, grad: &Vector<D>) {
+fn pack_record<const D: usize>(
+    buf: &mut Vec<u8>,
+    p: &Particles<D>,
+    i: usize,
+    x: &Vector<D>,
+    key: u64,
+    v: &Vector<D>,
+    grad: &Vector<D>,
+) {
     push_u(buf, p.id[i]);
     push_u(buf, key);
-    push_u(buf, p.kind[i].code() as u64 | (p.body[i] as u64) << 8 | (p.mat[i] as u64) << 24);
+    push_u(
+        buf,
+        p.kind[i].code() as u64 | (p.body[i] as u64) << 8 | (p.mat[i] as u64) << 24,
+    );
     push_v(buf, x);
     push_v(buf, v);
     push_f(buf, p.mass[i]);
@@ -328,7 +343,14 @@ impl<const D: usize> HaloPlan<D> {
         let mine = boxes[me];
         for i in 0..p.n_owned {
             let x = p.x[i];
-            images(&x, p.kind[i] == Kind::Fluid, space, support, &mut options, &mut imgs);
+            images(
+                &x,
+                p.kind[i] == Kind::Fluid,
+                space,
+                support,
+                &mut options,
+                &mut imgs,
+            );
             for ops in &imgs {
                 let plain = ops.iter().all(|o| *o == AxisOp::Keep);
                 let (xg, _) = apply(&x, ops, space);
@@ -339,7 +361,10 @@ impl<const D: usize> HaloPlan<D> {
                     if (plain && r == me) || !in_widened(&xg, b, support) {
                         continue;
                     }
-                    per_dst[r].push(Entry { src: i as u32, ops: *ops });
+                    per_dst[r].push(Entry {
+                        src: i as u32,
+                        ops: *ops,
+                    });
                 }
             }
         }
@@ -356,7 +381,11 @@ impl<const D: usize> HaloPlan<D> {
             })
             .collect();
         self.remote = self.inc.iter().filter(|(s, _)| *s != me).map(|(_, n)| n).sum();
-        self.out = per_dst.into_iter().enumerate().filter(|(_, l)| !l.is_empty()).collect();
+        self.out = per_dst
+            .into_iter()
+            .enumerate()
+            .filter(|(_, l)| !l.is_empty())
+            .collect();
         let words = record_words(D);
         let sends: Vec<(usize, Vec<u8>)> = self
             .out
@@ -488,7 +517,9 @@ pub fn migrate<const D: usize>(p: &mut Particles<D>, boxes: &Boxes<D>, comm: &dy
         counts[me * size + r] = l.len() as u64;
     }
     comm.all_reduce_sum_u64(&mut counts)?;
-    let from: Vec<usize> = (0..size).filter(|&s| s != me && counts[s * size + me] > 0).collect();
+    let from: Vec<usize> = (0..size)
+        .filter(|&s| s != me && counts[s * size + me] > 0)
+        .collect();
     let sent: usize = per_dst.iter().map(|l| l.len()).sum();
     let words = record_words(D);
     let sends: Vec<(usize, Vec<u8>)> = per_dst

@@ -10,12 +10,12 @@
 //! the fields the next pass reads; one rank goes through the same path (self-sends).
 
 use crate::cells::{CellGrid, CellList, NeighbourList};
-use crate::error::{Error, Result};
-use crate::exact::ExactSum;
+use crate::comm::Tag;
 use crate::comm::{Comm, Phase};
 use crate::decomp::{factorise, imbalance, BalanceParams, Decomposition};
+use crate::error::{Error, Result};
+use crate::exact::ExactSum;
 use crate::ghosts::{ImageSpace, MirrorPlane};
-use crate::comm::Tag;
 use crate::halo::{migrate, pack_owned, unpack_owned, Fields, HaloPlan};
 
 /// Tag of the output gather.
@@ -32,7 +32,15 @@ use std::time::Instant;
 const REORDER_EVERY: u64 = 16;
 
 /// Names of the timed phases, in the order of `diagnostics.csv`.
-pub const PHASES: [&str; 7] = ["neighbours", "forces", "integrate", "halo", "migration", "balance", "output"];
+pub const PHASES: [&str; 7] = [
+    "neighbours",
+    "forces",
+    "integrate",
+    "halo",
+    "migration",
+    "balance",
+    "output",
+];
 
 /// Wall-clock seconds spent per phase.
 #[derive(Debug, Clone, Default)]
@@ -294,12 +302,15 @@ impl<const D: usize> Simulation<D> {
             self.timers.add(0, t0);
         }
         let t0 = Instant::now();
-        self.halo.build(&mut self.p, &self.space, &self.boxes, support, comm)?;
+        self.halo
+            .build(&mut self.p, &self.space, &self.boxes, support, comm)?;
         self.timers.add(3, t0);
         let t0 = Instant::now();
         self.bin()?;
         let kind = &self.p.kind;
-        self.nl.build(&self.grid, &self.cells, &self.p, support, |i| kind[i] != Kind::Repulsive);
+        self.nl.build(&self.grid, &self.cells, &self.p, support, |i| {
+            kind[i] != Kind::Repulsive
+        });
         self.timers.add(0, t0);
         Ok(())
     }
@@ -316,7 +327,11 @@ impl<const D: usize> Simulation<D> {
     fn bin(&mut self) -> Result<()> {
         if let Err(i) = self.cells.build(&self.grid, &self.p) {
             let n = self.p.n_owned;
-            let what = if i < n { "left the cell grid" } else { "(a ghost) lies outside the cell grid" };
+            let what = if i < n {
+                "left the cell grid"
+            } else {
+                "(a ghost) lies outside the cell grid"
+            };
             return Err(self.particle_error(i, what));
         }
         Ok(())
@@ -390,13 +405,15 @@ impl<const D: usize> Simulation<D> {
             let prev = comm.set_phase(Phase::Balance);
             let x = &self.p.x[..self.p.n_owned];
             let mut err = None;
-            let (next, report) = self.decomp.rebalance(&BalanceParams::default(), self.scene.discretisation.dx, |stage| {
-                let mut counts = stage.count_local(x.iter().map(|x| (*x, 1u64)));
-                if let Err(e) = comm.all_reduce_sum_u64(&mut counts) {
-                    err.get_or_insert(e);
-                }
-                counts
-            });
+            let (next, report) =
+                self.decomp
+                    .rebalance(&BalanceParams::default(), self.scene.discretisation.dx, |stage| {
+                        let mut counts = stage.count_local(x.iter().map(|x| (*x, 1u64)));
+                        if let Err(e) = comm.all_reduce_sum_u64(&mut counts) {
+                            err.get_or_insert(e);
+                        }
+                        counts
+                    });
             comm.set_phase(prev);
             if let Some(e) = err {
                 return Err(e);
@@ -523,7 +540,11 @@ impl<const D: usize> Simulation<D> {
             dt
         };
         let left = self.scene.time.t_end - self.t;
-        Ok(if left > 0.0 && left < dt * (1.0 + 1e-9) { left } else { dt })
+        Ok(if left > 0.0 && left < dt * (1.0 + 1e-9) {
+            left
+        } else {
+            dt
+        })
     }
 
     /// True once t_end (or max_steps) is reached.
@@ -617,8 +638,14 @@ impl<const D: usize> Simulation<D> {
         if self.ranks == 1 {
             for i in 0..self.p.n_owned {
                 all.push_owned(
-                    self.p.id[i], self.p.kind[i], self.p.body[i], self.p.mat[i], self.p.x[i], self.p.v[i],
-                    self.p.mass[i], self.p.rho[i],
+                    self.p.id[i],
+                    self.p.kind[i],
+                    self.p.body[i],
+                    self.p.mat[i],
+                    self.p.x[i],
+                    self.p.v[i],
+                    self.p.mass[i],
+                    self.p.rho[i],
                 );
                 all.p[i] = self.p.p[i];
                 all.vw[i] = self.p.vw[i];
@@ -641,7 +668,14 @@ impl<const D: usize> Simulation<D> {
         let mut perm: Vec<usize> = (0..all.n_owned).collect();
         perm.sort_unstable_by_key(|&i| all.id[i]);
         all.permute_owned(&perm);
-        Ok(Some(View { p: all, t: self.t, step: self.step, dt: self.dt, scene: &self.scene, model: &self.model }))
+        Ok(Some(View {
+            p: all,
+            t: self.t,
+            step: self.step,
+            dt: self.dt,
+            scene: &self.scene,
+            model: &self.model,
+        }))
     }
 
     /// Indices of owned particles sorted by id.
@@ -669,7 +703,9 @@ fn decompose<const D: usize>(
         lo = lo.inf(x);
         hi = hi.sup(x);
     }
-    let extents: Vec<f64> = (0..D).map(|a| if n > 0 { hi[a] - lo[a] } else { max[a] - min[a] }).collect();
+    let extents: Vec<f64> = (0..D)
+        .map(|a| if n > 0 { hi[a] - lo[a] } else { max[a] - min[a] })
+        .collect();
     let f = factorise(ranks, &extents);
     let mut nf = [1usize; D];
     nf.copy_from_slice(&f[..D]);

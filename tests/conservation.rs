@@ -4,11 +4,11 @@
 mod common;
 
 use common::Rng;
+use hsph::comm::serial::SerialComm;
 use hsph::particles::Kind;
 use hsph::physics::delta::renormalised_gradient_of;
 use hsph::physics::fluid::diffusion_term;
 use hsph::scene::load_scene_str;
-use hsph::comm::serial::SerialComm;
 use hsph::sim::Simulation;
 use hsph::Vector;
 use std::path::Path;

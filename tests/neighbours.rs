@@ -5,10 +5,10 @@ mod common;
 
 use common::Rng;
 use hsph::cells::{brute_force, CellGrid, CellList, NeighbourList};
+use hsph::comm::serial::SerialComm;
 use hsph::ghosts::{GhostPlan, ImageSpace};
 use hsph::particles::{Kind, Particles};
 use hsph::scene::load_scene_str;
-use hsph::comm::serial::SerialComm;
 use hsph::sim::Simulation;
 use hsph::Vector;
 use std::path::Path;

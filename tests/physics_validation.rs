@@ -26,6 +26,7 @@ fn run(s: &Scene, tag: &str) -> RunOutcome {
         force: true,
         threads: 0,
         quiet: true,
+        ..Default::default()
     };
     let outcome = run_scene(s, &opts).unwrap_or_else(|e| panic!("{tag}: {e}"));
     let _ = std::fs::remove_dir_all(&out);

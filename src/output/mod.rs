@@ -142,7 +142,12 @@ impl RunWriter {
 
     /// Write one output step: timeseries row (physics only), the diagnostics row the driver
     /// composed (timers, ghosts, balance: machine and layout dependent), probes and a snapshot.
-    pub fn output_step<const D: usize>(&mut self, sim: &View<D>, o: &Observables<D>, diag_row: &str) -> Result<()> {
+    pub fn output_step<const D: usize>(
+        &mut self,
+        sim: &View<D>,
+        o: &Observables<D>,
+        diag_row: &str,
+    ) -> Result<()> {
         let io = |e| Error::io(&self.dir, e);
         let mom: Vec<String> = o.momentum.iter().map(|m| format!("{m}")).collect();
         writeln!(

@@ -79,7 +79,10 @@ fn default_threshold() -> f64 {
 
 impl Default for Balance {
     fn default() -> Self {
-        Balance { check_every: default_check_every(), threshold: default_threshold() }
+        Balance {
+            check_every: default_check_every(),
+            threshold: default_threshold(),
+        }
     }
 }
 

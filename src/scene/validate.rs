@@ -318,7 +318,10 @@ pub fn validate(s: &mut Scene) -> Result<()> {
     if !(s.balance.threshold >= 1.0 && s.balance.threshold.is_finite()) {
         return err(
             "balance.threshold",
-            format!("must be a number ≥ 1 (max/mean load), got {}; 1.1 is typical", s.balance.threshold),
+            format!(
+                "must be a number ≥ 1 (max/mean load), got {}; 1.1 is typical",
+                s.balance.threshold
+            ),
         );
     }
     validate_probes(s)?;
