@@ -27,6 +27,7 @@ pub mod reference;
 pub mod scene;
 pub mod setup;
 pub mod sim;
+pub mod topology;
 
 /// Fixed-size position/velocity vector in `D` dimensions (m, m/s, ...).
 pub type Vector<const D: usize> = nalgebra::SVector<f64, D>;
