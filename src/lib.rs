@@ -21,6 +21,7 @@ pub mod kernel;
 pub mod output;
 pub mod particles;
 pub mod physics;
+pub mod placement;
 pub mod probes;
 pub mod progress;
 pub mod reference;
