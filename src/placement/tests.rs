@@ -341,3 +341,37 @@ fn placement_uneven_nodes_and_fallback() {
         (0..10).collect::<Vec<_>>()
     );
 }
+
+/// Measured traffic-log entries split the same way as estimated volumes.
+#[test]
+fn placement_split_entries_matches_traffic_split() {
+    use crate::comm::{Phase, TrafficEntry};
+    let topo = Topology::from_ranks_per_node(4, 2).unwrap();
+    let mut v = PairVolumes::zeros(4);
+    v.add(0, 1, 5);
+    v.add(1, 2, 7);
+    v.add(3, 0, 11);
+    let b2r = [0, 1, 2, 3];
+    let entries: Vec<TrafficEntry> = (0..4)
+        .flat_map(|a| (0..4).map(move |b| (a, b)))
+        .filter(|&(a, b)| a != b && v.get(a, b) > 0)
+        .map(|(a, b)| TrafficEntry {
+            phase: Phase::Halo,
+            src: a,
+            dst: b,
+            bytes: v.get(a, b),
+            messages: 1,
+        })
+        .chain([TrafficEntry {
+            phase: Phase::Halo,
+            src: 2,
+            dst: 2,
+            bytes: 99,
+            messages: 1,
+        }])
+        .collect();
+    let s = split_entries(&entries, &topo);
+    assert_eq!(s, traffic_split(&v, &b2r, &topo));
+    assert_eq!((s.intra_node_bytes, s.inter_node_bytes), (5, 18));
+    assert_eq!((s.node_pairs_talking, s.max_node_inter_bytes), (1, 18));
+}
