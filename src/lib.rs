@@ -22,12 +22,14 @@ pub mod kernel;
 pub mod output;
 pub mod particles;
 pub mod physics;
+pub mod placement;
 pub mod probes;
 pub mod progress;
 pub mod reference;
 pub mod scene;
 pub mod setup;
 pub mod sim;
+pub mod topology;
 
 /// Fixed-size position/velocity vector in `D` dimensions (m, m/s, ...).
 pub type Vector<const D: usize> = nalgebra::SVector<f64, D>;
