@@ -124,6 +124,13 @@ pub trait Comm {
     /// Phase and traffic log of this rank.
     fn accounting(&self) -> &Accounting;
 
+    /// A key shared by exactly the ranks of this rank's node (its shared-memory domain): under
+    /// MPI the lowest world rank of `MPI_Comm_split_type(SHARED)`, never the host name (fake
+    /// nodes share one). The serial and local back ends run in one process: one node, key 0.
+    fn node_key(&self) -> usize {
+        0
+    }
+
     /// Send `bytes` to rank `dst` (which may be this rank) with `tag`. Never waits for the
     /// receiver. Counted in the traffic log under the current phase.
     fn send(&self, dst: usize, tag: Tag, bytes: Vec<u8>) -> Result<()>;

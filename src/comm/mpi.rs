@@ -47,6 +47,8 @@ pub struct MpiComm {
     self_queue: Mutex<BTreeMap<Tag, VecDeque<Vec<u8>>>>,
     lanes: Mutex<BTreeMap<(usize, Tag), Lane>>,
     accounting: Accounting,
+    /// Lowest world rank on this rank's shared-memory node.
+    node_key: usize,
     // Declared last: dropped after everything above, which calls MPI_Finalize.
     _universe: Universe,
 }
@@ -67,6 +69,9 @@ impl MpiComm {
             .ok_or_else(|| Error::run("MPI was already initialised in this process"))?;
         let world = universe.world();
         let rank = world.rank() as usize;
+        let node = world.split_shared(world.rank());
+        let mut lowest: mpi::Rank = 0;
+        node.all_reduce_into(&world.rank(), &mut lowest, mpi::collective::SystemOperation::min());
         Ok(MpiComm {
             rank,
             size: world.size() as usize,
@@ -75,6 +80,7 @@ impl MpiComm {
             self_queue: Mutex::new(BTreeMap::new()),
             lanes: Mutex::new(BTreeMap::new()),
             accounting: Accounting::new(rank),
+            node_key: lowest as usize,
             _universe: universe,
         })
     }
@@ -173,6 +179,10 @@ impl Comm for MpiComm {
 
     fn accounting(&self) -> &Accounting {
         &self.accounting
+    }
+
+    fn node_key(&self) -> usize {
+        self.node_key
     }
 
     fn send(&self, dst: usize, tag: Tag, bytes: Vec<u8>) -> Result<()> {
