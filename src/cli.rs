@@ -88,9 +88,46 @@ Examples:
         /// Ranks (subdomains) of the local back end: threads of this process, no MPI needed.
         #[arg(long, default_value_t = 1)]
         ranks: usize,
+        /// Virtual nodes of K consecutive ranks (wins over the nodes MPI discovers).
+        #[arg(long, value_name = "K", default_value_t = 0)]
+        ranks_per_node: usize,
+        /// Node layout file (see topology/), e.g. topology/four_nodes_24.toml.
+        #[arg(long, value_name = "FILE")]
+        topology: Option<PathBuf>,
+        /// Placement of subdomains on ranks: rank-order, centre-distance, node-grid, min-cut.
+        #[arg(long, default_value = "rank-order")]
+        placement: String,
         /// No progress output.
         #[arg(long, short)]
         quiet: bool,
+    },
+    /// Plan a parallel layout without running physics: decomposition, placement on nodes and
+    /// the halo traffic of one step, split into intra- and inter-node bytes.
+    #[command(after_help = "\
+Examples:
+  hsph plan inputs/dam_break_3d.toml --ranks 96 --ranks-per-node 24 --placement all
+  hsph plan inputs/dam_break_3d.toml --ranks 96 --topology topology/four_nodes_24.toml --out runs/plan")]
+    Plan {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Ranks (subdomains).
+        #[arg(long)]
+        ranks: usize,
+        /// Virtual nodes of K consecutive ranks.
+        #[arg(long, value_name = "K", default_value_t = 0)]
+        ranks_per_node: usize,
+        /// Node layout file (wins over --ranks-per-node).
+        #[arg(long, value_name = "FILE")]
+        topology: Option<PathBuf>,
+        /// Placement: rank-order, centre-distance, node-grid, min-cut or all.
+        #[arg(long, default_value = "all")]
+        placement: String,
+        /// Write plan.json and plan.csv here.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Override a scene key (repeatable).
+        #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
+        set: Vec<String>,
     },
     /// Validate a scene and print what a run would do, without running it.
     #[command(after_help = "Example:\n  hsph check inputs/dam_break_3d.toml --set discretisation.dx=0.01")]
@@ -153,6 +190,9 @@ fn dispatch(cmd: Command) -> Result<()> {
             set,
             backend,
             ranks,
+            ranks_per_node,
+            topology,
+            placement,
             quiet,
         } => {
             if backend == Backend::Mpi && !cfg!(feature = "mpi") {
@@ -161,6 +201,10 @@ fn dispatch(cmd: Command) -> Result<()> {
             if ranks == 0 {
                 return Err(Error::input("--ranks", "must be at least 1, e.g. --ranks 4"));
             }
+            let placement: crate::placement::Placement = placement.parse()?;
+            let topology = topology
+                .map(|f| crate::topology::Topology::load(&f))
+                .transpose()?;
             let (scene, src) = load_scene(&scene, &set)?;
             driver::run_scene(
                 &scene,
@@ -172,10 +216,46 @@ fn dispatch(cmd: Command) -> Result<()> {
                     ranks,
                     backend: backend.into(),
                     fault: None,
+                    ranks_per_node,
+                    topology,
+                    placement,
                 },
             )
             .map(|_| ())
             .map_err(|e| locate(&src, e))
+        }
+        Command::Plan {
+            scene,
+            ranks,
+            ranks_per_node,
+            topology,
+            placement,
+            out,
+            set,
+        } => {
+            let (scene, _) = load_scene(&scene, &set)?;
+            if ranks == 0 {
+                return Err(Error::input("--ranks", "must be at least 1, e.g. --ranks 96"));
+            }
+            let topo = match topology {
+                Some(f) => crate::topology::Topology::load(&f)?,
+                None if ranks_per_node > 0 => {
+                    crate::topology::Topology::from_ranks_per_node(ranks, ranks_per_node)?
+                }
+                None => crate::topology::Topology::from_ranks_per_node(ranks, ranks)?,
+            };
+            let methods: Vec<crate::placement::Placement> = if placement == "all" {
+                crate::placement::Placement::ALL.to_vec()
+            } else {
+                vec![placement.parse()?]
+            };
+            let rows = crate::plan::plan(&scene, ranks, &topo, &methods)?;
+            print!("{}", crate::plan::table(&scene, ranks, &topo, &rows));
+            if let Some(dir) = out {
+                crate::plan::write(&dir, &scene, ranks, &topo, &rows)?;
+                println!("wrote {}/plan.json and plan.csv", dir.display());
+            }
+            Ok(())
         }
         Command::Check { scene, set } => {
             let (scene, src) = load_scene(&scene, &set)?;

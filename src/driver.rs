@@ -6,13 +6,15 @@
 //! exits with status 2 before a step is taken.
 
 use crate::comm::serial::SerialComm;
-use crate::comm::{Comm, Phase};
+use crate::comm::{Comm, Phase, TrafficEntry};
 use crate::error::{Error, Result};
 use crate::output::{self, RunWriter};
+use crate::placement::Placement;
 use crate::progress::Progress;
 use crate::reference::Tracker;
 use crate::scene::Scene;
-use crate::sim::{Simulation, PHASES};
+use crate::sim::{Layout, Simulation, PHASES};
+use crate::topology::Topology;
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -70,6 +72,13 @@ pub struct RunOptions {
     pub backend: Backend,
     /// Test-only fault injection.
     pub fault: Option<Fault>,
+    /// Virtual nodes of this many consecutive ranks (0: the nodes MPI discovers; one node on
+    /// the serial and local back ends). Wins over discovery.
+    pub ranks_per_node: usize,
+    /// A node layout (`--topology FILE`, already read); wins over `ranks_per_node`.
+    pub topology: Option<Topology>,
+    /// Placement of blocks on ranks.
+    pub placement: Placement,
 }
 
 /// What a finished run reports.
@@ -122,7 +131,12 @@ pub fn resolve_backend(opts: &RunOptions) -> Result<Backend> {
 /// Run a validated scene. The output directory is prepared first; `summary.json` is written
 /// only when the run completes.
 pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
-    match resolve_backend(opts)? {
+    let backend = resolve_backend(opts)?;
+    if backend != Backend::Mpi {
+        // the rank count is known: check the layout before any rank starts (exit 2)
+        let _ = node_layout_for(opts.ranks.max(1), opts, None)?;
+    }
+    match backend {
         Backend::Serial | Backend::Auto => {
             let dir = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
             let pool = pool(opts.threads)?;
@@ -188,6 +202,122 @@ fn run_mpi(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
 #[cfg(not(feature = "mpi"))]
 fn run_mpi(_scene: &Scene, _opts: &RunOptions) -> Result<RunOutcome> {
     Err(Error::missing_feature("--backend", "mpi"))
+}
+
+/// The topology of a run of `ranks` ranks: `--topology`, else `--ranks-per-node`, else the
+/// nodes discovered (`keys`: one node key per rank, from [`Comm::node_key`]) when they hold
+/// equal runs of consecutive ranks; and the node of every rank.
+fn node_layout_for(
+    ranks: usize,
+    opts: &RunOptions,
+    keys: Option<&[usize]>,
+) -> Result<(Option<Topology>, Vec<usize>)> {
+    if let Some(t) = &opts.topology {
+        t.check_ranks(ranks)?;
+        return Ok((Some(t.clone()), (0..ranks).map(|r| t.node_of(r)).collect()));
+    }
+    if opts.ranks_per_node > 0 {
+        let t = Topology::from_ranks_per_node(ranks, opts.ranks_per_node)?;
+        let nodes = (0..ranks).map(|r| t.node_of(r)).collect();
+        return Ok((Some(t), nodes));
+    }
+    // discovered: dense node ids in order of first appearance
+    let mut ids = Vec::with_capacity(ranks);
+    let mut seen: Vec<usize> = Vec::new();
+    for r in 0..ranks {
+        let key = keys.map_or(0, |k| k[r]);
+        let id = seen.iter().position(|&s| s == key).unwrap_or_else(|| {
+            seen.push(key);
+            seen.len() - 1
+        });
+        ids.push(id);
+    }
+    let k = ids.iter().filter(|&&n| n == 0).count();
+    let uniform = (0..ranks).all(|r| ids[r] == r / k);
+    let topo = if uniform {
+        Some(Topology::from_ranks_per_node(ranks, k)?)
+    } else {
+        None
+    };
+    Ok((topo, ids))
+}
+
+/// The node layout of this run (collective: gathers every rank's node key).
+fn node_layout(comm: &dyn Comm, opts: &RunOptions) -> Result<(Option<Topology>, Vec<usize>)> {
+    let prev = comm.set_phase(Phase::Other);
+    let keys: Vec<usize> = comm
+        .all_gather_bytes((comm.node_key() as u64).to_le_bytes().to_vec())?
+        .iter()
+        .map(|b| u64::from_le_bytes(b[..8].try_into().expect("8 bytes")) as usize)
+        .collect();
+    comm.set_phase(prev);
+    node_layout_for(comm.size(), opts, Some(&keys))
+}
+
+/// Traffic of every rank since the last call, gathered on rank 0 (collective).
+fn gather_traffic(comm: &dyn Comm) -> Result<Vec<TrafficEntry>> {
+    let mine = comm.end_traffic_step();
+    let mut buf = Vec::with_capacity(mine.len() * 33);
+    for e in &mine {
+        buf.push(Phase::ALL.iter().position(|p| *p == e.phase).unwrap_or(0) as u8);
+        for v in [e.src as u64, e.dst as u64, e.bytes, e.messages] {
+            buf.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    let prev = comm.set_phase(Phase::Output);
+    let all = comm.all_gather_bytes(buf)?;
+    comm.set_phase(prev);
+    let mut out = Vec::new();
+    for b in all {
+        for rec in b.chunks_exact(33) {
+            let w = |k: usize| u64::from_le_bytes(rec[1 + 8 * k..9 + 8 * k].try_into().expect("8 bytes"));
+            out.push(TrafficEntry {
+                phase: Phase::ALL[rec[0] as usize],
+                src: w(0) as usize,
+                dst: w(1) as usize,
+                bytes: w(2),
+                messages: w(3),
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// Running totals of traffic by phase and by intra/inter node (rank 0).
+#[derive(Debug, Default)]
+struct TrafficTotals {
+    /// Per phase: intra-node bytes, inter-node bytes, messages.
+    by_phase: BTreeMap<&'static str, [u64; 3]>,
+}
+
+impl TrafficTotals {
+    fn add(&mut self, e: &TrafficEntry, nodes: &[usize]) {
+        let t = self.by_phase.entry(e.phase.name()).or_default();
+        if nodes[e.src] == nodes[e.dst] {
+            t[0] += e.bytes;
+        } else {
+            t[1] += e.bytes;
+        }
+        t[2] += e.messages;
+    }
+
+    fn json(&self) -> serde_json::Value {
+        let (intra, inter) = self
+            .by_phase
+            .values()
+            .fold((0, 0), |(a, b), t| (a + t[0], b + t[1]));
+        let phases: serde_json::Map<String, serde_json::Value> = self
+            .by_phase
+            .iter()
+            .map(|(k, t)| {
+                (
+                    k.to_string(),
+                    json!({"intra_node_bytes": t[0], "inter_node_bytes": t[1], "messages": t[2]}),
+                )
+            })
+            .collect();
+        json!({"intra_node_bytes": intra, "inter_node_bytes": inter, "phases": phases})
+    }
 }
 
 /// One rank's whole run; `Some(outcome)` on rank 0.
@@ -276,12 +406,30 @@ fn run_dim<const D: usize>(
     let root = comm.rank() == 0;
     let quiet = opts.quiet || !root;
     let threads = rayon::current_num_threads();
-    let mut sim = Simulation::<D>::new(scene, comm)?;
+    let (topology, nodes) = node_layout(comm, opts)?;
+    let layout = Layout {
+        topology,
+        placement: opts.placement,
+    };
+    let mut sim = Simulation::<D>::with_layout(scene, comm, &layout)?;
     let mut writer = if root {
         Some(RunWriter::new(dir, &sim.scene, &diag_header())?)
     } else {
         None
     };
+    let mut totals = TrafficTotals::default();
+    // the set-up's traffic (one step's exchanges at the initial positions) is step 0
+    let traffic = |step: u64, writer: &mut Option<RunWriter>, totals: &mut TrafficTotals| -> Result<()> {
+        let entries = gather_traffic(comm)?;
+        if let Some(w) = writer.as_mut() {
+            for e in &entries {
+                totals.add(e, &nodes);
+            }
+            w.traffic_rows(step, &entries, &nodes)?;
+        }
+        Ok(())
+    };
+    traffic(0, &mut writer, &mut totals)?;
     let mut tracker = Tracker::default();
     let mut n_total = [sim.p.n_owned as u64];
     comm.all_reduce_sum_u64(&mut n_total)?;
@@ -357,6 +505,7 @@ fn run_dim<const D: usize>(
                 next_out += interval;
             }
             output(&mut sim, &mut tracker, &mut writer)?;
+            traffic(sim.step, &mut writer, &mut totals)?;
         }
         progress.update(sim.step, sim.t, scene.time.t_end);
     }
@@ -364,6 +513,7 @@ fn run_dim<const D: usize>(
     let wall = step_start.elapsed().as_secs_f64();
     let r = reduce(&sim, comm)?;
     let final_view = sim.gather(comm)?;
+    traffic(sim.step, &mut writer, &mut totals)?;
     let (Some(view), Some(mut writer)) = (final_view, writer) else {
         return Ok(None);
     };
@@ -406,7 +556,10 @@ fn run_dim<const D: usize>(
         "threads": threads,
         "ranks": comm.size(),
         "backend": backend,
-        "decomposition": sim.decomp.factors().to_vec(),
+        "decomposition": sim.map.decomp.factors().to_vec(),
+        "placement": opts.placement.name(),
+        "nodes": nodes.iter().max().map_or(1, |m| m + 1),
+        "traffic": totals.json(),
         "ghost_fraction": r.remote as f64 / n.max(1) as f64,
         "imbalance": sim.balance.imbalance,
         "migrations": r.migrated,

@@ -16,13 +16,127 @@
 //! anyway: every gather loop sums neighbours by global cell and key.
 
 use crate::comm::{Comm, Phase, Tag};
+use crate::decomp::Decomposition;
 use crate::error::{Error, Result};
 use crate::ghosts::{AxisOp, ImageSpace};
 use crate::particles::{Kind, Particles, IMAGE_BITS};
 use crate::Vector;
 
-/// Axis-aligned boxes of the ranks, `[min, max)` (m), indexed by rank.
-pub type Boxes<const D: usize> = [(Vector<D>, Vector<D>)];
+/// Which rank owns which region: the decomposition's blocks and their placement on ranks.
+#[derive(Debug, Clone)]
+pub struct RankMap<T> {
+    /// The decomposition (blocks and cut planes).
+    pub decomp: T,
+    /// Rank of each block (a permutation, fixed for the run).
+    pub block_to_rank: Vec<usize>,
+}
+
+/// The rank map of a `D`-dimensional run.
+pub type Ranks<const D: usize> = RankMap<Decomposition<D>>;
+
+/// Rank counts up to which destinations are found by testing every rank's box; above, the
+/// decomposition's block search proposes candidates (same exact test, so same result).
+const BRUTE_FORCE_RANKS: usize = 32;
+
+impl<const D: usize> RankMap<Decomposition<D>> {
+    /// Blocks on ranks by `block_to_rank`.
+    pub fn new(decomp: Decomposition<D>, block_to_rank: Vec<usize>) -> Self {
+        RankMap {
+            decomp,
+            block_to_rank,
+        }
+    }
+
+    /// Number of ranks.
+    pub fn ranks(&self) -> usize {
+        self.block_to_rank.len()
+    }
+
+    /// Boxes `[min, max)` (m) of every rank's block, indexed by rank.
+    pub fn boxes(&self) -> Vec<(Vector<D>, Vector<D>)> {
+        let mut out = vec![(Vector::zeros(), Vector::zeros()); self.ranks()];
+        for (b, &r) in self.block_to_rank.iter().enumerate() {
+            out[r] = self.decomp.block_box(b);
+        }
+        out
+    }
+
+    /// The rank that owns position `x` (total: see [`Decomposition::block_of`]).
+    pub fn owner(&self, x: &Vector<D>) -> usize {
+        self.block_to_rank[self.decomp.block_of(x)]
+    }
+
+    /// Every rank whose box widened by `r` contains `x` (ascending), into `out`.
+    pub fn destinations(
+        &self,
+        x: &Vector<D>,
+        r: f64,
+        boxes: &[(Vector<D>, Vector<D>)],
+        out: &mut Vec<usize>,
+    ) {
+        out.clear();
+        if boxes.len() <= BRUTE_FORCE_RANKS {
+            out.extend((0..boxes.len()).filter(|&k| in_widened(x, &boxes[k], r)));
+            return;
+        }
+        // a slightly larger query box makes the candidates a superset despite rounding
+        let w = Vector::<D>::repeat(1.001 * r);
+        for b in self.decomp.blocks_overlapping(&(x - w), &(x + w)) {
+            let k = self.block_to_rank[b];
+            if in_widened(x, &boxes[k], r) {
+                out.push(k);
+            }
+        }
+        out.sort_unstable();
+    }
+}
+
+/// Ghosts each rank sends each other rank (`counts[src * P + dst]`, self-sends included) for
+/// particles at `x` (`fluid[i]`: gets mirror images), owned by `map.owner`: the counting half
+/// of [`HaloPlan::build`] with no communication, so that `hsph plan` predicts a run's halo
+/// traffic exactly.
+pub fn ghost_counts<const D: usize>(
+    x: &[Vector<D>],
+    fluid: &[bool],
+    space: &ImageSpace<D>,
+    map: &Ranks<D>,
+    boxes: &[(Vector<D>, Vector<D>)],
+    support: f64,
+) -> Vec<u64> {
+    let p = map.ranks();
+    let mut counts = vec![0u64; p * p];
+    let mut options: Vec<Vec<AxisOp>> = vec![Vec::with_capacity(3); D];
+    let mut imgs = Vec::with_capacity(8);
+    let mut dst = Vec::new();
+    for (i, xi) in x.iter().enumerate() {
+        let me = map.owner(xi);
+        images(xi, fluid[i], space, support, &mut options, &mut imgs);
+        for ops in &imgs {
+            let plain = ops.iter().all(|o| *o == AxisOp::Keep);
+            let (xg, _) = apply(xi, ops, space);
+            if plain && deep_inside(&xg, &boxes[me], support) {
+                continue;
+            }
+            map.destinations(&xg, support, boxes, &mut dst);
+            for &r in &dst {
+                if !(plain && r == me) {
+                    counts[me * p + r] += 1;
+                }
+            }
+        }
+    }
+    counts
+}
+
+/// Payload bytes of one ghost in the whole-record build message.
+pub fn record_bytes(d: usize) -> u64 {
+    (record_words(d) * 8) as u64
+}
+
+/// Payload bytes of one ghost in a refresh of `fields`.
+pub fn field_bytes(fields: Fields, d: usize) -> u64 {
+    (fields.words(d) * 8) as u64
+}
 
 /// Tags of the halo protocol.
 const TAG_GHOSTS: Tag = 102;
@@ -184,10 +298,11 @@ fn transform<const D: usize>(
     v
 }
 
-/// True if `x` lies in the box widened by `r` (closed).
+/// True if `x` lies in the box `[min, max)` widened by `r`: `min − r ≤ x < max + r` (every
+/// point within `r` of an owned particle, which lies in `[min, max)`, passes).
 #[inline]
 fn in_widened<const D: usize>(x: &Vector<D>, b: &(Vector<D>, Vector<D>), r: f64) -> bool {
-    (0..D).all(|a| x[a] >= b.0[a] - r && x[a] <= b.1[a] + r)
+    (0..D).all(|a| x[a] >= b.0[a] - r && x[a] < b.1[a] + r)
 }
 
 /// True if `x` is farther than `r` from every face of the box (so no other box's widened
@@ -195,18 +310,6 @@ fn in_widened<const D: usize>(x: &Vector<D>, b: &(Vector<D>, Vector<D>), r: f64)
 #[inline]
 fn deep_inside<const D: usize>(x: &Vector<D>, b: &(Vector<D>, Vector<D>), r: f64) -> bool {
     (0..D).all(|a| x[a] - b.0[a] > r && b.1[a] - x[a] > r)
-}
-
-/// The rank whose box `[min, max)` holds `x` (the last box on an upper domain face).
-pub fn owner<const D: usize>(x: &Vector<D>, boxes: &Boxes<D>) -> Option<usize> {
-    boxes
-        .iter()
-        .position(|b| (0..D).all(|a| x[a] >= b.0[a] && x[a] < b.1[a]))
-        .or_else(|| {
-            boxes
-                .iter()
-                .position(|b| (0..D).all(|a| x[a] >= b.0[a] && x[a] <= b.1[a]))
-        })
 }
 
 fn push_f(buf: &mut Vec<u8>, x: f64) {
@@ -324,12 +427,13 @@ impl<const D: usize> HaloPlan<D> {
     }
 
     /// Rebuild every ghost of `p` (dropping the old ones) with every field set: plan, counts,
-    /// whole records. `boxes[r]` is rank r's box; this rank is `comm.rank()`.
+    /// whole records. `boxes[r]` is rank r's box (from `map`); this rank is `comm.rank()`.
     pub fn build(
         &mut self,
         p: &mut Particles<D>,
         space: &ImageSpace<D>,
-        boxes: &Boxes<D>,
+        map: &Ranks<D>,
+        boxes: &[(Vector<D>, Vector<D>)],
         support: f64,
         comm: &dyn Comm,
     ) -> Result<()> {
@@ -340,6 +444,7 @@ impl<const D: usize> HaloPlan<D> {
         let mut per_dst: Vec<Vec<Entry<D>>> = vec![Vec::new(); size];
         let mut options: Vec<Vec<AxisOp>> = vec![Vec::with_capacity(3); D];
         let mut imgs = Vec::with_capacity(8);
+        let mut dst = Vec::new();
         let mine = boxes[me];
         for i in 0..p.n_owned {
             let x = p.x[i];
@@ -357,14 +462,14 @@ impl<const D: usize> HaloPlan<D> {
                 if plain && deep_inside(&xg, &mine, support) {
                     continue;
                 }
-                for (r, b) in boxes.iter().enumerate() {
-                    if (plain && r == me) || !in_widened(&xg, b, support) {
-                        continue;
+                map.destinations(&xg, support, boxes, &mut dst);
+                for &r in &dst {
+                    if !(plain && r == me) {
+                        per_dst[r].push(Entry {
+                            src: i as u32,
+                            ops: *ops,
+                        });
                     }
-                    per_dst[r].push(Entry {
-                        src: i as u32,
-                        ops: *ops,
-                    });
                 }
             }
         }
@@ -373,7 +478,9 @@ impl<const D: usize> HaloPlan<D> {
         for (r, l) in per_dst.iter().enumerate() {
             counts[me * size + r] = l.len() as u64;
         }
+        comm.set_phase(Phase::Other); // counts are not ghost payload
         comm.all_reduce_sum_u64(&mut counts)?;
+        comm.set_phase(Phase::Halo);
         self.inc = (0..size)
             .filter_map(|s| {
                 let n = counts[s * size + me] as usize;
@@ -488,7 +595,12 @@ impl<const D: usize> HaloPlan<D> {
 /// Move every owned particle that left this rank's box to its owner (ghosts must have been
 /// dropped). Returns the number of particles sent. Positions must already be wrapped into
 /// the periodic box; a particle outside every box is an error naming it.
-pub fn migrate<const D: usize>(p: &mut Particles<D>, boxes: &Boxes<D>, comm: &dyn Comm) -> Result<usize> {
+pub fn migrate<const D: usize>(
+    p: &mut Particles<D>,
+    map: &Ranks<D>,
+    boxes: &[(Vector<D>, Vector<D>)],
+    comm: &dyn Comm,
+) -> Result<usize> {
     let me = comm.rank();
     let size = comm.size();
     let prev = comm.set_phase(Phase::Migration);
@@ -500,23 +612,18 @@ pub fn migrate<const D: usize>(p: &mut Particles<D>, boxes: &Boxes<D>, comm: &dy
         if (0..D).all(|a| x[a] >= mine.0[a] && x[a] < mine.1[a]) {
             continue;
         }
-        match owner(x, boxes) {
-            Some(r) if r == me => {}
-            Some(r) => per_dst[r].push(i),
-            None => {
-                return Err(Error::run(format!(
-                    "rank {me}: particle id {} at position {:?} lies in no rank's box",
-                    p.id[i],
-                    x.as_slice()
-                )))
-            }
+        let r = map.owner(x);
+        if r != me {
+            per_dst[r].push(i);
         }
     }
     let mut counts = vec![0u64; size * size];
     for (r, l) in per_dst.iter().enumerate() {
         counts[me * size + r] = l.len() as u64;
     }
+    comm.set_phase(Phase::Other); // counts are not particle payload
     comm.all_reduce_sum_u64(&mut counts)?;
+    comm.set_phase(Phase::Migration);
     let from: Vec<usize> = (0..size)
         .filter(|&s| s != me && counts[s * size + me] > 0)
         .collect();

@@ -23,6 +23,7 @@ pub mod output;
 pub mod particles;
 pub mod physics;
 pub mod placement;
+pub mod plan;
 pub mod probes;
 pub mod progress;
 pub mod reference;

@@ -46,9 +46,10 @@ use std::fmt;
 use std::str::FromStr;
 
 /// How blocks are placed on ranks (see the module docs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
 pub enum Placement {
     /// Block `i` on rank `i`.
+    #[default]
     RankOrder,
     /// Seed 000: fill nodes by distance between block centres.
     CentreDistance,

@@ -16,7 +16,9 @@ use crate::decomp::{factorise, imbalance, BalanceParams, Decomposition};
 use crate::error::{Error, Result};
 use crate::exact::ExactSum;
 use crate::ghosts::{ImageSpace, MirrorPlane};
-use crate::halo::{migrate, pack_owned, unpack_owned, Fields, HaloPlan};
+use crate::halo::{migrate, pack_owned, unpack_owned, Fields, HaloPlan, Ranks};
+use crate::placement::{halo_volumes, place, Placement};
+use crate::topology::Topology;
 
 /// Tag of the output gather.
 const TAG_GATHER: Tag = 110;
@@ -162,9 +164,9 @@ pub struct Simulation<const D: usize> {
     pub nl: NeighbourList,
     /// Halo plan (ghosts from this rank's images and from other ranks).
     pub halo: HaloPlan<D>,
-    /// Decomposition of the domain into one block per rank (block i on rank i).
-    pub decomp: Decomposition<D>,
-    /// Box of every rank (m), from `decomp`.
+    /// Decomposition of the domain into one block per rank and the blocks' ranks.
+    pub map: Ranks<D>,
+    /// Box of every rank (m), from `map`.
     pub boxes: Vec<(Vector<D>, Vector<D>)>,
     /// This rank.
     pub rank: usize,
@@ -191,38 +193,17 @@ impl<const D: usize> Simulation<D> {
     /// the initial rates and time step. Every rank builds the whole lattice and balances the
     /// cut planes on it (identical on every rank, no communication), then keeps its block.
     pub fn new(scene: &Scene, comm: &dyn Comm) -> Result<Self> {
+        Self::with_layout(scene, comm, &Layout::default())
+    }
+
+    /// [`Simulation::new`] with blocks placed on ranks by `layout` (issue 4): the placement
+    /// is computed on every rank from the same particles, so all agree without messages.
+    pub fn with_layout(scene: &Scene, comm: &dyn Comm, layout: &Layout) -> Result<Self> {
         let all = build_particles::<D>(scene)?;
         let (rank, ranks) = (comm.rank(), comm.size());
         let model = Model::<D>::new(scene);
-        let min = Vector::<D>::from_fn(|a, _| scene.domain.min[a]);
-        let max = Vector::<D>::from_fn(|a, _| scene.domain.max[a]);
-        let mut periodic = [false; D];
-        for (a, per) in periodic.iter_mut().enumerate() {
-            *per = scene.domain.periodic[a];
-        }
-        let mut planes = Vec::new();
-        for w in &scene.walls {
-            if w.method != WallMethod::Mirror || w.shape != WallShape::Container {
-                continue;
-            }
-            for a in 0..D {
-                for up in [false, true] {
-                    if w.open
-                        .iter()
-                        .any(|o| crate::scene::face_of(o, D) == Some((a, up)))
-                    {
-                        continue;
-                    }
-                    planes.push(MirrorPlane {
-                        axis: a,
-                        at: if up { w.max[a] } else { w.min[a] },
-                        fluid_above: !up,
-                        wall_velocity: Vector::from_fn(|k, _| w.velocity[k]),
-                        no_slip: w.slip == crate::scene::Slip::NoSlip,
-                    });
-                }
-            }
-        }
+        let space = image_space::<D>(scene);
+        let (min, max) = (space.min, space.max);
         let kinematics = scene
             .walls
             .iter()
@@ -231,23 +212,19 @@ impl<const D: usize> Simulation<D> {
             .collect();
         let grid = CellGrid::new(&min, &max, model.kernel.support);
         let has_dummy = all.kind.contains(&Kind::Dummy);
-        let (decomp, p) = decompose(all, &min, &max, ranks, rank);
-        let boxes = (0..ranks).map(|r| decomp.block_box(r)).collect();
+        let support = model.kernel.support;
+        let (map, p) = decompose(all, &min, &max, ranks, rank, layout, support)?;
+        let boxes = map.boxes();
         let mut sim = Simulation {
             scene: scene.clone(),
             model,
             p,
-            space: ImageSpace {
-                min,
-                max,
-                periodic,
-                planes,
-            },
+            space,
             grid,
             cells: CellList::default(),
             nl: NeighbourList::default(),
             halo: HaloPlan::default(),
-            decomp,
+            map,
             boxes,
             rank,
             ranks,
@@ -263,7 +240,11 @@ impl<const D: usize> Simulation<D> {
         sim.apply_wall_motion(0.0, 0.0);
         sim.check_state()?;
         sim.update_pressure();
+        // the set-up runs the exchange sequence of a whole step (its dρ/dt is recomputed
+        // before use), so its halo traffic is one step's, as `hsph plan` predicts
         sim.rebuild_neighbours(comm)?;
+        sim.density_rate(comm)?;
+        sim.refresh(Fields::RHO.or(Fields::P), comm)?;
         sim.forces(comm)?;
         sim.balance.imbalance = sim.load_imbalance(comm)?;
         sim.dt = sim.next_dt(comm)?;
@@ -303,7 +284,7 @@ impl<const D: usize> Simulation<D> {
         }
         let t0 = Instant::now();
         self.halo
-            .build(&mut self.p, &self.space, &self.boxes, support, comm)?;
+            .build(&mut self.p, &self.space, &self.map, &self.boxes, support, comm)?;
         self.timers.add(3, t0);
         let t0 = Instant::now();
         self.bin()?;
@@ -391,7 +372,7 @@ impl<const D: usize> Simulation<D> {
     fn migrate_and_balance(&mut self, comm: &dyn Comm) -> Result<()> {
         let t0 = Instant::now();
         self.p.truncate_ghosts();
-        self.balance.migrated += migrate(&mut self.p, &self.boxes, comm)? as u64;
+        self.balance.migrated += migrate(&mut self.p, &self.map, &self.boxes, comm)? as u64;
         self.timers.add(4, t0);
         let b = &self.scene.balance;
         if self.ranks == 1 || b.check_every == 0 || self.step % b.check_every != 0 {
@@ -406,7 +387,8 @@ impl<const D: usize> Simulation<D> {
             let x = &self.p.x[..self.p.n_owned];
             let mut err = None;
             let (next, report) =
-                self.decomp
+                self.map
+                    .decomp
                     .rebalance(&BalanceParams::default(), self.scene.discretisation.dx, |stage| {
                         let mut counts = stage.count_local(x.iter().map(|x| (*x, 1u64)));
                         if let Err(e) = comm.all_reduce_sum_u64(&mut counts) {
@@ -420,11 +402,11 @@ impl<const D: usize> Simulation<D> {
             }
             self.balance.max_plane_shift = self.balance.max_plane_shift.max(report.max_displacement());
             self.balance.rebalance_steps.push(self.step);
-            self.decomp = next;
-            self.boxes = (0..self.ranks).map(|r| self.decomp.block_box(r)).collect();
+            self.map.decomp = next;
+            self.boxes = self.map.boxes();
             self.timers.add(5, t0);
             let t1 = Instant::now();
-            self.balance.migrated += migrate(&mut self.p, &self.boxes, comm)? as u64;
+            self.balance.migrated += migrate(&mut self.p, &self.map, &self.boxes, comm)? as u64;
             self.timers.add(4, t1);
             self.balance.imbalance = self.load_imbalance(comm)?;
         } else {
@@ -686,20 +668,99 @@ impl<const D: usize> Simulation<D> {
     }
 }
 
+/// The periodic box and mirror planes of a scene.
+pub fn image_space<const D: usize>(scene: &Scene) -> ImageSpace<D> {
+    let min = Vector::<D>::from_fn(|a, _| scene.domain.min[a]);
+    let max = Vector::<D>::from_fn(|a, _| scene.domain.max[a]);
+    let mut periodic = [false; D];
+    for (a, per) in periodic.iter_mut().enumerate() {
+        *per = scene.domain.periodic[a];
+    }
+    let mut planes = Vec::new();
+    for w in &scene.walls {
+        if w.method != WallMethod::Mirror || w.shape != WallShape::Container {
+            continue;
+        }
+        for a in 0..D {
+            for up in [false, true] {
+                if w.open
+                    .iter()
+                    .any(|o| crate::scene::face_of(o, D) == Some((a, up)))
+                {
+                    continue;
+                }
+                planes.push(MirrorPlane {
+                    axis: a,
+                    at: if up { w.max[a] } else { w.min[a] },
+                    fluid_above: !up,
+                    wall_velocity: Vector::from_fn(|k, _| w.velocity[k]),
+                    no_slip: w.slip == crate::scene::Slip::NoSlip,
+                });
+            }
+        }
+    }
+    ImageSpace {
+        min,
+        max,
+        periodic,
+        planes,
+    }
+}
+
+/// How blocks go on ranks and ranks on nodes (issue 4).
+#[derive(Debug, Clone)]
+pub struct Layout {
+    /// Nodes of the run (virtual or discovered); `None`: all ranks on one node.
+    pub topology: Option<Topology>,
+    /// Placement of blocks on ranks.
+    pub placement: Placement,
+}
+
+impl Default for Layout {
+    fn default() -> Self {
+        Layout {
+            topology: None,
+            placement: Placement::RankOrder,
+        }
+    }
+}
+
 /// Split the whole lattice over `ranks` blocks (factorisation of the particle cloud's extents,
-/// eq. 5 of seed 000, then cut planes balanced on particle counts, eq. 6) and keep block
-/// `rank`'s particles. Every rank computes the same decomposition from the same particles.
-fn decompose<const D: usize>(
+/// eq. 5 of seed 000, then cut planes balanced on particle counts, eq. 6), place the blocks on
+/// ranks and keep rank `rank`'s particles. Every rank computes the same result from the same
+/// particles.
+pub fn decompose<const D: usize>(
     mut all: Particles<D>,
     min: &Vector<D>,
     max: &Vector<D>,
     ranks: usize,
     rank: usize,
-) -> (Decomposition<D>, Particles<D>) {
-    let n = all.n_owned;
+    layout: &Layout,
+    support: f64,
+) -> Result<(Ranks<D>, Particles<D>)> {
+    let map = rank_map(&all.x[..all.n_owned], min, max, ranks, layout, support)?;
+    if ranks > 1 {
+        let keep: Vec<usize> = (0..all.n_owned)
+            .filter(|&i| map.owner(&all.x[i]) == rank)
+            .collect();
+        all.permute_owned(&keep);
+    }
+    Ok((map, all))
+}
+
+/// The decomposition of particles at `x` over `ranks` blocks and the blocks' ranks.
+pub fn rank_map<const D: usize>(
+    x: &[Vector<D>],
+    min: &Vector<D>,
+    max: &Vector<D>,
+    ranks: usize,
+    layout: &Layout,
+    support: f64,
+) -> Result<Ranks<D>> {
+    let n = x.len();
     let mut lo = Vector::<D>::repeat(f64::INFINITY);
     let mut hi = Vector::<D>::repeat(f64::NEG_INFINITY);
-    for x in &all.x[..n] {
+    for x in x {
         lo = lo.inf(x);
         hi = hi.sup(x);
     }
@@ -709,13 +770,16 @@ fn decompose<const D: usize>(
     let f = factorise(ranks, &extents);
     let mut nf = [1usize; D];
     nf.copy_from_slice(&f[..D]);
-    let x = &all.x[..n];
     let (decomp, _) = Decomposition::balance(*min, *max, nf, &BalanceParams::default(), |stage| {
         stage.count_local(x.iter().map(|x| (*x, 1u64)))
     });
-    if ranks > 1 {
-        let keep: Vec<usize> = (0..n).filter(|&i| decomp.block_of(&all.x[i]) == rank).collect();
-        all.permute_owned(&keep);
-    }
-    (decomp, all)
+    let block_to_rank = match (&layout.topology, layout.placement) {
+        (_, Placement::RankOrder) | (None, _) => (0..ranks).collect(),
+        (Some(t), method) => {
+            t.check_ranks(ranks)?;
+            let volumes = halo_volumes(x, &decomp, support);
+            place(&decomp, t, method, &volumes)
+        }
+    };
+    Ok(Ranks::new(decomp, block_to_rank))
 }

@@ -9,6 +9,7 @@
 
 pub mod vtk;
 
+use crate::comm::TrafficEntry;
 use crate::error::{Error, Result};
 use crate::probes;
 use crate::scene::{Scene, SnapshotFormat};
@@ -45,6 +46,7 @@ pub fn prepare_dir(out: Option<&Path>, scene_name: &str, force: bool) -> Result<
                 "timeseries.csv",
                 "diagnostics.csv",
                 "final.csv",
+                "traffic.csv",
             ] {
                 let _ = fs::remove_file(dir.join(name));
             }
@@ -93,6 +95,7 @@ pub struct RunWriter {
     timeseries: BufWriter<File>,
     diagnostics: BufWriter<File>,
     probes: Vec<BufWriter<File>>,
+    traffic: BufWriter<File>,
     snapshots: Vec<(f64, String)>,
     format: SnapshotFormat,
     fields: Vec<String>,
@@ -115,6 +118,12 @@ impl RunWriter {
             .map_err(|e| Error::io(dir, e))?;
         let mut diagnostics = create(&dir.join("diagnostics.csv"))?;
         writeln!(diagnostics, "{diag_header}").map_err(|e| Error::io(dir, e))?;
+        let mut traffic = create(&dir.join("traffic.csv"))?;
+        writeln!(
+            traffic,
+            "step,phase,src_rank,dst_rank,src_node,dst_node,bytes,messages"
+        )
+        .map_err(|e| Error::io(dir, e))?;
         let mut probes = Vec::new();
         if !scene.probes.is_empty() {
             let pd = dir.join("probes");
@@ -133,6 +142,7 @@ impl RunWriter {
             dir: dir.to_path_buf(),
             timeseries,
             diagnostics,
+            traffic,
             probes,
             snapshots: Vec::new(),
             format: scene.output.format,
@@ -179,12 +189,32 @@ impl RunWriter {
         Ok(())
     }
 
+    /// Append the traffic since the previous call, as of `step`, to `traffic.csv`.
+    pub fn traffic_rows(&mut self, step: u64, entries: &[TrafficEntry], nodes: &[usize]) -> Result<()> {
+        for e in entries {
+            writeln!(
+                self.traffic,
+                "{step},{},{},{},{},{},{},{}",
+                e.phase.name(),
+                e.src,
+                e.dst,
+                nodes[e.src],
+                nodes[e.dst],
+                e.bytes,
+                e.messages
+            )
+            .map_err(|e| Error::io(&self.dir, e))?;
+        }
+        Ok(())
+    }
+
     /// Flush the series and write `final.csv`.
     pub fn finish<const D: usize>(&mut self, sim: &View<D>) -> Result<()> {
         let dir = self.dir.clone();
         let io = |e| Error::io(&dir, e);
         self.timeseries.flush().map_err(io)?;
         self.diagnostics.flush().map_err(io)?;
+        self.traffic.flush().map_err(io)?;
         for f in &mut self.probes {
             f.flush().map_err(io)?;
         }

@@ -1,0 +1,221 @@
+//! `hsph plan`: a dry run of the parallel layout. Builds the initial particles, decomposes,
+//! places the blocks on ranks and counts the halo of one step — every exchange the step makes
+//! (ghost build, then the refreshes its passes need) — without running physics or starting
+//! ranks. The count uses the engine's own rule ([`crate::halo::ghost_counts`]), so it equals
+//! the `halo` traffic of a real run's set-up step (`traffic.csv`, step 0) byte for byte.
+
+use crate::error::{Error, Result};
+use crate::halo::{field_bytes, ghost_counts, record_bytes, Fields};
+use crate::particles::Kind;
+use crate::physics::Model;
+use crate::placement::Placement;
+use crate::scene::{DensityDiffusion, Scene};
+use crate::setup::build_particles;
+use crate::sim::{image_space, rank_map, Layout};
+use crate::topology::Topology;
+use serde_json::json;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// What one placement gives.
+#[derive(Debug, Clone)]
+pub struct PlanRow {
+    /// Placement method.
+    pub placement: Placement,
+    /// max/mean owned particles over ranks.
+    pub imbalance: f64,
+    /// Ghosts received from other ranks over all particles.
+    pub ghost_fraction: f64,
+    /// Halo payload bytes of one step between ranks of one node (self-sends included).
+    pub intra_node_bytes: u64,
+    /// Halo payload bytes of one step between ranks of different nodes.
+    pub inter_node_bytes: u64,
+    /// Halo messages of one step.
+    pub messages: u64,
+    /// Unordered pairs of distinct nodes that exchange ghosts.
+    pub node_pairs: usize,
+    /// Largest inter-node halo bytes (sent + received) of any node.
+    pub max_node_inter_bytes: u64,
+    /// Halo bytes per (src rank, dst rank), flat `P × P`.
+    pub bytes: Vec<u64>,
+}
+
+/// The exchanges of one step and their bytes per ghost.
+pub fn step_exchanges(scene: &Scene, dim: usize, has_dummy: bool) -> Vec<(&'static str, u64)> {
+    let mut ex = vec![("build", record_bytes(dim))];
+    if scene.physics.density_diffusion == DensityDiffusion::Antuono {
+        ex.push(("grad_rho", field_bytes(Fields::GRAD_RHO, dim)));
+    }
+    ex.push(("rho_p", field_bytes(Fields::RHO.or(Fields::P), dim)));
+    if has_dummy {
+        ex.push(("wall", field_bytes(Fields::P.or(Fields::RHO).or(Fields::VW), dim)));
+    }
+    ex
+}
+
+/// Plan every placement in `methods` for `ranks` ranks on `topology`.
+pub fn plan(scene: &Scene, ranks: usize, topology: &Topology, methods: &[Placement]) -> Result<Vec<PlanRow>> {
+    topology.check_ranks(ranks)?;
+    match scene.dimension {
+        2 => plan_dim::<2>(scene, ranks, topology, methods),
+        3 => plan_dim::<3>(scene, ranks, topology, methods),
+        d => Err(Error::input("dimension", format!("must be 2 or 3, got {d}"))),
+    }
+}
+
+fn plan_dim<const D: usize>(
+    scene: &Scene,
+    ranks: usize,
+    topology: &Topology,
+    methods: &[Placement],
+) -> Result<Vec<PlanRow>> {
+    let all = build_particles::<D>(scene)?;
+    let n = all.n_owned;
+    let model = Model::<D>::new(scene);
+    let support = model.kernel.support;
+    let space = image_space::<D>(scene);
+    let fluid: Vec<bool> = all.kind.iter().map(|k| *k == Kind::Fluid).collect();
+    let has_dummy = all.kind.contains(&Kind::Dummy);
+    let per_ghost: u64 = step_exchanges(scene, D, has_dummy).iter().map(|e| e.1).sum();
+    let exchanges = step_exchanges(scene, D, has_dummy).len() as u64;
+    let mut rows = Vec::new();
+    for &method in methods {
+        let layout = Layout {
+            topology: Some(topology.clone()),
+            placement: method,
+        };
+        let map = rank_map(&all.x[..n], &space.min, &space.max, ranks, &layout, support)?;
+        let boxes = map.boxes();
+        let counts = ghost_counts(&all.x[..n], &fluid, &space, &map, &boxes, support);
+        let mut owned = vec![0u64; ranks];
+        for x in &all.x[..n] {
+            owned[map.owner(x)] += 1;
+        }
+        let mean = n as f64 / ranks as f64;
+        let imbalance = *owned.iter().max().unwrap_or(&0) as f64 / mean.max(1e-300);
+        let (mut intra, mut inter, mut remote, mut messages) = (0u64, 0u64, 0u64, 0u64);
+        let nodes = topology.nodes();
+        let mut node_pair = vec![0u64; nodes * nodes];
+        let mut node_inter = vec![0u64; nodes];
+        let bytes: Vec<u64> = counts.iter().map(|c| c * per_ghost).collect();
+        for s in 0..ranks {
+            for d in 0..ranks {
+                let c = counts[s * ranks + d];
+                if c == 0 {
+                    continue;
+                }
+                messages += exchanges;
+                if s != d {
+                    remote += c;
+                }
+                let (ns, nd) = (topology.node_of(s), topology.node_of(d));
+                let b = c * per_ghost;
+                if ns == nd {
+                    intra += b;
+                } else {
+                    inter += b;
+                    node_pair[ns.min(nd) * nodes + ns.max(nd)] += b;
+                    node_inter[ns] += b;
+                    node_inter[nd] += b;
+                }
+            }
+        }
+        rows.push(PlanRow {
+            placement: method,
+            imbalance,
+            ghost_fraction: remote as f64 / n.max(1) as f64,
+            intra_node_bytes: intra,
+            inter_node_bytes: inter,
+            messages,
+            node_pairs: node_pair.iter().filter(|&&b| b > 0).count(),
+            max_node_inter_bytes: node_inter.into_iter().max().unwrap_or(0),
+            bytes,
+        });
+    }
+    Ok(rows)
+}
+
+/// The table `hsph plan` prints.
+pub fn table(scene: &Scene, ranks: usize, topology: &Topology, rows: &[PlanRow]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "plan: {} on {ranks} ranks, {} node(s) of {} rank(s) ({}); halo of one step",
+        scene.name,
+        topology.nodes(),
+        topology.ranks_per_node(),
+        topology.name
+    );
+    let _ = writeln!(
+        s,
+        "| placement | imbalance | ghost fraction | intra-node MB | inter-node MB | inter % | node pairs | max node inter MB |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|");
+    for r in rows {
+        let tot = (r.intra_node_bytes + r.inter_node_bytes).max(1) as f64;
+        let _ = writeln!(
+            s,
+            "| {} | {:.4} | {:.4} | {:.3} | {:.3} | {:.1} | {} | {:.3} |",
+            r.placement.name(),
+            r.imbalance,
+            r.ghost_fraction,
+            r.intra_node_bytes as f64 / 1e6,
+            r.inter_node_bytes as f64 / 1e6,
+            100.0 * r.inter_node_bytes as f64 / tot,
+            r.node_pairs,
+            r.max_node_inter_bytes as f64 / 1e6
+        );
+    }
+    s
+}
+
+/// Write `plan.json` and `plan.csv` into `dir`.
+pub fn write(dir: &Path, scene: &Scene, ranks: usize, topology: &Topology, rows: &[PlanRow]) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let list: Vec<serde_json::Value> = rows
+        .iter()
+        .map(|r| {
+            json!({
+                "placement": r.placement.name(),
+                "imbalance": r.imbalance,
+                "ghost_fraction": r.ghost_fraction,
+                "halo_intra_node_bytes": r.intra_node_bytes,
+                "halo_inter_node_bytes": r.inter_node_bytes,
+                "halo_messages": r.messages,
+                "node_pairs": r.node_pairs,
+                "max_node_inter_bytes": r.max_node_inter_bytes,
+                "rank_pair_bytes": r.bytes,
+            })
+        })
+        .collect();
+    let doc = json!({
+        "scene": scene.name,
+        "ranks": ranks,
+        "nodes": topology.nodes(),
+        "ranks_per_node": topology.ranks_per_node(),
+        "topology": topology.name,
+        "placements": list,
+    });
+    let pj = dir.join("plan.json");
+    let text = serde_json::to_string_pretty(&doc).map_err(|e| Error::run(e.to_string()))?;
+    std::fs::write(&pj, text + "\n").map_err(|e| Error::io(&pj, e))?;
+    let mut csv = String::from(
+        "placement,imbalance,ghost_fraction,halo_intra_node_bytes,halo_inter_node_bytes,halo_messages,node_pairs,max_node_inter_bytes\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            csv,
+            "{},{},{},{},{},{},{},{}",
+            r.placement.name(),
+            r.imbalance,
+            r.ghost_fraction,
+            r.intra_node_bytes,
+            r.inter_node_bytes,
+            r.messages,
+            r.node_pairs,
+            r.max_node_inter_bytes
+        );
+    }
+    let pc = dir.join("plan.csv");
+    std::fs::write(&pc, csv).map_err(|e| Error::io(&pc, e))
+}
