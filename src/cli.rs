@@ -215,7 +215,7 @@ fn dispatch(cmd: Command) -> Result<()> {
                     quiet,
                     ranks,
                     backend: backend.into(),
-                    fault: None,
+                    fault: driver::Fault::from_env(),
                     ranks_per_node,
                     topology,
                     placement,

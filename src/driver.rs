@@ -46,6 +46,25 @@ pub struct Fault {
     pub kind: FaultKind,
 }
 
+impl Fault {
+    /// The fault named by the test-only environment variable `HSPH_TEST_FAULT=RANK:STEP:KIND`
+    /// (KIND `panic` or `nan`), so tests can make a rank of an `mpirun` job fail.
+    pub fn from_env() -> Option<Fault> {
+        let v = std::env::var("HSPH_TEST_FAULT").ok()?;
+        let f: Vec<&str> = v.split(':').collect();
+        let kind = match f.get(2).copied() {
+            Some("panic") => FaultKind::Panic,
+            Some("nan") => FaultKind::Nan,
+            _ => return None,
+        };
+        Some(Fault {
+            rank: f.first()?.parse().ok()?,
+            step: f.get(1)?.parse().ok()?,
+            kind,
+        })
+    }
+}
+
 /// How an injected fault fails.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FaultKind {
@@ -188,14 +207,34 @@ fn run_mpi(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
             return Err(Error::input("--out", msg.to_string()));
         }
     };
-    let pool = pool(opts.threads)?;
-    match pool.install(|| run_rank(scene, &dir, &comm, "mpi", opts)) {
+    // MPI calls stay on this (main) thread, so the rank body runs here on the global pool
+    let n = if opts.threads == 0 { cores() } else { opts.threads };
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build_global()
+        .map_err(|e| Error::run(format!("cannot start {n} threads: {e}")))?;
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        run_rank(scene, &dir, &comm, "mpi", opts)
+    }))
+    .unwrap_or_else(|p| {
+        let what = p
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+            .unwrap_or_else(|| "panic".into());
+        Err(Error::run(format!("panicked: {what}")))
+    });
+    match result {
         Ok(Some(out)) => Ok(out),
-        Ok(None) => {
-            // other ranks: nothing to report; exit quietly with success
-            std::process::exit(0)
-        }
-        Err(e) => Err(comm.abort(&format!("rank {}: {e}", comm.rank()))),
+        // other ranks report nothing; MPI is finalised when `comm` drops
+        Ok(None) => Ok(RunOutcome {
+            dir,
+            summary: serde_json::Value::Null,
+            errors: BTreeMap::new(),
+        }),
+        // a layout error is found by every rank alike: exit 2 everywhere, no abort
+        Err(e @ Error::Input { .. }) => Err(e),
+        Err(e) => Err(comm.abort(e.to_string().trim_start_matches("error: "))),
     }
 }
 

@@ -1,0 +1,271 @@
+//! The engine under real MPI (issues 3 and 4): `mpirun -np 4 hsph run` writes the same
+//! `timeseries.csv` and `final.csv` bits as the local back end; ranks find their node through
+//! `MPI_Comm_split_type(SHARED)` — one node by default, two under OpenMPI fake hosts — and
+//! `hsph plan` predicts the first step's halo bytes of those runs exactly; a failing rank
+//! aborts the job with one message naming it. Spawns `mpirun` on the built binary (MPI is
+//! initialised once per process, never inside a test). Compiled only with `--features mpi`.
+#![cfg(feature = "mpi")]
+
+mod common;
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+const HSPH: &str = env!("CARGO_BIN_EXE_hsph");
+
+fn run_with_timeout(mut cmd: Command, secs: u64) -> Output {
+    let mut child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("cannot start mpirun");
+    let t0 = Instant::now();
+    loop {
+        if child.try_wait().expect("wait").is_some() {
+            return child.wait_with_output().expect("output");
+        }
+        if t0.elapsed() > Duration::from_secs(secs) {
+            let _ = child.kill();
+            let out = child.wait_with_output().expect("output");
+            panic!(
+                "hang: no exit within {secs} s\n{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// `mpirun` with the flags these machines need as root with more ranks than cores.
+fn mpirun(np: usize, extra: &[&str], hsph_args: &[&str]) -> Output {
+    let mut cmd = Command::new("mpirun");
+    cmd.args([
+        "--allow-run-as-root",
+        "--oversubscribe",
+        "--bind-to",
+        "none",
+        "-np",
+        &np.to_string(),
+    ])
+    .args(extra)
+    .arg(HSPH)
+    .args(hsph_args);
+    run_with_timeout(cmd, 300)
+}
+
+fn hsph(args: &[&str]) -> Output {
+    let out = Command::new(HSPH).args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "hsph {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+fn read(dir: &Path, name: &str) -> String {
+    fs::read_to_string(dir.join(name)).unwrap_or_else(|e| panic!("{}/{name}: {e}", dir.display()))
+}
+
+fn summary(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&read(dir, "summary.json")).unwrap()
+}
+
+/// Halo bytes (intra, inter) of step 0 in traffic.csv.
+fn halo_step0(dir: &Path) -> (u64, u64) {
+    let (mut a, mut b) = (0, 0);
+    for l in read(dir, "traffic.csv").lines().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        if f[0] == "0" && f[1] == "halo" {
+            let v: u64 = f[6].parse().unwrap();
+            if f[4] == f[5] {
+                a += v
+            } else {
+                b += v
+            }
+        }
+    }
+    (a, b)
+}
+
+/// `hsph plan`'s (intra, inter) halo bytes for one placement.
+fn plan(scene: &str, ranks: usize, per_node: usize, placement: &str, sets: &[&str]) -> (u64, u64) {
+    let dir = common::temp_dir("mpi-plan");
+    let (r, k) = (ranks.to_string(), per_node.to_string());
+    let mut args = vec![
+        "plan",
+        scene,
+        "--ranks",
+        &r,
+        "--ranks-per-node",
+        &k,
+        "--placement",
+        placement,
+    ];
+    let d = dir.to_str().unwrap().to_string();
+    args.extend(["--out", &d]);
+    for s in sets {
+        args.extend(["--set", s]);
+    }
+    hsph(&args);
+    let p: serde_json::Value = serde_json::from_str(&read(&dir, "plan.json")).unwrap();
+    let row = &p["placements"][0];
+    (
+        row["halo_intra_node_bytes"].as_u64().unwrap(),
+        row["halo_inter_node_bytes"].as_u64().unwrap(),
+    )
+}
+
+fn out_dir(tag: &str) -> PathBuf {
+    common::temp_dir(tag).join("run")
+}
+
+#[test]
+fn mpi_runs_give_the_local_back_ends_bits() {
+    for (scene, sets) in [
+        (
+            "inputs/dam_break_2d.toml",
+            vec![
+                "time.t_end=0.05",
+                "balance.check_every=5",
+                "balance.threshold=1.02",
+            ],
+        ),
+        (
+            "inputs/poiseuille_2d.toml",
+            vec!["time.t_end=0.05", "reference.times=[0.05]"],
+        ),
+        (
+            "tests/data/dam_break_3d_small.toml",
+            vec!["time.t_end=0.05", "balance.check_every=5"],
+        ),
+    ] {
+        let path = common::repo_path(scene);
+        let path = path.to_str().unwrap();
+        let mut args = vec!["run", path, "-q", "--threads", "1"];
+        for s in &sets {
+            args.extend(["--set", s]);
+        }
+        let local = out_dir("mpi-local");
+        let mut la = args.clone();
+        let lo = local.to_str().unwrap().to_string();
+        la.extend(["--ranks", "4", "--out", &lo]);
+        hsph(&la);
+        let mpi = out_dir("mpi-run");
+        let mo = mpi.to_str().unwrap().to_string();
+        let mut ma = args.clone();
+        ma.extend(["--out", &mo]);
+        let out = mpirun(4, &[], &ma);
+        assert!(
+            out.status.success(),
+            "{scene}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let s = summary(&mpi);
+        assert_eq!(s["backend"], "mpi");
+        assert_eq!(s["ranks"], 4);
+        assert_eq!(s["nodes"], 1, "one machine is one shared-memory node");
+        assert!(
+            read(&mpi, "timeseries.csv") == read(&local, "timeseries.csv"),
+            "{scene}: timeseries differs"
+        );
+        assert!(
+            read(&mpi, "final.csv") == read(&local, "final.csv"),
+            "{scene}: final.csv differs"
+        );
+    }
+}
+
+#[test]
+fn plan_predicts_mpi_halo_bytes_with_virtual_and_fake_nodes() {
+    let scene = common::repo_path("inputs/dam_break_2d.toml");
+    let scene = scene.to_str().unwrap();
+    let sets = ["time.t_end=0.005"];
+    let predicted = plan(scene, 4, 2, "centre-distance", &sets);
+    // 1. virtual nodes on one real node
+    let dir = out_dir("mpi-virtual");
+    let d = dir.to_str().unwrap();
+    let args = [
+        "run",
+        scene,
+        "-q",
+        "--threads",
+        "1",
+        "--set",
+        sets[0],
+        "--ranks-per-node",
+        "2",
+        "--placement",
+        "centre-distance",
+        "--out",
+        d,
+    ];
+    let out = mpirun(4, &[], &args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(summary(&dir)["nodes"], 2);
+    assert_eq!(halo_step0(&dir), predicted, "virtual nodes: plan vs run");
+    // 2. two fake hosts: one orted each, so split_shared finds two nodes by itself
+    let fake = common::temp_dir("mpi-fakenodes");
+    let agent = common::repo_path("tests/mpi/fakessh");
+    let dir = out_dir("mpi-fake");
+    let d = dir.to_str().unwrap();
+    let args = [
+        "run",
+        scene,
+        "-q",
+        "--threads",
+        "1",
+        "--set",
+        sets[0],
+        "--placement",
+        "centre-distance",
+        "--out",
+        d,
+    ];
+    let mut cmd_extra = vec![
+        "--host",
+        "nodeA:2,nodeB:2",
+        "--map-by",
+        "slot",
+        "--mca",
+        "plm_rsh_agent",
+    ];
+    let agent = agent.to_str().unwrap().to_string();
+    cmd_extra.push(&agent);
+    std::env::set_var("FAKENODE_TMP_BASE", &fake);
+    let out = mpirun(4, &cmd_extra, &args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let s = summary(&dir);
+    assert_eq!(s["nodes"], 2, "split_shared must find the two fake hosts");
+    assert_eq!(halo_step0(&dir), predicted, "fake nodes: plan vs run");
+    assert!(s["traffic"]["inter_node_bytes"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn a_failing_mpi_rank_aborts_the_job_naming_it() {
+    let scene = common::repo_path("inputs/dam_break_2d.toml");
+    let scene = scene.to_str().unwrap();
+    let dir = out_dir("mpi-fault");
+    let d = dir.to_str().unwrap();
+    let args = [
+        "run",
+        scene,
+        "-q",
+        "--threads",
+        "1",
+        "--set",
+        "time.t_end=0.05",
+        "--out",
+        d,
+    ];
+    let out = mpirun(4, &["-x", "HSPH_TEST_FAULT=2:5:nan"], &args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("rank 2") && err.contains("step 5") && err.contains("particle id"),
+        "{err}"
+    );
+    assert!(!dir.join("summary.json").exists());
+}
