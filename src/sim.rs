@@ -12,7 +12,7 @@
 use crate::cells::{CellGrid, CellList, NeighbourList};
 use crate::comm::Tag;
 use crate::comm::{Comm, Phase};
-use crate::decomp::{factorise, imbalance, BalanceParams, Decomposition};
+use crate::decomp::{factorise, imbalance, imbalance_weighted, BalanceParams, Decomposition};
 use crate::error::{Error, Result};
 use crate::exact::ExactSum;
 use crate::ghosts::{ImageSpace, MirrorPlane};
@@ -24,7 +24,7 @@ use crate::topology::Topology;
 const TAG_GATHER: Tag = 110;
 use crate::particles::{Kind, Particles};
 use crate::physics::{delta, fluid, walls, Model};
-use crate::scene::{DensityDiffusion, Motion, Scene, WallMethod, WallShape};
+use crate::scene::{DensityDiffusion, LoadKind, Motion, Scene, WallMethod, WallShape};
 use crate::setup::build_particles;
 use crate::Vector;
 use rayon::prelude::*;
@@ -359,59 +359,84 @@ impl<const D: usize> Simulation<D> {
     /// max/mean of the owned-particle counts over ranks.
     fn load_imbalance(&self, comm: &dyn Comm) -> Result<f64> {
         let mut loads = vec![0u64; self.ranks];
-        loads[self.rank] = self.p.n_owned as u64;
+        loads[self.rank] = self.particle_loads().iter().sum();
         let prev = comm.set_phase(Phase::Balance);
         comm.all_reduce_sum_u64(&mut loads)?;
         comm.set_phase(prev);
-        Ok(imbalance(&loads))
+        Ok(match self.rank_weights() {
+            Some(w) => imbalance_weighted(&loads, &w),
+            None => imbalance(&loads),
+        })
     }
 
-    /// Migrate particles that left this rank's box; every `check_every` steps check the load
-    /// balance and, above the threshold, move the cut planes (starting from the current ones)
-    /// and migrate again.
-    fn migrate_and_balance(&mut self, comm: &dyn Comm) -> Result<()> {
-        let t0 = Instant::now();
-        self.p.truncate_ghosts();
-        self.balance.migrated += migrate(&mut self.p, &self.map, &self.boxes, comm)? as u64;
-        self.timers.add(4, t0);
-        let b = &self.scene.balance;
-        if self.ranks == 1 || b.check_every == 0 || self.step % b.check_every != 0 {
-            return Ok(());
+    /// Load of each owned particle (`[balance] load`): 1, or 1 + its neighbour count from the
+    /// last neighbour search (valid until particles migrate).
+    fn particle_loads(&self) -> Vec<u64> {
+        let n = self.p.n_owned;
+        match self.scene.balance.load {
+            LoadKind::Pairs if self.nl.start.len() == n + 1 => {
+                (0..n).map(|i| 1 + (self.nl.start[i + 1] - self.nl.start[i]) as u64).collect()
+            }
+            _ => vec![1; n],
         }
-        let t0 = Instant::now();
-        self.balance.checks += 1;
-        let imb = self.load_imbalance(comm)?;
-        self.balance.imbalance = imb;
-        if imb > b.threshold {
-            let prev = comm.set_phase(Phase::Balance);
-            let x = &self.p.x[..self.p.n_owned];
-            let mut err = None;
-            let (next, report) =
-                self.map
-                    .decomp
-                    .rebalance(&BalanceParams::default(), self.scene.discretisation.dx, |stage| {
-                        let mut counts = stage.count_local(x.iter().map(|x| (*x, 1u64)));
+    }
+
+    /// Relative speed of each rank (`[balance] weights`), if given.
+    fn rank_weights(&self) -> Option<Vec<f64>> {
+        let w = &self.scene.balance.weights;
+        (!w.is_empty()).then(|| (0..self.ranks).map(|r| w[r % w.len()]).collect())
+    }
+
+    /// Every `check_every` steps, check the load balance and, above the threshold, move the
+    /// cut planes (starting from the current ones); then migrate every particle that left this
+    /// rank's box, once.
+    fn migrate_and_balance(&mut self, comm: &dyn Comm) -> Result<()> {
+        let b = &self.scene.balance;
+        if self.ranks > 1 && b.check_every > 0 && self.step % b.check_every == 0 {
+            let t0 = Instant::now();
+            self.balance.checks += 1;
+            // loads are taken before migration, while the neighbour lists match the particles
+            let imb = self.load_imbalance(comm)?;
+            self.balance.imbalance = imb;
+            if imb > b.threshold {
+                let loads = self.particle_loads();
+                let params = BalanceParams {
+                    weights: self.rank_weights().map(|w| {
+                        (0..self.ranks).map(|blk| w[self.map.block_to_rank[blk]]).collect()
+                    }),
+                    ..BalanceParams::default()
+                };
+                let prev = comm.set_phase(Phase::Balance);
+                let x = &self.p.x[..self.p.n_owned];
+                let mut err = None;
+                let (next, report) =
+                    self.map.decomp.rebalance(&params, self.scene.discretisation.dx, |stage| {
+                        let mut counts = stage.count_local(x.iter().zip(&loads).map(|(x, w)| (*x, *w)));
                         if let Err(e) = comm.all_reduce_sum_u64(&mut counts) {
                             err.get_or_insert(e);
                         }
                         counts
                     });
-            comm.set_phase(prev);
-            if let Some(e) = err {
-                return Err(e);
+                comm.set_phase(prev);
+                if let Some(e) = err {
+                    return Err(e);
+                }
+                self.balance.max_plane_shift = self.balance.max_plane_shift.max(report.max_displacement());
+                self.balance.rebalance_steps.push(self.step);
+                // the last counting round gives every block's load: no extra message
+                self.balance.imbalance = match &params.weights {
+                    Some(w) => imbalance_weighted(&report.block_loads, w),
+                    None => report.imbalance(),
+                };
+                self.map.decomp = next;
+                self.boxes = self.map.boxes();
             }
-            self.balance.max_plane_shift = self.balance.max_plane_shift.max(report.max_displacement());
-            self.balance.rebalance_steps.push(self.step);
-            self.map.decomp = next;
-            self.boxes = self.map.boxes();
-            self.timers.add(5, t0);
-            let t1 = Instant::now();
-            self.balance.migrated += migrate(&mut self.p, &self.map, &self.boxes, comm)? as u64;
-            self.timers.add(4, t1);
-            self.balance.imbalance = self.load_imbalance(comm)?;
-        } else {
             self.timers.add(5, t0);
         }
+        let t0 = Instant::now();
+        self.p.truncate_ghosts();
+        self.balance.migrated += migrate(&mut self.p, &self.map, &self.boxes, comm)? as u64;
+        self.timers.add(4, t0);
         Ok(())
     }
 

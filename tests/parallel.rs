@@ -271,3 +271,33 @@ fn a_particle_blowing_up_names_rank_step_id_and_position() {
     assert!(msg.contains("particle id"), "{msg}");
     assert!(msg.contains("position"), "{msg}");
 }
+
+#[test]
+fn speed_weights_and_pair_loads_shape_the_balance() {
+    // rank 1 is declared three times as fast: after the first check it owns ~3× the load
+    for load in ["particles", "pairs"] {
+        let s = scene(
+            "inputs/dam_break_2d.toml",
+            &[
+                "balance.check_every=5",
+                "balance.threshold=1.02",
+                "balance.weights=[1.0,3.0]",
+                &format!("balance.load=\"{load}\""),
+            ],
+        );
+        let loads = run_local(2, 1, |comm| {
+            let mut sim = Simulation::<2>::new(&s, comm)?;
+            for _ in 0..6 {
+                sim.advance(comm)?;
+            }
+            let n = sim.p.n_owned;
+            let pairs: usize = (0..n).map(|i| 1 + sim.nl.of(i).len()).sum();
+            Ok((n, pairs, sim.balance.rebalance_steps.len()))
+        })
+        .unwrap();
+        assert!(loads.iter().all(|l| l.2 >= 1), "{load}: no rebalance: {loads:?}");
+        let (a, b) = if load == "pairs" { (loads[0].1, loads[1].1) } else { (loads[0].0, loads[1].0) };
+        let ratio = b as f64 / a as f64;
+        assert!((ratio - 3.0).abs() < 0.3, "{load}: load ratio {ratio} for speeds 1:3 ({loads:?})");
+    }
+}

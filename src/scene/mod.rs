@@ -68,6 +68,24 @@ pub struct Balance {
     /// Rebalance when max/mean load exceeds this (≥ 1).
     #[serde(default = "default_threshold")]
     pub threshold: f64,
+    /// What a particle weighs: `particles` (1 each) or `pairs` (1 + its neighbour count,
+    /// from the last neighbour search; the initial split uses particle counts).
+    #[serde(default)]
+    pub load: LoadKind,
+    /// Relative speed of each rank (empty: all equal); target loads are proportional.
+    #[serde(default)]
+    pub weights: Vec<f64>,
+}
+
+/// Load measure of the domain decomposition.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum LoadKind {
+    /// Every particle weighs 1.
+    #[default]
+    Particles,
+    /// A particle weighs 1 + its neighbour count (the cost of its force loop).
+    Pairs,
 }
 
 fn default_check_every() -> u64 {
@@ -82,6 +100,8 @@ impl Default for Balance {
         Balance {
             check_every: default_check_every(),
             threshold: default_threshold(),
+            load: LoadKind::Particles,
+            weights: Vec::new(),
         }
     }
 }

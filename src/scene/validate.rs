@@ -324,6 +324,9 @@ pub fn validate(s: &mut Scene) -> Result<()> {
             ),
         );
     }
+    if let Some((k, w)) = s.balance.weights.iter().enumerate().find(|(_, w)| !(**w > 0.0 && w.is_finite())) {
+        return err(format!("balance.weights[{k}]"), format!("must be a positive relative speed, got {w}"));
+    }
     validate_probes(s)?;
     validate_reference(s)?;
     check_sound_speed(s)
