@@ -265,7 +265,7 @@ fn centre_distance<const D: usize>(decomp: &Decomposition<D>, topology: &Topolog
         // Seed: smallest centre in (x, y, z) order; ties by block number (the first found).
         let mut seed = None::<usize>;
         for b in (0..p).filter(|&b| free[b]) {
-            if seed.map_or(true, |s| lex(&centres[b], &centres[s]).is_lt()) {
+            if seed.is_none_or(|s| lex(&centres[b], &centres[s]).is_lt()) {
                 seed = Some(b);
             }
         }
@@ -384,7 +384,7 @@ fn min_cut<const D: usize>(decomp: &Decomposition<D>, topology: &Topology, w: &P
         let node = refine(nodes_of(s, topology), topology.nodes(), w);
         let c = cut(&node, w);
         // Strictly better only: ties keep the earlier start (centre-distance, node-grid, rank-order).
-        if best.as_ref().map_or(true, |(bc, _)| c < *bc) {
+        if best.as_ref().is_none_or(|(bc, _)| c < *bc) {
             best = Some((c, node));
         }
     }
@@ -449,7 +449,7 @@ fn refine(mut node: Vec<usize>, nodes: usize, w: &PairVolumes) -> Vec<usize> {
                     let gain = ext[a * nodes + nb] - ext[a * nodes + na] + ext[b * nodes + na]
                         - ext[b * nodes + nb]
                         - 2 * edge(a, b);
-                    if best.map_or(true, |(g, _, _)| gain > g) {
+                    if best.is_none_or(|(g, _, _)| gain > g) {
                         best = Some((gain, a, b));
                     }
                 }

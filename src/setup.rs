@@ -53,8 +53,8 @@ impl<const D: usize> Lattice<D> {
         let mut idx: Vec<u64> = r.iter().map(|(lo, _)| *lo).collect();
         loop {
             let mut id = 0u64;
-            for a in 0..D {
-                id = id * self.n[a] + idx[a];
+            for (na, ia) in self.n.iter().zip(&idx) {
+                id = id * na + ia;
             }
             let x = Vector::from_fn(|a, _| self.origin[a] + (idx[a] as f64 + 0.5) * self.dx);
             f(id, x);

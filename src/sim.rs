@@ -374,9 +374,9 @@ impl<const D: usize> Simulation<D> {
     fn particle_loads(&self) -> Vec<u64> {
         let n = self.p.n_owned;
         match self.scene.balance.load {
-            LoadKind::Pairs if self.nl.start.len() == n + 1 => {
-                (0..n).map(|i| 1 + (self.nl.start[i + 1] - self.nl.start[i]) as u64).collect()
-            }
+            LoadKind::Pairs if self.nl.start.len() == n + 1 => (0..n)
+                .map(|i| 1 + (self.nl.start[i + 1] - self.nl.start[i]) as u64)
+                .collect(),
             _ => vec![1; n],
         }
     }
@@ -402,7 +402,9 @@ impl<const D: usize> Simulation<D> {
                 let loads = self.particle_loads();
                 let params = BalanceParams {
                     weights: self.rank_weights().map(|w| {
-                        (0..self.ranks).map(|blk| w[self.map.block_to_rank[blk]]).collect()
+                        (0..self.ranks)
+                            .map(|blk| w[self.map.block_to_rank[blk]])
+                            .collect()
                     }),
                     ..BalanceParams::default()
                 };
@@ -410,13 +412,15 @@ impl<const D: usize> Simulation<D> {
                 let x = &self.p.x[..self.p.n_owned];
                 let mut err = None;
                 let (next, report) =
-                    self.map.decomp.rebalance(&params, self.scene.discretisation.dx, |stage| {
-                        let mut counts = stage.count_local(x.iter().zip(&loads).map(|(x, w)| (*x, *w)));
-                        if let Err(e) = comm.all_reduce_sum_u64(&mut counts) {
-                            err.get_or_insert(e);
-                        }
-                        counts
-                    });
+                    self.map
+                        .decomp
+                        .rebalance(&params, self.scene.discretisation.dx, |stage| {
+                            let mut counts = stage.count_local(x.iter().zip(&loads).map(|(x, w)| (*x, *w)));
+                            if let Err(e) = comm.all_reduce_sum_u64(&mut counts) {
+                                err.get_or_insert(e);
+                            }
+                            counts
+                        });
                 comm.set_phase(prev);
                 if let Some(e) = err {
                     return Err(e);
@@ -618,8 +622,8 @@ impl<const D: usize> Simulation<D> {
             }
             let v2 = p.v[i].norm_squared();
             sums[D].add(0.5 * p.mass[i] * v2);
-            for a in 0..D {
-                sums[a].add(p.mass[i] * p.v[i][a]);
+            for (a, sum) in sums[..D].iter_mut().enumerate() {
+                sum.add(p.mass[i] * p.v[i][a]);
             }
             vmax = vmax.max(v2.sqrt());
         }

@@ -296,8 +296,15 @@ fn speed_weights_and_pair_loads_shape_the_balance() {
         })
         .unwrap();
         assert!(loads.iter().all(|l| l.2 >= 1), "{load}: no rebalance: {loads:?}");
-        let (a, b) = if load == "pairs" { (loads[0].1, loads[1].1) } else { (loads[0].0, loads[1].0) };
+        let (a, b) = if load == "pairs" {
+            (loads[0].1, loads[1].1)
+        } else {
+            (loads[0].0, loads[1].0)
+        };
         let ratio = b as f64 / a as f64;
-        assert!((ratio - 3.0).abs() < 0.3, "{load}: load ratio {ratio} for speeds 1:3 ({loads:?})");
+        assert!(
+            (ratio - 3.0).abs() < 0.3,
+            "{load}: load ratio {ratio} for speeds 1:3 ({loads:?})"
+        );
     }
 }

@@ -119,7 +119,7 @@ impl TrafficLog {
     pub fn total_of(&self, phase: Option<Phase>) -> (u64, u64) {
         self.total
             .iter()
-            .filter(|((p, _), _)| phase.map_or(true, |q| *p == q))
+            .filter(|((p, _), _)| phase.is_none_or(|q| *p == q))
             .fold((0, 0), |(b, n), (_, &(db, dn))| (b + db, n + dn))
     }
 }

@@ -324,8 +324,17 @@ pub fn validate(s: &mut Scene) -> Result<()> {
             ),
         );
     }
-    if let Some((k, w)) = s.balance.weights.iter().enumerate().find(|(_, w)| !(**w > 0.0 && w.is_finite())) {
-        return err(format!("balance.weights[{k}]"), format!("must be a positive relative speed, got {w}"));
+    if let Some((k, w)) = s
+        .balance
+        .weights
+        .iter()
+        .enumerate()
+        .find(|(_, w)| !(**w > 0.0 && w.is_finite()))
+    {
+        return err(
+            format!("balance.weights[{k}]"),
+            format!("must be a positive relative speed, got {w}"),
+        );
     }
     validate_probes(s)?;
     validate_reference(s)?;
@@ -480,8 +489,8 @@ pub fn expected_speed(s: &Scene) -> f64 {
         for f in &s.fluids {
             // extreme corners of the box along ĝ
             let (mut a, mut b) = (0.0, 0.0);
-            for ax in 0..d {
-                let e = g[ax] / gmag;
+            for (ax, gx) in g.iter().enumerate().take(d) {
+                let e = gx / gmag;
                 a += (f.min[ax] * e).min(f.max[ax] * e);
                 b += (f.min[ax] * e).max(f.max[ax] * e);
             }
