@@ -71,7 +71,11 @@ impl MpiComm {
         let rank = world.rank() as usize;
         let node = world.split_shared(world.rank());
         let mut lowest: mpi::Rank = 0;
-        node.all_reduce_into(&world.rank(), &mut lowest, mpi::collective::SystemOperation::min());
+        node.all_reduce_into(
+            &world.rank(),
+            &mut lowest,
+            mpi::collective::SystemOperation::min(),
+        );
         Ok(MpiComm {
             rank,
             size: world.size() as usize,
