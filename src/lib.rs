@@ -26,6 +26,7 @@ pub mod placement;
 pub mod probes;
 pub mod progress;
 pub mod reference;
+pub mod report;
 pub mod scene;
 pub mod setup;
 pub mod sim;
