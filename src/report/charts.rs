@@ -120,22 +120,26 @@ pub fn traffic_heatmap(
         .map(|i| i as f64 + 0.5)
         .collect();
     let n = p as f64;
+    let caption = if order.iter().enumerate().all(|(i, &r)| i == r) {
+        "Rank-pair traffic, all phases (bytes)"
+    } else {
+        "Rank-pair traffic, all phases (bytes; ranks grouped by node)"
+    };
     both!(dir, "traffic_heatmap", (760, 640), |root| {
         root.fill(&WHITE)?;
         let (main, bar) = root.split_horizontally(640);
         let mut ch = ChartBuilder::on(&main)
-            .caption("Rank-pair traffic, all phases (bytes)", font(20))
+            .caption(caption, font(20))
             .margin(10)
             .x_label_area_size(45)
             .y_label_area_size(55)
             .build_cartesian_2d(-0.5..n - 0.5, -0.5..n - 0.5)?;
-        let label = |v: &f64, flip: bool| {
+        let label = |v: &f64| {
             let i = v.round();
             if (v - i).abs() > 1e-6 || i < 0.0 || i >= n {
                 return String::new();
             }
-            let i = i as usize;
-            order[if flip { p - 1 - i } else { i }].to_string()
+            order[i as usize].to_string()
         };
         ch.configure_mesh()
             .disable_mesh()
@@ -143,31 +147,22 @@ pub fn traffic_heatmap(
             .y_desc("source rank")
             .x_labels(p.min(16) + 1)
             .y_labels(p.min(16) + 1)
-            .x_label_formatter(&|v| label(v, false))
-            .y_label_formatter(&|v| label(v, true))
+            .x_label_formatter(&label)
+            .y_label_formatter(&label)
             .label_style(font(13))
             .axis_desc_style(font(15))
             .draw()?;
-        // row i (source) drawn at y = p - 1 - i so that rank 0 is at the top
+        let span = |k: usize| ((k * bin) as f64 - 0.5, (((k + 1) * bin).min(p)) as f64 - 0.5);
         ch.draw_series(cells.iter().map(|(&(i, j), &b)| {
-            let (x0, x1) = ((j * bin) as f64 - 0.5, (((j + 1) * bin).min(p)) as f64 - 0.5);
-            let (y1, y0) = (
-                n - 1.0 - (i * bin) as f64 + 0.5,
-                n - 1.0 - (((i + 1) * bin).min(p)) as f64 + 0.5,
-            );
+            let ((x0, x1), (y0, y1)) = (span(j), span(i));
             Rectangle::new([(x0, y0), (x1, y1)], colour(b).filled())
         }))?;
         let line = BLACK.stroke_width(2);
         for &b in &boundaries {
-            ch.draw_series(std::iter::once(PathElement::new(
-                vec![(b, -0.5), (b, n - 0.5)],
-                line,
-            )))?;
-            let y = n - 1.0 - b;
-            ch.draw_series(std::iter::once(PathElement::new(
-                vec![(-0.5, y), (n - 0.5, y)],
-                line,
-            )))?;
+            ch.draw_series([
+                PathElement::new(vec![(b, -0.5), (b, n - 0.5)], line),
+                PathElement::new(vec![(-0.5, b), (n - 0.5, b)], line),
+            ])?;
         }
         // colour bar
         let mut cb = ChartBuilder::on(&bar)

@@ -115,6 +115,15 @@ pub fn traffic_by_interval(rows: &[TrafficRow]) -> Vec<(u64, u64, u64)> {
     m.into_iter().map(|(s, (a, b))| (s, a, b)).collect()
 }
 
+/// A fixed-point number without trailing zeros: `0.040000` → `0.04`.
+fn trim(t: String) -> String {
+    if t.contains('.') {
+        t.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        t
+    }
+}
+
 /// `x` as a percentage with two decimals, e.g. `12.62 %`.
 pub fn percent(x: f64) -> String {
     format!("{:.2} %", 100.0 * x)
@@ -194,7 +203,7 @@ pub fn run_markdown(run: &Run, charts: &[(&str, &str)]) -> String {
         format!(
             "{}, {} s",
             opt(run.num("steps"), |x| format!("{x:.0}")),
-            opt(run.num("t"), |x| format!("{x}"))
+            opt(run.num("t"), |x| trim(format!("{x:.6}")))
         ),
     );
     row("ranks", format!("{}", run.ranks()));
@@ -440,5 +449,41 @@ mod tests {
             row(10, 1, 0, 1),
         ];
         assert_eq!(traffic_by_interval(&rows), vec![(10, 5, 8), (20, 3, 0)]);
+    }
+
+    /// 96 ranks on 4 nodes given round-robin (not consecutive): the heat map orders ranks by
+    /// node; 1024 ranks are binned. Both render to valid files.
+    #[test]
+    fn report_heatmap_many_ranks() {
+        let dir = std::env::temp_dir().join(format!("hsph-report-heatmap-{}", std::process::id()));
+        for (p, per_node) in [(96usize, 24usize), (1024, 256)] {
+            let node = |r: usize| if p == 96 { r % 4 } else { r / per_node };
+            let mut rows = Vec::new();
+            for s in 0..p {
+                for d in [s.wrapping_sub(1), s + 1, s + 4] {
+                    if d < p {
+                        rows.push(TrafficRow {
+                            step: 10,
+                            phase: "halo".into(),
+                            src_rank: s,
+                            dst_rank: d,
+                            src_node: node(s),
+                            dst_node: node(d),
+                            bytes: 1000 + 10 * (s as u64 % 7),
+                            messages: 1,
+                        });
+                    }
+                }
+            }
+            let nodes: Vec<usize> = (0..p).map(node).collect();
+            let out = dir.join(p.to_string());
+            std::fs::create_dir_all(&out).unwrap();
+            let files = charts::traffic_heatmap(&out, p, &nodes, &rows).unwrap();
+            for f in files {
+                let b = std::fs::read(&f).unwrap();
+                assert!(b.len() > 1000, "{}", f.display());
+            }
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
