@@ -6,6 +6,7 @@
 use crate::bench::{self, BenchOptions};
 use crate::driver::{self, RunOptions};
 use crate::error::{Error, Result};
+use crate::report;
 use crate::scene::{load_scene, Scene, SceneSource};
 use clap::{Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
@@ -159,6 +160,26 @@ Examples:
         #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
         set: Vec<String>,
     },
+    /// Charts (PNG, SVG) and a markdown summary of a finished run, or several runs compared.
+    #[command(after_help = "\
+Writes into RUNDIR/report/ (or --out): traffic_heatmap, traffic_time, ghosts_imbalance and
+phase_times as .png and .svg, and report.md. With --compare (default --out report-compare):
+compare.md (a table) and compare.png/.svg (bars per run).
+
+Examples:
+  hsph report runs/dam_break_3d-20250101T120000Z
+  hsph report --compare runs/rank-order runs/centre-distance --out runs/placements")]
+    Report {
+        /// Run directory (several with --compare).
+        #[arg(required = true, value_name = "RUNDIR")]
+        runs: Vec<PathBuf>,
+        /// Set several runs side by side (layouts, placements, scaling).
+        #[arg(long)]
+        compare: bool,
+        /// Output directory.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
 }
 
 /// Entry point of the binary: parse, dispatch, print any error and return the exit status.
@@ -284,6 +305,7 @@ fn dispatch(cmd: Command) -> Result<()> {
             print!("{}", bench::table(&rows));
             Ok(())
         }
+        Command::Report { runs, compare, out } => report::command(&runs, compare, out.as_deref()).map(|_| ()),
     }
 }
 

@@ -27,6 +27,7 @@ pub mod plan;
 pub mod probes;
 pub mod progress;
 pub mod reference;
+pub mod report;
 pub mod scene;
 pub mod setup;
 pub mod sim;
