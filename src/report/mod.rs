@@ -227,7 +227,7 @@ pub fn run_markdown(run: &Run, charts: &[(&str, &str)]) -> String {
         "ghost fraction (remote ghosts / particles)",
         opt(run.num("ghost_fraction"), percent),
     );
-    row("load imbalance (final)", opt(run.num("imbalance"), percent));
+    row("load imbalance (final, max/mean)", opt(run.num("imbalance"), |x| format!("{x:.4}")));
     row(
         "communication fraction (halo + migration / wall)",
         opt(run.num("communication_fraction"), percent),
@@ -396,7 +396,7 @@ pub fn compare_markdown(rows: &[CompareRow]) -> String {
             r.placement,
             opt(r.rate, |x| format!("{x:.3e}")),
             opt(r.ghost_fraction, percent),
-            opt(r.imbalance, percent),
+            opt(r.imbalance, |x| format!("{x:.4}")),
             opt(r.comm_fraction, percent)
         );
     }
