@@ -55,6 +55,24 @@ impl From<Backend> for driver::Backend {
     }
 }
 
+/// Thread binding of `hsph run`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Bind {
+    /// No binding: the OS places threads inside the launcher's cpuset.
+    None,
+    /// Each rayon thread pinned to one core (cargo feature `hwloc`).
+    Cores,
+}
+
+impl From<Bind> for crate::affinity::Bind {
+    fn from(b: Bind) -> Self {
+        match b {
+            Bind::None => crate::affinity::Bind::None,
+            Bind::Cores => crate::affinity::Bind::Cores,
+        }
+    }
+}
+
 /// Subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
@@ -101,6 +119,21 @@ Examples:
         /// No progress output.
         #[arg(long, short)]
         quiet: bool,
+        /// Pin each rank's rayon threads to cores of the launcher's cpuset (`cores`, cargo
+        /// feature `hwloc`; `hsph topology` shows the plan and the policy).
+        #[arg(long, value_enum, default_value_t = Bind::None)]
+        bind: Bind,
+    },
+    /// Show the machine as hwloc sees it (packages, NUMA nodes, cores, PUs with their cpusets)
+    /// and which core each thread gets under `hsph run --bind cores` (cargo feature `hwloc`).
+    #[command(after_help = "Example:\n  hsph topology --ranks 2 --threads 4")]
+    Topology {
+        /// Ranks of the local back end sharing this process's cpuset.
+        #[arg(long, default_value_t = 1)]
+        ranks: usize,
+        /// Rayon threads per rank (default: the usable cores divided among the ranks).
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
     },
     /// Plan a parallel layout without running physics: decomposition, placement on nodes and
     /// the halo traffic of one step, split into intra- and inter-node bytes.
@@ -215,9 +248,13 @@ fn dispatch(cmd: Command) -> Result<()> {
             topology,
             placement,
             quiet,
+            bind,
         } => {
             if backend == Backend::Mpi && !cfg!(feature = "mpi") {
                 return Err(Error::missing_feature("--backend", "mpi"));
+            }
+            if bind == Bind::Cores && !cfg!(feature = "hwloc") {
+                return Err(Error::missing_feature("--bind cores", "hwloc"));
             }
             if ranks == 0 {
                 return Err(Error::input("--ranks", "must be at least 1, e.g. --ranks 4"));
@@ -240,10 +277,15 @@ fn dispatch(cmd: Command) -> Result<()> {
                     ranks_per_node,
                     topology,
                     placement,
+                    bind: bind.into(),
                 },
             )
             .map(|_| ())
             .map_err(|e| locate(&src, e))
+        }
+        Command::Topology { ranks, threads } => {
+            print!("{}", crate::affinity::topology_report(ranks, threads)?);
+            Ok(())
         }
         Command::Plan {
             scene,

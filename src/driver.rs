@@ -98,6 +98,8 @@ pub struct RunOptions {
     pub topology: Option<Topology>,
     /// Placement of blocks on ranks.
     pub placement: Placement,
+    /// Pin rayon threads to cores (`--bind cores`, feature `hwloc`).
+    pub bind: crate::affinity::Bind,
 }
 
 /// What a finished run reports.
@@ -115,6 +117,16 @@ pub struct RunOutcome {
 pub fn pool(threads: usize) -> Result<rayon::ThreadPool> {
     let n = if threads == 0 { cores() } else { threads };
     rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build()
+        .map_err(|e| Error::run(format!("cannot start {n} threads: {e}")))
+}
+
+/// [`pool`] with its threads pinned by `bind` (one rank owning this process's cpuset).
+pub fn bound_pool(threads: usize, bind: crate::affinity::Bind) -> Result<rayon::ThreadPool> {
+    let n = if threads == 0 { cores() } else { threads };
+    let start = crate::affinity::start_handler(bind, 1, n)?;
+    crate::affinity::with_start(rayon::ThreadPoolBuilder::new(), start.as_ref(), 0)
         .num_threads(n)
         .build()
         .map_err(|e| Error::run(format!("cannot start {n} threads: {e}")))
@@ -158,7 +170,7 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
     match backend {
         Backend::Serial | Backend::Auto => {
             let dir = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
-            let pool = pool(opts.threads)?;
+            let pool = bound_pool(opts.threads, opts.bind)?;
             let comm = SerialComm::new();
             let out = pool.install(|| run_rank(scene, &dir, &comm, "serial", opts))?;
             out.ok_or_else(|| Error::run("rank 0 produced no outcome"))
@@ -171,7 +183,8 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
                 opts.threads
             };
             let dir = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
-            let outs = crate::comm::local::run_local(ranks, threads, |comm| {
+            let start = crate::affinity::start_handler(opts.bind, ranks, threads)?;
+            let outs = crate::comm::local::run_local_with(ranks, threads, start, |comm| {
                 run_rank(scene, &dir, comm, "local", opts)
             })?;
             outs.into_iter()
@@ -209,7 +222,8 @@ fn run_mpi(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
     };
     // MPI calls stay on this (main) thread, so the rank body runs here on the global pool
     let n = if opts.threads == 0 { cores() } else { opts.threads };
-    rayon::ThreadPoolBuilder::new()
+    let start = crate::affinity::mpi_start_handler(opts.bind, n)?;
+    crate::affinity::with_start(rayon::ThreadPoolBuilder::new(), start.as_ref(), 0)
         .num_threads(n)
         .build_global()
         .map_err(|e| Error::run(format!("cannot start {n} threads: {e}")))?;

@@ -8,6 +8,7 @@
 #![warn(missing_docs)]
 #![deny(unsafe_code)]
 
+pub mod affinity;
 pub mod bench;
 pub mod cells;
 pub mod cli;

@@ -17,6 +17,7 @@ use super::{
     bytes_to_u64s, check_peer, error_text, lock, panic_message, reduce_f64_in_rank_order, u64s_to_bytes,
     Accounting, Collective, Comm, Tag,
 };
+use crate::affinity::StartHandler;
 use crate::error::{Error, Result};
 use crossbeam::channel::{bounded, select, unbounded, Receiver, Sender};
 use std::collections::{BTreeMap, VecDeque};
@@ -383,6 +384,22 @@ where
     T: Send,
     F: Fn(&LocalComm) -> Result<T> + Sync,
 {
+    run_local_with(ranks, threads, None, body)
+}
+
+/// [`run_local`] whose rank pools run `start(rank, thread_index)` first on each of their
+/// threads (rayon's start handler): `--bind cores` pins them there
+/// ([`crate::affinity::start_handler`]).
+pub fn run_local_with<T, F>(
+    ranks: usize,
+    threads: usize,
+    start: Option<StartHandler>,
+    body: F,
+) -> Result<Vec<T>>
+where
+    T: Send,
+    F: Fn(&LocalComm) -> Result<T> + Sync,
+{
     if ranks == 0 {
         return Err(Error::input("ranks", "the number of ranks must be at least 1"));
     }
@@ -404,9 +421,12 @@ where
             .enumerate()
             .map(|(rank, inbox)| {
                 let shared = Arc::clone(&shared);
+                let start = start.clone();
                 std::thread::Builder::new()
                     .name(format!("rank {rank}"))
-                    .spawn_scoped(s, move || run_rank(rank, ranks, threads, shared, inbox, body))
+                    .spawn_scoped(s, move || {
+                        run_rank(rank, ranks, threads, start, shared, inbox, body)
+                    })
             })
             .collect();
         handles
@@ -436,6 +456,7 @@ fn run_rank<T, F>(
     rank: usize,
     size: usize,
     threads: usize,
+    start: Option<StartHandler>,
     shared: Arc<Shared>,
     inbox: Receiver<Envelope>,
     body: &F,
@@ -453,11 +474,10 @@ where
         finished: Mutex::new(vec![false; size]),
         accounting: Accounting::new(rank),
     };
-    let outcome = match rayon::ThreadPoolBuilder::new()
+    let builder = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
-        .thread_name(move |i| format!("rank {rank} worker {i}"))
-        .build()
-    {
+        .thread_name(move |i| format!("rank {rank} worker {i}"));
+    let outcome = match crate::affinity::with_start(builder, start.as_ref(), rank).build() {
         Ok(pool) => catch_unwind(AssertUnwindSafe(|| pool.install(|| body(&comm)))),
         Err(e) => Ok(Err(Error::run(format!(
             "cannot start the rank's rayon pool: {e}"
