@@ -21,6 +21,7 @@ use crate::error::{Error, Result};
 use crate::ghosts::{AxisOp, ImageSpace};
 use crate::particles::{Kind, Particles, IMAGE_BITS};
 use crate::Vector;
+use rayon::prelude::*;
 
 /// Which rank owns which region: the decomposition's blocks and their placement on ranks.
 #[derive(Debug, Clone)]
@@ -104,28 +105,41 @@ pub fn ghost_counts<const D: usize>(
     support: f64,
 ) -> Vec<u64> {
     let p = map.ranks();
-    let mut counts = vec![0u64; p * p];
-    let mut options: Vec<Vec<AxisOp>> = vec![Vec::with_capacity(3); D];
-    let mut imgs = Vec::with_capacity(8);
-    let mut dst = Vec::new();
-    for (i, xi) in x.iter().enumerate() {
-        let me = map.owner(xi);
-        images(xi, fluid[i], space, support, &mut options, &mut imgs);
-        for ops in &imgs {
-            let plain = ops.iter().all(|o| *o == AxisOp::Keep);
-            let (xg, _) = apply(xi, ops, space);
-            if plain && deep_inside(&xg, &boxes[me], support) {
-                continue;
-            }
-            map.destinations(&xg, support, boxes, &mut dst);
-            for &r in &dst {
-                if !(plain && r == me) {
-                    counts[me * p + r] += 1;
+    // a few large chunks: each holds a dense P × P counter; integer sums, so any split agrees
+    let chunk = x.len().div_ceil(8).max(1);
+    x.par_chunks(chunk)
+        .zip(fluid.par_chunks(chunk))
+        .map(|(xs, fl)| {
+            let mut counts = vec![0u64; p * p];
+            let mut options: Vec<Vec<AxisOp>> = vec![Vec::with_capacity(3); D];
+            let mut imgs = Vec::with_capacity(8);
+            let mut dst = Vec::new();
+            for (xi, &f) in xs.iter().zip(fl) {
+                let me = map.owner(xi);
+                images(xi, f, space, support, &mut options, &mut imgs);
+                for ops in &imgs {
+                    let plain = ops.iter().all(|o| *o == AxisOp::Keep);
+                    let (xg, _) = apply(xi, ops, space);
+                    if plain && deep_inside(&xg, &boxes[me], support) {
+                        continue;
+                    }
+                    map.destinations(&xg, support, boxes, &mut dst);
+                    for &r in &dst {
+                        if !(plain && r == me) {
+                            counts[me * p + r] += 1;
+                        }
+                    }
                 }
             }
-        }
-    }
-    counts
+            counts
+        })
+        .reduce(
+            || vec![0u64; p * p],
+            |mut a, b| {
+                a.iter_mut().zip(b).for_each(|(u, v)| *u += v);
+                a
+            },
+        )
 }
 
 /// Payload bytes of one ghost in the whole-record build message.

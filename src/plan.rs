@@ -5,13 +5,15 @@
 //! the `halo` traffic of a real run's set-up step (`traffic.csv`, step 0) byte for byte.
 
 use crate::error::{Error, Result};
+use crate::halo::Ranks;
 use crate::halo::{field_bytes, ghost_counts, record_bytes, Fields};
 use crate::particles::Kind;
 use crate::physics::Model;
 use crate::placement::Placement;
+use crate::placement::{halo_volumes, place, PairVolumes};
 use crate::scene::{DensityDiffusion, Scene};
 use crate::setup::build_particles;
-use crate::sim::{image_space, rank_map, Layout};
+use crate::sim::{balanced_blocks, image_space};
 use crate::topology::Topology;
 use serde_json::json;
 use std::fmt::Write as _;
@@ -78,18 +80,32 @@ fn plan_dim<const D: usize>(
     let has_dummy = all.kind.contains(&Kind::Dummy);
     let per_ghost: u64 = step_exchanges(scene, D, has_dummy).iter().map(|e| e.1).sum();
     let exchanges = step_exchanges(scene, D, has_dummy).len() as u64;
+    // the decomposition, the block-to-block ghost counts and the halo volumes do not depend
+    // on the placement: compute them once, then only relabel blocks as ranks
+    let decomp = balanced_blocks(&all.x[..n], &space.min, &space.max, ranks);
+    let blocks = Ranks::new(decomp.clone(), (0..ranks).collect());
+    let block_counts = ghost_counts(&all.x[..n], &fluid, &space, &blocks, &blocks.boxes(), support);
+    let volumes = if methods.iter().any(|m| *m != Placement::RankOrder) {
+        halo_volumes(&all.x[..n], &decomp, support)
+    } else {
+        PairVolumes::zeros(ranks)
+    };
+    let mut block_owned = vec![0u64; ranks];
+    for x in &all.x[..n] {
+        block_owned[decomp.block_of(x)] += 1;
+    }
     let mut rows = Vec::new();
     for &method in methods {
-        let layout = Layout {
-            topology: Some(topology.clone()),
-            placement: method,
-        };
-        let map = rank_map(&all.x[..n], &space.min, &space.max, ranks, &layout, support)?;
-        let boxes = map.boxes();
-        let counts = ghost_counts(&all.x[..n], &fluid, &space, &map, &boxes, support);
+        let block_to_rank = place(&decomp, topology, method, &volumes);
+        let mut counts = vec![0u64; ranks * ranks];
+        for s in 0..ranks {
+            for d in 0..ranks {
+                counts[block_to_rank[s] * ranks + block_to_rank[d]] = block_counts[s * ranks + d];
+            }
+        }
         let mut owned = vec![0u64; ranks];
-        for x in &all.x[..n] {
-            owned[map.owner(x)] += 1;
+        for (b, c) in block_owned.iter().enumerate() {
+            owned[block_to_rank[b]] = *c;
         }
         let mean = n as f64 / ranks as f64;
         let imbalance = *owned.iter().max().unwrap_or(&0) as f64 / mean.max(1e-300);

@@ -786,6 +786,27 @@ pub fn rank_map<const D: usize>(
     layout: &Layout,
     support: f64,
 ) -> Result<Ranks<D>> {
+    let decomp = balanced_blocks(x, min, max, ranks);
+    let block_to_rank = match (&layout.topology, layout.placement) {
+        (_, Placement::RankOrder) | (None, _) => (0..ranks).collect(),
+        (Some(t), method) => {
+            t.check_ranks(ranks)?;
+            let volumes = halo_volumes(x, &decomp, support);
+            place(&decomp, t, method, &volumes)
+        }
+    };
+    Ok(Ranks::new(decomp, block_to_rank))
+}
+
+/// Blocks of particles at `x`: the factorisation of the cloud's extents (eq. 5 of seed 000)
+/// and cut planes balanced on particle counts (eq. 6). Counting is split over rayon tasks
+/// and summed as integers, so the result does not depend on the thread count.
+pub fn balanced_blocks<const D: usize>(
+    x: &[Vector<D>],
+    min: &Vector<D>,
+    max: &Vector<D>,
+    ranks: usize,
+) -> Decomposition<D> {
     let n = x.len();
     let mut lo = Vector::<D>::repeat(f64::INFINITY);
     let mut hi = Vector::<D>::repeat(f64::NEG_INFINITY);
@@ -800,15 +821,16 @@ pub fn rank_map<const D: usize>(
     let mut nf = [1usize; D];
     nf.copy_from_slice(&f[..D]);
     let (decomp, _) = Decomposition::balance(*min, *max, nf, &BalanceParams::default(), |stage| {
-        stage.count_local(x.iter().map(|x| (*x, 1u64)))
+        let k = stage.candidates().len();
+        x.par_chunks(1 << 15)
+            .map(|c| stage.count_local(c.iter().map(|x| (*x, 1u64))))
+            .reduce(
+                || vec![0u64; k],
+                |mut a, b| {
+                    a.iter_mut().zip(b).for_each(|(p, q)| *p += q);
+                    a
+                },
+            )
     });
-    let block_to_rank = match (&layout.topology, layout.placement) {
-        (_, Placement::RankOrder) | (None, _) => (0..ranks).collect(),
-        (Some(t), method) => {
-            t.check_ranks(ranks)?;
-            let volumes = halo_volumes(x, &decomp, support);
-            place(&decomp, t, method, &volumes)
-        }
-    };
-    Ok(Ranks::new(decomp, block_to_rank))
+    decomp
 }

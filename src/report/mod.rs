@@ -227,7 +227,10 @@ pub fn run_markdown(run: &Run, charts: &[(&str, &str)]) -> String {
         "ghost fraction (remote ghosts / particles)",
         opt(run.num("ghost_fraction"), percent),
     );
-    row("load imbalance (final, max/mean)", opt(run.num("imbalance"), |x| format!("{x:.4}")));
+    row(
+        "load imbalance (final, max/mean)",
+        opt(run.num("imbalance"), |x| format!("{x:.4}")),
+    );
     row(
         "communication fraction (halo + migration / wall)",
         opt(run.num("communication_fraction"), percent),
