@@ -14,7 +14,7 @@ use crate::progress::Progress;
 use crate::reference::Tracker;
 use crate::scene::Scene;
 use crate::sim::{Layout, Simulation, PHASES};
-use crate::topology::Topology;
+use crate::topology::{ByteCost, Topology, DEFAULT_COST};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -354,7 +354,10 @@ impl TrafficTotals {
         t[2] += e.messages;
     }
 
-    fn json(&self) -> serde_json::Value {
+    /// Totals as JSON, with the cost of the traffic under the topology's relative costs per
+    /// byte (intra- vs inter-node): as laid out, and had every byte crossed the network —
+    /// the difference is what keeping neighbours on one node (shared memory) saved.
+    fn json(&self, cost: &ByteCost) -> serde_json::Value {
         let (intra, inter) = self
             .by_phase
             .values()
@@ -369,7 +372,20 @@ impl TrafficTotals {
                 )
             })
             .collect();
-        json!({"intra_node_bytes": intra, "inter_node_bytes": inter, "phases": phases})
+        let layout = intra as f64 * cost.intra_node + inter as f64 * cost.inter_node;
+        let all_inter = (intra + inter) as f64 * cost.inter_node;
+        json!({
+            "intra_node_bytes": intra,
+            "inter_node_bytes": inter,
+            "phases": phases,
+            "estimated_cost": {
+                "intra_node_cost_per_byte": cost.intra_node,
+                "inter_node_cost_per_byte": cost.inter_node,
+                "as_laid_out": layout,
+                "if_all_inter_node": all_inter,
+                "saved_fraction": if all_inter > 0.0 { 1.0 - layout / all_inter } else { 0.0 },
+            },
+        })
     }
 }
 
@@ -612,7 +628,7 @@ fn run_dim<const D: usize>(
         "decomposition": sim.map.decomp.factors().to_vec(),
         "placement": opts.placement.name(),
         "nodes": nodes.iter().max().map_or(1, |m| m + 1),
-        "traffic": totals.json(),
+        "traffic": totals.json(&layout.topology.as_ref().map_or(DEFAULT_COST, |t| t.cost)),
         "ghost_fraction": r.remote as f64 / n.max(1) as f64,
         "imbalance": sim.balance.imbalance,
         "migrations": r.migrated,

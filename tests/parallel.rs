@@ -122,13 +122,22 @@ fn dam_break_3d_same_bits_on_1_to_8_ranks() {
     // the shipped scene (repulsive walls), coarsened to dx = 5 cm for CI
     let s = scene(
         "inputs/dam_break_3d.toml",
-        &["discretisation.dx=0.05", "time.t_end=0.1", "balance.check_every=5", "balance.threshold=1.01"],
+        &[
+            "discretisation.dx=0.05",
+            "time.t_end=0.1",
+            "balance.check_every=5",
+            "balance.threshold=1.01",
+        ],
     );
     same_bits_on_any_rank_count(&s, "par-db3", None);
     // and the small tank with dummy walls (three layers, extrapolated pressure)
     let s = scene(
         "tests/data/dam_break_3d_small.toml",
-        &["time.t_end=0.1", "balance.check_every=5", "balance.threshold=1.01"],
+        &[
+            "time.t_end=0.1",
+            "balance.check_every=5",
+            "balance.threshold=1.01",
+        ],
     );
     same_bits_on_any_rank_count(&s, "par-db3-dummy", None);
 }

@@ -263,6 +263,18 @@ pub fn run_markdown(run: &Run, charts: &[(&str, &str)]) -> String {
                     percent(inter as f64 / all)
                 ),
             );
+            if let Some(c) = s.get("traffic").and_then(|t| t.get("estimated_cost")) {
+                let f = |k: &str| c.get(k).and_then(|v| v.as_f64()).unwrap_or(0.0);
+                row(
+                    "shared memory saved (estimate)",
+                    format!(
+                        "{} of the traffic cost, with relative costs per byte {} inside and {} across nodes",
+                        percent(f("saved_fraction")),
+                        f("intra_node_cost_per_byte"),
+                        f("inter_node_cost_per_byte")
+                    ),
+                );
+            }
         }
         None => row(
             "traffic",
