@@ -261,16 +261,22 @@ impl NeighbourList {
                             let e = cells.start[base + hi_last + 1] as usize;
                             let ord = &cells.order[s..e];
                             let xr = &xs[s * D..e * D];
+                            // branch-free append: write every candidate, advance on a hit
+                            let mut w = list.len();
+                            list.resize(w + ord.len(), 0);
+                            let out = &mut list[w..];
+                            let mut m = 0usize;
                             for (xj, &j) in xr.chunks_exact(D).zip(ord) {
                                 let mut d2 = 0.0;
                                 for a in 0..D {
                                     let d = xa[a] - xj[a];
                                     d2 += d * d;
                                 }
-                                if d2 < r2max && j as usize != i {
-                                    list.push(j);
-                                }
+                                out[m] = j;
+                                m += ((d2 < r2max) & (j as usize != i)) as usize;
                             }
+                            w += m;
+                            list.truncate(w);
                         }
                     }
                     *cnt = (list.len() - before) as u32;
