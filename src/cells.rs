@@ -253,8 +253,8 @@ impl NeighbourList {
                                 }
                                 cc[a] = v as usize;
                             }
-                            for a in 0..last {
-                                base = base * grid.dims[a] + cc[a];
+                            for (&ca, &da) in cc[..last].iter().zip(&grid.dims[..last]) {
+                                base = base * da + ca;
                             }
                             base *= dl;
                             let s = cells.start[base + lo_last] as usize;
