@@ -177,6 +177,9 @@ pub struct NeighbourList {
     pub nbr: Vec<u32>,
     chunks: Vec<Vec<u32>>,
     counts: Vec<u32>,
+    /// Positions in cell order (`xs[k·D + a]` = axis a of particle `order[k]`): the candidates
+    /// of one stencil row are contiguous here.
+    xs: Vec<f64>,
 }
 
 /// Particles per block of the parallel neighbour-list build.
@@ -184,6 +187,10 @@ const CHUNK: usize = 512;
 
 impl NeighbourList {
     /// Build lists for owned particles for which `wanted(i)` holds (others get empty lists).
+    ///
+    /// Cells are linear with the last axis fastest, so for each of the 3ᴰ⁻¹ offsets of the
+    /// leading axes the three stencil cells along the last axis are one contiguous run of
+    /// `cells.order`, already in stencil order (offset −1, 0, +1, each ascending by key).
     pub fn build<const D: usize>(
         &mut self,
         grid: &CellGrid<D>,
@@ -194,7 +201,21 @@ impl NeighbourList {
     ) {
         let n = p.n_owned;
         let r2max = support * support;
-        let stencil = CellGrid::<D>::stencil();
+        // positions in cell order
+        self.xs.resize(cells.order.len() * D, 0.0);
+        self.xs
+            .par_chunks_mut(D * CHUNK)
+            .zip(cells.order.par_chunks(CHUNK))
+            .for_each(|(xs, ord)| {
+                for (x, &j) in xs.chunks_exact_mut(D).zip(ord) {
+                    x.copy_from_slice(p.x[j as usize].as_slice());
+                }
+            });
+        let xs = &self.xs;
+        // row offsets: 3^(D-1) offsets of the leading axes, lexicographic
+        let rows = 3usize.pow(D as u32 - 1);
+        let last = D - 1;
+        let dl = grid.dims[last];
         let nchunks = n.div_ceil(CHUNK);
         self.chunks.resize_with(nchunks, Vec::new);
         self.counts.resize(n, 0);
@@ -209,28 +230,53 @@ impl NeighbourList {
                     let before = list.len();
                     if wanted(i) {
                         let xi = p.x[i];
-                        let c = grid.coords(&xi).expect("binned particles lie in the grid");
-                        for off in &stencil {
+                        let mut xa = [0.0f64; D];
+                        xa.copy_from_slice(xi.as_slice());
+                        // cell coordinates from the linear index (axis 0 slowest)
+                        let mut c = [0usize; D];
+                        let mut l = cells.cell[i] as usize;
+                        for a in (0..D).rev() {
+                            c[a] = l % grid.dims[a];
+                            l /= grid.dims[a];
+                        }
+                        let lo_last = c[last].saturating_sub(1);
+                        let hi_last = (c[last] + 1).min(dl - 1);
+                        'rows: for row in 0..rows {
+                            let mut r = row;
+                            let mut base = 0usize;
                             let mut cc = [0usize; D];
-                            let mut inside = true;
-                            for a in 0..D {
-                                let v = c[a] as isize + off[a];
+                            for a in (0..last).rev() {
+                                let v = c[a] as isize + (r % 3) as isize - 1;
+                                r /= 3;
                                 if v < 0 || v as usize >= grid.dims[a] {
-                                    inside = false;
-                                    break;
+                                    continue 'rows;
                                 }
                                 cc[a] = v as usize;
                             }
-                            if !inside {
-                                continue;
+                            for (&ca, &da) in cc[..last].iter().zip(&grid.dims[..last]) {
+                                base = base * da + ca;
                             }
-                            let l = grid.linear(&cc);
-                            let (s, e) = (cells.start[l] as usize, cells.start[l + 1] as usize);
-                            for &j in &cells.order[s..e] {
-                                if j as usize != i && (xi - p.x[j as usize]).norm_squared() < r2max {
-                                    list.push(j);
+                            base *= dl;
+                            let s = cells.start[base + lo_last] as usize;
+                            let e = cells.start[base + hi_last + 1] as usize;
+                            let ord = &cells.order[s..e];
+                            let xr = &xs[s * D..e * D];
+                            // branch-free append: write every candidate, advance on a hit
+                            let mut w = list.len();
+                            list.resize(w + ord.len(), 0);
+                            let out = &mut list[w..];
+                            let mut m = 0usize;
+                            for (xj, &j) in xr.chunks_exact(D).zip(ord) {
+                                let mut d2 = 0.0;
+                                for a in 0..D {
+                                    let d = xa[a] - xj[a];
+                                    d2 += d * d;
                                 }
+                                out[m] = j;
+                                m += ((d2 < r2max) & (j as usize != i)) as usize;
                             }
+                            w += m;
+                            list.truncate(w);
                         }
                     }
                     *cnt = (list.len() - before) as u32;

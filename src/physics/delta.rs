@@ -59,27 +59,34 @@ pub fn renormalised_gradient_of<const D: usize>(
     out: &mut [Vector<D>],
 ) {
     let k = &model.kernel;
+    let vol = super::fluid::volumes(p);
     out.par_iter_mut().enumerate().for_each(|(i, g)| {
         *g = Vector::zeros();
         if p.kind[i] != Kind::Fluid {
             return;
         }
-        let mut a = Matrix::<D>::zeros();
+        // −Σ_j V_j f_ij x_ij ⊗ x_ij is symmetric: accumulate the upper triangle only
+        let mut a = [[0.0f64; D]; D];
         let mut s = Vector::<D>::zeros();
-        let xi = p.x[i];
+        let (xi, fi) = (p.x[i], f[i]);
         for &j in nl.of(i) {
             let j = j as usize;
             if p.kind[j] != Kind::Fluid {
                 continue;
             }
             let xij = xi - p.x[j];
-            let r = xij.norm();
-            let grad_w = xij * (k.dw_dr(r) / r);
-            let vj = p.mass[j] / p.rho[j];
-            a -= (grad_w * vj) * xij.transpose(); // ∇W ⊗ (x_j − x_i)
-            s += grad_w * ((f[j] - f[i]) * vj);
+            // ∇_i W_ij V_j = x_ij (1/r) dW/dr V_j
+            let w = k.dw_dr_over_r(xij.norm()) * vol[j];
+            for r in 0..D {
+                let wr = xij[r] * w;
+                for c in r..D {
+                    a[r][c] -= wr * xij[c]; // ∇W ⊗ (x_j − x_i)
+                }
+            }
+            s += xij * (w * (f[j] - fi));
         }
-        *g = inverse_or_identity(&a) * s;
+        let m = Matrix::<D>::from_fn(|r, c| if r <= c { a[r][c] } else { a[c][r] });
+        *g = inverse_or_identity(&m) * s;
     });
 }
 

@@ -33,7 +33,17 @@ impl Eos {
     #[inline]
     pub fn pressure(&self, rho: f64) -> f64 {
         match self.kind {
-            EosKind::Tait => self.b * ((rho / self.rho0).powf(self.gamma) - 1.0),
+            EosKind::Tait => {
+                let r = rho / self.rho0;
+                // γ = 7 (the usual water value) without powf
+                let rg = if self.gamma == 7.0 {
+                    let r2 = r * r;
+                    r2 * r2 * r2 * r
+                } else {
+                    r.powf(self.gamma)
+                };
+                self.b * (rg - 1.0)
+            }
             EosKind::Linear => self.c0 * self.c0 * (rho - self.rho0),
         }
     }

@@ -34,10 +34,11 @@ pub fn continuity<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, mode
     let mut drho = std::mem::take(&mut p.drho);
     {
         let p = &*p;
+        let vol = volumes(p);
         drho[..n]
             .par_iter_mut()
             .enumerate()
-            .for_each(|(i, dr)| *dr = continuity_of(p, nl, model, i));
+            .for_each(|(i, dr)| *dr = continuity_of(p, nl, model, &vol, i));
     }
     p.drho = drho;
 }
@@ -49,15 +50,31 @@ pub fn momentum<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, model:
     let mut acc = std::mem::take(&mut p.acc);
     {
         let p = &*p;
+        // p_j/ρ_j² once per particle rather than once per pair
+        let mut p_rho2 = vec![0.0; p.len()];
+        p_rho2
+            .par_iter_mut()
+            .zip(p.p.par_iter().zip(p.rho.par_iter()))
+            .for_each(|(q, (&pj, &rj))| *q = pj / (rj * rj));
         acc[..n]
             .par_iter_mut()
             .enumerate()
-            .for_each(|(i, a)| *a = momentum_of(p, nl, model, i));
+            .for_each(|(i, a)| *a = momentum_of(p, nl, model, &p_rho2, i));
     }
     p.acc = acc;
 }
 
-/// δ-SPH diffusion term D_i alone (for the conservation test Σ V_i D_i = 0).
+/// Volumes V_j = m_j/ρ_j of every particle (owned and ghost), computed once per pass.
+pub(crate) fn volumes<const D: usize>(p: &Particles<D>) -> Vec<f64> {
+    let mut vol = vec![0.0; p.len()];
+    vol.par_iter_mut()
+        .zip(p.mass.par_iter().zip(p.rho.par_iter()))
+        .for_each(|(v, (&m, &r))| *v = m / r);
+    vol
+}
+
+/// δ-SPH diffusion term D_i alone (for the conservation test Σ V_i D_i = 0), evaluated like
+/// the continuity pass evaluates it.
 pub fn diffusion_term<const D: usize>(
     p: &Particles<D>,
     nl: &NeighbourList,
@@ -67,6 +84,7 @@ pub fn diffusion_term<const D: usize>(
     let k = &model.kernel;
     let eos = &model.eos[p.mat[i] as usize];
     let coef = model.delta * k.h * eos.c0;
+    let antuono = model.diffusion == DensityDiffusion::Antuono;
     let mut s = 0.0;
     for &j in nl.of(i) {
         let j = j as usize;
@@ -74,41 +92,49 @@ pub fn diffusion_term<const D: usize>(
             continue;
         }
         let xij = p.x[i] - p.x[j];
-        let r2 = xij.norm_squared();
-        let r = r2.sqrt();
-        let grad_w = xij * (k.dw_dr(r) / r);
-        s += coef * psi(p, model, i, j, &xij, r2).dot(&grad_w) * (p.mass[j] / p.rho[j]);
+        let f = k.dw_dr_over_r(xij.norm());
+        s += coef * psi_dot_grad(p, antuono, i, j, &xij, f) * (p.mass[j] / p.rho[j]);
     }
     s
 }
 
-/// ψ_ij of the δ-SPH term.
-#[inline]
-fn psi<const D: usize>(
+/// ψ_ij·∇_i W_ij of the δ-SPH term, with ∇_i W_ij = f x_ij (f = (1/r) dW/dr):
+/// ψ_ij = 2(ρ_j − ρ_i) x_ji/r² − (⟨∇ρ⟩_i + ⟨∇ρ⟩_j), and x_ji·x_ij/r² = −1, so
+/// ψ_ij·∇_i W_ij = f [−2(ρ_j − ρ_i) − (⟨∇ρ⟩_i + ⟨∇ρ⟩_j)·x_ij] (no gradients for Molteni).
+#[inline(always)]
+fn psi_dot_grad<const D: usize>(
     p: &Particles<D>,
-    model: &Model<D>,
+    antuono: bool,
     i: usize,
     j: usize,
     xij: &Vector<D>,
-    r2: f64,
-) -> Vector<D> {
-    // x_ji = −x_ij
-    let base = xij * (-2.0 * (p.rho[j] - p.rho[i]) / r2);
-    match model.diffusion {
-        DensityDiffusion::Antuono => base - (p.grad_rho[i] + p.grad_rho[j]),
-        _ => base,
-    }
+    f: f64,
+) -> f64 {
+    let base = -2.0 * (p.rho[j] - p.rho[i]);
+    let t = if antuono {
+        base - (p.grad_rho[i] + p.grad_rho[j]).dot(xij)
+    } else {
+        base
+    };
+    f * t
 }
 
 /// dρ_i/dt = Σ_j m_j (v_i − v_j)·∇_i W_ij + δ h c0 Σ_j ψ_ij·∇_i W_ij V_j (fluid j only).
 #[inline]
-fn continuity_of<const D: usize>(p: &Particles<D>, nl: &NeighbourList, model: &Model<D>, i: usize) -> f64 {
+fn continuity_of<const D: usize>(
+    p: &Particles<D>,
+    nl: &NeighbourList,
+    model: &Model<D>,
+    vol: &[f64],
+    i: usize,
+) -> f64 {
     if p.kind[i] != Kind::Fluid {
         return 0.0;
     }
     let k = &model.kernel;
     let c0 = model.eos[p.mat[i] as usize].c0;
     let diffusion = model.diffusion != DensityDiffusion::None;
+    let antuono = model.diffusion == DensityDiffusion::Antuono;
     let delta_coef = model.delta * k.h * c0;
     let (xi, vi) = (p.x[i], p.v[i]);
     let mut drho = 0.0;
@@ -119,14 +145,11 @@ fn continuity_of<const D: usize>(p: &Particles<D>, nl: &NeighbourList, model: &M
             continue;
         }
         let xij = xi - p.x[j];
-        let r2 = xij.norm_squared();
-        let r = r2.sqrt();
-        let grad_w = xij * (k.dw_dr(r) / r);
-        let mj = p.mass[j];
+        let f = k.dw_dr_over_r(xij.norm());
         // walls enter with their own (prescribed) velocity
-        drho += mj * (vi - p.v[j]).dot(&grad_w);
+        drho += p.mass[j] * (f * (vi - p.v[j]).dot(&xij));
         if diffusion && kind_j == Kind::Fluid {
-            drho += delta_coef * psi(p, model, i, j, &xij, r2).dot(&grad_w) * (mj / p.rho[j]);
+            drho += delta_coef * psi_dot_grad(p, antuono, i, j, &xij, f) * vol[j];
         }
     }
     drho
@@ -139,6 +162,7 @@ fn momentum_of<const D: usize>(
     p: &Particles<D>,
     nl: &NeighbourList,
     model: &Model<D>,
+    p_rho2: &[f64],
     i: usize,
 ) -> Vector<D> {
     if p.kind[i] != Kind::Fluid {
@@ -148,9 +172,11 @@ fn momentum_of<const D: usize>(
     let h = k.h;
     let eta2 = 0.01 * h * h;
     let c0 = model.eos[p.mat[i] as usize].c0;
+    // Π_ij = −α h c0 v_ij·x_ij / ((r² + η²) ρ̄_ij), ρ̄_ij = (ρ_i + ρ_j)/2
+    let av_coef = -2.0 * model.alpha * c0 * h;
     let (rep_d, rep_r0) = model.repulsive;
-    let (xi, vi, rhoi, pi) = (p.x[i], p.v[i], p.rho[i], p.p[i]);
-    let pi_term = pi / (rhoi * rhoi);
+    let (xi, vi, rhoi) = (p.x[i], p.v[i], p.rho[i]);
+    let pi_term = p_rho2[i];
     let mut acc = Vector::<D>::zeros();
     for &j in nl.of(i) {
         let j = j as usize;
@@ -167,25 +193,24 @@ fn momentum_of<const D: usize>(
             }
             continue;
         }
-        let grad_w = xij * (k.dw_dr(r) / r);
-        let (mj, rhoj, pj) = (p.mass[j], p.rho[j], p.p[j]);
+        let f = k.dw_dr_over_r(r);
+        let (mj, rhoj) = (p.mass[j], p.rho[j]);
         // viscous terms see the extrapolated velocity of dummy walls
         let vij = if kind_j == Kind::Dummy {
             vi - p.vw[j]
         } else {
             vi - p.v[j]
         };
-        let mut pij = pi_term + pj / (rhoj * rhoj);
+        let mut pij = pi_term + p_rho2[j];
         let vx = vij.dot(&xij);
         if model.alpha > 0.0 && vx < 0.0 {
-            let mu = h * vx / (r2 + eta2);
-            pij += -model.alpha * c0 * mu / (0.5 * (rhoi + rhoj));
+            pij += av_coef * vx / ((r2 + eta2) * (rhoi + rhoj));
         }
-        acc -= grad_w * (mj * pij);
+        acc -= xij * (f * mj * pij);
         if model.nu > 0.0 {
             // μ_i + μ_j = ν (ρ_i + ρ_j); x_ij·∇_i W_ij / r² = (1/r) ∂W/∂r (m⁻ᴰ⁻²)
             let mu_sum = model.nu * (rhoi + rhoj);
-            acc += vij * (mj * mu_sum * k.dw_dr_over_r(r) / (rhoi * rhoj));
+            acc += vij * (mj * mu_sum * f / (rhoi * rhoj));
         }
     }
     acc + model.g
