@@ -73,11 +73,7 @@ impl<const D: usize> CellGrid<D> {
     /// Linear index of cell coordinates (axis 0 slowest).
     #[inline]
     pub fn linear(&self, c: &[usize; D]) -> usize {
-        let mut l = 0;
-        for a in 0..D {
-            l = l * self.dims[a] + c[a];
-        }
-        l
+        self.dims.iter().zip(c).fold(0, |l, (n, ca)| l * n + ca)
     }
 
     /// The 3ᴰ relative offsets in their fixed visiting order (lexicographic).

@@ -18,7 +18,9 @@ const ILL_CONDITIONED: f64 = 1e-3;
 pub fn inverse_or_identity<const D: usize>(m: &Matrix<D>) -> Matrix<D> {
     let det = determinant(m);
     let scale = (0..D).map(|a| m[(a, a)].abs()).sum::<f64>() / D as f64;
-    if !(det.abs() > ILL_CONDITIONED * scale.powi(D as i32)) || !det.is_finite() {
+    // NaN-safe: anything not clearly well-conditioned falls back to the identity
+    let well_conditioned = det.is_finite() && det.abs() > ILL_CONDITIONED * scale.powi(D as i32);
+    if !well_conditioned {
         return Matrix::identity();
     }
     let mut inv = Matrix::<D>::zeros();

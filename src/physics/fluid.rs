@@ -3,11 +3,13 @@
 //!
 //! For fluid particle i and neighbours j (methods.md §1–2), with x_ij = x_i − x_j,
 //! ∇_i W_ij = (dW/dr) x_ij / r, V_j = m_j/ρ_j:
-//! - continuity: dρ_i/dt = Σ_j m_j (v_i − v_j)·∇_i W_ij
-//!   + δ h c0 Σ_j ψ_ij·∇_i W_ij V_j (fluid j only), ψ_ij = 2(ρ_j − ρ_i) x_ji/|x_ij|²
-//!   − (⟨∇ρ⟩_i^L + ⟨∇ρ⟩_j^L) for Antuono, without the gradients for Molteni;
-//! - momentum: dv_i/dt = −Σ_j m_j (p_i/ρ_i² + p_j/ρ_j² + Π_ij) ∇_i W_ij +
-//!   Σ_j m_j (μ_i + μ_j) / (ρ_i ρ_j) · (1/r) ∂W/∂r · v_ij + g  (μ = ρν, Pa·s),
+//! - continuity (with the δ-SPH term on fluid neighbours j only):
+//!   dρ_i/dt = Σ_j m_j (v_i − v_j)·∇_i W_ij + δ h c0 Σ_j ψ_ij·∇_i W_ij V_j, where
+//!   ψ_ij = 2(ρ_j − ρ_i) x_ji/|x_ij|² − (⟨∇ρ⟩_i^L + ⟨∇ρ⟩_j^L) for Antuono, without the
+//!   gradients for Molteni;
+//! - momentum: dv_i/dt = P_i + V_i + g, with the pressure and artificial-viscosity part
+//!   P_i = −Σ_j m_j (p_i/ρ_i² + p_j/ρ_j² + Π_ij) ∇_i W_ij and the laminar part
+//!   V_i = Σ_j m_j (μ_i + μ_j) / (ρ_i ρ_j) · (1/r) ∂W/∂r · v_ij (μ = ρν, Pa·s);
 //!   Π_ij = −α h c0 μ_ij / ρ̄_ij for v_ij·x_ij < 0, μ_ij = v_ij·x_ij/(r² + 0.01h²).
 //!   The viscous term is Morris et al.'s x_ij·∇_i W_ij / (r² + η²) with η = 0: for every
 //!   kernel here ∂W/∂r ∝ r near r = 0, so (1/r) ∂W/∂r is bounded and needs no
