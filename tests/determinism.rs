@@ -106,3 +106,17 @@ fn periodic_channel_is_bitwise_reproducible_across_threads() {
         "channel",
     );
 }
+
+#[test]
+fn poiseuille_is_bitwise_reproducible_across_threads() {
+    // the shipped Morris et al. (1997) scene, periodic along x, over its first 0.2 s
+    assert_same_runs(
+        &common::repo_path("inputs/poiseuille_2d.toml"),
+        &[
+            "time.t_end=0.2",
+            "reference.times=[0.2]",
+            "output.format=\"none\"",
+        ],
+        "poiseuille",
+    );
+}
