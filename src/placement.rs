@@ -438,22 +438,39 @@ fn refine(mut node: Vec<usize>, nodes: usize, w: &PairVolumes) -> Vec<usize> {
         let mut moves = Vec::new();
         let (mut sum, mut best_sum, mut best_len) = (0i128, 0i128, 0usize);
         while moves.len() < KL_MAX_MOVES.min(p / 2) {
-            let mut best: Option<(i128, usize, usize)> = None;
-            for a in (0..p).filter(|&a| !locked[a]) {
-                let na = node[a];
-                for b in (a + 1..p).filter(|&b| !locked[b] && node[b] != na) {
-                    let nb = node[b];
-                    if ext[a * nodes + nb] == 0 && ext[b * nodes + na] == 0 {
-                        continue;
+            // the best swap: largest gain, then smallest (a, b) — the same pair a sequential
+            // scan in (a, b) order keeps, found in parallel over a (integer gains: exact)
+            let better = |x: Option<(i128, usize, usize)>, y: Option<(i128, usize, usize)>| match (x, y) {
+                (Some(u), Some(v)) => Some(if v.0 > u.0 || (v.0 == u.0 && (v.1, v.2) < (u.1, u.2)) {
+                    v
+                } else {
+                    u
+                }),
+                (u, None) => u,
+                (None, v) => v,
+            };
+            let (node_r, ext_r, locked_r) = (&node, &ext, &locked);
+            let best = (0..p)
+                .into_par_iter()
+                .filter(|&a| !locked_r[a])
+                .map(|a| {
+                    let na = node_r[a];
+                    let mut best: Option<(i128, usize, usize)> = None;
+                    for b in (a + 1..p).filter(|&b| !locked_r[b] && node_r[b] != na) {
+                        let nb = node_r[b];
+                        if ext_r[a * nodes + nb] == 0 && ext_r[b * nodes + na] == 0 {
+                            continue;
+                        }
+                        let gain = ext_r[a * nodes + nb] - ext_r[a * nodes + na] + ext_r[b * nodes + na]
+                            - ext_r[b * nodes + nb]
+                            - 2 * edge(a, b);
+                        if best.is_none_or(|(g, _, _)| gain > g) {
+                            best = Some((gain, a, b));
+                        }
                     }
-                    let gain = ext[a * nodes + nb] - ext[a * nodes + na] + ext[b * nodes + na]
-                        - ext[b * nodes + nb]
-                        - 2 * edge(a, b);
-                    if best.is_none_or(|(g, _, _)| gain > g) {
-                        best = Some((gain, a, b));
-                    }
-                }
-            }
+                    best
+                })
+                .reduce(|| None, better);
             let Some((gain, a, b)) = best else { break };
             swap(&mut node, &mut ext, a, b);
             locked[a] = true;
