@@ -118,23 +118,6 @@ impl<const D: usize> Particles<D> {
         gather(&mut self.acc, perm);
     }
 
-    /// Append a ghost copy of owned particle `src` at position `x` with sort key `key`;
-    /// its other fields are filled by [`crate::ghosts::GhostPlan::refresh`].
-    pub fn push_ghost(&mut self, src: usize, x: Vector<D>, key: u64) {
-        self.id.push(self.id[src]);
-        self.key.push(key);
-        self.kind.push(self.kind[src]);
-        self.body.push(self.body[src]);
-        self.mat.push(self.mat[src]);
-        self.x.push(x);
-        self.v.push(self.v[src]);
-        self.mass.push(self.mass[src]);
-        self.rho.push(self.rho[src]);
-        self.p.push(self.p[src]);
-        self.vw.push(self.vw[src]);
-        self.grad_rho.push(self.grad_rho[src]);
-    }
-
     /// Append a ghost from a whole record (another rank's particle or an image); its pressure,
     /// wall velocity and gradient are set by the caller.
     #[allow(clippy::too_many_arguments)]

@@ -6,7 +6,9 @@ mod common;
 use common::Rng;
 use hsph::cells::{brute_force, CellGrid, CellList, NeighbourList};
 use hsph::comm::serial::SerialComm;
-use hsph::ghosts::{GhostPlan, ImageSpace};
+use hsph::decomp::Decomposition;
+use hsph::ghosts::ImageSpace;
+use hsph::halo::{HaloPlan, Ranks};
 use hsph::particles::{Kind, Particles};
 use hsph::scene::load_scene_str;
 use hsph::sim::Simulation;
@@ -16,7 +18,6 @@ use std::path::Path;
 struct Built<const D: usize> {
     p: Particles<D>,
     nl: NeighbourList,
-    plan: GhostPlan<D>,
     space: ImageSpace<D>,
 }
 
@@ -38,9 +39,11 @@ fn build<const D: usize>(
         periodic,
         planes: Vec::new(),
     };
-    let mut plan = GhostPlan::default();
-    plan.build(&mut p, &space, support);
-    plan.refresh(&mut p, &space);
+    // one rank: the periodic images go to the rank itself through the halo's own path
+    let map = Ranks::new(Decomposition::uniform(min, max, [1; D]), vec![0]);
+    let mut plan = HaloPlan::default();
+    plan.build(&mut p, &space, &map, &map.boxes(), support, &SerialComm::new())
+        .unwrap();
     let grid = CellGrid::new(&min, &max, support);
     let mut cells = CellList::default();
     cells
@@ -48,7 +51,7 @@ fn build<const D: usize>(
         .unwrap_or_else(|i| panic!("particle {i} at {:?} left the grid", p.x[i]));
     let mut nl = NeighbourList::default();
     nl.build(&grid, &cells, &p, support, |_| true);
-    Built { p, nl, plan, space }
+    Built { p, nl, space }
 }
 
 fn sorted(v: &[u32]) -> Vec<u32> {
@@ -121,7 +124,7 @@ fn assert_matches_image_oracle<const D: usize>(b: &Built<D>, support: f64, what:
                 .iter()
                 .map(|&k| {
                     let k = k as usize;
-                    let src = if k < n { k } else { b.plan.src[k - n] as usize };
+                    let src = if k < n { k } else { b.p.id[k] as usize }; // id = owned index here
                     let mut s = [0i8; D];
                     for a in 0..D {
                         s[a] = ((p.x[k][a] - p.x[src][a]) / l[a]).round() as i8;
