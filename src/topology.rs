@@ -37,10 +37,11 @@
 //! [`Topology::cpus_per_task`] (Slurm's `--nodes`, `--ntasks-per-node`, `--cpus-per-task`).
 
 use crate::error::{Error, Location, Result};
+use crate::scene::{first_line, key_at, line_of, span_of_key};
 use serde::Deserialize;
 use std::ops::Range;
 use std::path::Path;
-use toml_edit::{ImDocument, TableLike};
+use toml_edit::ImDocument;
 
 /// Per-node hardware and the ranks each node holds, as written in a topology file.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -218,7 +219,7 @@ impl Topology {
                 };
                 message.push_str(" (every key is shown in topology/four_nodes_24.toml)");
             }
-            let line = span_of(&doc, &key).or(span).map(|s| line_of(text, s.start));
+            let line = span_of_key(text, &key).or(span).map(|s| line_of(text, s.start));
             locate(key, line, message)
         })?;
         let stem = file
@@ -232,7 +233,7 @@ impl Topology {
                 key,
                 message,
             } => {
-                let line = span_of(&doc, &key).map(|s| line_of(text, s.start));
+                let line = span_of_key(text, &key).map(|s| line_of(text, s.start));
                 locate(key, line, message)
             }
             other => other,
@@ -394,61 +395,6 @@ impl Topology {
             (self.cost.inter_node, self.latency.inter_node)
         }
     }
-}
-
-fn first_line(s: &str) -> &str {
-    s.lines().next().unwrap_or(s).trim()
-}
-
-/// 1-based line of byte offset `pos`.
-fn line_of(text: &str, pos: usize) -> usize {
-    text.as_bytes()[..pos.min(text.len())]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
-        + 1
-}
-
-/// Span of the dotted key (or of its deepest existing ancestor) in the document.
-fn span_of(doc: &ImDocument<String>, key: &str) -> Option<Range<usize>> {
-    let mut t: &dyn TableLike = doc.as_table();
-    let mut best = None;
-    for k in key.split('.').filter(|k| !k.is_empty()) {
-        let Some((kk, item)) = t.get_key_value(k) else {
-            break;
-        };
-        if let Some(s) = kk.span().or_else(|| item.span()) {
-            best = Some(s);
-        }
-        match item.as_table_like() {
-            Some(inner) => t = inner,
-            None => break,
-        }
-    }
-    best
-}
-
-/// Dotted path of the deepest key whose key or value span contains `span.start`.
-fn key_at(doc: &ImDocument<String>, span: &Range<usize>) -> String {
-    fn walk(t: &dyn TableLike, span: &Range<usize>, path: &mut Vec<String>, best: &mut Vec<String>) {
-        let contains = |s: Option<Range<usize>>| {
-            s.is_some_and(|s| s.start <= span.start && span.start < s.end.max(s.start + 1))
-        };
-        for (k, v) in t.iter() {
-            path.push(k.to_string());
-            let key_span = t.get_key_value(k).and_then(|(key, _)| key.span());
-            if contains(v.span()) || contains(key_span) {
-                *best = path.clone();
-            }
-            if let Some(inner) = v.as_table_like() {
-                walk(inner, span, path, best);
-            }
-            path.pop();
-        }
-    }
-    let mut best = Vec::new();
-    walk(doc.as_table(), span, &mut Vec::new(), &mut best);
-    best.join(".")
 }
 
 #[cfg(test)]

@@ -257,17 +257,24 @@ impl SceneSource {
     }
 }
 
-fn first_line(s: &str) -> &str {
+/// First line of a parser message, trimmed.
+pub(crate) fn first_line(s: &str) -> &str {
     s.lines().next().unwrap_or(s).trim()
 }
 
 /// 1-based line of byte offset `pos`.
-fn line_of(text: &str, pos: usize) -> usize {
+pub(crate) fn line_of(text: &str, pos: usize) -> usize {
     text.as_bytes()[..pos.min(text.len())]
         .iter()
         .filter(|&&b| b == b'\n')
         .count()
         + 1
+}
+
+/// Span of the dotted `key` (e.g. `node.count`, `fluid[0].min`), or of its nearest existing
+/// ancestor, in TOML `text`.
+pub(crate) fn span_of_key(text: &str, key: &str) -> Option<Range<usize>> {
+    span_of(text, &parse_path(key))
 }
 
 /// Span of the key at `path` (or of its nearest existing ancestor).
@@ -309,7 +316,7 @@ fn span_in(t: &dyn TableLike, path: &[Seg], best: &mut Option<Range<usize>>) {
 }
 
 /// The dotted key path of the deepest item whose span contains `span`.
-fn key_at(doc: &ImDocument<String>, span: &Range<usize>) -> String {
+pub(crate) fn key_at(doc: &ImDocument<String>, span: &Range<usize>) -> String {
     fn walk(item: &Item, span: &Range<usize>, path: &mut Vec<Seg>, best: &mut Vec<Seg>) {
         let contains = |s: Option<Range<usize>>| {
             s.map(|s| s.start <= span.start && span.start < s.end.max(s.start + 1))

@@ -8,6 +8,7 @@
 mod load;
 mod validate;
 
+pub(crate) use load::{first_line, key_at, line_of, span_of_key};
 pub use load::{load_scene, load_scene_str, SceneSource};
 pub use validate::{expected_speed, face as face_of, validate};
 
