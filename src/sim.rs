@@ -144,6 +144,8 @@ pub struct BalanceStats {
     pub imbalance: f64,
     /// Largest cut-plane displacement of any rebalance (m).
     pub max_plane_shift: f64,
+    /// max/mean load after the initial decomposition and after each rebalance.
+    pub imbalance_history: Vec<f64>,
 }
 
 /// The state of one rank.
@@ -247,6 +249,7 @@ impl<const D: usize> Simulation<D> {
         sim.refresh(Fields::RHO.or(Fields::P), comm)?;
         sim.forces(comm)?;
         sim.balance.imbalance = sim.load_imbalance(comm)?;
+        sim.balance.imbalance_history.push(sim.balance.imbalance);
         sim.dt = sim.next_dt(comm)?;
         Ok(sim)
     }
@@ -432,6 +435,7 @@ impl<const D: usize> Simulation<D> {
                     Some(w) => imbalance_weighted(&report.block_loads, w),
                     None => report.imbalance(),
                 };
+                self.balance.imbalance_history.push(self.balance.imbalance);
                 self.map.decomp = next;
                 self.boxes = self.map.boxes();
             }
