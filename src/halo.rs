@@ -487,14 +487,7 @@ impl<const D: usize> HaloPlan<D> {
                 }
             }
         }
-        // counts: every rank learns how many ghosts each peer sends it
-        let mut counts = vec![0u64; size * size];
-        for (r, l) in per_dst.iter().enumerate() {
-            counts[me * size + r] = l.len() as u64;
-        }
-        comm.set_phase(Phase::Other); // counts are not ghost payload
-        comm.all_reduce_sum_u64(&mut counts)?;
-        comm.set_phase(Phase::Halo);
+        let counts = incoming_counts(per_dst.iter().map(|l| l.len()), comm)?;
         self.inc = (0..size)
             .filter_map(|s| {
                 let n = counts[s * size + me] as usize;
@@ -606,6 +599,20 @@ impl<const D: usize> HaloPlan<D> {
     }
 }
 
+/// Every rank's outgoing counts (`counts[src * P + dst]`), learnt by an integer all-reduce of
+/// this rank's `outgoing` per destination. Logged as phase `other`: counts are not payload.
+fn incoming_counts(outgoing: impl Iterator<Item = usize>, comm: &dyn Comm) -> Result<Vec<u64>> {
+    let (me, size) = (comm.rank(), comm.size());
+    let mut counts = vec![0u64; size * size];
+    for (r, n) in outgoing.enumerate() {
+        counts[me * size + r] = n as u64;
+    }
+    let prev = comm.set_phase(Phase::Other);
+    comm.all_reduce_sum_u64(&mut counts)?;
+    comm.set_phase(prev);
+    Ok(counts)
+}
+
 /// Move every owned particle that left this rank's box to its owner (ghosts must have been
 /// dropped). Returns the number of particles sent. Positions must already be wrapped into
 /// the periodic box; a particle outside every box is an error naming it.
@@ -631,13 +638,7 @@ pub fn migrate<const D: usize>(
             per_dst[r].push(i);
         }
     }
-    let mut counts = vec![0u64; size * size];
-    for (r, l) in per_dst.iter().enumerate() {
-        counts[me * size + r] = l.len() as u64;
-    }
-    comm.set_phase(Phase::Other); // counts are not particle payload
-    comm.all_reduce_sum_u64(&mut counts)?;
-    comm.set_phase(Phase::Migration);
+    let counts = incoming_counts(per_dst.iter().map(|l| l.len()), comm)?;
     let from: Vec<usize> = (0..size)
         .filter(|&s| s != me && counts[s * size + me] > 0)
         .collect();
