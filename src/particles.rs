@@ -161,18 +161,8 @@ impl<const D: usize> Particles<D> {
         rho: f64,
     ) {
         debug_assert_eq!(self.n_owned, self.len(), "owned particles go before ghosts");
-        self.id.push(id);
-        self.key.push(id << IMAGE_BITS);
-        self.kind.push(kind);
-        self.body.push(body);
-        self.mat.push(mat);
-        self.x.push(x);
-        self.v.push(v);
-        self.mass.push(mass);
-        self.rho.push(rho);
-        self.p.push(0.0);
-        self.vw.push(v);
-        self.grad_rho.push(Vector::zeros());
+        // the fields every particle has, then the rates only owned particles carry
+        self.push_ghost_record(id, id << IMAGE_BITS, kind, body, mat, x, v, mass, rho);
         self.drho.push(0.0);
         self.acc.push(Vector::zeros());
         self.n_owned += 1;
