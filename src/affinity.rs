@@ -28,7 +28,7 @@ distinct cores while R*T <= C, disjoint ranks while R <= C; beyond that a rank's
 wrap round-robin over its own block, never onto another rank's cores.";
 
 /// How `hsph run` binds rayon threads.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Bind {
     /// Leave placement to the OS (and the launcher's cpuset).
     #[default]

@@ -66,10 +66,7 @@ pub fn run(scenes: &[PathBuf], o: &BenchOptions) -> Result<Vec<BenchRow>> {
     for path in scenes {
         let (scene, _) = load_scene(path, &o.overrides)?;
         for &t in &o.threads {
-            let row = match scene.dimension {
-                2 => measure::<2>(path, &scene, t, o)?,
-                _ => measure::<3>(path, &scene, t, o)?,
-            };
+            let row = crate::with_dim!(scene.dimension, D => measure::<D>(path, &scene, t, o))?;
             eprintln!(
                 "hsph bench: {} × {} threads: {:.3e} particle-steps/s, {:.3} µs/particle-step",
                 row.scene, row.threads, row.particle_steps_per_s, row.us_per_particle_step

@@ -3,11 +3,15 @@
 //! Every user-facing failure becomes an [`Error`] whose exit status is 2 for bad input (scene,
 //! flags, a feature the build lacks) and 1 for a run that failed; nothing here panics.
 
+use crate::affinity::Bind;
 use crate::bench::{self, BenchOptions};
 use crate::driver::{self, RunOptions};
 use crate::error::{Error, Result};
+use crate::layout::{Backend, LayoutRequest, RunLayout};
+use crate::placement::Placement;
 use crate::report;
 use crate::scene::{load_scene, Scene, SceneSource};
+use crate::topology::Topology;
 use clap::{Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 
@@ -30,45 +34,30 @@ pub struct Cli {
     pub command: Command,
 }
 
-/// Communication back end.
+/// `--placement` of `hsph plan`: one method or every one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Backend {
-    /// MPI when built with `mpi` and launched by mpirun/srun, else local when --ranks > 1,
-    /// else serial.
-    Auto,
-    /// One rank in this process.
-    Serial,
-    /// --ranks N ranks as threads of this process (no MPI needed).
-    Local,
-    /// MPI (cargo feature `mpi`); the launcher sets the rank count.
-    Mpi,
+pub enum PlanPlacement {
+    /// Every method, side by side.
+    All,
+    /// Block i on rank i.
+    RankOrder,
+    /// Fill nodes by the distance between block centres (seed 000).
+    CentreDistance,
+    /// Compact sub-grids of blocks per node.
+    NodeGrid,
+    /// The best of the above, refined by swaps weighted by halo volume.
+    MinCut,
 }
 
-impl From<Backend> for driver::Backend {
-    fn from(b: Backend) -> Self {
-        match b {
-            Backend::Auto => driver::Backend::Auto,
-            Backend::Serial => driver::Backend::Serial,
-            Backend::Local => driver::Backend::Local,
-            Backend::Mpi => driver::Backend::Mpi,
-        }
-    }
-}
-
-/// Thread binding of `hsph run`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Bind {
-    /// No binding: the OS places threads inside the launcher's cpuset.
-    None,
-    /// Each rayon thread pinned to one core (cargo feature `hwloc`).
-    Cores,
-}
-
-impl From<Bind> for crate::affinity::Bind {
-    fn from(b: Bind) -> Self {
-        match b {
-            Bind::None => crate::affinity::Bind::None,
-            Bind::Cores => crate::affinity::Bind::Cores,
+impl PlanPlacement {
+    /// The methods to plan.
+    pub fn methods(self) -> Vec<Placement> {
+        match self {
+            PlanPlacement::All => Placement::ALL.to_vec(),
+            PlanPlacement::RankOrder => vec![Placement::RankOrder],
+            PlanPlacement::CentreDistance => vec![Placement::CentreDistance],
+            PlanPlacement::NodeGrid => vec![Placement::NodeGrid],
+            PlanPlacement::MinCut => vec![Placement::MinCut],
         }
     }
 }
@@ -113,9 +102,9 @@ Examples:
         /// Node layout file (see topology/), e.g. topology/four_nodes_24.toml.
         #[arg(long, value_name = "FILE")]
         topology: Option<PathBuf>,
-        /// Placement of subdomains on ranks: rank-order, centre-distance, node-grid, min-cut.
-        #[arg(long, default_value = "rank-order")]
-        placement: String,
+        /// Placement of subdomains on ranks.
+        #[arg(long, value_enum, default_value_t = Placement::RankOrder)]
+        placement: Placement,
         /// No progress output.
         #[arg(long, short)]
         quiet: bool,
@@ -153,9 +142,9 @@ Examples:
         /// Node layout file (wins over --ranks-per-node).
         #[arg(long, value_name = "FILE")]
         topology: Option<PathBuf>,
-        /// Placement: rank-order, centre-distance, node-grid, min-cut or all.
-        #[arg(long, default_value = "all")]
-        placement: String,
+        /// Placement to plan, or all of them.
+        #[arg(long, value_enum, default_value_t = PlanPlacement::All)]
+        placement: PlanPlacement,
         /// Write plan.json and plan.csv here.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -259,10 +248,7 @@ fn dispatch(cmd: Command) -> Result<()> {
             if ranks == 0 {
                 return Err(Error::input("--ranks", "must be at least 1, e.g. --ranks 4"));
             }
-            let placement: crate::placement::Placement = placement.parse()?;
-            let topology = topology
-                .map(|f| crate::topology::Topology::load(&f))
-                .transpose()?;
+            let topology = topology.map(|f| Topology::load(&f)).transpose()?;
             let (scene, src) = load_scene(&scene, &set)?;
             driver::run_scene(
                 &scene,
@@ -272,12 +258,12 @@ fn dispatch(cmd: Command) -> Result<()> {
                     threads,
                     quiet,
                     ranks,
-                    backend: backend.into(),
+                    backend,
                     fault: driver::Fault::from_env(),
                     ranks_per_node,
                     topology,
                     placement,
-                    bind: bind.into(),
+                    bind,
                 },
             )
             .map(|_| ())
@@ -300,18 +286,16 @@ fn dispatch(cmd: Command) -> Result<()> {
             if ranks == 0 {
                 return Err(Error::input("--ranks", "must be at least 1, e.g. --ranks 96"));
             }
-            let topo = match topology {
-                Some(f) => crate::topology::Topology::load(&f)?,
-                None if ranks_per_node > 0 => {
-                    crate::topology::Topology::from_ranks_per_node(ranks, ranks_per_node)?
-                }
-                None => crate::topology::Topology::from_ranks_per_node(ranks, ranks)?,
+            // the same resolution as `hsph run`, with the nodes declared (never discovered)
+            let req = LayoutRequest {
+                backend: Backend::Local,
+                ranks,
+                ranks_per_node,
+                topology: topology.map(|f| Topology::load(&f)).transpose()?,
+                ..Default::default()
             };
-            let methods: Vec<crate::placement::Placement> = if placement == "all" {
-                crate::placement::Placement::ALL.to_vec()
-            } else {
-                vec![placement.parse()?]
-            };
+            let topo = RunLayout::resolve(&req, Backend::Local, ranks, None)?.placement_topology();
+            let methods = placement.methods();
             let rows = crate::plan::plan(&scene, ranks, &topo, &methods)?;
             print!("{}", crate::plan::table(&scene, ranks, &topo, &rows));
             if let Some(dir) = out {
@@ -362,11 +346,7 @@ fn locate(src: &SceneSource, e: Error) -> Error {
 
 /// The text `hsph check` prints: counts, physics, dt and memory estimates.
 pub fn check_report(scene: &Scene) -> Result<String> {
-    match scene.dimension {
-        2 => check_dim::<2>(scene),
-        3 => check_dim::<3>(scene),
-        d => Err(Error::input("dimension", format!("must be 2 or 3, got {d}"))),
-    }
+    crate::with_dim!(scene.dimension, D => check_dim::<D>(scene))
 }
 
 fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
@@ -413,7 +393,8 @@ fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
         steps,
         (scene.time.t_end / scene.output.interval).round()
     );
-    let bytes = (n + sim.halo.len()) * Particles::<D>::bytes_per_particle()
+    let bytes = n * Particles::<D>::bytes_per_particle()
+        + sim.halo.len() * Particles::<D>::bytes_per_ghost()
         + sim.nl.pairs() * 4
         + sim.cells.order.len() * 8;
     let _ = writeln!(

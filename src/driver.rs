@@ -8,32 +8,19 @@
 use crate::comm::serial::SerialComm;
 use crate::comm::{Comm, Phase, TrafficEntry};
 use crate::error::{Error, Result};
+pub use crate::layout::Backend;
+use crate::layout::{resolve_backend, LayoutRequest, RunLayout};
 use crate::output::{self, RunWriter};
 use crate::placement::Placement;
 use crate::progress::Progress;
 use crate::reference::Tracker;
 use crate::scene::Scene;
-use crate::sim::{Layout, Simulation, PHASES};
+use crate::sim::{Simulation, Timer, PHASES};
 use crate::topology::{ByteCost, Topology, DEFAULT_COST};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-
-/// Communication back end.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Backend {
-    /// MPI when built with `mpi` and launched by mpirun/srun, else local when ranks > 1, else
-    /// serial.
-    #[default]
-    Auto,
-    /// One rank in this process.
-    Serial,
-    /// N ranks as threads of this process.
-    Local,
-    /// MPI (cargo feature `mpi`).
-    Mpi,
-}
 
 /// A test-only fault: make `rank` fail at `step`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -102,6 +89,20 @@ pub struct RunOptions {
     pub bind: crate::affinity::Bind,
 }
 
+impl RunOptions {
+    /// The layout flags of these options.
+    pub fn layout_request(&self) -> LayoutRequest {
+        LayoutRequest {
+            backend: self.backend,
+            ranks: self.ranks,
+            ranks_per_node: self.ranks_per_node,
+            topology: self.topology.clone(),
+            placement: self.placement,
+            bind: self.bind,
+        }
+    }
+}
+
 /// What a finished run reports.
 #[derive(Debug, Clone)]
 pub struct RunOutcome {
@@ -136,90 +137,48 @@ fn cores() -> usize {
     std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
 }
 
-/// The back end `opts` resolves to.
-pub fn resolve_backend(opts: &RunOptions) -> Result<Backend> {
-    let b = match opts.backend {
-        Backend::Auto if cfg!(feature = "mpi") && crate::comm::launched_by_mpi() => Backend::Mpi,
-        Backend::Auto if opts.ranks > 1 => Backend::Local,
-        Backend::Auto => Backend::Serial,
-        b => b,
-    };
-    if b == Backend::Mpi && !cfg!(feature = "mpi") {
-        return Err(Error::missing_feature("--backend", "mpi"));
-    }
-    if b == Backend::Serial && opts.ranks > 1 {
-        return Err(Error::input(
-            "--ranks",
-            format!(
-                "the serial back end runs one rank, not {}; use --backend local",
-                opts.ranks
-            ),
-        ));
-    }
-    Ok(b)
-}
-
-/// Run a validated scene. The output directory is prepared first; `summary.json` is written
-/// only when the run completes.
+/// Run a validated scene. The layout is resolved and the output directory prepared first (bad
+/// input exits 2 before a step is taken); `summary.json` is written only when the run
+/// completes.
 pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
-    let backend = resolve_backend(opts)?;
-    if backend != Backend::Mpi {
-        // the rank count is known: check the layout before any rank starts (exit 2)
-        let _ = node_layout_for(opts.ranks.max(1), opts, None)?;
+    let req = opts.layout_request();
+    let backend = resolve_backend(&req)?;
+    if backend == Backend::Mpi {
+        return run_mpi(scene, opts, &req);
     }
-    match backend {
-        Backend::Serial | Backend::Auto => {
-            let dir = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
-            let pool = bound_pool(opts.threads, opts.bind)?;
-            let comm = SerialComm::new();
-            let out = pool.install(|| run_rank(scene, &dir, &comm, "serial", opts))?;
-            out.ok_or_else(|| Error::run("rank 0 produced no outcome"))
-        }
+    let layout = RunLayout::resolve(&req, backend, opts.ranks.max(1), None)?;
+    let dir = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
+    let outcome = match backend {
         Backend::Local => {
-            let ranks = opts.ranks.max(1);
             let threads = if opts.threads == 0 {
-                (cores() / ranks).max(1)
+                (cores() / layout.ranks).max(1)
             } else {
                 opts.threads
             };
-            let dir = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
-            let start = crate::affinity::start_handler(opts.bind, ranks, threads)?;
-            let outs = crate::comm::local::run_local_with(ranks, threads, start, |comm| {
-                run_rank(scene, &dir, comm, "local", opts)
-            })?;
-            outs.into_iter()
-                .flatten()
-                .next()
-                .ok_or_else(|| Error::run("rank 0 produced no outcome"))
+            let start = crate::affinity::start_handler(opts.bind, layout.ranks, threads)?;
+            crate::comm::local::run_local_with(layout.ranks, threads, start, |comm| {
+                run_rank(scene, &dir, comm, &layout, opts)
+            })?
+            .into_iter()
+            .flatten()
+            .next()
         }
-        Backend::Mpi => run_mpi(scene, opts),
-    }
+        _ => {
+            let pool = bound_pool(opts.threads, opts.bind)?;
+            let comm = SerialComm::new();
+            pool.install(|| run_rank(scene, &dir, &comm, &layout, opts))?
+        }
+    };
+    outcome.ok_or_else(|| Error::run("rank 0 produced no outcome"))
 }
 
 #[cfg(feature = "mpi")]
-fn run_mpi(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
+fn run_mpi(scene: &Scene, opts: &RunOptions, req: &LayoutRequest) -> Result<RunOutcome> {
     use crate::comm::mpi::MpiComm;
     let comm = MpiComm::init()?;
-    // rank 0 chooses and prepares the directory; a failure there is everyone's input error
-    let prepared = if comm.rank() == 0 {
-        match output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force) {
-            Ok(d) => format!("ok:{}", d.display()),
-            Err(e) => format!("err:{e}"),
-        }
-    } else {
-        String::new()
-    };
-    let text = String::from_utf8_lossy(&comm.broadcast_bytes(0, prepared.into_bytes())?).into_owned();
-    let dir = match text.strip_prefix("ok:") {
-        Some(d) => PathBuf::from(d),
-        None => {
-            let msg = text
-                .strip_prefix("err:")
-                .unwrap_or(&text)
-                .trim_start_matches("error: ");
-            return Err(Error::input("--out", msg.to_string()));
-        }
-    };
+    // the layout is found by every rank alike from the same node keys: exit 2 everywhere
+    let layout = RunLayout::resolve(req, Backend::Mpi, comm.size(), Some(&node_keys(&comm)?))?;
+    let dir = mpi_prepare_dir(&comm, scene, opts)?;
     // MPI calls stay on this (main) thread, so the rank body runs here on the global pool
     let n = if opts.threads == 0 { cores() } else { opts.threads };
     let start = crate::affinity::mpi_start_handler(opts.bind, n)?;
@@ -228,7 +187,7 @@ fn run_mpi(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
         .build_global()
         .map_err(|e| Error::run(format!("cannot start {n} threads: {e}")))?;
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        run_rank(scene, &dir, &comm, "mpi", opts)
+        run_rank(scene, &dir, &comm, &layout, opts)
     }))
     .unwrap_or_else(|p| {
         let what = p
@@ -246,65 +205,52 @@ fn run_mpi(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
             summary: serde_json::Value::Null,
             errors: BTreeMap::new(),
         }),
-        // a layout error is found by every rank alike: exit 2 everywhere, no abort
         Err(e @ Error::Input { .. }) => Err(e),
         Err(e) => Err(comm.abort(e.to_string().trim_start_matches("error: "))),
     }
 }
 
+/// Rank 0 chooses and prepares the run directory and broadcasts it; a failure there is every
+/// rank's input error.
+#[cfg(feature = "mpi")]
+fn mpi_prepare_dir(comm: &dyn Comm, scene: &Scene, opts: &RunOptions) -> Result<PathBuf> {
+    let prepared = if comm.rank() == 0 {
+        match output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force) {
+            Ok(d) => format!("ok:{}", d.display()),
+            Err(e) => format!("err:{e}"),
+        }
+    } else {
+        String::new()
+    };
+    let text = String::from_utf8_lossy(&comm.broadcast_bytes(0, prepared.into_bytes())?).into_owned();
+    match text.strip_prefix("ok:") {
+        Some(d) => Ok(PathBuf::from(d)),
+        None => {
+            let msg = text
+                .strip_prefix("err:")
+                .unwrap_or(&text)
+                .trim_start_matches("error: ");
+            Err(Error::input("--out", msg.to_string()))
+        }
+    }
+}
+
 #[cfg(not(feature = "mpi"))]
-fn run_mpi(_scene: &Scene, _opts: &RunOptions) -> Result<RunOutcome> {
+fn run_mpi(_scene: &Scene, _opts: &RunOptions, _req: &LayoutRequest) -> Result<RunOutcome> {
     Err(Error::missing_feature("--backend", "mpi"))
 }
 
-/// The topology of a run of `ranks` ranks: `--topology`, else `--ranks-per-node`, else the
-/// nodes discovered (`keys`: one node key per rank, from [`Comm::node_key`]) when they hold
-/// equal runs of consecutive ranks; and the node of every rank.
-fn node_layout_for(
-    ranks: usize,
-    opts: &RunOptions,
-    keys: Option<&[usize]>,
-) -> Result<(Option<Topology>, Vec<usize>)> {
-    if let Some(t) = &opts.topology {
-        t.check_ranks(ranks)?;
-        return Ok((Some(t.clone()), (0..ranks).map(|r| t.node_of(r)).collect()));
-    }
-    if opts.ranks_per_node > 0 {
-        let t = Topology::from_ranks_per_node(ranks, opts.ranks_per_node)?;
-        let nodes = (0..ranks).map(|r| t.node_of(r)).collect();
-        return Ok((Some(t), nodes));
-    }
-    // discovered: dense node ids in order of first appearance
-    let mut ids = Vec::with_capacity(ranks);
-    let mut seen: Vec<usize> = Vec::new();
-    for r in 0..ranks {
-        let key = keys.map_or(0, |k| k[r]);
-        let id = seen.iter().position(|&s| s == key).unwrap_or_else(|| {
-            seen.push(key);
-            seen.len() - 1
-        });
-        ids.push(id);
-    }
-    let k = ids.iter().filter(|&&n| n == 0).count();
-    let uniform = (0..ranks).all(|r| ids[r] == r / k);
-    let topo = if uniform {
-        Some(Topology::from_ranks_per_node(ranks, k)?)
-    } else {
-        None
-    };
-    Ok((topo, ids))
-}
-
-/// The node layout of this run (collective: gathers every rank's node key).
-fn node_layout(comm: &dyn Comm, opts: &RunOptions) -> Result<(Option<Topology>, Vec<usize>)> {
+/// Every rank's node key ([`Comm::node_key`]), all-gathered (collective).
+#[cfg_attr(not(feature = "mpi"), allow(dead_code))]
+fn node_keys(comm: &dyn Comm) -> Result<Vec<usize>> {
     let prev = comm.set_phase(Phase::Other);
-    let keys: Vec<usize> = comm
+    let keys = comm
         .all_gather_bytes((comm.node_key() as u64).to_le_bytes().to_vec())?
         .iter()
         .map(|b| u64::from_le_bytes(b[..8].try_into().expect("8 bytes")) as usize)
         .collect();
     comm.set_phase(prev);
-    node_layout_for(comm.size(), opts, Some(&keys))
+    Ok(keys)
 }
 
 /// Traffic of every rank since the last call, gathered on rank 0 (collective).
@@ -389,19 +335,38 @@ impl TrafficTotals {
     }
 }
 
-/// One rank's whole run; `Some(outcome)` on rank 0.
+/// Gather the traffic since the last call (collective) and, on rank 0 (`writer`), add it to
+/// the totals and append it to `traffic.csv` as of `step`.
+fn log_traffic<const D: usize>(
+    comm: &dyn Comm,
+    writer: Option<&mut RunWriter<D>>,
+    totals: &mut TrafficTotals,
+    node_of: &[usize],
+    step: u64,
+) -> Result<()> {
+    let entries = gather_traffic(comm)?;
+    if let Some(w) = writer {
+        for e in &entries {
+            totals.add(e, node_of);
+        }
+        w.traffic_rows(step, &entries, node_of)?;
+    }
+    Ok(())
+}
+
+/// One rank's whole run on a resolved layout; `Some(outcome)` on rank 0.
 pub fn run_rank(
     scene: &Scene,
     dir: &Path,
     comm: &dyn Comm,
-    backend: &str,
+    layout: &RunLayout,
     opts: &RunOptions,
 ) -> Result<Option<RunOutcome>> {
-    match scene.dimension {
-        2 => run_dim::<2>(scene, dir, comm, backend, opts),
-        3 => run_dim::<3>(scene, dir, comm, backend, opts),
-        d => Err(Error::input("dimension", format!("must be 2 or 3, got {d}"))),
-    }
+    crate::with_dim!(scene.dimension, D => {
+        let mut run = RankRun::<D>::start(scene, dir, comm, layout.clone(), opts)?;
+        run.step_loop()?;
+        run.finish()
+    })
 }
 
 /// Header of `diagnostics.csv`.
@@ -426,6 +391,13 @@ struct Reduced {
     migrated: u64,
 }
 
+impl Reduced {
+    /// Mean seconds of `phase` over ranks.
+    fn mean(&self, phase: Timer) -> f64 {
+        self.timers[phase as usize][1]
+    }
+}
+
 fn reduce<const D: usize>(sim: &Simulation<D>, comm: &dyn Comm) -> Result<Reduced> {
     let prev = comm.set_phase(Phase::Output);
     let mut mine: Vec<u8> = Vec::new();
@@ -443,17 +415,14 @@ fn reduce<const D: usize>(sim: &Simulation<D>, comm: &dyn Comm) -> Result<Reduce
     comm.set_phase(prev);
     let timers = (0..PHASES.len())
         .map(|k| {
-            let v: Vec<f64> = all
-                .iter()
-                .map(|b| f64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes")))
-                .collect();
             let (mut lo, mut hi, mut sum) = (f64::INFINITY, 0.0f64, 0.0);
-            for x in &v {
-                lo = lo.min(*x);
-                hi = hi.max(*x);
+            for b in &all {
+                let x = f64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes"));
+                lo = lo.min(x);
+                hi = hi.max(x);
                 sum += x;
             }
-            [lo, sum / v.len() as f64, hi]
+            [lo, sum / all.len() as f64, hi]
         })
         .collect();
     Ok(Reduced {
@@ -465,196 +434,269 @@ fn reduce<const D: usize>(sim: &Simulation<D>, comm: &dyn Comm) -> Result<Reduce
     })
 }
 
-fn run_dim<const D: usize>(
-    scene: &Scene,
-    dir: &Path,
-    comm: &dyn Comm,
-    backend: &str,
-    opts: &RunOptions,
-) -> Result<Option<RunOutcome>> {
-    let root = comm.rank() == 0;
-    let quiet = opts.quiet || !root;
-    let threads = rayon::current_num_threads();
-    let (topology, nodes) = node_layout(comm, opts)?;
-    let layout = Layout {
-        topology,
-        placement: opts.placement,
-    };
-    let mut sim = Simulation::<D>::with_layout(scene, comm, &layout)?;
-    let mut writer = if root {
-        Some(RunWriter::new(dir, &sim.scene, &diag_header())?)
-    } else {
-        None
-    };
-    let mut totals = TrafficTotals::default();
-    // the set-up's traffic (one step's exchanges at the initial positions) is step 0
-    let traffic = |step: u64, writer: &mut Option<RunWriter>, totals: &mut TrafficTotals| -> Result<()> {
-        let entries = gather_traffic(comm)?;
-        if let Some(w) = writer.as_mut() {
-            for e in &entries {
-                totals.add(e, &nodes);
+/// The state of one rank's run between the set-up and `summary.json`.
+struct RankRun<'a, const D: usize> {
+    scene: &'a Scene,
+    dir: &'a Path,
+    comm: &'a dyn Comm,
+    layout: RunLayout,
+    opts: &'a RunOptions,
+    sim: Simulation<D>,
+    /// Rank 0 only.
+    writer: Option<RunWriter<D>>,
+    tracker: Tracker,
+    totals: TrafficTotals,
+    n_total: usize,
+    /// Start of the first output step (the `wall_s` column of `diagnostics.csv`).
+    loop_start: Instant,
+    /// Start of the first step (`wall_s` of `summary.json`).
+    steps_start: Instant,
+    quiet: bool,
+}
+
+impl<'a, const D: usize> RankRun<'a, D> {
+    /// Set up the simulation, open the run files (rank 0), log the set-up's traffic as step 0
+    /// and write the first output step.
+    fn start(
+        scene: &'a Scene,
+        dir: &'a Path,
+        comm: &'a dyn Comm,
+        mut layout: RunLayout,
+        opts: &'a RunOptions,
+    ) -> Result<Self> {
+        let root = comm.rank() == 0;
+        let sim = Simulation::<D>::with_layout(scene, comm, &layout)?;
+        layout.placed(sim.placement);
+        if root {
+            for w in &layout.warnings {
+                eprintln!("hsph: warning: {w}");
             }
-            w.traffic_rows(step, &entries, &nodes)?;
         }
-        Ok(())
-    };
-    traffic(0, &mut writer, &mut totals)?;
-    let mut tracker = Tracker::default();
-    let mut n_total = [sim.p.n_owned as u64];
-    comm.all_reduce_sum_u64(&mut n_total)?;
-    let n_total = n_total[0] as usize;
-    if !quiet {
-        eprintln!(
-            "hsph: {} ({}D), {} particles, {} rank(s) × {threads} thread(s) [{backend}], dt₀ = {:.3e} s, output in {}",
-            scene.name,
-            D,
-            n_total,
-            comm.size(),
-            sim.dt,
-            dir.display()
-        );
-    }
-    let loop_start = Instant::now();
-    let output =
-        |sim: &mut Simulation<D>, tracker: &mut Tracker, writer: &mut Option<RunWriter>| -> Result<()> {
-            let t0 = Instant::now();
-            let obs = sim.observables(comm)?;
-            let r = reduce(sim, comm)?;
-            let view = sim.gather(comm)?;
-            let wall = loop_start.elapsed().as_secs_f64();
-            if let (Some(v), Some(w)) = (view, writer.as_mut()) {
-                tracker.at_output(&v);
-                let mut row = format!("{},{},{wall:.6}", v.step, v.t);
-                for t in &r.timers {
-                    row.push_str(&format!(",{:.6},{:.6},{:.6}", t[0], t[1], t[2]));
-                }
-                let rate = if wall > 0.0 {
-                    r.particles as f64 * v.step as f64 / wall
-                } else {
-                    0.0
-                };
-                row.push_str(&format!(
-                    ",{},{},{:.6},{:.6},{},{},{rate:.1}",
-                    r.ghosts,
-                    r.remote,
-                    r.remote as f64 / r.particles.max(1) as f64,
-                    sim.balance.imbalance,
-                    r.migrated,
-                    sim.balance.rebalance_steps.len()
-                ));
-                w.output_step(&v, &obs, &row)?;
-            }
-            sim.timers.add(6, t0);
-            Ok(())
+        let writer = if root {
+            Some(RunWriter::new(dir, &sim.scene, &diag_header())?)
+        } else {
+            None
         };
-    output(&mut sim, &mut tracker, &mut writer)?;
-    let interval = scene.output.interval;
-    let mut next_out = interval;
-    let mut progress = Progress::new(n_total, quiet);
-    let step_start = Instant::now();
-    while !sim.done() {
-        if let Some(f) = opts.fault {
-            if f.rank == comm.rank() && f.step == sim.step + 1 {
+        let mut n_total = [sim.p.n_owned as u64];
+        comm.all_reduce_sum_u64(&mut n_total)?;
+        let mut run = RankRun {
+            scene,
+            dir,
+            comm,
+            layout,
+            opts,
+            sim,
+            writer,
+            tracker: Tracker::default(),
+            totals: TrafficTotals::default(),
+            n_total: n_total[0] as usize,
+            loop_start: Instant::now(),
+            steps_start: Instant::now(),
+            quiet: opts.quiet || !root,
+        };
+        // the set-up's traffic (one step's exchanges at the initial positions) is step 0
+        run.traffic(0)?;
+        if !run.quiet {
+            eprintln!(
+                "hsph: {} ({}D), {} particles, {} rank(s) × {} thread(s) [{}], dt₀ = {:.3e} s, output in {}",
+                scene.name,
+                D,
+                run.n_total,
+                comm.size(),
+                rayon::current_num_threads(),
+                run.layout.backend.name(),
+                run.sim.dt,
+                dir.display()
+            );
+        }
+        run.loop_start = Instant::now();
+        run.output()?;
+        Ok(run)
+    }
+
+    /// Append the traffic since the last call to `traffic.csv` as of `step` (collective).
+    fn traffic(&mut self, step: u64) -> Result<()> {
+        log_traffic(
+            self.comm,
+            self.writer.as_mut(),
+            &mut self.totals,
+            &self.layout.node_of,
+            step,
+        )
+    }
+
+    /// One output step: observables, reduced diagnostics, the gathered state (collective).
+    fn output(&mut self) -> Result<()> {
+        let t0 = Instant::now();
+        let obs = self.sim.observables(self.comm)?;
+        let r = reduce(&self.sim, self.comm)?;
+        let view = self.sim.gather(self.comm)?;
+        let wall = self.loop_start.elapsed().as_secs_f64();
+        if let (Some(v), Some(w)) = (view, self.writer.as_mut()) {
+            self.tracker.at_output(&v);
+            let mut row = format!("{},{},{wall:.6}", v.step, v.t);
+            for t in &r.timers {
+                row.push_str(&format!(",{:.6},{:.6},{:.6}", t[0], t[1], t[2]));
+            }
+            let rate = if wall > 0.0 {
+                r.particles as f64 * v.step as f64 / wall
+            } else {
+                0.0
+            };
+            let b = &self.sim.balance;
+            row.push_str(&format!(
+                ",{},{},{:.6},{:.6},{},{},{rate:.1}",
+                r.ghosts,
+                r.remote,
+                r.remote as f64 / r.particles.max(1) as f64,
+                b.imbalance,
+                r.migrated,
+                b.rebalance_steps.len()
+            ));
+            w.output_step(&v, &obs, &row)?;
+        }
+        self.sim.timers.add(Timer::Output, t0);
+        Ok(())
+    }
+
+    /// Steps until the end, with the reference tracker, output steps and progress.
+    fn step_loop(&mut self) -> Result<()> {
+        let interval = self.scene.output.interval;
+        let mut next_out = interval;
+        let mut progress = Progress::new(self.n_total, self.quiet);
+        self.steps_start = Instant::now();
+        while !self.sim.done() {
+            self.inject_fault();
+            self.sim.advance(self.comm)?;
+            if self.tracker.due(self.scene, self.sim.t) {
+                match &self.sim.gather(self.comm)? {
+                    Some(v) => self.tracker.after_step(v),
+                    None => self.tracker.skip(self.scene, self.sim.t),
+                }
+            }
+            if self.sim.t >= next_out * (1.0 - 1e-12) || self.sim.done() {
+                while next_out <= self.sim.t * (1.0 + 1e-12) {
+                    next_out += interval;
+                }
+                self.output()?;
+                self.traffic(self.sim.step)?;
+            }
+            progress.update(self.sim.step, self.sim.t, self.scene.time.t_end);
+        }
+        progress.finish();
+        Ok(())
+    }
+
+    /// The test-only fault of `opts`, if it is due on this rank now.
+    fn inject_fault(&mut self) {
+        if let Some(f) = self.opts.fault {
+            if f.rank == self.comm.rank() && f.step == self.sim.step + 1 {
                 match f.kind {
                     FaultKind::Panic => panic!("injected fault on rank {} at step {}", f.rank, f.step),
-                    FaultKind::Nan => sim.p.x[0][0] = f64::NAN,
+                    FaultKind::Nan => self.sim.p.x[0][0] = f64::NAN,
                 }
             }
         }
-        sim.advance(comm)?;
-        if tracker.due(scene, sim.t) {
-            let view = sim.gather(comm)?;
-            match &view {
-                Some(v) => tracker.after_step(v),
-                None => tracker.skip(scene, sim.t),
+    }
+
+    /// Final gather, `final.csv` and `summary.json` (rank 0), the closing log lines.
+    fn finish(mut self) -> Result<Option<RunOutcome>> {
+        let wall = self.steps_start.elapsed().as_secs_f64();
+        let r = reduce(&self.sim, self.comm)?;
+        let final_view = self.sim.gather(self.comm)?;
+        let mut writer = self.writer.take();
+        log_traffic(
+            self.comm,
+            writer.as_mut(),
+            &mut self.totals,
+            &self.layout.node_of,
+            self.sim.step,
+        )?;
+        let (Some(view), Some(mut writer)) = (final_view, writer) else {
+            return Ok(None);
+        };
+        self.tracker.finish(&view);
+        writer.finish(&view)?;
+        let n_fluid = view.p.kind.iter().filter(|k| k.is_fluid()).count();
+        drop(view);
+        let summary = self.summary(&r, wall, n_fluid);
+        output::write_summary(self.dir, &summary)?;
+        if !self.quiet {
+            let (n, steps) = (r.particles as f64, self.sim.step as f64);
+            eprintln!(
+                "hsph: done: {steps} steps in {wall:.2} s ({:.3e} particle-steps/s); results in {}",
+                n * steps / wall.max(1e-12),
+                self.dir.display()
+            );
+            for (k, v) in &self.tracker.errors {
+                eprintln!("hsph: error {k} = {:.4} %", v * 100.0);
             }
         }
-        if sim.t >= next_out * (1.0 - 1e-12) || sim.done() {
-            while next_out <= sim.t * (1.0 + 1e-12) {
-                next_out += interval;
-            }
-            output(&mut sim, &mut tracker, &mut writer)?;
-            traffic(sim.step, &mut writer, &mut totals)?;
+        Ok(Some(RunOutcome {
+            dir: self.dir.to_path_buf(),
+            summary,
+            errors: std::mem::take(&mut self.tracker.errors),
+        }))
+    }
+
+    /// `summary.json`.
+    fn summary(&self, r: &Reduced, wall: f64, n_fluid: usize) -> serde_json::Value {
+        let sim = &self.sim;
+        let n = r.particles as usize;
+        let steps = sim.step;
+        let mut timers = serde_json::Map::new();
+        for (k, p) in PHASES.iter().enumerate() {
+            timers.insert(
+                format!("{p}_s"),
+                json!({"min": r.timers[k][0], "mean": r.timers[k][1], "max": r.timers[k][2]}),
+            );
         }
-        progress.update(sim.step, sim.t, scene.time.t_end);
+        let comm_s = r.mean(Timer::Halo) + r.mean(Timer::Migration);
+        let errors: serde_json::Map<String, serde_json::Value> = self
+            .tracker
+            .errors
+            .iter()
+            .map(|(k, v)| (k.clone(), json!(v)))
+            .collect();
+        let per_s = |x: f64| if wall > 0.0 { x / wall } else { 0.0 };
+        let cost = self
+            .layout
+            .topology
+            .as_ref()
+            .map_or(DEFAULT_COST, |t: &Topology| t.cost);
+        json!({
+            "hsph_version": env!("CARGO_PKG_VERSION"),
+            "scene": self.scene.name,
+            "dimension": D,
+            "particles": n,
+            "fluid_particles": n_fluid,
+            "wall_particles": n - n_fluid,
+            "steps": steps,
+            "t_end": self.scene.time.t_end,
+            "t": sim.t,
+            "wall_s": wall,
+            "particle_steps_per_s": per_s(n as f64 * steps as f64),
+            "pair_interactions_per_s": per_s(sim.pair_count as f64 * self.comm.size() as f64),
+            "threads": rayon::current_num_threads(),
+            "ranks": self.comm.size(),
+            "backend": self.layout.backend.name(),
+            "decomposition": sim.map.decomp.factors().to_vec(),
+            "placement": self.layout.placement.name(),
+            "placement_requested": self.layout.requested.name(),
+            "layout_warnings": self.layout.warnings,
+            "nodes": self.layout.nodes(),
+            "traffic": self.totals.json(&cost),
+            "ghost_fraction": r.remote as f64 / n.max(1) as f64,
+            "imbalance": sim.balance.imbalance,
+            "migrations": r.migrated,
+            "migrations_per_step": r.migrated as f64 / steps.max(1) as f64,
+            "rebalances": sim.balance.rebalance_steps.len(),
+            "rebalance_steps": sim.balance.rebalance_steps,
+            "max_plane_shift_m": sim.balance.max_plane_shift,
+            "communication_fraction": comm_s / wall.max(1e-12),
+            "balance_fraction": r.mean(Timer::Balance) / wall.max(1e-12),
+            "timers": timers,
+            "errors": errors,
+        })
     }
-    progress.finish();
-    let wall = step_start.elapsed().as_secs_f64();
-    let r = reduce(&sim, comm)?;
-    let final_view = sim.gather(comm)?;
-    traffic(sim.step, &mut writer, &mut totals)?;
-    let (Some(view), Some(mut writer)) = (final_view, writer) else {
-        return Ok(None);
-    };
-    tracker.finish(&view);
-    writer.finish(&view)?;
-    let n = r.particles as usize;
-    let steps = sim.step;
-    let mut timers = serde_json::Map::new();
-    for (k, p) in PHASES.iter().enumerate() {
-        timers.insert(
-            format!("{p}_s"),
-            json!({"min": r.timers[k][0], "mean": r.timers[k][1], "max": r.timers[k][2]}),
-        );
-    }
-    let comm_s = r.timers[3][1] + r.timers[4][1];
-    let errors: serde_json::Map<String, serde_json::Value> = tracker
-        .errors
-        .iter()
-        .map(|(k, v)| (k.clone(), json!(v)))
-        .collect();
-    let n_fluid = view
-        .p
-        .kind
-        .iter()
-        .filter(|k| **k == crate::particles::Kind::Fluid)
-        .count();
-    let summary = json!({
-        "hsph_version": env!("CARGO_PKG_VERSION"),
-        "scene": scene.name,
-        "dimension": D,
-        "particles": n,
-        "fluid_particles": n_fluid,
-        "wall_particles": n - n_fluid,
-        "steps": steps,
-        "t_end": scene.time.t_end,
-        "t": sim.t,
-        "wall_s": wall,
-        "particle_steps_per_s": if wall > 0.0 { n as f64 * steps as f64 / wall } else { 0.0 },
-        "pair_interactions_per_s": if wall > 0.0 { sim.pair_count as f64 * comm.size() as f64 / wall } else { 0.0 },
-        "threads": threads,
-        "ranks": comm.size(),
-        "backend": backend,
-        "decomposition": sim.map.decomp.factors().to_vec(),
-        "placement": opts.placement.name(),
-        "nodes": nodes.iter().max().map_or(1, |m| m + 1),
-        "traffic": totals.json(&layout.topology.as_ref().map_or(DEFAULT_COST, |t| t.cost)),
-        "ghost_fraction": r.remote as f64 / n.max(1) as f64,
-        "imbalance": sim.balance.imbalance,
-        "migrations": r.migrated,
-        "migrations_per_step": r.migrated as f64 / steps.max(1) as f64,
-        "rebalances": sim.balance.rebalance_steps.len(),
-        "rebalance_steps": sim.balance.rebalance_steps,
-        "max_plane_shift_m": sim.balance.max_plane_shift,
-        "communication_fraction": comm_s / wall.max(1e-12),
-        "balance_fraction": r.timers[5][1] / wall.max(1e-12),
-        "timers": timers,
-        "errors": errors,
-    });
-    output::write_summary(dir, &summary)?;
-    if !quiet {
-        eprintln!(
-            "hsph: done: {steps} steps in {wall:.2} s ({:.3e} particle-steps/s); results in {}",
-            n as f64 * steps as f64 / wall.max(1e-12),
-            dir.display()
-        );
-        for (k, v) in &tracker.errors {
-            eprintln!("hsph: error {k} = {:.4} %", v * 100.0);
-        }
-    }
-    Ok(Some(RunOutcome {
-        dir: dir.to_path_buf(),
-        summary,
-        errors: tracker.errors,
-    }))
 }

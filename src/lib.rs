@@ -10,6 +10,7 @@
 
 pub mod affinity;
 pub mod bench;
+pub mod boundary;
 pub mod cells;
 pub mod cli;
 pub mod comm;
@@ -17,9 +18,9 @@ pub mod decomp;
 pub mod driver;
 pub mod error;
 pub mod exact;
-pub mod ghosts;
 pub mod halo;
 pub mod kernel;
+pub mod layout;
 pub mod output;
 pub mod particles;
 pub mod physics;
@@ -38,3 +39,27 @@ pub mod topology;
 pub type Vector<const D: usize> = nalgebra::SVector<f64, D>;
 /// `D`×`D` matrix (renormalisation matrices, later stress tensors).
 pub type Matrix<const D: usize> = nalgebra::SMatrix<f64, D, D>;
+
+/// Evaluate `$body` with `$D` bound to a dimension known at run time (2 or 3) as a `const`,
+/// so generic code over `const D: usize` is called once per dimension; any other dimension is
+/// an input error on key `dimension`. The one dimension dispatcher of the crate:
+/// `with_dim!(scene.dimension, D => run::<D>(scene))`.
+#[macro_export]
+macro_rules! with_dim {
+    ($dim:expr, $D:ident => $body:expr) => {
+        match $dim {
+            2 => {
+                const $D: usize = 2;
+                $body
+            }
+            3 => {
+                const $D: usize = 3;
+                $body
+            }
+            d => Err($crate::error::Error::input(
+                "dimension",
+                format!("must be 2 or 3, got {d}"),
+            )),
+        }
+    };
+}

@@ -46,7 +46,7 @@ use std::fmt;
 use std::str::FromStr;
 
 /// How blocks are placed on ranks (see the module docs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default, clap::ValueEnum)]
 pub enum Placement {
     /// Block `i` on rank `i`.
     #[default]
@@ -211,16 +211,28 @@ pub fn place<const D: usize>(
     method: Placement,
     weights: &PairVolumes,
 ) -> Vec<usize> {
+    place_reporting(decomp, topology, method, weights).0
+}
+
+/// [`place`], also returning the method that actually placed the blocks: `node-grid` falls
+/// back to `centre-distance` when no factorisation of the nodes over the block grid fits.
+pub fn place_reporting<const D: usize>(
+    decomp: &Decomposition<D>,
+    topology: &Topology,
+    method: Placement,
+    weights: &PairVolumes,
+) -> (Vec<usize>, Placement) {
     let p = decomp.n_blocks();
     assert_eq!(p, topology.ranks(), "one block per rank");
     assert_eq!(p, weights.n(), "one weight row per block");
     match method {
-        Placement::RankOrder => (0..p).collect(),
-        Placement::CentreDistance => centre_distance(decomp, topology),
-        Placement::NodeGrid => {
-            node_grid(decomp, topology, weights).unwrap_or_else(|| centre_distance(decomp, topology))
-        }
-        Placement::MinCut => min_cut(decomp, topology, weights),
+        Placement::RankOrder => ((0..p).collect(), method),
+        Placement::CentreDistance => (centre_distance(decomp, topology), method),
+        Placement::NodeGrid => match node_grid(decomp, topology, weights) {
+            Some(b) => (b, method),
+            None => (centre_distance(decomp, topology), Placement::CentreDistance),
+        },
+        Placement::MinCut => (min_cut(decomp, topology, weights), method),
     }
 }
 

@@ -4,16 +4,17 @@
 //! ranks. The count uses the engine's own rule ([`crate::halo::ghost_counts`]), so it equals
 //! the `halo` traffic of a real run's set-up step (`traffic.csv`, step 0) byte for byte.
 
+use crate::boundary::image_space;
 use crate::error::{Error, Result};
 use crate::halo::Ranks;
-use crate::halo::{field_bytes, ghost_counts, record_bytes, Fields};
-use crate::particles::Kind;
+use crate::halo::{field_bytes, ghost_counts, record_bytes};
+use crate::physics::passes::{exchanges, schedule};
 use crate::physics::Model;
 use crate::placement::Placement;
-use crate::placement::{halo_volumes, place, PairVolumes};
-use crate::scene::{DensityDiffusion, Scene};
+use crate::placement::{halo_volumes, place_reporting, PairVolumes};
+use crate::scene::Scene;
 use crate::setup::build_particles;
-use crate::sim::{balanced_blocks, image_space};
+use crate::sim::balanced_blocks;
 use crate::topology::Topology;
 use serde_json::json;
 use std::fmt::Write as _;
@@ -22,8 +23,10 @@ use std::path::Path;
 /// What one placement gives.
 #[derive(Debug, Clone)]
 pub struct PlanRow {
-    /// Placement method.
+    /// Placement method asked for.
     pub placement: Placement,
+    /// Placement method that placed the blocks (differs when `node-grid` finds no fit).
+    pub ran: Placement,
     /// max/mean owned particles over ranks.
     pub imbalance: f64,
     /// Ghosts received from other ranks over all particles.
@@ -42,27 +45,22 @@ pub struct PlanRow {
     pub bytes: Vec<u64>,
 }
 
-/// The exchanges of one step and their bytes per ghost.
-pub fn step_exchanges(scene: &Scene, dim: usize, has_dummy: bool) -> Vec<(&'static str, u64)> {
-    let mut ex = vec![("build", record_bytes(dim))];
-    if scene.physics.density_diffusion == DensityDiffusion::Antuono {
-        ex.push(("grad_rho", field_bytes(Fields::GRAD_RHO, dim)));
-    }
-    ex.push(("rho_p", field_bytes(Fields::RHO.or(Fields::P), dim)));
-    if has_dummy {
-        ex.push(("wall", field_bytes(Fields::P.or(Fields::RHO).or(Fields::VW), dim)));
-    }
-    ex
+/// The exchanges of one step and their bytes per ghost, derived from the passes the scene's
+/// model runs ([`crate::physics::passes::exchanges`]): the run refreshes the same fields.
+pub fn step_exchanges<const D: usize>(scene: &Scene) -> Vec<(&'static str, u64)> {
+    exchanges(&schedule(&Model::<D>::new(scene)))
+        .into_iter()
+        .map(|(name, fields)| match fields {
+            None => (name, record_bytes::<D>()),
+            Some(f) => (name, field_bytes::<D>(f)),
+        })
+        .collect()
 }
 
 /// Plan every placement in `methods` for `ranks` ranks on `topology`.
 pub fn plan(scene: &Scene, ranks: usize, topology: &Topology, methods: &[Placement]) -> Result<Vec<PlanRow>> {
     topology.check_ranks(ranks)?;
-    match scene.dimension {
-        2 => plan_dim::<2>(scene, ranks, topology, methods),
-        3 => plan_dim::<3>(scene, ranks, topology, methods),
-        d => Err(Error::input("dimension", format!("must be 2 or 3, got {d}"))),
-    }
+    crate::with_dim!(scene.dimension, D => plan_dim::<D>(scene, ranks, topology, methods))
 }
 
 fn plan_dim<const D: usize>(
@@ -73,18 +71,17 @@ fn plan_dim<const D: usize>(
 ) -> Result<Vec<PlanRow>> {
     let all = build_particles::<D>(scene)?;
     let n = all.n_owned;
-    let model = Model::<D>::new(scene);
-    let support = model.kernel.support;
+    let support = Model::<D>::new(scene).kernel.support;
     let space = image_space::<D>(scene);
-    let fluid: Vec<bool> = all.kind.iter().map(|k| *k == Kind::Fluid).collect();
-    let has_dummy = all.kind.contains(&Kind::Dummy);
-    let per_ghost: u64 = step_exchanges(scene, D, has_dummy).iter().map(|e| e.1).sum();
-    let exchanges = step_exchanges(scene, D, has_dummy).len() as u64;
+    let mirrored: Vec<bool> = all.kind.iter().map(|k| k.is_fluid()).collect();
+    let step = step_exchanges::<D>(scene);
+    let per_ghost: u64 = step.iter().map(|e| e.1).sum();
+    let exchanges = step.len() as u64;
     // the decomposition, the block-to-block ghost counts and the halo volumes do not depend
     // on the placement: compute them once, then only relabel blocks as ranks
     let decomp = balanced_blocks(&all.x[..n], &space.min, &space.max, ranks);
     let blocks = Ranks::new(decomp.clone(), (0..ranks).collect());
-    let block_counts = ghost_counts(&all.x[..n], &fluid, &space, &blocks, &blocks.boxes(), support);
+    let block_counts = ghost_counts(&all.x[..n], &mirrored, &space, &blocks, &blocks.boxes(), support);
     let volumes = if methods.iter().any(|m| *m != Placement::RankOrder) {
         halo_volumes(&all.x[..n], &decomp, support)
     } else {
@@ -96,7 +93,7 @@ fn plan_dim<const D: usize>(
     }
     let mut rows = Vec::new();
     for &method in methods {
-        let block_to_rank = place(&decomp, topology, method, &volumes);
+        let (block_to_rank, ran) = place_reporting(&decomp, topology, method, &volumes);
         let mut counts = vec![0u64; ranks * ranks];
         for s in 0..ranks {
             for d in 0..ranks {
@@ -138,6 +135,7 @@ fn plan_dim<const D: usize>(
         }
         rows.push(PlanRow {
             placement: method,
+            ran,
             imbalance,
             ghost_fraction: remote as f64 / n.max(1) as f64,
             intra_node_bytes: intra,
@@ -172,7 +170,7 @@ pub fn table(scene: &Scene, ranks: usize, topology: &Topology, rows: &[PlanRow])
         let _ = writeln!(
             s,
             "| {} | {:.4} | {:.4} | {:.3} | {:.3} | {:.1} | {} | {:.3} |",
-            r.placement.name(),
+            placement_label(r),
             r.imbalance,
             r.ghost_fraction,
             r.intra_node_bytes as f64 / 1e6,
@@ -185,6 +183,15 @@ pub fn table(scene: &Scene, ranks: usize, topology: &Topology, rows: &[PlanRow])
     s
 }
 
+/// The placement of a row as printed: the method, and what ran instead if it fell back.
+fn placement_label(r: &PlanRow) -> String {
+    if r.ran == r.placement {
+        r.placement.name().to_string()
+    } else {
+        format!("{} (ran {})", r.placement, r.ran)
+    }
+}
+
 /// Write `plan.json` and `plan.csv` into `dir`.
 pub fn write(dir: &Path, scene: &Scene, ranks: usize, topology: &Topology, rows: &[PlanRow]) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
@@ -193,6 +200,7 @@ pub fn write(dir: &Path, scene: &Scene, ranks: usize, topology: &Topology, rows:
         .map(|r| {
             json!({
                 "placement": r.placement.name(),
+                "placement_ran": r.ran.name(),
                 "imbalance": r.imbalance,
                 "ghost_fraction": r.ghost_fraction,
                 "halo_intra_node_bytes": r.intra_node_bytes,

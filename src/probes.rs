@@ -3,7 +3,6 @@
 //! Interpolated values use Shepard's normalisation over fluid particles:
 //! f(x) = Σ_j f_j W(x − x_j) V_j / Σ_j W(x − x_j) V_j, summed in id order.
 
-use crate::particles::Kind;
 use crate::scene::Probe;
 use crate::sim::View;
 use crate::Vector;
@@ -24,7 +23,7 @@ pub fn columns(probe: &Probe, dim: usize) -> Vec<String> {
 /// Sample a probe.
 pub fn sample<const D: usize>(sim: &View<D>, order: &[usize], probe: &Probe) -> Vec<f64> {
     let p = &sim.p;
-    let fluid = || order.iter().copied().filter(|&i| p.kind[i] == Kind::Fluid);
+    let fluid = || order.iter().copied().filter(|&i| p.kind[i].is_fluid());
     let shepard = |at: Vector<D>, f: &dyn Fn(usize) -> Vector<D>| -> Option<Vector<D>> {
         let k = &sim.model.kernel;
         let (mut sw, mut s) = (0.0, Vector::<D>::zeros());

@@ -1,7 +1,6 @@
 //! Analytic and tabulated references a scene can declare; the named relative errors (as
 //! fractions: 0.004 means 0.4 %) go to `summary.json` under `errors`.
 
-use crate::particles::Kind;
 use crate::scene::Reference;
 use crate::sim::View;
 use std::collections::BTreeMap;
@@ -92,7 +91,7 @@ impl Tracker {
     pub fn at_output<const D: usize>(&mut self, sim: &View<D>) {
         if let Some(Reference::DamBreakFront { .. }) = &sim.scene.reference {
             let front = (0..sim.p.n_owned)
-                .filter(|&i| sim.p.kind[i] == Kind::Fluid)
+                .filter(|&i| sim.p.kind[i].is_fluid())
                 .map(|i| sim.p.x[i][0])
                 .fold(f64::NEG_INFINITY, f64::max);
             self.front
@@ -105,17 +104,15 @@ impl Tracker {
         match &sim.scene.reference {
             Some(Reference::Hydrostatic { surface, bottom }) => {
                 let g = sim.model.g.norm();
-                let rho0 = sim.model.eos[0].rho0;
+                let rho0 = sim.model.materials[0].rho0();
                 let h = surface - bottom;
                 let mid = bottom + 0.5 * h;
                 let mut ep: f64 = 0.0;
                 let mut vmax: f64 = 0.0;
                 let mut inside = 0usize;
-                let n_fluid = (0..sim.p.n_owned)
-                    .filter(|&i| sim.p.kind[i] == Kind::Fluid)
-                    .count();
+                let n_fluid = (0..sim.p.n_owned).filter(|&i| sim.p.kind[i].is_fluid()).count();
                 for i in 0..sim.p.n_owned {
-                    if sim.p.kind[i] != Kind::Fluid {
+                    if !sim.p.kind[i].is_fluid() {
                         continue;
                     }
                     let y = sim.p.x[i][D - 1];
@@ -217,7 +214,7 @@ fn channel_error<const D: usize>(sim: &View<D>, r: &Reference, gap: f64) -> f64 
     };
     let mut e: f64 = 0.0;
     for i in 0..sim.p.n_owned {
-        if sim.p.kind[i] == Kind::Fluid {
+        if sim.p.kind[i].is_fluid() {
             let y = sim.p.x[i][1];
             e = e.max((sim.p.v[i][0] - exact(y)).abs() / umax.abs());
         }

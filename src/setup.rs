@@ -4,10 +4,11 @@
 //! particle's id is the linear index of its site (axis 0 slowest), so ids are deterministic
 //! and independent of anything but the scene. Two bodies claiming one site is an input error.
 
+use crate::boundary::wall_kind;
 use crate::error::{Error, Result};
-use crate::particles::{Kind, Particles};
-use crate::physics::eos::Eos;
-use crate::scene::{Scene, WallMethod, WallShape};
+use crate::particles::{Kind, Particles, Record};
+use crate::physics::material::MaterialModel;
+use crate::scene::{Scene, WallShape};
 use crate::Vector;
 
 /// The global lattice of a scene.
@@ -80,7 +81,7 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
     let lat = Lattice::<D>::new(s);
     let dx = s.discretisation.dx;
     let vol = dx.powi(D as i32);
-    let eos: Vec<Eos> = s.materials.iter().map(Eos::new).collect();
+    let materials: Vec<MaterialModel> = s.materials.iter().map(MaterialModel::new).collect();
     let mat_index = |name: &str| s.materials.iter().position(|m| m.name == name).unwrap_or(0) as u16;
     let g = Vector::<D>::from_fn(|a, _| s.physics.body_force[a]);
     let gmag = g.norm();
@@ -97,7 +98,7 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
     let mut protos: Vec<Proto<D>> = Vec::new();
     for (b, f) in s.fluids.iter().enumerate() {
         let mat = mat_index(&f.material);
-        let e = eos[mat as usize];
+        let e = materials[mat as usize];
         let v = Vector::<D>::from_fn(|a, _| f.velocity[a]);
         // top of the block along -ĝ, for the hydrostatic profile
         let top = if gmag > 0.0 {
@@ -111,9 +112,9 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
         lat.for_each_in(&f.min, &f.max, |id, x| {
             let rho = if f.hydrostatic && gmag > 0.0 {
                 let depth = x.dot(&g) / gmag - top;
-                e.density(e.rho0 * gmag * depth.max(0.0))
+                e.density(e.rho0() * gmag * depth.max(0.0))
             } else {
-                e.rho0
+                e.rho0()
             };
             protos.push(Proto {
                 id,
@@ -128,13 +129,11 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
         });
     }
     for (b, w) in s.walls.iter().enumerate() {
-        let kind = match w.method {
-            WallMethod::Dummy => Kind::Dummy,
-            WallMethod::Repulsive => Kind::Repulsive,
-            WallMethod::Mirror => continue,
+        let Some(kind) = wall_kind(w.method) else {
+            continue; // mirror walls are images of the fluid, not particles
         };
         let mat = mat_index(&w.material);
-        let rho0 = eos[mat as usize].rho0;
+        let rho0 = materials[mat as usize].rho0();
         let v = Vector::<D>::from_fn(|a, _| w.velocity[a]);
         let mut push = |id, x| {
             protos.push(Proto {
@@ -193,7 +192,16 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
     }
     let mut p = Particles::<D>::default();
     for q in protos {
-        p.push_owned(q.id, q.kind, q.body, q.mat, q.x, q.v, q.rho * vol, q.rho);
+        p.push_owned(Record::new(
+            q.id,
+            q.kind,
+            q.body,
+            q.mat,
+            q.x,
+            q.v,
+            q.rho * vol,
+            q.rho,
+        ));
     }
     Ok(p)
 }

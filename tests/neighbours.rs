@@ -4,12 +4,12 @@
 mod common;
 
 use common::Rng;
+use hsph::boundary::ImageSpace;
 use hsph::cells::{brute_force, CellGrid, CellList, NeighbourList};
 use hsph::comm::serial::SerialComm;
 use hsph::decomp::Decomposition;
-use hsph::ghosts::ImageSpace;
 use hsph::halo::{HaloPlan, Ranks};
-use hsph::particles::{Kind, Particles};
+use hsph::particles::{Kind, Particles, Record};
 use hsph::scene::load_scene_str;
 use hsph::sim::Simulation;
 use hsph::Vector;
@@ -31,7 +31,16 @@ fn build<const D: usize>(
 ) -> Built<D> {
     let mut p = Particles::<D>::default();
     for (k, x) in xs.iter().enumerate() {
-        p.push_owned(k as u64, Kind::Fluid, 0, 0, *x, Vector::zeros(), 1.0, 1.0);
+        p.push_owned(Record::new(
+            k as u64,
+            Kind::Fluid,
+            0,
+            0,
+            *x,
+            Vector::zeros(),
+            1.0,
+            1.0,
+        ));
     }
     let space = ImageSpace {
         min,

@@ -171,6 +171,37 @@ fn every_placement_keeps_the_bits() {
     }
 }
 
+/// A placement the nodes cannot honour is recorded as what ran, with a warning (the other
+/// half, a layout that cannot hold the ranks at all, exits 2: `bad_layouts_are_input_errors`).
+#[test]
+fn a_placement_the_nodes_cannot_honour_is_recorded_as_what_ran() {
+    // 6 ranks on nodes of 4 hold 4 and 2 ranks: node-grid finds no sub-grid per node
+    let s = scene(
+        "inputs/dam_break_2d.toml",
+        &["time.max_steps=3", "output.format=\"none\""],
+    );
+    let dir = run(&s, 6, 4, Placement::NodeGrid, "plan-fallback");
+    let summary: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["placement_requested"], "node-grid");
+    assert_eq!(summary["placement"], "centre-distance");
+    let warning = summary["layout_warnings"][0].as_str().unwrap();
+    assert!(
+        warning.contains("node-grid") && warning.contains("centre-distance"),
+        "{warning}"
+    );
+    // plan says the same
+    let topo = Topology::from_ranks_per_node(6, 4).unwrap();
+    let rows = plan(&s, 6, &topo, &[Placement::NodeGrid]).unwrap();
+    assert_eq!(rows[0].ran, Placement::CentreDistance);
+    // an honoured placement records itself and no warning
+    let dir = run(&s, 6, 3, Placement::NodeGrid, "plan-honoured");
+    let summary: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["placement"], "node-grid");
+    assert_eq!(summary["layout_warnings"].as_array().unwrap().len(), 0);
+}
+
 fn hsph(args: &[&str]) -> (i32, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_hsph"))
         .args(args)

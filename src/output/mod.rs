@@ -7,13 +7,16 @@
 //! - `probes/<name>.csv`, `snapshots/*.vtu` + `snapshots/series.pvd`;
 //! - `summary.json` — written last and atomically: its presence marks a complete run.
 
+pub mod snapshot;
 pub mod vtk;
 
 use crate::comm::TrafficEntry;
 use crate::error::{Error, Result};
+use crate::particles::Particles;
 use crate::probes;
-use crate::scene::{Scene, SnapshotFormat};
+use crate::scene::Scene;
 use crate::sim::{Observables, View};
+use snapshot::{writer_for, SnapshotWriter};
 use std::fs::{self, File};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -90,22 +93,21 @@ fn create(path: &Path) -> Result<BufWriter<File>> {
 }
 
 /// Writes everything of one run except `summary.json` (see [`write_summary`]).
-pub struct RunWriter {
+pub struct RunWriter<const D: usize> {
     dir: PathBuf,
     timeseries: BufWriter<File>,
     diagnostics: BufWriter<File>,
     probes: Vec<BufWriter<File>>,
     traffic: BufWriter<File>,
-    snapshots: Vec<(f64, String)>,
-    format: SnapshotFormat,
+    snapshots: Option<Box<dyn SnapshotWriter<D>>>,
     fields: Vec<String>,
 }
 
-impl RunWriter {
+impl<const D: usize> RunWriter<D> {
     /// Create the files of a run in `dir` (already prepared) and write `scene.toml`;
     /// `diag_header` is the header line of `diagnostics.csv`.
     pub fn new(dir: &Path, scene: &Scene, diag_header: &str) -> Result<Self> {
-        let d = scene.dimension;
+        let d = D;
         let resolved = toml::to_string(scene).map_err(|e| Error::run(format!("scene.toml: {e}")))?;
         let header = "# Resolved scene written by hsph: every default filled in. Run it again with\n\
                       # `hsph run scene.toml`.\n";
@@ -134,30 +136,20 @@ impl RunWriter {
                 probes.push(f);
             }
         }
-        if scene.output.format == SnapshotFormat::Vtk {
-            let sd = dir.join("snapshots");
-            fs::create_dir_all(&sd).map_err(|e| Error::io(&sd, e))?;
-        }
         Ok(RunWriter {
             dir: dir.to_path_buf(),
             timeseries,
             diagnostics,
             traffic,
             probes,
-            snapshots: Vec::new(),
-            format: scene.output.format,
+            snapshots: writer_for::<D>(scene.output.format, dir)?,
             fields: scene.output.fields.clone(),
         })
     }
 
     /// Write one output step: timeseries row (physics only), the diagnostics row the driver
     /// composed (timers, ghosts, balance: machine and layout dependent), probes and a snapshot.
-    pub fn output_step<const D: usize>(
-        &mut self,
-        sim: &View<D>,
-        o: &Observables<D>,
-        diag_row: &str,
-    ) -> Result<()> {
+    pub fn output_step(&mut self, sim: &View<D>, o: &Observables<D>, diag_row: &str) -> Result<()> {
         let io = |e| Error::io(&self.dir, e);
         let mom: Vec<String> = o.momentum.iter().map(|m| format!("{m}")).collect();
         writeln!(
@@ -180,11 +172,8 @@ impl RunWriter {
                 .collect();
             writeln!(f, "{},{}", sim.t, vals.join(",")).map_err(|e| Error::io(&self.dir, e))?;
         }
-        if self.format == SnapshotFormat::Vtk {
-            let name = format!("snapshot_{:05}.vtu", self.snapshots.len());
-            vtk::write_vtu(&self.dir.join("snapshots").join(&name), sim, &order, &self.fields)?;
-            self.snapshots.push((sim.t, name));
-            vtk::write_pvd(&self.dir.join("snapshots").join("series.pvd"), &self.snapshots)?;
+        if let Some(w) = self.snapshots.as_mut() {
+            w.write(sim, &self.fields)?;
         }
         Ok(())
     }
@@ -209,7 +198,7 @@ impl RunWriter {
     }
 
     /// Flush the series and write `final.csv`.
-    pub fn finish<const D: usize>(&mut self, sim: &View<D>) -> Result<()> {
+    pub fn finish(&mut self, sim: &View<D>) -> Result<()> {
         let dir = self.dir.clone();
         let io = |e| Error::io(&dir, e);
         self.timeseries.flush().map_err(io)?;
@@ -222,31 +211,28 @@ impl RunWriter {
     }
 }
 
-/// `final.csv`: every owned particle sorted by id, all state fields, shortest round-trip floats.
+/// `final.csv`: every owned particle sorted by id, the fields the particle table gives a CSV
+/// column (vectors one column per axis), shortest round-trip floats.
 pub fn write_final<const D: usize>(path: &Path, sim: &View<D>) -> Result<()> {
     let io = |e| Error::io(path, e);
     let mut f = create(path)?;
-    let axes = ["x", "y", "z"];
-    let xs: Vec<String> = axes[..D].iter().map(|a| a.to_string()).collect();
-    let vs: Vec<String> = axes[..D].iter().map(|a| format!("v{a}")).collect();
-    writeln!(f, "id,kind,body,{},{},mass,rho,p", xs.join(","), vs.join(",")).map_err(io)?;
     let p = &sim.p;
+    let cols: Vec<_> = Particles::<D>::field_table()
+        .into_iter()
+        .filter_map(|m| Some((m.csv?, p.column(m.name)?)))
+        .collect();
+    let header: Vec<String> = cols.iter().flat_map(|(stem, c)| c.headers(stem)).collect();
+    writeln!(f, "{}", header.join(",")).map_err(io)?;
+    let mut line = String::new();
     for i in sim.by_id() {
-        let x: Vec<String> = p.x[i].iter().map(|c| format!("{c}")).collect();
-        let v: Vec<String> = p.v[i].iter().map(|c| format!("{c}")).collect();
-        writeln!(
-            f,
-            "{},{},{},{},{},{},{},{}",
-            p.id[i],
-            p.kind[i].code(),
-            p.body[i],
-            x.join(","),
-            v.join(","),
-            p.mass[i],
-            p.rho[i],
-            p.p[i]
-        )
-        .map_err(io)?;
+        line.clear();
+        for (k, (_, c)) in cols.iter().enumerate() {
+            if k > 0 {
+                line.push(',');
+            }
+            c.csv(i, &mut line);
+        }
+        writeln!(f, "{line}").map_err(io)?;
     }
     f.flush().map_err(io)
 }

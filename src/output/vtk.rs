@@ -1,13 +1,43 @@
 //! VTK XML snapshots ParaView opens: one `.vtu` per output step (particles as vertices) and a
-//! `.pvd` collection with the simulated time of each.
+//! `.pvd` collection with the simulated time of each. Fields are read from the particle table
+//! by their snapshot names, so a new field with a snapshot name can be written at once.
 
+use super::snapshot::SnapshotWriter;
 use crate::error::{Error, Result};
+use crate::particles::{Column, Particles};
 use crate::sim::View;
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Write one snapshot of the owned particles in id order.
+/// A series of `.vtu` snapshots in `dir` with its `series.pvd`.
+pub struct VtkSeries {
+    dir: PathBuf,
+    snapshots: Vec<(f64, String)>,
+}
+
+impl VtkSeries {
+    /// Snapshots go into `dir` (created).
+    pub fn new(dir: &Path) -> Result<Self> {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        Ok(VtkSeries {
+            dir: dir.to_path_buf(),
+            snapshots: Vec::new(),
+        })
+    }
+}
+
+impl<const D: usize> SnapshotWriter<D> for VtkSeries {
+    fn write(&mut self, view: &View<D>, fields: &[String]) -> Result<()> {
+        let name = format!("snapshot_{:05}.vtu", self.snapshots.len());
+        write_vtu(&self.dir.join(&name), view, &view.by_id(), fields)?;
+        self.snapshots.push((view.t, name));
+        write_pvd(&self.dir.join("series.pvd"), &self.snapshots)
+    }
+}
+
+/// Write one snapshot of the owned particles in `order`, with the snapshot `fields` (names as
+/// in `output.fields`; unknown names are skipped: the scene was validated against the table).
 pub fn write_vtu<const D: usize>(
     path: &Path,
     sim: &View<D>,
@@ -66,46 +96,52 @@ pub fn write_vtu<const D: usize>(
     }
     writeln!(f, "</DataArray></Cells>").map_err(io)?;
     writeln!(f, "<PointData>").map_err(io)?;
-    writeln!(f, "<DataArray type=\"UInt64\" Name=\"id\" format=\"ascii\">").map_err(io)?;
-    for &i in order {
-        write!(f, "{} ", p.id[i]).map_err(io)?;
-    }
-    writeln!(f, "</DataArray>").map_err(io)?;
-    for field in fields {
-        match field.as_str() {
-            "velocity" => {
-                writeln!(f, "<DataArray type=\"Float64\" Name=\"velocity\" NumberOfComponents=\"3\" format=\"ascii\">").map_err(io)?;
-                for &i in order {
-                    let v = p.v[i];
-                    let z = if D == 3 { v[2] } else { 0.0 };
-                    writeln!(f, "{} {} {}", v[0], v[1], z).map_err(io)?;
-                }
-                writeln!(f, "</DataArray>").map_err(io)?;
-            }
-            "density" | "pressure" | "mass" => {
-                let (name, data) = match field.as_str() {
-                    "density" => ("density", &p.rho),
-                    "pressure" => ("pressure", &p.p),
-                    _ => ("mass", &p.mass),
-                };
-                writeln!(f, "<DataArray type=\"Float64\" Name=\"{name}\" format=\"ascii\">").map_err(io)?;
-                for &i in order {
-                    write!(f, "{} ", data[i]).map_err(io)?;
-                }
-                writeln!(f, "</DataArray>").map_err(io)?;
-            }
-            "kind" => {
-                writeln!(f, "<DataArray type=\"UInt8\" Name=\"kind\" format=\"ascii\">").map_err(io)?;
-                for &i in order {
-                    write!(f, "{} ", p.kind[i].code()).map_err(io)?;
-                }
-                writeln!(f, "</DataArray>").map_err(io)?;
-            }
-            _ => {}
-        }
+    write_array(&mut f, "id", &Column::<D>::U64(&p.id), order).map_err(io)?;
+    let table = Particles::<D>::field_table();
+    for name in fields {
+        let Some(meta) = table.iter().find(|m| m.snapshot == Some(name.as_str())) else {
+            continue;
+        };
+        let col = p.column(meta.name).expect("a table field has a column");
+        write_array(&mut f, name, &col, order).map_err(io)?;
     }
     writeln!(f, "</PointData></Piece></UnstructuredGrid></VTKFile>").map_err(io)?;
     f.flush().map_err(io)
+}
+
+/// One `<DataArray>` of point data: vectors with 3 components (z = 0 in 2D), one line per
+/// point; scalars space separated.
+fn write_array<const D: usize>(
+    f: &mut impl Write,
+    name: &str,
+    col: &Column<D>,
+    order: &[usize],
+) -> std::io::Result<()> {
+    let ty = match col {
+        Column::U64(_) => "UInt64",
+        Column::U16(_) => "UInt16",
+        Column::Kind(_) => "UInt8",
+        Column::F64(_) | Column::Vector(_) => "Float64",
+    };
+    if let Column::Vector(v) = col {
+        writeln!(
+            f,
+            "<DataArray type=\"{ty}\" Name=\"{name}\" NumberOfComponents=\"3\" format=\"ascii\">"
+        )?;
+        for &i in order {
+            let z = if D == 3 { v[i][2] } else { 0.0 };
+            writeln!(f, "{} {} {}", v[i][0], v[i][1], z)?;
+        }
+    } else {
+        writeln!(f, "<DataArray type=\"{ty}\" Name=\"{name}\" format=\"ascii\">")?;
+        let mut s = String::new();
+        for &i in order {
+            s.clear();
+            col.csv(i, &mut s);
+            write!(f, "{s} ")?;
+        }
+    }
+    writeln!(f, "</DataArray>")
 }
 
 /// Write the `.pvd` collection listing every snapshot with its time.

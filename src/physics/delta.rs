@@ -7,7 +7,7 @@
 
 use super::Model;
 use crate::cells::NeighbourList;
-use crate::particles::{Kind, Particles};
+use crate::particles::Particles;
 use crate::{Matrix, Vector};
 use rayon::prelude::*;
 
@@ -64,7 +64,7 @@ pub fn renormalised_gradient_of<const D: usize>(
     let vol = super::fluid::volumes(p);
     out.par_iter_mut().enumerate().for_each(|(i, g)| {
         *g = Vector::zeros();
-        if p.kind[i] != Kind::Fluid {
+        if !p.kind[i].is_fluid() {
             return;
         }
         // −Σ_j V_j f_ij x_ij ⊗ x_ij is symmetric: accumulate the upper triangle only
@@ -73,7 +73,7 @@ pub fn renormalised_gradient_of<const D: usize>(
         let (xi, fi) = (p.x[i], f[i]);
         for &j in nl.of(i) {
             let j = j as usize;
-            if p.kind[j] != Kind::Fluid {
+            if !p.kind[j].is_fluid() {
                 continue;
             }
             let xij = xi - p.x[j];

@@ -25,6 +25,7 @@
 use super::Model;
 use crate::cells::NeighbourList;
 use crate::particles::{Kind, Particles};
+
 use crate::scene::DensityDiffusion;
 use crate::Vector;
 use rayon::prelude::*;
@@ -84,13 +85,12 @@ pub fn diffusion_term<const D: usize>(
     i: usize,
 ) -> f64 {
     let k = &model.kernel;
-    let eos = &model.eos[p.mat[i] as usize];
-    let coef = model.delta * k.h * eos.c0;
+    let coef = model.delta * k.h * model.materials[p.mat[i] as usize].c0();
     let antuono = model.diffusion == DensityDiffusion::Antuono;
     let mut s = 0.0;
     for &j in nl.of(i) {
         let j = j as usize;
-        if p.kind[j] != Kind::Fluid {
+        if !p.kind[j].is_fluid() {
             continue;
         }
         let xij = p.x[i] - p.x[j];
@@ -130,11 +130,11 @@ fn continuity_of<const D: usize>(
     vol: &[f64],
     i: usize,
 ) -> f64 {
-    if p.kind[i] != Kind::Fluid {
+    if !p.kind[i].is_fluid() {
         return 0.0;
     }
     let k = &model.kernel;
-    let c0 = model.eos[p.mat[i] as usize].c0;
+    let c0 = model.materials[p.mat[i] as usize].c0();
     let diffusion = model.diffusion != DensityDiffusion::None;
     let antuono = model.diffusion == DensityDiffusion::Antuono;
     let delta_coef = model.delta * k.h * c0;
@@ -143,14 +143,14 @@ fn continuity_of<const D: usize>(
     for &j in nl.of(i) {
         let j = j as usize;
         let kind_j = p.kind[j];
-        if kind_j == Kind::Repulsive {
+        if !kind_j.is_smoothed() {
             continue;
         }
         let xij = xi - p.x[j];
         let f = k.dw_dr_over_r(xij.norm());
         // walls enter with their own (prescribed) velocity
         drho += p.mass[j] * (f * (vi - p.v[j]).dot(&xij));
-        if diffusion && kind_j == Kind::Fluid {
+        if diffusion && kind_j.is_fluid() {
             drho += delta_coef * psi_dot_grad(p, antuono, i, j, &xij, f) * vol[j];
         }
     }
@@ -167,16 +167,16 @@ fn momentum_of<const D: usize>(
     p_rho2: &[f64],
     i: usize,
 ) -> Vector<D> {
-    if p.kind[i] != Kind::Fluid {
+    if !p.kind[i].is_fluid() {
         return Vector::zeros();
     }
     let k = &model.kernel;
     let h = k.h;
     let eta2 = 0.01 * h * h;
-    let c0 = model.eos[p.mat[i] as usize].c0;
+    let c0 = model.materials[p.mat[i] as usize].c0();
     // Π_ij = −α h c0 v_ij·x_ij / ((r² + η²) ρ̄_ij), ρ̄_ij = (ρ_i + ρ_j)/2
     let av_coef = -2.0 * model.alpha * c0 * h;
-    let (rep_d, rep_r0) = model.repulsive;
+    let rep = &model.repulsive;
     let (xi, vi, rhoi) = (p.x[i], p.v[i], p.rho[i]);
     let pi_term = p_rho2[i];
     let mut acc = Vector::<D>::zeros();
@@ -186,12 +186,9 @@ fn momentum_of<const D: usize>(
         let r2 = xij.norm_squared();
         let r = r2.sqrt();
         let kind_j = p.kind[j];
-        if kind_j == Kind::Repulsive {
-            if r < rep_r0 {
-                let q = rep_r0 / r;
-                let q2 = q * q;
-                let q4 = q2 * q2;
-                acc += xij * (rep_d * (q4 * q4 * q4 - q4) / r2);
+        if !kind_j.is_smoothed() {
+            if let Some(f) = rep.acceleration(&xij, r2, r) {
+                acc += f;
             }
             continue;
         }

@@ -1,29 +1,31 @@
 //! SPH physics: pure functions of particle fields and neighbour lists. Physics never calls a
 //! communicator; the step loop (`sim`) refreshes ghosts between passes.
 //!
-//! Passes of one step, in order (each a gather loop over owned particles, parallel with rayon,
-//! each particle summing its neighbours in the fixed order of [`crate::cells::NeighbourList`]):
-//! 1. [`delta::renormalised_gradient`] — ⟨∇ρ⟩^L for Antuono's δ-SPH (only if switched on);
-//! 2. [`walls::extrapolate`] — pressure, density and velocity of dummy wall particles;
-//! 3. [`fluid::rates`] — dρ/dt and dv/dt of fluid particles.
+//! The passes of a step, what each reads from ghosts and writes, and their order, are declared
+//! in [`passes`]; each is a gather loop over owned particles (parallel with rayon, each
+//! particle summing its neighbours in the fixed order of [`crate::cells::NeighbourList`]):
+//! [`delta::renormalised_gradient`] (⟨∇ρ⟩^L for Antuono's δ-SPH), [`fluid::continuity`],
+//! [`crate::boundary::dummy::extrapolate`] (dummy-wall p, ρ, v_w) and [`fluid::momentum`].
+//! Materials answer through [`material::MaterialModel`].
 
 pub mod delta;
-pub mod eos;
 pub mod fluid;
-pub mod walls;
+pub mod material;
+pub mod passes;
 
+use crate::boundary::repulsive::Repulsion;
 use crate::kernel::Kernel;
-use crate::scene::{DensityDiffusion, Scene};
+use crate::scene::{DensityDiffusion, Scene, WallMethod};
 use crate::Vector;
-use eos::Eos;
+use material::MaterialModel;
 
 /// Everything the passes need to know about the model (no particle data).
 #[derive(Debug, Clone)]
 pub struct Model<const D: usize> {
     /// Kernel with the smoothing length.
     pub kernel: Kernel,
-    /// EOS per material.
-    pub eos: Vec<Eos>,
+    /// Model per material (indexed like the scene's materials).
+    pub materials: Vec<MaterialModel>,
     /// Density diffusion variant.
     pub diffusion: DensityDiffusion,
     /// δ coefficient.
@@ -34,8 +36,10 @@ pub struct Model<const D: usize> {
     pub nu: f64,
     /// Body force g (m/s²).
     pub g: Vector<D>,
-    /// Repulsive wall force scale D (m²/s²) and range r0 (m) (Monaghan 1994).
-    pub repulsive: (f64, f64),
+    /// Repulsive wall force (Monaghan 1994).
+    pub repulsive: Repulsion,
+    /// True if a wall of the scene uses dummy particles (the extrapolation pass runs).
+    pub has_dummy: bool,
     /// Slip condition per wall body: true = no-slip.
     pub wall_no_slip: Vec<bool>,
     /// Wall acceleration per wall body (m/s²), updated by the step loop for moving walls.
@@ -48,8 +52,8 @@ impl<const D: usize> Model<D> {
     /// The model a scene asks for.
     pub fn new(s: &Scene) -> Self {
         let h = s.discretisation.h_over_dx * s.discretisation.dx;
-        let eos: Vec<Eos> = s.materials.iter().map(Eos::new).collect();
-        let c_max = eos.iter().fold(0.0f64, |m, e| m.max(e.c0));
+        let materials: Vec<MaterialModel> = s.materials.iter().map(MaterialModel::new).collect();
+        let c_max = materials.iter().fold(0.0f64, |m, e| m.max(e.c0()));
         Model {
             kernel: Kernel::new(s.discretisation.kernel, h, D),
             diffusion: s.physics.density_diffusion,
@@ -57,15 +61,15 @@ impl<const D: usize> Model<D> {
             alpha: s.physics.artificial_viscosity,
             nu: s.physics.laminar_viscosity,
             g: Vector::from_fn(|a, _| s.physics.body_force[a]),
-            // D = c0²/40 ≈ 5 g H when c0 = 10 sqrt(2 g H) (Monaghan 1994 suggests 5 g H)
-            repulsive: (c_max * c_max / 40.0, s.discretisation.dx),
+            repulsive: Repulsion::new(c_max, s.discretisation.dx),
+            has_dummy: s.walls.iter().any(|w| w.method == WallMethod::Dummy),
             wall_no_slip: s
                 .walls
                 .iter()
                 .map(|w| w.slip == crate::scene::Slip::NoSlip)
                 .collect(),
             wall_acc: vec![Vector::zeros(); s.walls.len()],
-            eos,
+            materials,
             c_max,
         }
     }

@@ -387,7 +387,8 @@ pub struct Output {
     /// Snapshot format.
     #[serde(default = "default_format")]
     pub format: SnapshotFormat,
-    /// Fields written to snapshots (any of `velocity`, `density`, `pressure`, `mass`, `kind`).
+    /// Fields written to snapshots (any of `velocity`, `density`, `pressure`, `mass`, `kind`:
+    /// the particle table's snapshot names).
     #[serde(default = "default_fields")]
     pub fields: Vec<String>,
 }
@@ -411,9 +412,6 @@ impl Default for Output {
         }
     }
 }
-
-/// Snapshot field names accepted in `output.fields`.
-pub const SNAPSHOT_FIELDS: [&str; 5] = ["velocity", "density", "pressure", "mass", "kind"];
 
 /// A probe, sampled at every output step.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

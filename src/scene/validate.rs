@@ -306,11 +306,13 @@ pub fn validate(s: &mut Scene) -> Result<()> {
     if s.output.format == SnapshotFormat::Netcdf && !cfg!(feature = "netcdf") {
         return Err(Error::missing_feature("output.format", "netcdf"));
     }
+    // the particle table names what snapshots can hold (the same in 2D and 3D)
+    let valid = crate::particles::Particles::<3>::snapshot_names();
     for (j, f) in s.output.fields.iter().enumerate() {
-        if !SNAPSHOT_FIELDS.contains(&f.as_str()) {
+        if !valid.contains(&f.as_str()) {
             return err(
                 format!("output.fields[{j}]"),
-                format!("unknown field `{f}`; valid: {}", SNAPSHOT_FIELDS.join(", ")),
+                format!("unknown field `{f}`; valid: {}", valid.join(", ")),
             );
         }
     }

@@ -6,9 +6,9 @@
 //!   ṽ_w = Σ_f v_f W_wf / Σ_f W_wf;  no-slip: v_w = 2 u_wall − ṽ_w;  free-slip: v_w = ṽ_w.
 //! A wall particle with no fluid neighbour keeps p = 0, ρ = ρ0, v_w = u_wall.
 
-use super::Model;
 use crate::cells::NeighbourList;
 use crate::particles::{Kind, Particles};
+use crate::physics::Model;
 use crate::Vector;
 use rayon::prelude::*;
 
@@ -25,14 +25,14 @@ pub fn extrapolate<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, mod
                     return (p.p[w], p.rho[w], p.vw[w]);
                 }
                 let body = p.body[w] as usize;
-                let eos = &model.eos[p.mat[w] as usize];
+                let mat = &model.materials[p.mat[w] as usize];
                 let u_wall = p.v[w];
                 let (mut sw, mut sp) = (0.0, 0.0);
                 let mut srx = Vector::<D>::zeros();
                 let mut sv = Vector::<D>::zeros();
                 for &f in nl.of(w) {
                     let f = f as usize;
-                    if p.kind[f] != Kind::Fluid {
+                    if !p.kind[f].is_fluid() {
                         continue;
                     }
                     let r_wf = p.x[w] - p.x[f];
@@ -43,7 +43,7 @@ pub fn extrapolate<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, mod
                     sv += p.v[f] * wgt;
                 }
                 if sw <= 0.0 {
-                    return (0.0, eos.rho0, u_wall);
+                    return (0.0, mat.rho0(), u_wall);
                 }
                 let pw = (sp + (model.g - model.wall_acc[body]).dot(&srx)) / sw;
                 let vt = sv / sw;
@@ -52,7 +52,7 @@ pub fn extrapolate<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, mod
                 } else {
                     vt
                 };
-                (pw, eos.density(pw), vw)
+                (pw, mat.density(pw), vw)
             })
             .collect()
     };

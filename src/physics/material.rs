@@ -1,8 +1,63 @@
-//! Equations of state of weakly compressible fluids (methods.md §2).
+//! Material models: what a particle's material answers to the step — its pressure from
+//! density and specific internal energy, its sound speed, its reference density. Weakly
+//! compressible fluids now (Tait or linear EOS, methods.md §2); elastic–plastic solids
+//! (Mie–Grüneisen, Johnson–Cook) join [`MaterialModel`] as a second variant with their own
+//! side fields, so the step loop asks the model and never the scene.
 
 use crate::scene::{EosKind, Material};
 
-/// A fluid EOS with its constants.
+/// The model of one material of the scene.
+#[derive(Debug, Clone, Copy)]
+pub enum MaterialModel {
+    /// A weakly compressible fluid with a barotropic EOS.
+    Fluid(Eos),
+}
+
+impl MaterialModel {
+    /// The model of a scene material.
+    pub fn new(m: &Material) -> Self {
+        MaterialModel::Fluid(Eos::new(m))
+    }
+
+    /// Pressure p(ρ, e) (Pa) from density ρ (kg/m³) and specific internal energy e (J/kg);
+    /// a barotropic fluid ignores e.
+    #[inline]
+    pub fn pressure(&self, rho: f64, _e: f64) -> f64 {
+        match self {
+            MaterialModel::Fluid(eos) => eos.pressure(rho),
+        }
+    }
+
+    /// Density at pressure p (Pa) on the material's reference isentrope (kg/m³): the inverse
+    /// of [`MaterialModel::pressure`] at e = 0, used to give extrapolated wall particles and
+    /// hydrostatic initial states their density.
+    #[inline]
+    pub fn density(&self, p: f64) -> f64 {
+        match self {
+            MaterialModel::Fluid(eos) => eos.density(p),
+        }
+    }
+
+    /// Reference density ρ0 (kg/m³).
+    #[inline]
+    pub fn rho0(&self) -> f64 {
+        match self {
+            MaterialModel::Fluid(eos) => eos.rho0,
+        }
+    }
+
+    /// Sound speed used by the time-step limit and the numerical diffusion terms (m/s): the
+    /// numerical c0 of a weakly compressible fluid.
+    #[inline]
+    pub fn c0(&self) -> f64 {
+        match self {
+            MaterialModel::Fluid(eos) => eos.c0,
+        }
+    }
+}
+
+/// A barotropic fluid EOS with its constants (Tait: p = B[(ρ/ρ0)^γ − 1], B = ρ0c0²/γ;
+/// linear: p = c0²(ρ − ρ0)).
 #[derive(Debug, Clone, Copy)]
 pub struct Eos {
     /// Tait or linear.

@@ -1,0 +1,93 @@
+//! Mirror walls: the inner faces of a container with `method = "mirror"` reflect fluid
+//! particles within the support into image particles. An image's position is reflected across
+//! the plane, polar vectors flip their normal component, and its velocity is reflected about
+//! the wall's surface velocity u_w: no-slip v' = 2u_w − v (every component), free-slip only
+//! the normal component v'_n = 2u_w,n − v_n.
+
+use super::images::AxisOp;
+use crate::scene::{Scene, Slip, WallMethod, WallShape};
+use crate::Vector;
+
+/// A mirror wall plane: the inner face of a container with `method = "mirror"`.
+#[derive(Debug, Clone)]
+pub struct MirrorPlane<const D: usize> {
+    /// Axis normal to the plane.
+    pub axis: usize,
+    /// Plane position along the axis (m).
+    pub at: f64,
+    /// True if the fluid lies on the + side (the plane is a lower face).
+    pub fluid_above: bool,
+    /// Surface velocity of the wall (m/s).
+    pub wall_velocity: Vector<D>,
+    /// No-slip (reflect the whole velocity about the wall's) or free-slip (normal only).
+    pub no_slip: bool,
+}
+
+impl<const D: usize> MirrorPlane<D> {
+    /// Reflection of coordinate `c` (along the plane's axis) across the plane (m).
+    #[inline]
+    pub fn reflect(&self, c: f64) -> f64 {
+        2.0 * self.at - c
+    }
+
+    /// Velocity of the image of a particle moving at `v` (m/s).
+    #[inline]
+    pub fn reflect_velocity(&self, v: &Vector<D>) -> Vector<D> {
+        let mut v = *v;
+        if self.no_slip {
+            v = 2.0 * self.wall_velocity - v;
+        } else {
+            v[self.axis] = 2.0 * self.wall_velocity[self.axis] - v[self.axis];
+        }
+        v
+    }
+}
+
+/// The mirror planes of a scene: every closed inner face of every mirror container.
+pub fn planes_of<const D: usize>(scene: &Scene) -> Vec<MirrorPlane<D>> {
+    let mut planes = Vec::new();
+    for w in &scene.walls {
+        if w.method != WallMethod::Mirror || w.shape != WallShape::Container {
+            continue;
+        }
+        for a in 0..D {
+            for up in [false, true] {
+                if w.open
+                    .iter()
+                    .any(|o| crate::scene::face_of(o, D) == Some((a, up)))
+                {
+                    continue;
+                }
+                planes.push(MirrorPlane {
+                    axis: a,
+                    at: if up { w.max[a] } else { w.min[a] },
+                    fluid_above: !up,
+                    wall_velocity: Vector::from_fn(|k, _| w.velocity[k]),
+                    no_slip: w.slip == Slip::NoSlip,
+                });
+            }
+        }
+    }
+    planes
+}
+
+/// Reflections of `x` along axis `a`: every plane normal to `a` with `x` on its fluid side
+/// (inclusive) and closer than the support, appended to `out`.
+#[inline]
+pub fn reflections<const D: usize>(
+    x: &Vector<D>,
+    a: usize,
+    planes: &[MirrorPlane<D>],
+    support: f64,
+    out: &mut Vec<AxisOp>,
+) {
+    for (k, pl) in planes.iter().enumerate() {
+        let d = x[a] - pl.at;
+        if pl.axis == a
+            && ((pl.fluid_above && d >= 0.0) || (!pl.fluid_above && d <= 0.0))
+            && d.abs() < support
+        {
+            out.push(AxisOp::Mirror(k));
+        }
+    }
+}

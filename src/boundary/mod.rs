@@ -1,0 +1,50 @@
+//! Boundary methods, one file each, and the image geometry they share.
+//!
+//! | method | file | how |
+//! |---|---|---|
+//! | dummy walls | [`dummy`] | fixed particles whose p, ρ and viscous velocity are extrapolated from the fluid (Adami et al. 2012) |
+//! | repulsive walls | [`repulsive`] | a pair force from wall particles (Monaghan 1994) |
+//! | mirror walls | [`mirror`] | image particles reflected across a container's inner faces |
+//! | periodic axes | [`periodic`] | wrap and image particles shifted by the box length |
+//! | moving walls | [`motion`] | motion laws applied to wall bodies |
+//!
+//! Image particles (periodic and mirror) are ghosts: [`images`] holds their geometry and
+//! [`crate::halo`] makes and refreshes them with the other ranks' ghosts.
+
+pub mod dummy;
+pub mod images;
+pub mod mirror;
+pub mod motion;
+pub mod periodic;
+pub mod repulsive;
+
+pub use images::{AxisOp, ImageSpace};
+pub use mirror::MirrorPlane;
+
+use crate::particles::Kind;
+use crate::scene::{Scene, WallMethod};
+use crate::Vector;
+
+/// The particle kind a wall method fills its body with (`None`: mirror walls have no
+/// particles of their own).
+pub fn wall_kind(method: WallMethod) -> Option<Kind> {
+    match method {
+        WallMethod::Dummy => Some(Kind::Dummy),
+        WallMethod::Repulsive => Some(Kind::Repulsive),
+        WallMethod::Mirror => None,
+    }
+}
+
+/// The periodic box and mirror planes of a scene.
+pub fn image_space<const D: usize>(scene: &Scene) -> ImageSpace<D> {
+    let mut periodic = [false; D];
+    for (a, per) in periodic.iter_mut().enumerate() {
+        *per = scene.domain.periodic[a];
+    }
+    ImageSpace {
+        min: Vector::from_fn(|a, _| scene.domain.min[a]),
+        max: Vector::from_fn(|a, _| scene.domain.max[a]),
+        periodic,
+        planes: mirror::planes_of(scene),
+    }
+}

@@ -1,0 +1,289 @@
+//! Particle storage: one structure of arrays, owned particles first, then ghosts, generated
+//! from the field table below.
+//!
+//! Indices `[0, n_owned)` are the particles this rank integrates; `[n_owned, len)` are ghosts:
+//! copies of owned particles under an image operation (periodic shift or mirror reflection)
+//! and copies from other ranks. A ghost is identified by its source id and image code
+//! (`key`), never by its local index, so sums in a fixed key order reproduce across layouts.
+//!
+//! **Adding a field** is one entry in the table: its type (any [`FieldValue`]: `u64`, `u16`,
+//! [`Kind`], `f64`, [`crate::Vector`]), its rule under image operations, its `final.csv`
+//! column stem and snapshot name (or `None`), its unit and long name. Storage, push, permute,
+//! the wire record of halos and migration, refresh flags, byte counts and output follow.
+//! Owned-only fields (rates) are listed under `owned` and never travel.
+
+mod table;
+pub mod value;
+pub mod wire;
+
+use crate::error::Result;
+use table::particle_table;
+pub use value::{Column, FieldValue, ImageRule, Imager};
+use wire::{Count, Reader, Sink};
+
+use crate::Vector;
+
+/// What a particle is: its role in the step (see the `is_*` queries, which the step loop and
+/// the passes ask instead of comparing kinds).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Kind {
+    /// Weakly compressible fluid.
+    Fluid = 0,
+    /// Fixed dummy wall particle with extrapolated pressure and velocity (Adami et al. 2012).
+    Dummy = 1,
+    /// Monaghan repulsive wall particle.
+    Repulsive = 2,
+}
+
+impl Kind {
+    /// Integer code written to output files.
+    pub fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// The kind with code `c`.
+    pub fn from_code(c: u8) -> Option<Kind> {
+        match c {
+            0 => Some(Kind::Fluid),
+            1 => Some(Kind::Dummy),
+            2 => Some(Kind::Repulsive),
+            _ => None,
+        }
+    }
+
+    /// Integrated by the equations of motion (kick, drift, continuity); walls are not.
+    #[inline]
+    pub fn is_integrated(self) -> bool {
+        self == Kind::Fluid
+    }
+
+    /// A fluid particle.
+    #[inline]
+    pub fn is_fluid(self) -> bool {
+        self == Kind::Fluid
+    }
+
+    /// A wall particle (moved only by its wall's motion law).
+    #[inline]
+    pub fn is_wall(self) -> bool {
+        self != Kind::Fluid
+    }
+
+    /// Enters the SPH sums of its neighbours (kernel-weighted); repulsive particles exert a
+    /// pair force only and need no neighbour list of their own.
+    #[inline]
+    pub fn is_smoothed(self) -> bool {
+        self != Kind::Repulsive
+    }
+
+    /// Name used in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::Fluid => "fluid",
+            Kind::Dummy => "dummy wall",
+            Kind::Repulsive => "repulsive wall",
+        }
+    }
+}
+
+/// Bits of the image code in a particle's sort key (`id << IMAGE_BITS | image`).
+pub const IMAGE_BITS: u32 = 10;
+
+/// A set of shared particle fields (a bit set): what a pass reads from ghosts, what a refresh
+/// sends. The flags are generated from the field table (`Fields::RHO`, `Fields::P`, ...).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Fields(u64);
+
+impl Fields {
+    /// The empty set.
+    pub const NONE: Fields = Fields(0);
+
+    /// Union of two sets.
+    pub const fn or(self, o: Fields) -> Fields {
+        Fields(self.0 | o.0)
+    }
+
+    /// Intersection of two sets.
+    pub const fn and(self, o: Fields) -> Fields {
+        Fields(self.0 & o.0)
+    }
+
+    /// This set without the fields of `o`.
+    pub const fn without(self, o: Fields) -> Fields {
+        Fields(self.0 & !o.0)
+    }
+
+    /// True if the two sets share a field.
+    pub const fn has(self, o: Fields) -> bool {
+        self.0 & o.0 != 0
+    }
+
+    /// True if the set is empty.
+    pub const fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+
+    /// Table names of the fields in the set, in table order.
+    pub fn names<const D: usize>(self) -> Vec<&'static str> {
+        Particles::<D>::field_table()
+            .into_iter()
+            .filter(|m| self.has(m.flag))
+            .map(|m| m.name)
+            .collect()
+    }
+}
+
+/// What the table says of one shared field.
+#[derive(Debug, Clone, Copy)]
+pub struct FieldMeta {
+    /// Name in the table (and of the store's member).
+    pub name: &'static str,
+    /// Its flag.
+    pub flag: Fields,
+    /// Column stem in `final.csv` (vectors add the axis name), if written there.
+    pub csv: Option<&'static str>,
+    /// Name in snapshots (`output.fields`), if it can be written there.
+    pub snapshot: Option<&'static str>,
+    /// SI unit (UDUNITS spelling).
+    pub unit: &'static str,
+    /// Long name (CF `long_name`).
+    pub long_name: &'static str,
+}
+
+particle_table! {
+    shared {
+        /// Global lattice id (unique, fixed for the run).
+        id / ID: u64 {
+            image: Same, csv: Some("id"), snapshot: None, unit: "1", long_name: "particle id",
+        }
+        /// Sort key: `id << IMAGE_BITS | image code` (the image code is 0 for an owned
+        /// particle).
+        key / KEY: u64 {
+            image: Key, csv: None, snapshot: None, unit: "1", long_name: "ghost sort key",
+        }
+        /// Particle kind.
+        kind / KIND: Kind {
+            image: Same, csv: Some("kind"), snapshot: Some("kind"), unit: "1",
+            long_name: "particle kind (0 fluid, 1 dummy wall, 2 repulsive wall)",
+        }
+        /// Body index: into the scene's fluids for fluid particles, walls for wall particles.
+        body / BODY: u16 {
+            image: Same, csv: Some("body"), snapshot: None, unit: "1", long_name: "body index",
+        }
+        /// Material index into the scene's materials.
+        mat / MAT: u16 {
+            image: Same, csv: None, snapshot: None, unit: "1", long_name: "material index",
+        }
+        /// Position x (m).
+        x / X: Vector<D> {
+            image: Position, csv: Some(""), snapshot: None, unit: "m", long_name: "position",
+        }
+        /// Velocity v (m/s). For wall particles: the wall's prescribed velocity.
+        v / V: Vector<D> {
+            image: Velocity, csv: Some("v"), snapshot: Some("velocity"), unit: "m s-1",
+            long_name: "velocity",
+        }
+        /// Mass m (kg; kg/m in 2D).
+        mass / MASS: f64 {
+            image: Same, csv: Some("mass"), snapshot: Some("mass"), unit: "kg", long_name: "mass",
+        }
+        /// Density ρ (kg/m³). For dummy walls: from the extrapolated pressure.
+        rho / RHO: f64 {
+            image: Same, csv: Some("rho"), snapshot: Some("density"), unit: "kg m-3",
+            long_name: "density",
+        }
+        /// Pressure p (Pa). For dummy walls: extrapolated (Adami et al. 2012, eq. 27).
+        p / P: f64 {
+            image: Same, csv: Some("p"), snapshot: Some("pressure"), unit: "Pa",
+            long_name: "pressure",
+        }
+        /// Velocity a dummy wall shows the fluid in viscous terms (m/s); unused for fluid.
+        vw / VW: Vector<D> {
+            image: Velocity, csv: None, snapshot: None, unit: "m s-1",
+            long_name: "extrapolated wall velocity",
+        }
+        /// Renormalised density gradient ⟨∇ρ⟩^L (kg/m⁴); filled only with Antuono's δ-SPH.
+        grad_rho / GRAD_RHO: Vector<D> {
+            image: Vector, csv: None, snapshot: None, unit: "kg m-4",
+            long_name: "renormalised density gradient",
+        }
+        /// A field that exists only in unit tests: proves that one table entry is enough for a
+        /// field to travel through halos and migration and reach `final.csv` and snapshots.
+        [cfg(test)]
+        tag / TAG: f64 {
+            image: Same, csv: Some("tag"), snapshot: Some("tag"), unit: "1", long_name: "test tag",
+        }
+    }
+    owned {
+        /// dρ/dt of owned particles (kg/m³/s).
+        drho: f64;
+        /// dv/dt of owned particles (m/s²).
+        acc: Vector<D>;
+    }
+}
+
+impl<const D: usize> Particles<D> {
+    /// Total number of particles, owned and ghost.
+    pub fn len(&self) -> usize {
+        self.id.len()
+    }
+
+    /// True if there are no particles.
+    pub fn is_empty(&self) -> bool {
+        self.id.is_empty()
+    }
+
+    /// Append an owned particle (before any ghost exists); its key is set from its id and its
+    /// rates start at zero.
+    pub fn push_owned(&mut self, mut r: Record<D>) {
+        debug_assert_eq!(self.n_owned, self.len(), "owned particles go before ghosts");
+        r.key = r.id << IMAGE_BITS;
+        self.push_shared(&r);
+        self.push_rates();
+        self.n_owned += 1;
+    }
+
+    /// Append a ghost (another rank's particle or an image), every shared field given.
+    pub fn push_ghost(&mut self, r: &Record<D>) {
+        self.push_shared(r);
+    }
+
+    /// Snapshot field names this build can write (`output.fields`).
+    pub fn snapshot_names() -> Vec<&'static str> {
+        Self::field_table().iter().filter_map(|m| m.snapshot).collect()
+    }
+}
+
+impl<const D: usize> Record<D> {
+    /// A new particle at rest in the lattice: id, kind, body, material, position, velocity,
+    /// mass and density; the wall velocity starts at `v`, everything else at zero.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        id: u64,
+        kind: Kind,
+        body: u16,
+        mat: u16,
+        x: Vector<D>,
+        v: Vector<D>,
+        mass: f64,
+        rho: f64,
+    ) -> Self {
+        Record {
+            id,
+            key: id << IMAGE_BITS,
+            kind,
+            body,
+            mat,
+            x,
+            v,
+            mass,
+            rho,
+            vw: v,
+            ..Record::default()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,183 @@
+//! The field table's promise: one entry (`tag`, declared under `#[cfg(test)]` in the table) is
+//! enough for a field to survive migration, halo builds and refreshes (periodic images and
+//! other ranks' ghosts), the gather for output, `final.csv` and snapshots.
+
+use super::*;
+use crate::boundary::ImageSpace;
+use crate::comm::local::run_local;
+use crate::comm::Comm;
+use crate::decomp::Decomposition;
+use crate::halo::{migrate, pack_owned, unpack_owned, HaloPlan, Ranks};
+use crate::physics::Model;
+use crate::sim::View;
+
+/// The tag a particle of id `id` carries in round `round`.
+fn tag(id: u64, round: u64) -> f64 {
+    id as f64 * 0.25 + 1000.0 * round as f64 + 0.125
+}
+
+/// An 8 × 8 lattice of fluid particles in [0, 1)², all on rank 0, tagged for round 0.
+fn lattice(rank: usize) -> Particles<2> {
+    let mut p = Particles::<2>::default();
+    if rank == 0 {
+        for k in 0..64u64 {
+            let x = Vector::<2>::new(
+                (k / 8) as f64 / 8.0 + 1.0 / 16.0,
+                (k % 8) as f64 / 8.0 + 1.0 / 16.0,
+            );
+            p.push_owned(Record {
+                tag: tag(k, 0),
+                ..Record::new(k, Kind::Fluid, 0, 0, x, Vector::zeros(), 1.0, 1000.0)
+            });
+        }
+    }
+    p
+}
+
+#[test]
+fn a_field_added_in_the_table_travels_everywhere() {
+    let space = ImageSpace::<2> {
+        min: Vector::zeros(),
+        max: Vector::repeat(1.0),
+        periodic: [false, true],
+        planes: Vec::new(),
+    };
+    let map = Ranks::new(Decomposition::uniform(space.min, space.max, [2, 1]), vec![0, 1]);
+    let support = 0.2;
+    let gathered = run_local(2, 1, |comm| {
+        let mut p = lattice(comm.rank());
+        migrate(&mut p, &map, &map.boxes(), comm)?;
+        // every owned particle is in this rank's half and kept its tag through migration
+        assert_eq!(p.n_owned, 32);
+        for i in 0..p.n_owned {
+            assert_eq!(map.owner(&p.x[i]), comm.rank());
+            assert_eq!(p.tag[i], tag(p.id[i], 0), "migrated id {}", p.id[i]);
+        }
+        let mut halo = HaloPlan::default();
+        halo.build(&mut p, &space, &map, &map.boxes(), support, comm)?;
+        // ghosts from the other rank and periodic images (along y) from this rank too
+        assert!(halo.remote() > 0 && p.len() > p.n_owned + halo.remote());
+        for g in p.n_owned..p.len() {
+            assert_eq!(p.tag[g], tag(p.id[g], 0), "ghost key {}", p.key[g]);
+        }
+        for i in 0..p.n_owned {
+            p.tag[i] = tag(p.id[i], 1);
+        }
+        halo.refresh(&mut p, &space, Fields::TAG, comm)?;
+        for g in p.n_owned..p.len() {
+            assert_eq!(p.tag[g], tag(p.id[g], 1), "refreshed ghost key {}", p.key[g]);
+        }
+        // the output gather: whole records to rank 0
+        p.truncate_ghosts();
+        let bytes = pack_owned(&p);
+        let mut all = Particles::<2>::default();
+        unpack_owned(&bytes, &mut all)?;
+        Ok(all)
+    })
+    .unwrap();
+    let mut all = Particles::<2>::default();
+    for p in &gathered {
+        for i in 0..p.n_owned {
+            all.push_owned(p.record(i));
+        }
+    }
+    let mut perm: Vec<usize> = (0..all.n_owned).collect();
+    perm.sort_unstable_by_key(|&i| all.id[i]);
+    all.permute_owned(&perm);
+    assert_eq!(all.n_owned, 64);
+    written_to_output(all);
+}
+
+/// `final.csv` has a `tag` column and snapshots a `tag` array, with the values.
+fn written_to_output(all: Particles<2>) {
+    let (scene, _) =
+        crate::scene::load_scene(std::path::Path::new("inputs/hydrostatic_2d.toml"), &[]).unwrap();
+    let model = Model::<2>::new(&scene);
+    let view = View {
+        p: all,
+        t: 0.0,
+        step: 0,
+        dt: 0.0,
+        scene: &scene,
+        model: &model,
+    };
+    let dir = std::env::temp_dir().join(format!("hsph-field-table-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    crate::output::write_final(&dir.join("final.csv"), &view).unwrap();
+    let text = std::fs::read_to_string(dir.join("final.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(
+        header,
+        ["id", "kind", "body", "x", "y", "vx", "vy", "mass", "rho", "p", "tag"]
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 64);
+    for r in &rows {
+        assert_eq!(r[10], tag(r[0] as u64, 1));
+    }
+    let vtu = dir.join("s.vtu");
+    crate::output::vtk::write_vtu(&vtu, &view, &view.by_id(), &["tag".to_string()]).unwrap();
+    let text = std::fs::read_to_string(&vtu).unwrap();
+    let at = text.find("Name=\"tag\"").expect("a tag array");
+    let values: Vec<f64> = text[at..]
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split_whitespace()
+        .take_while(|c| *c != "</DataArray>")
+        .map(|c| c.parse().unwrap())
+        .collect();
+    let expect: Vec<f64> = (0..64).map(|id| tag(id, 1)).collect();
+    assert_eq!(values, expect);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn record_layout_and_byte_counts_follow_the_table() {
+    // id, key, kind|body|mat packed in one word, x, v, mass, rho, p, vw, grad_rho, and the
+    // test-only tag
+    assert_eq!(Record::<2>::words(), 3 + 2 + 2 + 3 + 2 + 2 + 1);
+    assert_eq!(Record::<3>::words(), 3 + 3 + 3 + 3 + 3 + 3 + 1);
+    assert_eq!(Particles::<3>::field_words(Fields::RHO.or(Fields::P)), 2);
+    assert_eq!(
+        Particles::<3>::field_words(Fields::P.or(Fields::RHO).or(Fields::VW)),
+        5
+    );
+    assert_eq!(Particles::<2>::field_words(Fields::GRAD_RHO), 2);
+    // shared: 8 + 8 + 1 + 2 + 2 + 4·8·D + 3·8 (+ 8 tag); owned-only: 8 + 8·D
+    let shared = |d: usize| 8 + 8 + 1 + 2 + 2 + 4 * 8 * d + 3 * 8 + 8;
+    assert_eq!(Particles::<2>::bytes_per_ghost(), shared(2));
+    assert_eq!(Particles::<3>::bytes_per_particle(), shared(3) + 8 + 24);
+    let names: Vec<&str> = Particles::<2>::field_table().iter().map(|m| m.name).collect();
+    assert_eq!(names.last(), Some(&"tag"));
+    assert_eq!(Fields::RHO.or(Fields::TAG).names::<2>(), ["rho", "tag"]);
+}
+
+#[test]
+fn a_record_round_trips_bit_for_bit() {
+    let mut r = Record::<3>::new(
+        123_456_789,
+        Kind::Repulsive,
+        65_535,
+        7,
+        Vector::<3>::new(0.1, -0.0, 1e300),
+        Vector::<3>::new(f64::MIN_POSITIVE, 2.0, -3.0),
+        0.5,
+        999.0,
+    );
+    r.p = -12.5;
+    r.grad_rho = Vector::<3>::new(1.0, 2.0, 3.0);
+    r.tag = 42.0;
+    let mut buf = Vec::new();
+    r.put(&mut wire::Words::new(&mut buf));
+    assert_eq!(buf.len(), Record::<3>::words() * 8);
+    let back = Record::<3>::get(&mut Reader::new(&buf)).unwrap();
+    assert_eq!(back, r);
+    assert_eq!(back.x[1].to_bits(), (-0.0f64).to_bits());
+    // a corrupt kind code is an error, not a panic
+    buf[16] = 9;
+    assert!(Record::<3>::get(&mut Reader::new(&buf)).is_err());
+}

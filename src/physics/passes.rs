@@ -1,0 +1,132 @@
+//! The passes of one step as data: what each reads from ghosts and what it writes, and the
+//! order a scene runs them in. The step loop (`sim`) refreshes before each pass exactly the
+//! ghost fields the pass reads that an earlier pass has written since the last exchange, and
+//! `hsph plan` walks the same schedule to count the step's exchanges, so the two cannot drift
+//! apart.
+
+use super::Model;
+use crate::particles::Fields;
+use crate::scene::DensityDiffusion;
+
+/// One pass of the step after the ghosts and neighbour lists are built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pass {
+    /// ⟨∇ρ⟩^L of fluid particles (Antuono's δ-SPH): [`super::delta::renormalised_gradient`].
+    DensityGradient,
+    /// dρ/dt of fluid particles: [`super::fluid::continuity`].
+    Continuity,
+    /// ρ += dt dρ/dt, then p = EOS(ρ, e) (no neighbours).
+    DensityUpdate,
+    /// p, ρ and v_w of dummy wall particles: [`crate::boundary::dummy::extrapolate`].
+    WallExtrapolation,
+    /// dv/dt of fluid particles: [`super::fluid::momentum`].
+    Momentum,
+}
+
+impl Pass {
+    /// Shared fields of neighbours (ghosts included) the pass reads.
+    pub fn reads(self) -> Fields {
+        let geometry = Fields::X.or(Fields::KIND).or(Fields::MASS);
+        match self {
+            Pass::DensityGradient => geometry.or(Fields::RHO),
+            Pass::Continuity => geometry
+                .or(Fields::V)
+                .or(Fields::RHO)
+                .or(Fields::GRAD_RHO)
+                .or(Fields::MAT),
+            Pass::DensityUpdate => Fields::NONE,
+            Pass::WallExtrapolation => geometry.or(Fields::V).or(Fields::RHO).or(Fields::P),
+            Pass::Momentum => geometry
+                .or(Fields::V)
+                .or(Fields::RHO)
+                .or(Fields::P)
+                .or(Fields::VW)
+                .or(Fields::MAT),
+        }
+    }
+
+    /// Shared fields the pass writes on owned particles (stale on ghosts afterwards).
+    pub fn writes(self) -> Fields {
+        match self {
+            Pass::DensityGradient => Fields::GRAD_RHO,
+            Pass::Continuity | Pass::Momentum => Fields::NONE,
+            Pass::DensityUpdate => Fields::RHO.or(Fields::P),
+            Pass::WallExtrapolation => Fields::P.or(Fields::RHO).or(Fields::VW),
+        }
+    }
+
+    /// True if the pass walks the neighbour lists (counted as pair interactions).
+    pub fn pairs(self) -> bool {
+        self != Pass::DensityUpdate
+    }
+
+    /// Name in logs and in `hsph plan`'s exchange list.
+    pub fn name(self) -> &'static str {
+        match self {
+            Pass::DensityGradient => "density_gradient",
+            Pass::Continuity => "continuity",
+            Pass::DensityUpdate => "density_update",
+            Pass::WallExtrapolation => "wall_extrapolation",
+            Pass::Momentum => "momentum",
+        }
+    }
+}
+
+/// The passes a model runs, in order (Störmer–Verlet with (x, ρ) as coordinates: continuity
+/// and the density update come before the forces; see `Simulation::advance`).
+pub fn schedule<const D: usize>(model: &Model<D>) -> Vec<Pass> {
+    let mut s = Vec::with_capacity(5);
+    if model.diffusion == DensityDiffusion::Antuono {
+        s.push(Pass::DensityGradient);
+    }
+    s.push(Pass::Continuity);
+    s.push(Pass::DensityUpdate);
+    if model.has_dummy {
+        s.push(Pass::WallExtrapolation);
+    }
+    s.push(Pass::Momentum);
+    s
+}
+
+/// Which ghost fields are out of date: every field is fresh after a ghost build; a pass makes
+/// what it writes stale; a refresh makes fresh what it sends.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Freshness {
+    stale: Fields,
+}
+
+impl Freshness {
+    /// Every ghost field was just sent whole.
+    pub fn built(&mut self) {
+        self.stale = Fields::NONE;
+    }
+
+    /// The fields `pass` needs refreshed before it runs (possibly none); they count as fresh
+    /// from now on.
+    pub fn before(&mut self, pass: Pass) -> Fields {
+        let need = pass.reads().and(self.stale);
+        self.stale = self.stale.without(need);
+        need
+    }
+
+    /// `pass` ran: what it wrote is stale on ghosts.
+    pub fn after(&mut self, pass: Pass) {
+        self.stale = self.stale.or(pass.writes());
+    }
+}
+
+/// The ghost exchanges of one step: the whole-record build, then one refresh per pass that
+/// needs one, with the fields each sends (`hsph plan` counts these).
+pub fn exchanges(schedule: &[Pass]) -> Vec<(&'static str, Option<Fields>)> {
+    let mut out = vec![("build", None)];
+    let mut f = Freshness::default();
+    f.built();
+    for &pass in schedule {
+        let need = f.before(pass);
+        if !need.is_empty() {
+            out.push((pass.name(), Some(need)));
+        }
+        f.after(pass);
+    }
+    out
+}

@@ -1,0 +1,126 @@
+//! Load balance during the run: every `check_every` steps the loads are all-reduced and, above
+//! the threshold, the cut planes move by parallel bisection from where they were (seed 000's
+//! incremental rebalance); then particles that left their rank's box migrate.
+
+use super::timers::Timer;
+use super::Simulation;
+use crate::comm::{Comm, Phase};
+use crate::decomp::{imbalance, imbalance_weighted, BalanceParams};
+use crate::error::Result;
+use crate::halo::migrate;
+use crate::scene::LoadKind;
+use std::time::Instant;
+
+/// Load-balance settings and what happened (`[balance]` in the scene).
+#[derive(Debug, Clone, Default)]
+pub struct BalanceStats {
+    /// Particles this rank sent away by migration, in total.
+    pub migrated: u64,
+    /// Load-balance checks made.
+    pub checks: u64,
+    /// Rebalances done, with the step of each.
+    pub rebalance_steps: Vec<u64>,
+    /// max/mean load after the last check or rebalance.
+    pub imbalance: f64,
+    /// Largest cut-plane displacement of any rebalance (m).
+    pub max_plane_shift: f64,
+    /// max/mean load after the initial decomposition and after each rebalance.
+    pub imbalance_history: Vec<f64>,
+}
+
+impl<const D: usize> Simulation<D> {
+    /// max/mean of the owned-particle counts over ranks.
+    pub(super) fn load_imbalance(&self, comm: &dyn Comm) -> Result<f64> {
+        let mut loads = vec![0u64; self.ranks];
+        loads[self.rank] = self.particle_loads().iter().sum();
+        let prev = comm.set_phase(Phase::Balance);
+        comm.all_reduce_sum_u64(&mut loads)?;
+        comm.set_phase(prev);
+        Ok(match self.rank_weights() {
+            Some(w) => imbalance_weighted(&loads, &w),
+            None => imbalance(&loads),
+        })
+    }
+
+    /// Load of each owned particle (`[balance] load`): 1, or 1 + its neighbour count from the
+    /// last neighbour search (valid until particles migrate).
+    fn particle_loads(&self) -> Vec<u64> {
+        let n = self.p.n_owned;
+        match self.scene.balance.load {
+            LoadKind::Pairs if self.nl.start.len() == n + 1 => (0..n)
+                .map(|i| 1 + (self.nl.start[i + 1] - self.nl.start[i]) as u64)
+                .collect(),
+            _ => vec![1; n],
+        }
+    }
+
+    /// Relative speed of each rank (`[balance] weights`), if given.
+    fn rank_weights(&self) -> Option<Vec<f64>> {
+        let w = &self.scene.balance.weights;
+        (!w.is_empty()).then(|| (0..self.ranks).map(|r| w[r % w.len()]).collect())
+    }
+
+    /// Every `check_every` steps, check the load balance and, above the threshold, move the
+    /// cut planes (starting from the current ones); then migrate every particle that left this
+    /// rank's box, once.
+    pub(super) fn migrate_and_balance(&mut self, comm: &dyn Comm) -> Result<()> {
+        let b = &self.scene.balance;
+        if self.ranks > 1 && b.check_every > 0 && self.step % b.check_every == 0 {
+            let t0 = Instant::now();
+            self.balance.checks += 1;
+            // loads are taken before migration, while the neighbour lists match the particles
+            let imb = self.load_imbalance(comm)?;
+            self.balance.imbalance = imb;
+            if imb > b.threshold {
+                self.rebalance(comm)?;
+            }
+            self.timers.add(Timer::Balance, t0);
+        }
+        let t0 = Instant::now();
+        self.p.truncate_ghosts();
+        self.balance.migrated += migrate(&mut self.p, &self.map, &self.boxes, comm)? as u64;
+        self.timers.add(Timer::Migration, t0);
+        Ok(())
+    }
+
+    /// Move the cut planes by parallel bisection on all-reduced loads, from where they are.
+    fn rebalance(&mut self, comm: &dyn Comm) -> Result<()> {
+        let loads = self.particle_loads();
+        let params = BalanceParams {
+            weights: self.rank_weights().map(|w| {
+                (0..self.ranks)
+                    .map(|blk| w[self.map.block_to_rank[blk]])
+                    .collect()
+            }),
+            ..BalanceParams::default()
+        };
+        let prev = comm.set_phase(Phase::Balance);
+        let x = &self.p.x[..self.p.n_owned];
+        let mut err = None;
+        let (next, report) = self
+            .map
+            .decomp
+            .rebalance(&params, self.scene.discretisation.dx, |stage| {
+                let mut counts = stage.count_local(x.iter().zip(&loads).map(|(x, w)| (*x, *w)));
+                if let Err(e) = comm.all_reduce_sum_u64(&mut counts) {
+                    err.get_or_insert(e);
+                }
+                counts
+            });
+        comm.set_phase(prev);
+        if let Some(e) = err {
+            return Err(e);
+        }
+        self.balance.max_plane_shift = self.balance.max_plane_shift.max(report.max_displacement());
+        self.balance.rebalance_steps.push(self.step);
+        // the last counting round gives every block's load: no extra message
+        self.balance.imbalance = match &params.weights {
+            Some(w) => imbalance_weighted(&report.block_loads, w),
+            None => report.imbalance(),
+        };
+        self.balance.imbalance_history.push(self.balance.imbalance);
+        self.map.decomp = next;
+        self.boxes = self.map.boxes();
+        Ok(())
+    }
+}

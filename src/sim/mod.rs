@@ -1,0 +1,213 @@
+//! One rank's simulation state and the step loop.
+//!
+//! A step, as named phases (timers in `diagnostics.csv`, see [`Timer`]):
+//! `kick ½ (v) → drift (x, wall motion) → wrap/check → [balance check] → migration → ghosts →
+//! bin → neighbour lists → passes (each after refreshing the ghost fields it reads) → kick ½
+//! (v) → dt`. The passes and their order are declared in [`crate::physics::passes`]; one rank
+//! goes through the same halo path as many (self-sends).
+//!
+//! Modules: [`step`] (the step and the passes), [`balance`] (load balance and migration),
+//! [`decompose`] (initial blocks and placement), [`observe`] (observables and the gather for
+//! output), [`timers`].
+
+pub mod balance;
+pub mod decompose;
+pub mod observe;
+pub mod step;
+pub mod timers;
+
+pub use balance::BalanceStats;
+pub use decompose::{balanced_blocks, decompose, rank_map};
+pub use observe::{Observables, View};
+pub use timers::{PhaseTimers, Timer, PHASES};
+
+use crate::boundary::motion::WallKinematics;
+use crate::boundary::{image_space, ImageSpace};
+use crate::cells::{CellGrid, CellList, NeighbourList};
+use crate::comm::Comm;
+use crate::error::{Error, Result};
+use crate::halo::{HaloPlan, Ranks};
+use crate::layout::{Backend, LayoutRequest, RunLayout};
+use crate::particles::Particles;
+use crate::physics::passes::{schedule, Freshness, Pass};
+use crate::physics::Model;
+use crate::placement::Placement;
+use crate::scene::Scene;
+use crate::setup::build_particles;
+use crate::Vector;
+use rayon::prelude::*;
+
+/// The state of one rank.
+pub struct Simulation<const D: usize> {
+    /// The resolved scene.
+    pub scene: Scene,
+    /// Physics constants.
+    pub model: Model<D>,
+    /// Particles (owned, then ghosts).
+    pub p: Particles<D>,
+    /// Periodic box and mirror planes.
+    pub space: ImageSpace<D>,
+    /// Cell grid.
+    pub grid: CellGrid<D>,
+    /// Particles binned by cell.
+    pub cells: CellList,
+    /// Neighbour lists of owned particles.
+    pub nl: NeighbourList,
+    /// Halo plan (ghosts from this rank's images and from other ranks).
+    pub halo: HaloPlan<D>,
+    /// Decomposition of the domain into one block per rank and the blocks' ranks.
+    pub map: Ranks<D>,
+    /// Box of every rank (m), from `map`.
+    pub boxes: Vec<(Vector<D>, Vector<D>)>,
+    /// This rank.
+    pub rank: usize,
+    /// Number of ranks.
+    pub ranks: usize,
+    /// Placement of blocks on ranks that ran.
+    pub placement: Placement,
+    /// Load balancing and migration counters.
+    pub balance: BalanceStats,
+    /// Simulated time (s).
+    pub t: f64,
+    /// Steps taken.
+    pub step: u64,
+    /// Time step for the next step (s).
+    pub dt: f64,
+    /// Phase timers.
+    pub timers: PhaseTimers,
+    /// Pair interactions evaluated so far (directed neighbour-list entries × passes).
+    pub pair_count: u64,
+    /// The passes of a step, in order.
+    pub schedule: Vec<Pass>,
+    fresh: Freshness,
+    kinematics: Vec<WallKinematics>,
+}
+
+impl<const D: usize> Simulation<D> {
+    /// [`Simulation::with_layout`] with every rank on one node, blocks in rank order.
+    pub fn new(scene: &Scene, comm: &dyn Comm) -> Result<Self> {
+        let layout = RunLayout::resolve(&LayoutRequest::default(), Backend::Local, comm.size(), None)?;
+        Self::with_layout(scene, comm, &layout)
+    }
+
+    /// Build this rank's particles, decompose the domain over `comm.size()` ranks with blocks
+    /// placed by `layout`, and compute the initial rates and time step. Every rank builds the
+    /// whole lattice and balances the cut planes on it (identical on every rank, no
+    /// communication), then keeps its block.
+    pub fn with_layout(scene: &Scene, comm: &dyn Comm, layout: &RunLayout) -> Result<Self> {
+        let all = build_particles::<D>(scene)?;
+        let (rank, ranks) = (comm.rank(), comm.size());
+        debug_assert_eq!(ranks, layout.ranks, "layout resolved for this communicator");
+        let model = Model::<D>::new(scene);
+        let space = image_space::<D>(scene);
+        let grid = CellGrid::new(&space.min, &space.max, model.kernel.support);
+        let support = model.kernel.support;
+        let (map, p, placement) = decompose(all, &space.min, &space.max, rank, layout, support)?;
+        let boxes = map.boxes();
+        let mut sim = Simulation {
+            scene: scene.clone(),
+            schedule: schedule(&model),
+            model,
+            p,
+            space,
+            grid,
+            cells: CellList::default(),
+            nl: NeighbourList::default(),
+            halo: HaloPlan::default(),
+            map,
+            boxes,
+            rank,
+            ranks,
+            placement,
+            balance: BalanceStats::default(),
+            t: 0.0,
+            step: 0,
+            dt: 0.0,
+            timers: PhaseTimers::default(),
+            pair_count: 0,
+            fresh: Freshness::default(),
+            kinematics: WallKinematics::of(scene),
+        };
+        sim.apply_wall_motion(0.0, 0.0);
+        sim.check_state()?;
+        sim.update_pressure();
+        // the set-up runs the passes of a whole step at dt = 0 (its dρ/dt is recomputed before
+        // use), so its halo traffic is one step's, as `hsph plan` predicts
+        sim.rebuild_neighbours(comm)?;
+        sim.run_passes(0.0, comm, None)?;
+        sim.balance.imbalance = sim.load_imbalance(comm)?;
+        sim.balance.imbalance_history.push(sim.balance.imbalance);
+        sim.dt = sim.next_dt(comm)?;
+        Ok(sim)
+    }
+
+    /// Number of owned particles (fluid and wall).
+    pub fn n_particles(&self) -> usize {
+        self.p.n_owned
+    }
+
+    /// dρ/dt of the current state (for tests and diagnostics): ghosts, neighbours and the
+    /// passes up to continuity.
+    pub fn compute_density_rate(&mut self, comm: &dyn Comm) -> Result<()> {
+        self.rebuild_neighbours(comm)?;
+        self.run_passes(0.0, comm, Some(Pass::Continuity))
+    }
+
+    /// True once t_end (or max_steps) is reached.
+    pub fn done(&self) -> bool {
+        self.t >= self.scene.time.t_end * (1.0 - 1e-12)
+            || (self.scene.time.max_steps > 0 && self.step >= self.scene.time.max_steps)
+    }
+
+    /// Indices of owned particles sorted by id.
+    pub fn by_id(&self) -> Vec<usize> {
+        let mut idx: Vec<usize> = (0..self.p.n_owned).collect();
+        idx.sort_unstable_by_key(|&i| self.p.id[i]);
+        idx
+    }
+
+    fn particle_error(&self, i: usize, what: &str) -> Error {
+        Error::run(format!(
+            "rank {}, step {}, t = {:.6e} s: particle id {} {} at position {:?}",
+            self.rank,
+            self.step,
+            self.t,
+            self.p.id[i],
+            what,
+            self.p.x[i].as_slice()
+        ))
+    }
+
+    /// Every owned particle inside the domain.
+    fn check_state(&self) -> Result<()> {
+        let n = self.p.n_owned;
+        let bad = (0..n).into_par_iter().find_first(|&i| {
+            !self.space.contains(&self.p.x[i]) || !self.p.x[i].iter().all(|c| c.is_finite())
+        });
+        match bad {
+            Some(i) if !self.p.x[i].iter().all(|c| c.is_finite()) => {
+                Err(self.particle_error(i, "has a non-finite position (the run blew up: try a smaller time.cfl, more artificial viscosity or density diffusion)"))
+            }
+            Some(i) => Err(self.particle_error(i, "left the domain (enlarge domain.min/domain.max or check the walls)")),
+            None => Ok(()),
+        }
+    }
+
+    fn check_finite(&self) -> Result<()> {
+        let n = self.p.n_owned;
+        let bad = (0..n).into_par_iter().find_first(|&i| {
+            !(self.p.rho[i].is_finite() && self.p.v[i].iter().all(|c| c.is_finite()) && self.p.rho[i] > 0.0)
+        });
+        match bad {
+            Some(i) => Err(self.particle_error(
+                i,
+                &format!(
+                    "has density {} and velocity {:?} (the run blew up)",
+                    self.p.rho[i],
+                    self.p.v[i].as_slice()
+                ),
+            )),
+            None => Ok(()),
+        }
+    }
+}

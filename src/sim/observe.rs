@@ -1,0 +1,124 @@
+//! What leaves a rank for output: global observables summed exactly, and the whole state
+//! gathered on rank 0 in id order.
+
+use super::Simulation;
+use crate::comm::{Comm, Phase, Tag};
+use crate::error::Result;
+use crate::exact::ExactSum;
+use crate::halo::{pack_owned, unpack_owned};
+use crate::particles::Particles;
+use crate::physics::Model;
+use crate::scene::Scene;
+use crate::Vector;
+
+/// Tag of the output gather.
+const TAG_GATHER: Tag = 110;
+
+/// Physics observables of one output step (one row of `timeseries.csv`).
+#[derive(Debug, Clone)]
+pub struct Observables<const D: usize> {
+    /// Kinetic energy Σ ½ m |v|² of the integrated particles (J, or J/m in 2D).
+    pub kinetic_energy: f64,
+    /// Momentum Σ m v of the integrated particles (kg m/s).
+    pub momentum: Vector<D>,
+    /// Largest speed of an integrated particle (m/s).
+    pub max_speed: f64,
+}
+
+/// The whole state gathered on rank 0 for output: every owned particle of every rank, sorted by
+/// id, no ghosts. Field names follow [`Simulation`] so output code reads either alike.
+pub struct View<'a, const D: usize> {
+    /// Every particle, sorted by id.
+    pub p: Particles<D>,
+    /// Simulated time (s).
+    pub t: f64,
+    /// Steps taken.
+    pub step: u64,
+    /// Time step for the next step (s).
+    pub dt: f64,
+    /// The resolved scene.
+    pub scene: &'a Scene,
+    /// Physics constants.
+    pub model: &'a Model<D>,
+}
+
+impl<const D: usize> View<'_, D> {
+    /// Number of particles (fluid and wall).
+    pub fn n_particles(&self) -> usize {
+        self.p.n_owned
+    }
+
+    /// Indices in id order (the identity: a view is sorted).
+    pub fn by_id(&self) -> Vec<usize> {
+        (0..self.p.n_owned).collect()
+    }
+}
+
+impl<const D: usize> Simulation<D> {
+    /// Kinetic energy, momentum and max speed of the integrated particles over all ranks,
+    /// summed exactly (independent of order, threads and ranks: integer limbs all-reduced).
+    pub fn observables(&self, comm: &dyn Comm) -> Result<Observables<D>> {
+        let p = &self.p;
+        let mut sums: Vec<ExactSum> = (0..=D).map(|_| ExactSum::new()).collect();
+        let mut vmax = 0.0f64;
+        for i in 0..p.n_owned {
+            if !p.kind[i].is_integrated() {
+                continue;
+            }
+            let v2 = p.v[i].norm_squared();
+            sums[D].add(0.5 * p.mass[i] * v2);
+            for (a, sum) in sums[..D].iter_mut().enumerate() {
+                sum.add(p.mass[i] * p.v[i][a]);
+            }
+            vmax = vmax.max(v2.sqrt());
+        }
+        let per = sums[0].limbs().len();
+        let mut limbs: Vec<i64> = sums.iter().flat_map(|s| s.limbs()).collect();
+        let prev = comm.set_phase(Phase::Output);
+        comm.all_reduce_sum_i64(&mut limbs)?;
+        let mut m = [vmax];
+        comm.all_reduce_max_f64(&mut m)?;
+        comm.set_phase(prev);
+        let value = |k: usize| ExactSum::from_limbs(&limbs[k * per..(k + 1) * per]).value();
+        Ok(Observables {
+            kinetic_energy: value(D),
+            momentum: Vector::from_fn(|a, _| value(a)),
+            max_speed: m[0],
+        })
+    }
+
+    /// Gather every owned particle of every rank on rank 0, sorted by id (`None` on the other
+    /// ranks). Collective: every rank must call it.
+    pub fn gather(&self, comm: &dyn Comm) -> Result<Option<View<'_, D>>> {
+        let mut all = Particles::<D>::default();
+        if self.ranks == 1 {
+            for i in 0..self.p.n_owned {
+                all.push_owned(self.p.record(i));
+            }
+        } else {
+            let prev = comm.set_phase(Phase::Output);
+            let mine = pack_owned(&self.p);
+            if self.rank != 0 {
+                comm.send(0, TAG_GATHER, mine)?;
+                comm.set_phase(prev);
+                return Ok(None);
+            }
+            unpack_owned(&mine, &mut all)?;
+            for r in 1..self.ranks {
+                unpack_owned(&comm.recv(r, TAG_GATHER)?, &mut all)?;
+            }
+            comm.set_phase(prev);
+        }
+        let mut perm: Vec<usize> = (0..all.n_owned).collect();
+        perm.sort_unstable_by_key(|&i| all.id[i]);
+        all.permute_owned(&perm);
+        Ok(Some(View {
+            p: all,
+            t: self.t,
+            step: self.step,
+            dt: self.dt,
+            scene: &self.scene,
+            model: &self.model,
+        }))
+    }
+}

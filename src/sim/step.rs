@@ -1,0 +1,229 @@
+//! The step: Störmer–Verlet with (x, ρ) as coordinates and v as momentum,
+//!   v_{n+½} = v_n + ½dt a_n;  x_{n+1} = x_n + dt v_{n+½};
+//!   ρ_{n+1} = ρ_n + dt (dρ/dt)(x_{n+1}, v_{n+½}, ρ_n);  v_{n+1} = v_{n+½} + ½dt a_{n+1}.
+//! Evaluating dρ/dt and dv/dt from one state instead (one fused pass) makes the acoustic
+//! (ρ, v) coupling grow by 1 + (ω dt)²/4 per step, which is why continuity and momentum are
+//! separate passes. Between the drift and the passes: migration (and, every `check_every`
+//! steps, a balance check), then the ghost build and neighbour lists. Before each pass the
+//! ghosts get exactly the fields it reads that are stale ([`crate::physics::passes`]).
+
+use super::timers::Timer;
+use super::Simulation;
+use crate::boundary::{dummy, motion};
+use crate::comm::Comm;
+use crate::error::Result;
+use crate::particles::Fields;
+use crate::physics::passes::Pass;
+use crate::physics::{delta, fluid};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Steps between reorderings of the owned particles into cell order.
+const REORDER_EVERY: u64 = 16;
+
+impl<const D: usize> Simulation<D> {
+    /// Advance one step (see the module docs): balance check and migration, ghosts and
+    /// neighbours, the passes, the closing half kick and the next dt.
+    pub fn advance(&mut self, comm: &dyn Comm) -> Result<()> {
+        let dt = self.dt;
+        self.kick_drift(dt)?;
+        self.migrate_and_balance(comm)?;
+        self.rebuild_neighbours(comm)?;
+        self.run_passes(dt, comm, None)?;
+        let t0 = Instant::now();
+        self.half_kick(dt);
+        self.check_finite()?;
+        self.timers.add(Timer::Integrate, t0);
+        self.dt = self.next_dt(comm)?;
+        Ok(())
+    }
+
+    /// v += ½dt a, x += dt v (wrapped), walls moved, t and step advanced, positions checked.
+    fn kick_drift(&mut self, dt: f64) -> Result<()> {
+        let t0 = Instant::now();
+        self.half_kick(dt);
+        {
+            let n = self.p.n_owned;
+            let space = &self.space;
+            let (kind, v) = (&self.p.kind, &self.p.v);
+            self.p.x[..n].par_iter_mut().enumerate().for_each(|(i, x)| {
+                if kind[i].is_integrated() {
+                    *x += v[i] * dt;
+                    space.wrap(x);
+                }
+            });
+        }
+        let t_new = self.t + dt;
+        self.apply_wall_motion(self.t, t_new);
+        self.t = t_new;
+        self.step += 1;
+        self.check_state()?;
+        self.timers.add(Timer::Integrate, t0);
+        Ok(())
+    }
+
+    /// Run the model's passes in order (up to and including `until`, if given), refreshing
+    /// before each the ghost fields it reads that are stale.
+    pub(super) fn run_passes(&mut self, dt: f64, comm: &dyn Comm, until: Option<Pass>) -> Result<()> {
+        for k in 0..self.schedule.len() {
+            let pass = self.schedule[k];
+            self.run_pass(pass, dt, comm)?;
+            if Some(pass) == until {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    /// One pass: refresh what it needs, run it, mark what it wrote.
+    fn run_pass(&mut self, pass: Pass, dt: f64, comm: &dyn Comm) -> Result<()> {
+        let need = self.fresh.before(pass);
+        if !need.is_empty() {
+            self.refresh(need, comm)?;
+        }
+        let t0 = Instant::now();
+        match pass {
+            Pass::DensityGradient => delta::renormalised_gradient(&mut self.p, &self.nl, &self.model),
+            Pass::Continuity => fluid::continuity(&mut self.p, &self.nl, &self.model),
+            Pass::DensityUpdate => self.update_density(dt),
+            Pass::WallExtrapolation => dummy::extrapolate(&mut self.p, &self.nl, &self.model),
+            Pass::Momentum => fluid::momentum(&mut self.p, &self.nl, &self.model),
+        }
+        if pass.pairs() {
+            self.pair_count += self.nl.pairs() as u64;
+            self.timers.add(Timer::Forces, t0);
+        } else {
+            self.timers.add(Timer::Integrate, t0);
+        }
+        self.fresh.after(pass);
+        Ok(())
+    }
+
+    /// ρ += dt dρ/dt for integrated particles (skipped at dt = 0, the set-up), then the EOS.
+    fn update_density(&mut self, dt: f64) {
+        if dt > 0.0 {
+            let n = self.p.n_owned;
+            let (kind, drho) = (&self.p.kind, &self.p.drho);
+            self.p.rho[..n].par_iter_mut().enumerate().for_each(|(i, rho)| {
+                if kind[i].is_integrated() {
+                    *rho += drho[i] * dt;
+                }
+            });
+        }
+        self.update_pressure();
+    }
+
+    /// p = p(ρ, e) of the particle's material for owned integrated particles.
+    pub(super) fn update_pressure(&mut self) {
+        let n = self.p.n_owned;
+        let (kind, mat, rho) = (&self.p.kind, &self.p.mat, &self.p.rho);
+        let materials = &self.model.materials;
+        self.p.p[..n].par_iter_mut().enumerate().for_each(|(i, pi)| {
+            if kind[i].is_integrated() {
+                *pi = materials[mat[i] as usize].pressure(rho[i], 0.0);
+            }
+        });
+    }
+
+    /// Ghosts (positions and every field), binning and neighbour lists at the current state.
+    pub(super) fn rebuild_neighbours(&mut self, comm: &dyn Comm) -> Result<()> {
+        let support = self.model.kernel.support;
+        self.p.truncate_ghosts();
+        if self.step % REORDER_EVERY == 0 {
+            // owned particles in cell order (then key order) for memory locality
+            let t0 = Instant::now();
+            let grid = &self.grid;
+            let (x, key) = (&self.p.x, &self.p.key);
+            let mut perm: Vec<usize> = (0..self.p.n_owned).collect();
+            perm.sort_unstable_by_key(|&i| (grid.coords(&x[i]).map(|c| grid.linear(&c)), key[i]));
+            self.p.permute_owned(&perm);
+            self.timers.add(Timer::Neighbours, t0);
+        }
+        let t0 = Instant::now();
+        self.halo
+            .build(&mut self.p, &self.space, &self.map, &self.boxes, support, comm)?;
+        self.fresh.built();
+        self.timers.add(Timer::Halo, t0);
+        let t0 = Instant::now();
+        self.bin()?;
+        let kind = &self.p.kind;
+        self.nl.build(&self.grid, &self.cells, &self.p, support, |i| {
+            kind[i].is_smoothed()
+        });
+        self.timers.add(Timer::Neighbours, t0);
+        Ok(())
+    }
+
+    /// Refresh `fields` on every ghost (a halo exchange), timed as `halo`.
+    fn refresh(&mut self, fields: Fields, comm: &dyn Comm) -> Result<()> {
+        let t0 = Instant::now();
+        self.halo.refresh(&mut self.p, &self.space, fields, comm)?;
+        self.timers.add(Timer::Halo, t0);
+        Ok(())
+    }
+
+    /// Bin owned particles and ghosts into cells.
+    fn bin(&mut self) -> Result<()> {
+        if let Err(i) = self.cells.build(&self.grid, &self.p) {
+            let what = if i < self.p.n_owned {
+                "left the cell grid"
+            } else {
+                "(a ghost) lies outside the cell grid"
+            };
+            return Err(self.particle_error(i, what));
+        }
+        Ok(())
+    }
+
+    /// Move walls with a motion law from time `t0` to `t1`.
+    pub(super) fn apply_wall_motion(&mut self, t0: f64, t1: f64) {
+        motion::move_walls(&self.kinematics, &mut self.p, t0, t1, &mut self.model.wall_acc);
+    }
+
+    /// Half kick of owned integrated particles: v += ½dt a.
+    fn half_kick(&mut self, dt: f64) {
+        let n = self.p.n_owned;
+        let h = 0.5 * dt;
+        let (kind, acc) = (&self.p.kind, &self.p.acc);
+        self.p.v[..n].par_iter_mut().enumerate().for_each(|(i, v)| {
+            if kind[i].is_integrated() {
+                *v += acc[i] * h;
+            }
+        });
+    }
+
+    /// The time step for the next step (s): min of CFL·h/(c0 + |v|max), 0.25 sqrt(h/|a|max)
+    /// and 0.125 h²/ν, or the scene's fixed dt; never past t_end.
+    pub fn next_dt(&self, comm: &dyn Comm) -> Result<f64> {
+        let n = self.p.n_owned;
+        let h = self.model.kernel.h;
+        let dt = if self.scene.time.dt > 0.0 {
+            self.scene.time.dt
+        } else {
+            let (kind, v, a) = (&self.p.kind, &self.p.v, &self.p.acc);
+            let (vmax, amax) = (0..n)
+                .into_par_iter()
+                .filter(|&i| kind[i].is_integrated())
+                .map(|i| (v[i].norm(), a[i].norm()))
+                .reduce(|| (0.0f64, 0.0f64), |x, y| (x.0.max(y.0), x.1.max(y.1)));
+            // max is exact, so the all-reduce gives the same bits on any number of ranks
+            let mut m = [vmax, amax];
+            comm.all_reduce_max_f64(&mut m)?;
+            let (vmax, amax) = (m[0], m[1]);
+            let mut dt = self.scene.time.cfl * h / (self.model.c_max + vmax);
+            if amax > 0.0 {
+                dt = dt.min(0.25 * (h / amax).sqrt());
+            }
+            if self.model.nu > 0.0 {
+                dt = dt.min(0.125 * h * h / self.model.nu);
+            }
+            dt
+        };
+        let left = self.scene.time.t_end - self.t;
+        Ok(if left > 0.0 && left < dt * (1.0 + 1e-9) {
+            left
+        } else {
+            dt
+        })
+    }
+}
