@@ -85,17 +85,8 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
     let mat_index = |name: &str| s.materials.iter().position(|m| m.name == name).unwrap_or(0) as u16;
     let g = Vector::<D>::from_fn(|a, _| s.physics.body_force[a]);
     let gmag = g.norm();
-    struct Proto<const D: usize> {
-        id: u64,
-        kind: Kind,
-        body: u16,
-        mat: u16,
-        x: Vector<D>,
-        v: Vector<D>,
-        rho: f64,
-        who: String,
-    }
-    let mut protos: Vec<Proto<D>> = Vec::new();
+    // every site claimed by a body, with the body's name (to report overlaps)
+    let mut protos: Vec<(Record<D>, String)> = Vec::new();
     for (b, f) in s.fluids.iter().enumerate() {
         let mat = mat_index(&f.material);
         let e = materials[mat as usize];
@@ -116,16 +107,8 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
             } else {
                 e.rho0()
             };
-            protos.push(Proto {
-                id,
-                kind: Kind::Fluid,
-                body: b as u16,
-                mat,
-                x,
-                v,
-                rho,
-                who: format!("fluid[{b}]"),
-            });
+            let r = Record::new(id, Kind::Fluid, b as u16, mat, x, v, rho * vol, rho);
+            protos.push((r, format!("fluid[{b}]")));
         });
     }
     for (b, w) in s.walls.iter().enumerate() {
@@ -136,16 +119,8 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
         let rho0 = materials[mat as usize].rho0();
         let v = Vector::<D>::from_fn(|a, _| w.velocity[a]);
         let mut push = |id, x| {
-            protos.push(Proto {
-                id,
-                kind,
-                body: b as u16,
-                mat,
-                x,
-                v,
-                rho: rho0,
-                who: format!("wall[{b}]"),
-            })
+            let r = Record::new(id, kind, b as u16, mat, x, v, rho0 * vol, rho0);
+            protos.push((r, format!("wall[{b}]")))
         };
         match w.shape {
             WallShape::Block => lat.for_each_in(&w.min, &w.max, &mut push),
@@ -175,33 +150,23 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
             }
         }
     }
-    protos.sort_by_key(|p| p.id);
+    protos.sort_by_key(|p| p.0.id);
     for pair in protos.windows(2) {
-        if pair[0].id == pair[1].id {
-            let x = pair[0].x;
+        if pair[0].0.id == pair[1].0.id {
             return Err(Error::input(
-                pair[1].who.clone(),
+                pair[1].1.clone(),
                 format!(
                     "overlaps {} at the lattice site {:?}: bodies must not share particles; \
                      shrink one of them",
-                    pair[0].who,
-                    x.as_slice()
+                    pair[0].1,
+                    pair[0].0.x.as_slice()
                 ),
             ));
         }
     }
     let mut p = Particles::<D>::default();
-    for q in protos {
-        p.push_owned(Record::new(
-            q.id,
-            q.kind,
-            q.body,
-            q.mat,
-            q.x,
-            q.v,
-            q.rho * vol,
-            q.rho,
-        ));
+    for (r, _) in protos {
+        p.push_owned(r);
     }
     Ok(p)
 }
