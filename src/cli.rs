@@ -215,7 +215,7 @@ pub fn main() -> i32 {
         }
     };
     match dispatch(cli.command) {
-        Ok(()) => 0,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("hsph: {e}");
             e.exit_code()
@@ -223,7 +223,8 @@ pub fn main() -> i32 {
     }
 }
 
-fn dispatch(cmd: Command) -> Result<()> {
+/// Run a command; the exit status of a success (0, or 3 for a run stopped early by a signal).
+fn dispatch(cmd: Command) -> Result<i32> {
     match cmd {
         Command::Run {
             scene,
@@ -250,6 +251,7 @@ fn dispatch(cmd: Command) -> Result<()> {
             }
             let topology = topology.map(|f| Topology::load(&f)).transpose()?;
             let (scene, src) = load_scene(&scene, &set)?;
+            crate::signals::install()?;
             driver::run_scene(
                 &scene,
                 &RunOptions {
@@ -266,12 +268,18 @@ fn dispatch(cmd: Command) -> Result<()> {
                     bind,
                 },
             )
-            .map(|_| ())
+            .map(|o| {
+                if o.stopped_by.is_some() {
+                    crate::signals::EXIT_STOPPED
+                } else {
+                    0
+                }
+            })
             .map_err(|e| locate(&src, e))
         }
         Command::Topology { ranks, threads } => {
             print!("{}", crate::affinity::topology_report(ranks, threads)?);
-            Ok(())
+            Ok(0)
         }
         Command::Plan {
             scene,
@@ -302,12 +310,12 @@ fn dispatch(cmd: Command) -> Result<()> {
                 crate::plan::write(&dir, &scene, ranks, &topo, &rows)?;
                 println!("wrote {}/plan.json and plan.csv", dir.display());
             }
-            Ok(())
+            Ok(0)
         }
         Command::Check { scene, set } => {
             let (scene, src) = load_scene(&scene, &set)?;
             print!("{}", check_report(&scene).map_err(|e| locate(&src, e))?);
-            Ok(())
+            Ok(0)
         }
         Command::Bench {
             scenes,
@@ -329,9 +337,9 @@ fn dispatch(cmd: Command) -> Result<()> {
             };
             let rows = bench::run(&scenes, &opts)?;
             print!("{}", bench::table(&rows));
-            Ok(())
+            Ok(0)
         }
-        Command::Report { runs, compare, out } => report::command(&runs, compare, out.as_deref()).map(|_| ()),
+        Command::Report { runs, compare, out } => report::command(&runs, compare, out.as_deref()).map(|_| 0),
     }
 }
 

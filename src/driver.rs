@@ -42,6 +42,7 @@ impl Fault {
         let kind = match f.get(2).copied() {
             Some("panic") => FaultKind::Panic,
             Some("nan") => FaultKind::Nan,
+            Some("signal") => FaultKind::Signal,
             _ => return None,
         };
         Some(Fault {
@@ -59,6 +60,8 @@ pub enum FaultKind {
     Panic,
     /// One of the rank's particles gets a non-finite position (caught by the state check).
     Nan,
+    /// The process records a SIGTERM at that step, as if one had arrived (the stop contract).
+    Signal,
 }
 
 /// How to run.
@@ -112,6 +115,44 @@ pub struct RunOutcome {
     pub summary: serde_json::Value,
     /// Named relative errors against the scene's reference.
     pub errors: BTreeMap<String, f64>,
+    /// The signal that stopped the run early (`None`: it completed).
+    pub stopped_by: Option<&'static str>,
+}
+
+/// Cargo features this binary was built with.
+pub fn features() -> Vec<&'static str> {
+    let mut f = Vec::new();
+    if cfg!(feature = "mpi") {
+        f.push("mpi");
+    }
+    if cfg!(feature = "hwloc") {
+        f.push("hwloc");
+    }
+    if cfg!(feature = "netcdf") {
+        f.push("netcdf");
+    }
+    f
+}
+
+/// What built this binary: version, git commit, cargo features and, on the MPI back end, the
+/// MPI library (first line of `MPI_Get_library_version`).
+pub fn provenance(backend: Backend) -> serde_json::Value {
+    #[cfg(feature = "mpi")]
+    let mpi = (backend == Backend::Mpi).then(|| {
+        let v = crate::comm::mpi::MpiComm::library_version();
+        v.lines().next().unwrap_or("").trim().to_string()
+    });
+    #[cfg(not(feature = "mpi"))]
+    let mpi: Option<String> = {
+        let _ = backend;
+        None
+    };
+    json!({
+        "version": env!("CARGO_PKG_VERSION"),
+        "git_commit": env!("HSPH_GIT_COMMIT"),
+        "features": features(),
+        "mpi_library": mpi,
+    })
 }
 
 /// Build a rayon pool of `threads` threads (0 = available cores).
@@ -156,17 +197,17 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
                 opts.threads
             };
             let start = crate::affinity::start_handler(opts.bind, layout.ranks, threads)?;
+            // rank 0's outcome carries the summary
             crate::comm::local::run_local_with(layout.ranks, threads, start, |comm| {
                 run_rank(scene, &dir, comm, &layout, opts)
             })?
             .into_iter()
-            .flatten()
             .next()
         }
         _ => {
             let pool = bound_pool(opts.threads, opts.bind)?;
             let comm = SerialComm::new();
-            pool.install(|| run_rank(scene, &dir, &comm, &layout, opts))?
+            Some(pool.install(|| run_rank(scene, &dir, &comm, &layout, opts))?)
         }
     };
     outcome.ok_or_else(|| Error::run("rank 0 produced no outcome"))
@@ -198,13 +239,8 @@ fn run_mpi(scene: &Scene, opts: &RunOptions, req: &LayoutRequest) -> Result<RunO
         Err(Error::run(format!("panicked: {what}")))
     });
     match result {
-        Ok(Some(out)) => Ok(out),
-        // other ranks report nothing; MPI is finalised when `comm` drops
-        Ok(None) => Ok(RunOutcome {
-            dir,
-            summary: serde_json::Value::Null,
-            errors: BTreeMap::new(),
-        }),
+        // other ranks' outcomes have no summary; MPI is finalised when `comm` drops
+        Ok(out) => Ok(out),
         Err(e @ Error::Input { .. }) => Err(e),
         Err(e) => Err(comm.abort(e.to_string().trim_start_matches("error: "))),
     }
@@ -354,14 +390,15 @@ fn log_traffic<const D: usize>(
     Ok(())
 }
 
-/// One rank's whole run on a resolved layout; `Some(outcome)` on rank 0.
+/// One rank's whole run on a resolved layout; rank 0's outcome holds the summary (the other
+/// ranks' hold `Null`), every rank's says whether a signal stopped it.
 pub fn run_rank(
     scene: &Scene,
     dir: &Path,
     comm: &dyn Comm,
     layout: &RunLayout,
     opts: &RunOptions,
-) -> Result<Option<RunOutcome>> {
+) -> Result<RunOutcome> {
     crate::with_dim!(scene.dimension, D => {
         let mut run = RankRun::<D>::start(scene, dir, comm, layout.clone(), opts)?;
         run.step_loop()?;
@@ -452,6 +489,8 @@ struct RankRun<'a, const D: usize> {
     /// Start of the first step (`wall_s` of `summary.json`).
     steps_start: Instant,
     quiet: bool,
+    /// The signal all ranks agreed to stop on, if any.
+    stopped_by: Option<&'static str>,
 }
 
 impl<'a, const D: usize> RankRun<'a, D> {
@@ -493,12 +532,16 @@ impl<'a, const D: usize> RankRun<'a, D> {
             loop_start: Instant::now(),
             steps_start: Instant::now(),
             quiet: opts.quiet || !root,
+            stopped_by: None,
         };
         // the set-up's traffic (one step's exchanges at the initial positions) is step 0
         run.traffic(0)?;
         if !run.quiet {
             eprintln!(
-                "hsph: {} ({}D), {} particles, {} rank(s) × {} thread(s) [{}], dt₀ = {:.3e} s, output in {}",
+                "hsph {} ({}{}): {} ({}D), {} particles, {} rank(s) × {} thread(s) [{}], dt₀ = {:.3e} s, output in {}",
+                env!("CARGO_PKG_VERSION"),
+                env!("HSPH_GIT_COMMIT"),
+                features().iter().map(|f| format!(", {f}")).collect::<String>(),
                 scene.name,
                 D,
                 run.n_total,
@@ -582,6 +625,11 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 self.traffic(self.sim.step)?;
             }
             progress.update(self.sim.step, self.sim.t, self.scene.time.t_end);
+            // a step boundary: stop here if any rank has received a stopping signal
+            self.stopped_by = crate::signals::agreed_stop(self.comm)?;
+            if self.stopped_by.is_some() {
+                break;
+            }
         }
         progress.finish();
         Ok(())
@@ -594,13 +642,14 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 match f.kind {
                     FaultKind::Panic => panic!("injected fault on rank {} at step {}", f.rank, f.step),
                     FaultKind::Nan => self.sim.p.x[0][0] = f64::NAN,
+                    FaultKind::Signal => crate::signals::raise_for_test(signal_hook::consts::SIGTERM),
                 }
             }
         }
     }
 
     /// Final gather, `final.csv` and `summary.json` (rank 0), the closing log lines.
-    fn finish(mut self) -> Result<Option<RunOutcome>> {
+    fn finish(mut self) -> Result<RunOutcome> {
         let wall = self.steps_start.elapsed().as_secs_f64();
         let r = reduce(&self.sim, self.comm)?;
         let final_view = self.sim.gather(self.comm)?;
@@ -613,7 +662,12 @@ impl<'a, const D: usize> RankRun<'a, D> {
             self.sim.step,
         )?;
         let (Some(view), Some(mut writer)) = (final_view, writer) else {
-            return Ok(None);
+            return Ok(RunOutcome {
+                dir: self.dir.to_path_buf(),
+                summary: serde_json::Value::Null,
+                errors: BTreeMap::new(),
+                stopped_by: self.stopped_by,
+            });
         };
         self.tracker.finish(&view);
         writer.finish(&view)?;
@@ -621,7 +675,18 @@ impl<'a, const D: usize> RankRun<'a, D> {
         drop(view);
         let summary = self.summary(&r, wall, n_fluid);
         output::write_summary(self.dir, &summary)?;
-        if !self.quiet {
+        if let Some(sig) = self.stopped_by {
+            // said even with -q: the run did not finish
+            eprintln!(
+                "hsph: stopped by {sig} after step {} (t = {:.6e} s of {} s); every CSV is complete up \
+                 to the last output step, final.csv holds this step, summary.json says \"complete\": false; \
+                 results in {}",
+                self.sim.step,
+                self.sim.t,
+                self.scene.time.t_end,
+                self.dir.display()
+            );
+        } else if !self.quiet {
             let (n, steps) = (r.particles as f64, self.sim.step as f64);
             eprintln!(
                 "hsph: done: {steps} steps in {wall:.2} s ({:.3e} particle-steps/s); results in {}",
@@ -632,11 +697,12 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 eprintln!("hsph: error {k} = {:.4} %", v * 100.0);
             }
         }
-        Ok(Some(RunOutcome {
+        Ok(RunOutcome {
             dir: self.dir.to_path_buf(),
             summary,
             errors: std::mem::take(&mut self.tracker.errors),
-        }))
+            stopped_by: self.stopped_by,
+        })
     }
 
     /// `summary.json`.
@@ -666,6 +732,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
             .map_or(DEFAULT_COST, |t: &Topology| t.cost);
         json!({
             "hsph_version": env!("CARGO_PKG_VERSION"),
+            "build": provenance(self.layout.backend),
+            "complete": self.stopped_by.is_none(),
+            "stopped_by": self.stopped_by,
             "scene": self.scene.name,
             "dimension": D,
             "particles": n,

@@ -32,6 +32,7 @@ pub mod reference;
 pub mod report;
 pub mod scene;
 pub mod setup;
+pub mod signals;
 pub mod sim;
 pub mod topology;
 

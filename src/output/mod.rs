@@ -175,7 +175,8 @@ impl<const D: usize> RunWriter<D> {
         if let Some(w) = self.snapshots.as_mut() {
             w.write(sim, &self.fields)?;
         }
-        Ok(())
+        // a killed run loses at most the output interval since this step
+        self.flush()
     }
 
     /// Append the traffic since the previous call, as of `step`, to `traffic.csv`.
@@ -194,11 +195,11 @@ impl<const D: usize> RunWriter<D> {
             )
             .map_err(|e| Error::io(&self.dir, e))?;
         }
-        Ok(())
+        self.traffic.flush().map_err(|e| Error::io(&self.dir, e))
     }
 
-    /// Flush the series and write `final.csv`.
-    pub fn finish(&mut self, sim: &View<D>) -> Result<()> {
+    /// Flush every CSV series to disk.
+    pub fn flush(&mut self) -> Result<()> {
         let dir = self.dir.clone();
         let io = |e| Error::io(&dir, e);
         self.timeseries.flush().map_err(io)?;
@@ -207,6 +208,12 @@ impl<const D: usize> RunWriter<D> {
         for f in &mut self.probes {
             f.flush().map_err(io)?;
         }
+        Ok(())
+    }
+
+    /// Flush the series and write `final.csv`.
+    pub fn finish(&mut self, sim: &View<D>) -> Result<()> {
+        self.flush()?;
         write_final(&self.dir.join("final.csv"), sim)
     }
 }

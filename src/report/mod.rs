@@ -190,6 +190,17 @@ pub fn run_markdown(run: &Run, charts: &[(&str, &str)]) -> String {
     let mut w = String::new();
     let text = |k: &str| s.get(k).and_then(|v| v.as_str()).unwrap_or("—").to_string();
     let _ = writeln!(w, "# hsph run report: {}\n", text("scene"));
+    if s.get("complete") == Some(&serde_json::Value::Bool(false)) {
+        let _ = writeln!(
+            w,
+            "**Partial run**: stopped by {} after step {} (t = {} s of {} s); the figures cover \
+             the steps run.\n",
+            text("stopped_by"),
+            s["steps"],
+            s["t"],
+            s["t_end"]
+        );
+    }
     let _ = writeln!(w, "Run directory: `{}`\n", run.dir.display());
     let _ = writeln!(w, "| quantity | value |\n|---|---|");
     let mut row = |k: &str, v: String| {
