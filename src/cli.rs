@@ -97,7 +97,7 @@ Examples:
         #[arg(long, default_value_t = 1)]
         ranks: usize,
         /// Virtual nodes of K consecutive ranks (wins over the nodes MPI discovers).
-        #[arg(long, value_name = "K", default_value_t = 0)]
+        #[arg(long, value_name = "K", default_value_t = 0, conflicts_with = "topology")]
         ranks_per_node: usize,
         /// Node layout file (see topology/), e.g. topology/four_nodes_24.toml.
         #[arg(long, value_name = "FILE")]
@@ -137,7 +137,7 @@ Examples:
         #[arg(long)]
         ranks: usize,
         /// Virtual nodes of K consecutive ranks.
-        #[arg(long, value_name = "K", default_value_t = 0)]
+        #[arg(long, value_name = "K", default_value_t = 0, conflicts_with = "topology")]
         ranks_per_node: usize,
         /// Node layout file (wins over --ranks-per-node).
         #[arg(long, value_name = "FILE")]

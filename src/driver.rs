@@ -189,7 +189,12 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
     }
     let layout = RunLayout::resolve(&req, backend, opts.ranks.max(1), None)?;
     let dir = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
-    let outcome = match backend {
+    cleaning_up(&dir, run_prepared(scene, opts, &layout, &dir))
+}
+
+/// Run on the local or serial back end in the prepared directory `dir`.
+fn run_prepared(scene: &Scene, opts: &RunOptions, layout: &RunLayout, dir: &Path) -> Result<RunOutcome> {
+    let outcome = match layout.backend {
         Backend::Local => {
             let threads = if opts.threads == 0 {
                 (cores() / layout.ranks).max(1)
@@ -199,7 +204,7 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
             let start = crate::affinity::start_handler(opts.bind, layout.ranks, threads)?;
             // rank 0's outcome carries the summary
             crate::comm::local::run_local_with(layout.ranks, threads, start, |comm| {
-                run_rank(scene, &dir, comm, &layout, opts)
+                run_rank(scene, dir, comm, layout, opts)
             })?
             .into_iter()
             .next()
@@ -207,10 +212,19 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
         _ => {
             let pool = bound_pool(opts.threads, opts.bind)?;
             let comm = SerialComm::new();
-            Some(pool.install(|| run_rank(scene, &dir, &comm, &layout, opts))?)
+            Some(pool.install(|| run_rank(scene, dir, &comm, layout, opts))?)
         }
     };
     outcome.ok_or_else(|| Error::run("rank 0 produced no outcome"))
+}
+
+/// `result` of a run in `dir`, and on failure the run directory removed if nothing was written
+/// into it (a scene error found during the set-up leaves no empty directory behind).
+fn cleaning_up<T>(dir: &Path, result: Result<T>) -> Result<T> {
+    if result.is_err() {
+        output::remove_if_empty(dir);
+    }
+    result
 }
 
 #[cfg(feature = "mpi")]
@@ -238,6 +252,9 @@ fn run_mpi(scene: &Scene, opts: &RunOptions, req: &LayoutRequest) -> Result<RunO
             .unwrap_or_else(|| "panic".into());
         Err(Error::run(format!("panicked: {what}")))
     });
+    if result.is_err() && comm.rank() == 0 {
+        output::remove_if_empty(&dir);
+    }
     match result {
         // other ranks' outcomes have no summary; MPI is finalised when `comm` drops
         Ok(out) => Ok(out),

@@ -21,20 +21,66 @@ use std::fs::{self, File};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-/// Choose and create the output directory: refuses a non-empty `DIR` unless `force`.
+/// Longest run-directory name made from a scene name (characters).
+const MAX_NAME: usize = 64;
+
+/// A scene name as one safe path component: letters, digits, `-`, `_` and inner dots kept,
+/// everything else (separators, `..`, spaces, control characters) replaced by `_`, at most
+/// [`MAX_NAME`] characters, never empty. `--out` is the only way to put a run elsewhere.
+pub fn safe_name(name: &str) -> String {
+    let mut s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_alphanumeric() || c == '-' || c == '_' || c == '.' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .take(MAX_NAME)
+        .collect();
+    while s.contains("..") {
+        s = s.replace("..", "_");
+    }
+    let s = s.trim_start_matches('.').to_string();
+    if s.is_empty() {
+        "run".into()
+    } else {
+        s
+    }
+}
+
+/// Choose and create the output directory: `--out`, else `runs/<safe scene name>-<UTC time>`.
+/// Refuses a non-empty directory unless `force`. Every problem with the directory is an input
+/// error (exit 2) naming it.
 pub fn prepare_dir(out: Option<&Path>, scene_name: &str, force: bool) -> Result<PathBuf> {
-    let dir = match out {
-        Some(d) => d.to_path_buf(),
-        None => PathBuf::from("runs").join(format!("{scene_name}-{}", timestamp())),
+    let (dir, key) = match out {
+        Some(d) => (d.to_path_buf(), "--out"),
+        None => (
+            PathBuf::from("runs").join(format!("{}-{}", safe_name(scene_name), timestamp())),
+            "name",
+        ),
+    };
+    let bad = |why: String| {
+        Error::input(
+            key,
+            format!(
+                "cannot use {} as the run directory: {why}; choose another with --out DIR",
+                dir.display()
+            ),
+        )
     };
     if dir.exists() {
+        if !dir.is_dir() {
+            return Err(bad("it is a file, not a directory".into()));
+        }
         let non_empty = fs::read_dir(&dir)
-            .map_err(|e| Error::io(&dir, e))?
+            .map_err(|e| bad(e.to_string()))?
             .next()
             .is_some();
         if non_empty && !force {
             return Err(Error::input(
-                "--out",
+                key,
                 format!(
                     "{} is not empty; choose another directory or pass --force to overwrite",
                     dir.display()
@@ -58,8 +104,19 @@ pub fn prepare_dir(out: Option<&Path>, scene_name: &str, force: bool) -> Result<
             }
         }
     }
-    fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    fs::create_dir_all(&dir).map_err(|e| bad(e.to_string()))?;
+    // a directory we cannot write into fails here, not after the set-up
+    let probe = dir.join(".hsph-write-test");
+    fs::write(&probe, b"").map_err(|e| bad(e.to_string()))?;
+    let _ = fs::remove_file(&probe);
     Ok(dir)
+}
+
+/// Remove `dir` if a run that failed before writing anything left it empty.
+pub fn remove_if_empty(dir: &Path) {
+    if fs::read_dir(dir).is_ok_and(|mut d| d.next().is_none()) {
+        let _ = fs::remove_dir(dir);
+    }
 }
 
 /// UTC time as `YYYYMMDD-HHMMSS` (civil-from-days, no time-zone database needed).
@@ -86,10 +143,47 @@ pub fn timestamp() -> String {
     )
 }
 
+/// Open `path` for writing. The test-only switch `HSPH_TEST_FULL_DISK=SUFFIX` sends a file
+/// whose name ends with SUFFIX to `/dev/full`, so that tests see what a full disk does.
+pub(crate) fn create_file(path: &Path) -> Result<File> {
+    let full = std::env::var("HSPH_TEST_FULL_DISK")
+        .ok()
+        .is_some_and(|suffix| !suffix.is_empty() && path.to_string_lossy().ends_with(&suffix));
+    let target = if full { Path::new("/dev/full") } else { path };
+    let f = if full {
+        fs::OpenOptions::new().write(true).open(target)
+    } else {
+        File::create(target)
+    };
+    f.map_err(|e| Error::io(path, e))
+}
+
 fn create(path: &Path) -> Result<BufWriter<File>> {
-    Ok(BufWriter::new(
-        File::create(path).map_err(|e| Error::io(path, e))?,
-    ))
+    Ok(BufWriter::new(create_file(path)?))
+}
+
+/// Write a whole file atomically: into `<path>.tmp`, then renamed over `path`. On any failure
+/// the temporary file is removed and `path` is left as it was (never truncated).
+pub(crate) fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+) -> Result<()> {
+    let mut tmp_name = path.file_name().unwrap_or_default().to_os_string();
+    tmp_name.push(".tmp");
+    let tmp = path.with_file_name(tmp_name);
+    let result = create(&tmp).and_then(|mut f| {
+        write(&mut f)
+            .and_then(|_| f.flush())
+            .and_then(|_| f.get_ref().sync_data().or(Ok(())))
+            .map_err(|e| Error::io(path, e))
+    });
+    match result {
+        Ok(()) => fs::rename(&tmp, path).map_err(|e| Error::io(path, e)),
+        Err(e) => {
+            let _ = fs::remove_file(&tmp);
+            Err(e)
+        }
+    }
 }
 
 /// Writes everything of one run except `summary.json` (see [`write_summary`]).
@@ -112,7 +206,7 @@ impl<const D: usize> RunWriter<D> {
         let header = "# Resolved scene written by hsph: every default filled in. Run it again with\n\
                       # `hsph run scene.toml`.\n";
         let sp = dir.join("scene.toml");
-        fs::write(&sp, format!("{header}{resolved}")).map_err(|e| Error::io(&sp, e))?;
+        write_atomic(&sp, |f| write!(f, "{header}{resolved}"))?;
         let mut timeseries = create(&dir.join("timeseries.csv"))?;
         let axes = ["x", "y", "z"];
         let mom: Vec<String> = axes[..d].iter().map(|a| format!("momentum_{a}")).collect();
@@ -221,34 +315,31 @@ impl<const D: usize> RunWriter<D> {
 /// `final.csv`: every owned particle sorted by id, the fields the particle table gives a CSV
 /// column (vectors one column per axis), shortest round-trip floats.
 pub fn write_final<const D: usize>(path: &Path, sim: &View<D>) -> Result<()> {
-    let io = |e| Error::io(path, e);
-    let mut f = create(path)?;
     let p = &sim.p;
     let cols: Vec<_> = Particles::<D>::field_table()
         .into_iter()
         .filter_map(|m| Some((m.csv?, p.column(m.name)?)))
         .collect();
     let header: Vec<String> = cols.iter().flat_map(|(stem, c)| c.headers(stem)).collect();
-    writeln!(f, "{}", header.join(",")).map_err(io)?;
-    let mut line = String::new();
-    for i in sim.by_id() {
-        line.clear();
-        for (k, (_, c)) in cols.iter().enumerate() {
-            if k > 0 {
-                line.push(',');
+    write_atomic(path, |f| {
+        writeln!(f, "{}", header.join(","))?;
+        let mut line = String::new();
+        for i in sim.by_id() {
+            line.clear();
+            for (k, (_, c)) in cols.iter().enumerate() {
+                if k > 0 {
+                    line.push(',');
+                }
+                c.csv(i, &mut line);
             }
-            c.csv(i, &mut line);
+            writeln!(f, "{line}")?;
         }
-        writeln!(f, "{line}").map_err(io)?;
-    }
-    f.flush().map_err(io)
+        Ok(())
+    })
 }
 
 /// Write `summary.json` atomically (temporary file, then rename).
 pub fn write_summary(dir: &Path, summary: &serde_json::Value) -> Result<()> {
-    let tmp = dir.join(".summary.json.tmp");
     let text = serde_json::to_string_pretty(summary).map_err(|e| Error::run(e.to_string()))?;
-    fs::write(&tmp, text + "\n").map_err(|e| Error::io(&tmp, e))?;
-    let fin = dir.join("summary.json");
-    fs::rename(&tmp, &fin).map_err(|e| Error::io(&fin, e))
+    write_atomic(&dir.join("summary.json"), |f| writeln!(f, "{text}"))
 }

@@ -6,8 +6,7 @@ use super::snapshot::SnapshotWriter;
 use crate::error::{Error, Result};
 use crate::particles::{Column, Particles};
 use crate::sim::View;
-use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// A series of `.vtu` snapshots in `dir` with its `series.pvd`.
@@ -44,69 +43,62 @@ pub fn write_vtu<const D: usize>(
     order: &[usize],
     fields: &[String],
 ) -> Result<()> {
-    let io = |e| Error::io(path, e);
-    let mut f = BufWriter::new(File::create(path).map_err(io)?);
     let n = order.len();
     let p = &sim.p;
-    writeln!(f, "<?xml version=\"1.0\"?>").map_err(io)?;
-    writeln!(
-        f,
-        "<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\">"
-    )
-    .map_err(io)?;
-    writeln!(
-        f,
-        "<UnstructuredGrid><Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">"
-    )
-    .map_err(io)?;
-    writeln!(
-        f,
-        "<Points><DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">"
-    )
-    .map_err(io)?;
-    for &i in order {
-        let x = p.x[i];
-        let z = if D == 3 { x[2] } else { 0.0 };
-        writeln!(f, "{} {} {}", x[0], x[1], z).map_err(io)?;
-    }
-    writeln!(f, "</DataArray></Points>").map_err(io)?;
-    writeln!(
-        f,
-        "<Cells><DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">"
-    )
-    .map_err(io)?;
-    for k in 0..n {
-        write!(f, "{k} ").map_err(io)?;
-    }
-    writeln!(
-        f,
-        "</DataArray><DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">"
-    )
-    .map_err(io)?;
-    for k in 0..n {
-        write!(f, "{} ", k + 1).map_err(io)?;
-    }
-    writeln!(
-        f,
-        "</DataArray><DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">"
-    )
-    .map_err(io)?;
-    for _ in 0..n {
-        write!(f, "1 ").map_err(io)?;
-    }
-    writeln!(f, "</DataArray></Cells>").map_err(io)?;
-    writeln!(f, "<PointData>").map_err(io)?;
-    write_array(&mut f, "id", &Column::<D>::U64(&p.id), order).map_err(io)?;
     let table = Particles::<D>::field_table();
-    for name in fields {
-        let Some(meta) = table.iter().find(|m| m.snapshot == Some(name.as_str())) else {
-            continue;
-        };
-        let col = p.column(meta.name).expect("a table field has a column");
-        write_array(&mut f, name, &col, order).map_err(io)?;
-    }
-    writeln!(f, "</PointData></Piece></UnstructuredGrid></VTKFile>").map_err(io)?;
-    f.flush().map_err(io)
+    super::write_atomic(path, |f| {
+        writeln!(f, "<?xml version=\"1.0\"?>")?;
+        writeln!(
+            f,
+            "<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\">"
+        )?;
+        writeln!(
+            f,
+            "<UnstructuredGrid><Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">"
+        )?;
+        writeln!(
+            f,
+            "<Points><DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">"
+        )?;
+        for &i in order {
+            let x = p.x[i];
+            let z = if D == 3 { x[2] } else { 0.0 };
+            writeln!(f, "{} {} {}", x[0], x[1], z)?;
+        }
+        writeln!(f, "</DataArray></Points>")?;
+        writeln!(
+            f,
+            "<Cells><DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">"
+        )?;
+        for k in 0..n {
+            write!(f, "{k} ")?;
+        }
+        writeln!(
+            f,
+            "</DataArray><DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">"
+        )?;
+        for k in 0..n {
+            write!(f, "{} ", k + 1)?;
+        }
+        writeln!(
+            f,
+            "</DataArray><DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">"
+        )?;
+        for _ in 0..n {
+            write!(f, "1 ")?;
+        }
+        writeln!(f, "</DataArray></Cells>")?;
+        writeln!(f, "<PointData>")?;
+        write_array(f, "id", &Column::<D>::U64(&p.id), order)?;
+        for name in fields {
+            let Some(meta) = table.iter().find(|m| m.snapshot == Some(name.as_str())) else {
+                continue;
+            };
+            let col = p.column(meta.name).expect("a table field has a column");
+            write_array(f, name, &col, order)?;
+        }
+        writeln!(f, "</PointData></Piece></UnstructuredGrid></VTKFile>")
+    })
 }
 
 /// One `<DataArray>` of point data: vectors with 3 components (z = 0 in 2D), one line per
@@ -146,13 +138,12 @@ fn write_array<const D: usize>(
 
 /// Write the `.pvd` collection listing every snapshot with its time.
 pub fn write_pvd(path: &Path, snaps: &[(f64, String)]) -> Result<()> {
-    let io = |e| Error::io(path, e);
-    let mut f = BufWriter::new(File::create(path).map_err(io)?);
-    writeln!(f, "<?xml version=\"1.0\"?>").map_err(io)?;
-    writeln!(f, "<VTKFile type=\"Collection\" version=\"0.1\"><Collection>").map_err(io)?;
-    for (t, name) in snaps {
-        writeln!(f, "<DataSet timestep=\"{t}\" part=\"0\" file=\"{name}\"/>").map_err(io)?;
-    }
-    writeln!(f, "</Collection></VTKFile>").map_err(io)?;
-    f.flush().map_err(io)
+    super::write_atomic(path, |f| {
+        writeln!(f, "<?xml version=\"1.0\"?>")?;
+        writeln!(f, "<VTKFile type=\"Collection\" version=\"0.1\"><Collection>")?;
+        for (t, name) in snaps {
+            writeln!(f, "<DataSet timestep=\"{t}\" part=\"0\" file=\"{name}\"/>")?;
+        }
+        writeln!(f, "</Collection></VTKFile>")
+    })
 }

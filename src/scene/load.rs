@@ -196,12 +196,17 @@ impl SceneSource {
     }
 
     /// True if `key` is, or lies below, a key set by `--set`.
+    /// A key the file does not have but an override created (`--set nosuch.x=1` makes
+    /// `nosuch`) counts too: the flag, not the file, is to blame.
     fn is_overridden(&self, key: &str) -> bool {
+        let below = |k: &str, parent: &str| {
+            k.strip_prefix(parent)
+                .is_some_and(|rest| rest.starts_with('.') || rest.starts_with('['))
+        };
         self.overridden.iter().any(|o| {
             key == o
-                || key
-                    .strip_prefix(o.as_str())
-                    .is_some_and(|rest| rest.starts_with('.') || rest.starts_with('['))
+                || below(key, o)
+                || (!key.is_empty() && below(o, key) && span_of(&self.original, &parse_path(key)).is_none())
         })
     }
 
@@ -226,8 +231,12 @@ impl SceneSource {
     /// Turn a deserialisation error into a located input error naming the key.
     fn serde_error(&self, e: &toml::de::Error) -> Error {
         let span = e.span();
+        // a span over the whole document is the top-level table itself
+        let whole =
+            |s: &std::ops::Range<usize>| s.start == 0 && (s.end == 0 || s.end >= self.text.trim_end().len());
         let mut key = span
             .clone()
+            .filter(|s| !whole(s))
             .and_then(|s| ImDocument::parse(self.text.clone()).ok().map(|d| key_at(&d, &s)))
             .unwrap_or_default();
         let mut message = first_line(e.message()).to_string();
@@ -235,8 +244,9 @@ impl SceneSource {
             .strip_prefix("missing field `")
             .and_then(|r| r.split('`').next())
         {
-            // name the missing key itself, not only the table it is missing from
-            key = if key.is_empty() {
+            // name the missing key itself, not only the table it is missing from; the required
+            // top-level keys belong to no table (the span of the root table is its first entry)
+            key = if key.is_empty() || ["dimension", "domain", "discretisation", "time"].contains(&field) {
                 field.to_string()
             } else {
                 format!("{key}.{field}")

@@ -239,6 +239,25 @@ pub fn validate(s: &mut Scene) -> Result<()> {
         }
         match w.shape {
             WallShape::Container => {
+                let axes = ["x", "y", "z"];
+                for (a, axis) in axes.iter().enumerate().take(d) {
+                    let closed: Vec<String> = [(false, "-"), (true, "+")]
+                        .iter()
+                        .filter(|(up, _)| !w.open.iter().any(|o| face(o, d) == Some((a, *up))))
+                        .map(|(_, sign)| format!("\"{axis}{sign}\""))
+                        .collect();
+                    if s.domain.periodic[a] && !closed.is_empty() {
+                        return err(
+                            format!("{k}.open"),
+                            format!(
+                                "the container closes face(s) {} across the periodic axis {axis}: \
+                                 fluid could never cross the periodic seam; open them (open = [\"{axis}-\", \"{axis}+\"]) \
+                                 or make axis {axis} non-periodic (domain.periodic)",
+                                closed.join(", ")
+                            ),
+                        );
+                    }
+                }
                 if w.layers == 0 {
                     w.layers = (support / dx - 1e-9).ceil().max(1.0) as usize;
                 }
@@ -271,6 +290,13 @@ pub fn validate(s: &mut Scene) -> Result<()> {
             }
         }
         if let Some(m) = &mut w.motion {
+            if w.method == WallMethod::Mirror {
+                return err(
+                    format!("{k}.motion"),
+                    "mirror walls cannot move (their planes are fixed); use method = \"dummy\" for a \
+                     moving wall",
+                );
+            }
             if w.velocity.iter().any(|&v| v != 0.0) {
                 return err(
                     format!("{k}.motion"),
@@ -396,6 +422,25 @@ fn disc_scale(dom: &Domain) -> f64 {
         .fold(1e-300f64, |m, x| m.max(x.abs()))
 }
 
+/// A probe point must lie in the domain: outside it would read nothing and report zeros.
+fn point_in_domain(p: &[f64], key: &str, dom: &Domain) -> Result<()> {
+    let inside = p
+        .iter()
+        .enumerate()
+        .all(|(a, &x)| x >= dom.min[a] && x <= dom.max[a]);
+    if inside {
+        return Ok(());
+    }
+    err(
+        key,
+        format!(
+            "{p:?} lies outside the domain {:?} .. {:?}: a probe there would read nothing; move it \
+             inside",
+            dom.min, dom.max
+        ),
+    )
+}
+
 fn validate_probes(s: &mut Scene) -> Result<()> {
     let d = s.dimension;
     for i in 0..s.probes.len() {
@@ -416,11 +461,14 @@ fn validate_probes(s: &mut Scene) -> Result<()> {
         }
         match &mut s.probes[i] {
             Probe::Pressure { point, .. } | Probe::Gauge { point, .. } => {
-                check_vec(point, d, &format!("{k}.point"), false)?
+                check_vec(point, d, &format!("{k}.point"), false)?;
+                point_in_domain(point, &format!("{k}.point"), &s.domain)?;
             }
             Probe::VelocityLine { from, to, points, .. } => {
                 check_vec(from, d, &format!("{k}.from"), false)?;
                 check_vec(to, d, &format!("{k}.to"), false)?;
+                point_in_domain(from, &format!("{k}.from"), &s.domain)?;
+                point_in_domain(to, &format!("{k}.to"), &s.domain)?;
                 if *points < 2 {
                     return err(format!("{k}.points"), "needs at least 2 points");
                 }

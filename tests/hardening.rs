@@ -1,0 +1,208 @@
+//! Issue 9's table of edge cases, one test per row (the row number in the test name): each
+//! reproduces what a user tried and checks what happens now.
+
+mod common;
+
+use common::{repo_path, temp_dir};
+use std::fs;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn hsph_in(cwd: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hsph"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("the hsph binary runs")
+}
+
+fn hsph(args: &[&str]) -> Output {
+    hsph_in(&repo_path(""), args)
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Exit 2, one message containing every needle, no panic.
+fn assert_input_error(o: &Output, needles: &[&str]) {
+    let e = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+    for n in needles {
+        assert!(e.contains(n), "`{n}` missing from:\n{e}");
+    }
+}
+
+const SCENE: &str = "inputs/dam_break_2d.toml";
+
+#[test]
+fn row_01_scene_names_never_escape_runs() {
+    let cwd = temp_dir("names");
+    let scene = repo_path(SCENE);
+    let long = "x".repeat(5000);
+    for name in [
+        "../../evil",
+        "a/../../b",
+        "ｅｖｉｌ／..／..／x",
+        "..",
+        "/etc/evil",
+        long.as_str(),
+    ] {
+        let set = format!("name=\"{name}\"");
+        let o = hsph_in(
+            &cwd,
+            &[
+                "run",
+                scene.to_str().unwrap(),
+                "-q",
+                "--set",
+                &set,
+                "--set",
+                "time.max_steps=2",
+                "--set",
+                "output.format=\"none\"",
+            ],
+        );
+        assert_eq!(o.status.code(), Some(0), "{name}: {}", stderr(&o));
+        // exactly one new directory, directly under runs/, holding the run
+        let runs: Vec<_> = fs::read_dir(cwd.join("runs"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        assert_eq!(runs.len(), 1, "{name}: {runs:?}");
+        let dir = &runs[0];
+        assert!(dir.join("summary.json").exists(), "{name}");
+        let leaf = dir.file_name().unwrap().to_str().unwrap();
+        assert!(
+            leaf.len() <= 64 + 16 && !leaf.contains("..") && !leaf.starts_with('.'),
+            "{leaf}"
+        );
+        fs::remove_dir_all(dir).unwrap();
+    }
+    // nothing was created beside or above the working directory
+    assert_eq!(fs::read_dir(&cwd).unwrap().count(), 1);
+    assert!(!cwd.parent().unwrap().join("evil").exists());
+}
+
+#[test]
+fn row_07_a_probe_outside_the_domain_is_an_input_error() {
+    let o = hsph(&["check", SCENE, "--set", "probe[1].point=[5.0, 5.0]"]);
+    assert_input_error(&o, &["probe[1].point", "outside the domain", "move it inside"]);
+}
+
+#[test]
+fn row_08_a_container_closed_across_a_periodic_axis_is_an_input_error() {
+    let o = hsph(&[
+        "check",
+        "inputs/hydrostatic_2d.toml",
+        "--set",
+        "domain.periodic=[false, true]",
+    ]);
+    assert_input_error(&o, &["wall[0].open", "periodic axis y", "\"y-\", \"y+\""]);
+}
+
+#[test]
+fn row_09_output_directory_problems_are_input_errors_naming_it() {
+    let dir = temp_dir("out");
+    let file = dir.join("a-file");
+    fs::write(&file, "x").unwrap();
+    let under = file.join("run");
+    let long = dir.join("d".repeat(5000));
+    for out in [
+        file.as_path(),
+        under.as_path(),
+        Path::new("/proc/hsph-run"),
+        long.as_path(),
+    ] {
+        let o = hsph(&["run", SCENE, "-q", "--out", out.to_str().unwrap()]);
+        assert_input_error(&o, &["--out", "run directory"]);
+    }
+}
+
+#[test]
+fn row_10_set_errors_are_blamed_on_the_flag() {
+    let o = hsph(&["check", SCENE, "--set", "nosuch.x=1"]);
+    assert_input_error(&o, &["error: --set: key `nosuch`"]);
+    let dir = temp_dir("empty");
+    let empty = dir.join("empty.toml");
+    fs::write(&empty, "").unwrap();
+    let o = hsph(&["check", empty.to_str().unwrap(), "--set", "time.t_end=1"]);
+    assert_input_error(&o, &["key `dimension`: missing field `dimension`"]);
+    assert!(!stderr(&o).contains("time.dimension"));
+}
+
+#[test]
+fn row_11_conflicting_layout_flags_say_so() {
+    for cmd in ["run", "plan"] {
+        let o = hsph(&[
+            cmd,
+            SCENE,
+            "--ranks",
+            "4",
+            "--ranks-per-node",
+            "2",
+            "--topology",
+            "topology/four_nodes_24.toml",
+        ]);
+        assert_input_error(&o, &["--ranks-per-node", "cannot be used with", "--topology"]);
+    }
+}
+
+#[test]
+fn row_12_failures_leave_no_empty_directory_and_no_truncated_file() {
+    // a wall overlap is found while filling the lattice, after the directory was made
+    let dir = temp_dir("overlap");
+    let out = dir.join("run");
+    let o = hsph(&[
+        "run",
+        SCENE,
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "fluid[0].max=[0.5, 0.5]",
+        "--set",
+        "wall[0].min=[0.1, 0.1]",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(!out.exists(), "an empty run directory was left behind");
+    // a full disk while writing the fourth snapshot (test-only switch: that file goes to
+    // /dev/full): exit 1 naming it, no partial file, everything written before kept
+    let out = dir.join("full");
+    let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
+        .args([
+            "run",
+            SCENE,
+            "-q",
+            "--out",
+            out.to_str().unwrap(),
+            "--set",
+            "time.t_end=0.1",
+        ])
+        .current_dir(repo_path(""))
+        .env("HSPH_TEST_FULL_DISK", "snapshot_00003.vtu.tmp")
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("snapshot_00003.vtu") && e.contains("No space left on device"),
+        "{e}"
+    );
+    assert!(!e.contains("panicked"), "{e}");
+    let snaps: Vec<String> = fs::read_dir(out.join("snapshots"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(snaps.iter().all(|n| !n.ends_with(".tmp")), "{snaps:?}");
+    assert!(!snaps.contains(&"snapshot_00003.vtu".to_string()), "{snaps:?}");
+    for k in 0..3 {
+        let v = fs::read_to_string(out.join("snapshots").join(format!("snapshot_{k:05}.vtu"))).unwrap();
+        assert!(v.trim_end().ends_with("</VTKFile>"));
+    }
+    assert!(!out.join("summary.json").exists() && !out.join("summary.json.tmp").exists());
+    let ts = fs::read_to_string(out.join("timeseries.csv")).unwrap();
+    // the rows of the four output steps, the last one written before its snapshot failed
+    assert_eq!(ts.lines().count(), 1 + 4, "{ts}");
+}
