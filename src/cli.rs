@@ -112,6 +112,13 @@ Examples:
         /// feature `hwloc`; `hsph topology` shows the plan and the policy).
         #[arg(long, value_enum, default_value_t = Bind::None)]
         bind: Bind,
+        /// Memory this process may use, e.g. 64G or 512MiB (default: the smallest of the cgroup
+        /// limit, the memory available and ulimit -v). A run estimated above it is refused.
+        #[arg(long, value_name = "SIZE", value_parser = parse_memory)]
+        max_memory: Option<f64>,
+        /// Fewest particles per rank: more ranks than particles / N are refused.
+        #[arg(long, value_name = "N", default_value_t = driver::MIN_PARTICLES_PER_RANK)]
+        min_particles_per_rank: usize,
     },
     /// Show the machine as hwloc sees it (packages, NUMA nodes, cores, PUs with their cpusets)
     /// and which core each thread gets under `hsph run --bind cores` (cargo feature `hwloc`).
@@ -157,6 +164,12 @@ Examples:
     Check {
         /// Scene file (TOML).
         scene: PathBuf,
+        /// Ranks of the run to estimate memory for (all in one process, as --ranks does).
+        #[arg(long, default_value_t = 1)]
+        ranks: usize,
+        /// Memory this process may use (as for `run`).
+        #[arg(long, value_name = "SIZE", value_parser = parse_memory)]
+        max_memory: Option<f64>,
         /// Override a scene key (repeatable).
         #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
         set: Vec<String>,
@@ -239,6 +252,8 @@ fn dispatch(cmd: Command) -> Result<i32> {
             placement,
             quiet,
             bind,
+            max_memory,
+            min_particles_per_rank,
         } => {
             if backend == Backend::Mpi && !cfg!(feature = "mpi") {
                 return Err(Error::missing_feature("--backend", "mpi"));
@@ -266,6 +281,8 @@ fn dispatch(cmd: Command) -> Result<i32> {
                     topology,
                     placement,
                     bind,
+                    max_memory,
+                    min_particles_per_rank,
                 },
             )
             .map(|o| {
@@ -278,7 +295,7 @@ fn dispatch(cmd: Command) -> Result<i32> {
             .map_err(|e| locate(&src, e))
         }
         Command::Topology { ranks, threads } => {
-            print!("{}", crate::affinity::topology_report(ranks, threads)?);
+            say(&crate::affinity::topology_report(ranks, threads)?);
             Ok(0)
         }
         Command::Plan {
@@ -305,16 +322,30 @@ fn dispatch(cmd: Command) -> Result<i32> {
             let topo = RunLayout::resolve(&req, Backend::Local, ranks, None)?.placement_topology();
             let methods = placement.methods();
             let rows = crate::plan::plan(&scene, ranks, &topo, &methods)?;
-            print!("{}", crate::plan::table(&scene, ranks, &topo, &rows));
+            say(&crate::plan::table(&scene, ranks, &topo, &rows));
             if let Some(dir) = out {
                 crate::plan::write(&dir, &scene, ranks, &topo, &rows)?;
-                println!("wrote {}/plan.json and plan.csv", dir.display());
+                say(&format!("wrote {}/plan.json and plan.csv\n", dir.display()));
             }
             Ok(0)
         }
-        Command::Check { scene, set } => {
+        Command::Check {
+            scene,
+            set,
+            ranks,
+            max_memory,
+        } => {
             let (scene, src) = load_scene(&scene, &set)?;
-            print!("{}", check_report(&scene).map_err(|e| locate(&src, e))?);
+            let opts = RunOptions {
+                max_memory,
+                min_particles_per_rank: 1,
+                ..Default::default()
+            };
+            // counts and the memory estimate come first, without building a particle
+            let est = driver::check_limits(&scene, ranks.max(1), ranks.max(1), &opts)
+                .map_err(|e| locate(&src, e))?;
+            say(&estimate_report(&est, ranks.max(1)));
+            say(&check_report(&scene).map_err(|e| locate(&src, e))?);
             Ok(0)
         }
         Command::Bench {
@@ -336,7 +367,7 @@ fn dispatch(cmd: Command) -> Result<i32> {
                 overrides: set,
             };
             let rows = bench::run(&scenes, &opts)?;
-            print!("{}", bench::table(&rows));
+            say(&bench::table(&rows));
             Ok(0)
         }
         Command::Report { runs, compare, out } => report::command(&runs, compare, out.as_deref()).map(|_| 0),
@@ -350,6 +381,34 @@ fn locate(src: &SceneSource, e: Error) -> Error {
         Error::Input { at: None, key, .. } if !key.starts_with("--") => src.locate(e),
         _ => e,
     }
+}
+
+/// Print to standard output; a closed pipe (`hsph check … | head -1`) is not an error.
+pub fn say(text: &str) {
+    use std::io::Write;
+    let _ = std::io::stdout().write_all(text.as_bytes());
+}
+
+/// `--max-memory SIZE`.
+fn parse_memory(s: &str) -> std::result::Result<f64, String> {
+    crate::memory::parse_size(s)
+        .ok_or_else(|| format!("`{s}` is not a size; e.g. 64G, 512MiB or 1000000 (bytes)"))
+}
+
+/// The estimate lines of `hsph check`.
+fn estimate_report(est: &crate::memory::Estimate, ranks: usize) -> String {
+    use crate::memory::{available, human};
+    let avail = available().map_or("unknown".to_string(), |(b, what)| {
+        format!("{} ({what})", human(b))
+    });
+    format!(
+        "estimate    {} particles; {ranks} rank(s) in one process need about {} (set-up peak {} per rank, \
+         {} per rank running); available {avail}\n",
+        est.particles,
+        human(est.process),
+        human(est.rank_setup),
+        human(est.rank_run)
+    )
 }
 
 /// The text `hsph check` prints: counts, physics, dt and memory estimates.

@@ -90,6 +90,80 @@ pub struct RunOptions {
     pub placement: Placement,
     /// Pin rayon threads to cores (`--bind cores`, feature `hwloc`).
     pub bind: crate::affinity::Bind,
+    /// Memory this process may use (bytes), instead of what the machine says (`--max-memory`).
+    pub max_memory: Option<f64>,
+    /// Fewest particles per rank (`--min-particles-per-rank`; 0 means the default,
+    /// [`MIN_PARTICLES_PER_RANK`]).
+    pub min_particles_per_rank: usize,
+}
+
+/// Default fewest particles per rank: below it halos cost more than the rank computes.
+pub const MIN_PARTICLES_PER_RANK: usize = 16;
+
+/// Most ranks of the local back end (threads of one process); more is a job for MPI.
+pub const MAX_LOCAL_RANKS: usize = 4096;
+
+/// Check a layout of `ranks` ranks, `ranks_in_process` of them in this process, against the
+/// scene's particle count (counted without building particles) and the memory this process
+/// may use, before anything is allocated. Returns the estimate; exit 2 when it does not fit.
+pub fn check_limits(
+    scene: &Scene,
+    ranks: usize,
+    ranks_in_process: usize,
+    opts: &RunOptions,
+) -> Result<crate::memory::Estimate> {
+    use crate::memory::{available, human};
+    let n = crate::with_dim!(scene.dimension, D => Ok(crate::setup::count_particles::<D>(scene)))?;
+    let min = if opts.min_particles_per_rank == 0 {
+        MIN_PARTICLES_PER_RANK
+    } else {
+        opts.min_particles_per_rank
+    };
+    let most = (n / min as u64).max(1);
+    if ranks as u64 > most {
+        return Err(Error::input(
+            "--ranks",
+            format!(
+                "{ranks} ranks for {n} particles: at most {most} ranks (≥ {min} particles per rank; \
+                 lower the minimum with --min-particles-per-rank)"
+            ),
+        ));
+    }
+    if ranks_in_process > MAX_LOCAL_RANKS {
+        return Err(Error::input(
+            "--ranks",
+            format!(
+                "{ranks_in_process} ranks in one process: the local back end runs at most {MAX_LOCAL_RANKS} \
+                 (each rank is a thread); run more ranks under MPI (mpirun -np {ranks_in_process})"
+            ),
+        ));
+    }
+    let est = crate::with_dim!(scene.dimension, D => Ok(crate::memory::estimate::<D>(scene, n, ranks, ranks_in_process)))?;
+    let limit = match opts.max_memory {
+        Some(m) => Some((m, "--max-memory")),
+        None => available(),
+    };
+    if let Some((avail, what)) = limit {
+        if est.process > avail {
+            let key = if ranks_in_process > 1 {
+                "--ranks"
+            } else {
+                "discretisation.dx"
+            };
+            return Err(Error::input(
+                key,
+                format!(
+                    "this run needs about {} per process ({n} particles, {ranks_in_process} rank(s) in this \
+                     process at about {} each during the set-up), more than the {} of {what}; use a coarser \
+                     dx, fewer ranks per process (MPI spreads them over processes), or --max-memory to override",
+                    human(est.process),
+                    human(est.rank_setup.max(est.rank_run)),
+                    human(avail)
+                ),
+            ));
+        }
+    }
+    Ok(est)
 }
 
 impl RunOptions {
@@ -188,6 +262,7 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
         return run_mpi(scene, opts, &req);
     }
     let layout = RunLayout::resolve(&req, backend, opts.ranks.max(1), None)?;
+    check_limits(scene, layout.ranks, layout.ranks, opts)?;
     let dir = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
     cleaning_up(&dir, run_prepared(scene, opts, &layout, &dir))
 }
@@ -233,6 +308,7 @@ fn run_mpi(scene: &Scene, opts: &RunOptions, req: &LayoutRequest) -> Result<RunO
     let comm = MpiComm::init()?;
     // the layout is found by every rank alike from the same node keys: exit 2 everywhere
     let layout = RunLayout::resolve(req, Backend::Mpi, comm.size(), Some(&node_keys(&comm)?))?;
+    check_limits(scene, layout.ranks, 1, opts)?;
     let dir = mpi_prepare_dir(&comm, scene, opts)?;
     // MPI calls stay on this (main) thread, so the rank body runs here on the global pool
     let n = if opts.threads == 0 { cores() } else { opts.threads };

@@ -21,6 +21,7 @@ pub mod exact;
 pub mod halo;
 pub mod kernel;
 pub mod layout;
+pub mod memory;
 pub mod output;
 pub mod particles;
 pub mod physics;

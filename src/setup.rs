@@ -171,6 +171,49 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
     Ok(p)
 }
 
+/// Number of particles the scene's bodies hold, counted from the lattice ranges without
+/// building them (exact unless two bodies overlap, which [`build_particles`] rejects).
+pub fn count_particles<const D: usize>(s: &Scene) -> u64 {
+    let lat = Lattice::<D>::new(s);
+    let dx = s.discretisation.dx;
+    let sites = |min: &[f64], max: &[f64]| -> u64 {
+        (0..D)
+            .map(|a| {
+                let (lo, hi) = lat.range(a, min[a], max[a]);
+                hi.saturating_sub(lo)
+            })
+            .product()
+    };
+    let mut n: u64 = s.fluids.iter().map(|f| sites(&f.min, &f.max)).sum();
+    for w in &s.walls {
+        if wall_kind(w.method).is_none() {
+            continue;
+        }
+        n += match w.shape {
+            WallShape::Block => sites(&w.min, &w.max),
+            WallShape::Container => {
+                let mut lo = w.min.clone();
+                let mut hi = w.max.clone();
+                for a in 0..D {
+                    let open = |up| {
+                        w.open
+                            .iter()
+                            .any(|o| crate::scene::face_of(o, D) == Some((a, up)))
+                    };
+                    if !open(false) {
+                        lo[a] -= w.layers as f64 * dx;
+                    }
+                    if !open(true) {
+                        hi[a] += w.layers as f64 * dx;
+                    }
+                }
+                sites(&lo, &hi).saturating_sub(sites(&w.min, &w.max))
+            }
+        };
+    }
+    n
+}
+
 /// Sorted ids of the sites inside a box.
 fn lat_box_ids<const D: usize>(lat: &Lattice<D>, min: &[f64], max: &[f64]) -> Vec<u64> {
     let mut ids = Vec::new();

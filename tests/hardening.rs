@@ -206,3 +206,92 @@ fn row_12_failures_leave_no_empty_directory_and_no_truncated_file() {
     // the rows of the four output steps, the last one written before its snapshot failed
     assert_eq!(ts.lines().count(), 1 + 4, "{ts}");
 }
+
+#[test]
+fn row_02_03_rank_counts_beyond_the_particles_are_refused_before_any_rank_starts() {
+    let dir = temp_dir("ranks");
+    let out = dir.join("run");
+    let t0 = std::time::Instant::now();
+    for ranks in ["100000", "1000"] {
+        let o = hsph(&[
+            "run",
+            SCENE,
+            "--ranks",
+            ranks,
+            "--threads",
+            "1",
+            "-q",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_input_error(
+            &o,
+            &[
+                "--ranks",
+                "2221 particles",
+                "at most 138 ranks",
+                "--min-particles-per-rank",
+            ],
+        );
+        assert!(!out.exists());
+    }
+    // with the minimum lowered, the memory the 1000 set-ups would take is what refuses it
+    let o = hsph(&[
+        "run",
+        SCENE,
+        "--ranks",
+        "1000",
+        "--threads",
+        "1",
+        "-q",
+        "--min-particles-per-rank",
+        "1",
+        "--max-memory",
+        "2G",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_input_error(
+        &o,
+        &["--ranks", "per process", "more than the 2.0 GB of --max-memory"],
+    );
+    assert!(!out.exists());
+    assert!(t0.elapsed().as_secs() < 30, "refusals must be immediate");
+}
+
+#[test]
+fn row_04_a_scene_too_large_for_the_memory_is_refused_with_its_estimate() {
+    let dir = temp_dir("memory");
+    let out = dir.join("run");
+    let bin = env!("CARGO_BIN_EXE_hsph");
+    for cmd in ["check", "run"] {
+        // under a 4 GB address-space limit, as on a login node
+        let script = format!(
+            "ulimit -v 4000000; exec {bin} {cmd} {SCENE} --set discretisation.dx=0.00003 {}",
+            if cmd == "run" {
+                format!("--out {}", out.display())
+            } else {
+                String::new()
+            }
+        );
+        let o = Command::new("sh")
+            .args(["-c", &script])
+            .current_dir(repo_path(""))
+            .output()
+            .unwrap();
+        assert_input_error(
+            &o,
+            &[
+                "discretisation.dx",
+                "47555190 particles",
+                "GB per process",
+                "ulimit -v",
+            ],
+        );
+        assert!(!out.exists());
+    }
+    // check prints the estimate of a scene that fits
+    let o = hsph(&["check", SCENE]);
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(text.starts_with("estimate    2221 particles;"), "{text}");
+}

@@ -63,7 +63,7 @@ pub fn command(runs: &[PathBuf], compare: bool, out: Option<&Path>) -> Result<Pa
         (dir, files)
     };
     for f in &files {
-        println!("{}", f.display());
+        crate::cli::say(&format!("{}\n", f.display()));
     }
     Ok(dir)
 }

@@ -1,0 +1,176 @@
+//! How much memory a run will take, estimated before anything is allocated, and how much the
+//! process may use. `hsph run` refuses (exit 2) a layout whose estimate exceeds what is
+//! available; `hsph check` prints the estimate.
+//!
+//! The model follows what the code allocates today, per rank:
+//! - **set-up**: every rank fills the whole lattice ([`crate::setup::build_particles`]): the
+//!   body records (with their names) and the particle store for all N particles, then keeps
+//!   its block (the kept copy and the old one coexist for a moment);
+//! - **halo and migration counts**: a P × P table of u64 all-reduced (two copies) per rank;
+//! - **running**: the owned particles and their ghosts (a fraction of the owned ones), the
+//!   cell list and the neighbour lists (4 B per neighbour).
+//!
+//! Ranks of the local back end share one process, so their estimates add up; under MPI each
+//! process holds one rank. Limits apply per process.
+
+use crate::particles::{Particles, Record};
+use crate::scene::Scene;
+
+/// Neighbours per particle in the estimate: a sphere (disc) of the support radius on the
+/// lattice (≈ 21 in 2D and 74 in 3D for Wendland C2 with h = 1.3 dx).
+fn neighbours(scene: &Scene, d: usize) -> f64 {
+    // the support radius in units of dx
+    let r = scene.discretisation.h_over_dx * scene.discretisation.kernel.support_factor();
+    if d == 2 {
+        std::f64::consts::PI * r * r
+    } else {
+        4.0 / 3.0 * std::f64::consts::PI * r * r * r
+    }
+}
+
+/// A memory estimate (bytes).
+#[derive(Debug, Clone, Copy)]
+pub struct Estimate {
+    /// Particles of the scene.
+    pub particles: u64,
+    /// Peak bytes of one rank during the set-up.
+    pub rank_setup: f64,
+    /// Bytes of one rank while running.
+    pub rank_run: f64,
+    /// Ranks sharing this process.
+    pub ranks_in_process: usize,
+    /// Peak bytes of the process: every rank of it at its set-up peak at once, plus its running
+    /// state (the allocator keeps much of the set-up's memory mapped).
+    pub process: f64,
+}
+
+/// Estimate a run of `scene` (`particles` counted by [`crate::setup::count_particles`]) on
+/// `ranks` ranks of which `ranks_in_process` share this process.
+pub fn estimate<const D: usize>(
+    scene: &Scene,
+    particles: u64,
+    ranks: usize,
+    ranks_in_process: usize,
+) -> Estimate {
+    let n = particles as f64;
+    let p = ranks.max(1) as f64;
+    // body records with a heap-allocated name (~24 B) each, then the store, in growing vectors
+    let record = (std::mem::size_of::<(Record<D>, String)>() + 24) as f64;
+    let store = Particles::<D>::bytes_per_particle() as f64;
+    // vectors grown by doubling hold up to twice their length
+    let growth = 2.0;
+    let counts = 2.0 * 8.0 * p * p;
+    let rank_setup = n * (record + store) * growth + n / p * store + counts;
+    // owned + ghosts (ghost layers of a block: generously half the owned count at small blocks)
+    let owned = n / p;
+    let ghosts = owned.min(n) * 0.5 + 1000.0;
+    let rank_run = owned * store
+        + ghosts * Particles::<D>::bytes_per_ghost() as f64
+        + (owned + ghosts) * 8.0
+        + owned * neighbours(scene, D) * 4.0
+        + counts;
+    let k = ranks_in_process.max(1) as f64;
+    Estimate {
+        particles,
+        rank_setup,
+        rank_run,
+        ranks_in_process: ranks_in_process.max(1),
+        process: k * (rank_setup + rank_run),
+    }
+}
+
+/// Bytes as "1.5 GB".
+pub fn human(b: f64) -> String {
+    let units = ["B", "kB", "MB", "GB", "TB", "PB"];
+    let mut x = b;
+    let mut u = 0;
+    while x >= 1000.0 && u + 1 < units.len() {
+        x /= 1000.0;
+        u += 1;
+    }
+    format!("{x:.1} {}", units[u])
+}
+
+/// Parse a size such as `4G`, `512M`, `2.5GB`, `1000000` (bytes; k, M, G, T are powers of
+/// 1000, Ki, Mi, Gi, Ti of 1024).
+pub fn parse_size(s: &str) -> Option<f64> {
+    let t = s.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let x: f64 = num.parse().ok()?;
+    let mult = match unit
+        .trim()
+        .trim_end_matches(['B', 'b'])
+        .to_ascii_lowercase()
+        .as_str()
+    {
+        "" => 1.0,
+        "k" => 1e3,
+        "m" => 1e6,
+        "g" => 1e9,
+        "t" => 1e12,
+        "ki" => 1024.0,
+        "mi" => 1024f64.powi(2),
+        "gi" => 1024f64.powi(3),
+        "ti" => 1024f64.powi(4),
+        _ => return None,
+    };
+    (x.is_finite() && x > 0.0).then_some(x * mult)
+}
+
+/// The memory this process may use (bytes) and where the limit comes from: the smallest of
+/// the cgroup limit (`memory.max`), the memory available (`MemAvailable`) and the address-space
+/// limit (`ulimit -v`), or `None` if none can be read.
+pub fn available() -> Option<(f64, &'static str)> {
+    let mut best: Option<(f64, &'static str)> = None;
+    let mut take = |v: Option<f64>, what: &'static str| {
+        if let Some(v) = v {
+            if best.is_none_or(|(b, _)| v < b) {
+                best = Some((v, what));
+            }
+        }
+    };
+    let read = |p: &str| std::fs::read_to_string(p).ok();
+    take(
+        read("/sys/fs/cgroup/memory.max").and_then(|s| s.trim().parse().ok()),
+        "the cgroup memory limit",
+    );
+    take(
+        read("/proc/meminfo").and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("MemAvailable:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<f64>().ok())
+                .map(|kb| kb * 1024.0)
+        }),
+        "the memory available",
+    );
+    take(
+        read("/proc/self/limits").and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("Max address space"))
+                .and_then(|l| l.split_whitespace().nth(3))
+                .and_then(|v| v.parse().ok())
+        }),
+        "the address-space limit (ulimit -v)",
+    );
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse() {
+        assert_eq!(parse_size("4G"), Some(4e9));
+        assert_eq!(parse_size("512MiB"), Some(512.0 * 1024.0 * 1024.0));
+        assert_eq!(parse_size("1000"), Some(1000.0));
+        assert_eq!(parse_size("2.5 GB"), Some(2.5e9));
+        assert_eq!(parse_size("lots"), None);
+        assert_eq!(parse_size("-1G"), None);
+        assert_eq!(human(1.5e9), "1.5 GB");
+    }
+}
