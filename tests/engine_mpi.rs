@@ -269,3 +269,45 @@ fn a_failing_mpi_rank_aborts_the_job_naming_it() {
     );
     assert!(!dir.join("summary.json").exists());
 }
+
+/// Issue 9 row 6: one MPI rank (under mpirun, and a singleton `--backend mpi` without it)
+/// runs and gives the serial bits.
+#[test]
+fn one_mpi_rank_runs_and_gives_the_serial_bits() {
+    let scene = common::repo_path("inputs/dam_break_2d.toml");
+    let scene = scene.to_str().unwrap();
+    let args = ["run", scene, "-q", "--threads", "1", "--set", "time.t_end=0.02"];
+    let serial = out_dir("mpi1-serial");
+    let so = serial.to_str().unwrap().to_string();
+    let mut a = args.to_vec();
+    a.extend(["--out", &so]);
+    hsph(&a);
+    let one = out_dir("mpi1-mpirun");
+    let oo = one.to_str().unwrap().to_string();
+    let mut a = args.to_vec();
+    a.extend(["--out", &oo]);
+    let out = mpirun(1, &[], &a);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let single = out_dir("mpi1-singleton");
+    let si = single.to_str().unwrap().to_string();
+    let mut a = args.to_vec();
+    a.extend(["--backend", "mpi", "--out", &si]);
+    let out = run_with_timeout(
+        {
+            let mut c = Command::new(HSPH);
+            c.args(&a);
+            c
+        },
+        120,
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for dir in [&one, &single] {
+        assert_eq!(summary(dir)["backend"], "mpi");
+        assert!(
+            read(dir, "final.csv") == read(&serial, "final.csv"),
+            "{}",
+            dir.display()
+        );
+        assert!(read(dir, "timeseries.csv") == read(&serial, "timeseries.csv"));
+    }
+}

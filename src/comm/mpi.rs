@@ -310,6 +310,12 @@ impl Comm for MpiComm {
                 Some(d)
             })
             .collect();
+        if total == 0 {
+            // every contribution empty: nothing to move (MPI rejects the aliased empty buffers)
+            self.accounting
+                .record_collective(Collective::AllGather, 0, self.size, 0);
+            return Ok(vec![Vec::new(); self.size]);
+        }
         let mut buf = vec![0u8; total];
         {
             let mut partition = PartitionMut::new(&mut buf[..], &counts[..], &displs[..]);

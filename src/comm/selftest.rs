@@ -183,6 +183,43 @@ pub fn run(comm: &dyn Comm) -> Result<()> {
             format!("broadcast from rank {root}: wrong bytes")
         })?;
     }
+    empty_contributions(comm)?;
     comm.barrier()?;
     Ok(())
+}
+
+/// Every collective with empty contributions: all ranks empty, some ranks empty, empty
+/// reductions, an empty broadcast and an exchange of empty messages (1-rank MPI runs gather
+/// nothing from anyone, which once failed inside MPI_Allgatherv).
+fn empty_contributions(comm: &dyn Comm) -> Result<()> {
+    let (me, p) = (comm.rank(), comm.size());
+    let all = comm.all_gather_bytes(Vec::new())?;
+    expect(comm, all.len() == p && all.iter().all(|b| b.is_empty()), || {
+        "all-gather of nothing from everyone".to_string()
+    })?;
+    let some = if me % 2 == 1 {
+        vec![me as u8; 3]
+    } else {
+        Vec::new()
+    };
+    let all = comm.all_gather_bytes(some)?;
+    for (r, b) in all.iter().enumerate() {
+        let want = if r % 2 == 1 { vec![r as u8; 3] } else { Vec::new() };
+        expect(comm, *b == want, || {
+            format!("all-gather with empty parts: rank {r}")
+        })?;
+    }
+    comm.all_reduce_sum_u64(&mut [])?;
+    comm.all_reduce_sum_i64(&mut [])?;
+    comm.all_reduce_max_f64(&mut [])?;
+    comm.all_reduce_min_f64(&mut [])?;
+    let got = comm.broadcast_bytes(0, Vec::new())?;
+    expect(comm, got.is_empty(), || "empty broadcast".to_string())?;
+    // every rank sends an empty message to every rank, itself included
+    let sends: Vec<(usize, Vec<u8>)> = (0..p).map(|r| (r, Vec::new())).collect();
+    let from: Vec<usize> = (0..p).collect();
+    let got = comm.exchange(sends, &from, 777)?;
+    expect(comm, got.len() == p && got.iter().all(|b| b.is_empty()), || {
+        "exchange of empty messages".to_string()
+    })
 }
