@@ -295,3 +295,42 @@ fn row_04_a_scene_too_large_for_the_memory_is_refused_with_its_estimate() {
     let text = String::from_utf8_lossy(&o.stdout).into_owned();
     assert!(text.starts_with("estimate    2221 particles;"), "{text}");
 }
+
+#[test]
+fn row_13_a_blow_up_is_caught_while_the_state_is_still_physical() {
+    // no viscosity, no density diffusion, CFL 1: once caught only at a negative density with
+    // velocities of 14 km/s
+    let o = hsph(&[
+        "run",
+        SCENE,
+        "-q",
+        "--out",
+        temp_dir("blowup").join("run").to_str().unwrap(),
+        "--set",
+        "time.cfl=1",
+        "--set",
+        "physics.artificial_viscosity=0",
+        "--set",
+        "physics.density_diffusion=\"none\"",
+    ]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("limits.density_ratio") || e.contains("limits.speed_over_c0"),
+        "{e}"
+    );
+    assert!(
+        e.contains("step ") && e.contains("particle id") && e.contains("at position"),
+        "{e}"
+    );
+    let speed: f64 = e
+        .split("speed ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or(0.0);
+    assert!(speed < 100.0, "caught at {speed} m/s: {e}");
+    // the limits are scene keys, validated
+    let o = hsph(&["check", SCENE, "--set", "limits.density_ratio=[1.5, 2.0]"]);
+    assert_input_error(&o, &["limits.density_ratio", "0 < low < 1 < high"]);
+}

@@ -54,9 +54,43 @@ pub struct Scene {
     /// Load balancing across ranks.
     #[serde(default)]
     pub balance: Balance,
+    /// Bounds beyond which a run is stopped as blown up.
+    #[serde(default)]
+    pub limits: Limits,
     /// Optional analytic or tabulated reference: errors land in `summary.json`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference: Option<Reference>,
+}
+
+/// Bounds on the state of integrated particles (`[limits]`): a particle outside them stops
+/// the run (exit 1, naming step, particle and position) before it blows up further.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Limits {
+    /// Allowed density ρ/ρ0 of the particle's material, `[low, high]`; a weakly compressible
+    /// fluid stays within a few per cent of 1.
+    #[serde(default = "default_density_ratio")]
+    pub density_ratio: Vec<f64>,
+    /// Largest speed as a multiple of the material's c0 (c0 is at least 10 × the expected
+    /// speed, so 1 means 10 × what the scene expects).
+    #[serde(default = "default_speed_over_c0")]
+    pub speed_over_c0: f64,
+}
+
+fn default_density_ratio() -> Vec<f64> {
+    vec![0.5, 2.0]
+}
+fn default_speed_over_c0() -> f64 {
+    1.0
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            density_ratio: default_density_ratio(),
+            speed_over_c0: default_speed_over_c0(),
+        }
+    }
 }
 
 /// Load balancing of the domain decomposition (issue 3).

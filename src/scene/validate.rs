@@ -90,6 +90,22 @@ pub fn validate(s: &mut Scene) -> Result<()> {
             format!("needs {d} booleans, e.g. [true, false]"),
         );
     }
+    let lim = &s.limits;
+    if !(lim.density_ratio.len() == 2
+        && lim.density_ratio[0] > 0.0
+        && lim.density_ratio[0] < 1.0
+        && lim.density_ratio[1] > 1.0
+        && lim.density_ratio[1].is_finite())
+    {
+        return err(
+            "limits.density_ratio",
+            format!(
+                "needs [low, high] with 0 < low < 1 < high, e.g. [0.5, 2.0]; got {:?}",
+                lim.density_ratio
+            ),
+        );
+    }
+    positive(lim.speed_over_c0, "limits.speed_over_c0", "speed_over_c0 = 1.0")?;
     let disc = &s.discretisation;
     positive(disc.dx, "discretisation.dx", "dx = 0.01")?;
     if !(disc.h_over_dx >= 0.5 && disc.h_over_dx <= 4.0) {

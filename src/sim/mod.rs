@@ -193,20 +193,48 @@ impl<const D: usize> Simulation<D> {
         }
     }
 
+    /// Every owned integrated particle finite, with a density and a speed inside the scene's
+    /// `[limits]`: a run that is blowing up stops here, early, naming the particle.
     fn check_finite(&self) -> Result<()> {
         let n = self.p.n_owned;
-        let bad = (0..n).into_par_iter().find_first(|&i| {
-            !(self.p.rho[i].is_finite() && self.p.v[i].iter().all(|c| c.is_finite()) && self.p.rho[i] > 0.0)
-        });
-        match bad {
-            Some(i) => Err(self.particle_error(
-                i,
-                &format!(
-                    "has density {} and velocity {:?} (the run blew up)",
-                    self.p.rho[i],
-                    self.p.v[i].as_slice()
-                ),
-            )),
+        let (lo, hi) = (
+            self.scene.limits.density_ratio[0],
+            self.scene.limits.density_ratio[1],
+        );
+        let k = self.scene.limits.speed_over_c0;
+        let (p, mats) = (&self.p, &self.model.materials);
+        let bad = |i: usize| {
+            let (rho, v) = (p.rho[i], p.v[i]);
+            if !(rho.is_finite() && v.iter().all(|c| c.is_finite()) && rho > 0.0) {
+                return Some(format!(
+                    "has density {rho} and velocity {:?} (the run blew up)",
+                    v.as_slice()
+                ));
+            }
+            if !p.kind[i].is_integrated() {
+                return None;
+            }
+            let m = &mats[p.mat[i] as usize];
+            let ratio = rho / m.rho0();
+            let speed = v.norm();
+            if !(lo..=hi).contains(&ratio) {
+                return Some(format!(
+                    "has density {rho:.6e} kg/m³ = {ratio:.4} ρ0 (speed {speed:.4e} m/s), outside \
+                     limits.density_ratio [{lo}, {hi}] (the run is blowing up: try a smaller time.cfl, \
+                     artificial viscosity or density diffusion)"
+                ));
+            }
+            if speed > k * m.c0() {
+                return Some(format!(
+                    "moves at {speed:.4e} m/s, beyond limits.speed_over_c0 = {k} × c0 = {:.4e} m/s (the run \
+                     is blowing up: try a smaller time.cfl, or a larger c0 if the flow is that fast)",
+                    k * m.c0()
+                ));
+            }
+            None
+        };
+        match (0..n).into_par_iter().find_first(|&i| bad(i).is_some()) {
+            Some(i) => Err(self.particle_error(i, &bad(i).unwrap_or_default())),
             None => Ok(()),
         }
     }
