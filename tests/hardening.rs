@@ -334,3 +334,52 @@ fn row_13_a_blow_up_is_caught_while_the_state_is_still_physical() {
     let o = hsph(&["check", SCENE, "--set", "limits.density_ratio=[1.5, 2.0]"]);
     assert_input_error(&o, &["limits.density_ratio", "0 < low < 1 < high"]);
 }
+
+#[test]
+fn row_14_the_heat_map_is_left_out_for_one_rank_and_labelled_on_the_data_range() {
+    let dir = temp_dir("heat");
+    for ranks in ["1", "4"] {
+        let run = dir.join(format!("r{ranks}"));
+        let o = hsph(&[
+            "run",
+            SCENE,
+            "-q",
+            "--threads",
+            "1",
+            "--ranks",
+            ranks,
+            "--out",
+            run.to_str().unwrap(),
+            "--set",
+            "time.t_end=0.02",
+            "--set",
+            "output.format=\"none\"",
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let rep = run.join("report");
+        let o = hsph(&["report", run.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let md = fs::read_to_string(rep.join("report.md")).unwrap();
+        if ranks == "1" {
+            assert!(!rep.join("traffic_heatmap.png").exists());
+            assert!(md.contains("No rank-pair heat map"), "{md}");
+            continue;
+        }
+        // the colour bar's end labels are the smallest and largest rank-pair totals
+        let traffic = fs::read_to_string(run.join("traffic.csv")).unwrap();
+        let mut pairs = std::collections::BTreeMap::new();
+        for l in traffic.lines().skip(1) {
+            let f: Vec<&str> = l.split(',').collect();
+            *pairs.entry((f[2].to_string(), f[3].to_string())).or_insert(0u64) +=
+                f[6].parse::<u64>().unwrap();
+        }
+        let nonzero: Vec<u64> = pairs.values().copied().filter(|&b| b > 0).collect();
+        let (lo, hi) = (*nonzero.iter().min().unwrap(), *nonzero.iter().max().unwrap());
+        let svg = fs::read_to_string(rep.join("traffic_heatmap.svg")).unwrap();
+        for b in [lo, hi] {
+            let label = hsph::report::human_bytes(b as f64);
+            assert!(svg.contains(&label), "colour bar lacks {label}");
+        }
+        assert!(md.contains("traffic_heatmap.png"));
+    }
+}

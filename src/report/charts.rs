@@ -111,9 +111,14 @@ pub fn traffic_heatmap(
                 .or_default() += r.bytes;
         }
     }
+    // the colour range is the data's own (log10 of bytes), padded only when every cell is equal
     let lo = cells.values().copied().min().unwrap_or(1).max(1) as f64;
-    let hi = (cells.values().copied().max().unwrap_or(1) as f64).max(lo * 10.0);
-    let (llo, lhi) = (lo.log10(), hi.log10());
+    let hi = cells.values().copied().max().unwrap_or(1) as f64;
+    let (mut llo, mut lhi) = (lo.log10(), hi.log10());
+    if lhi - llo < 1e-3 {
+        llo -= 0.1;
+        lhi += 0.1;
+    }
     let colour = |b: u64| viridis(((b as f64).log10() - llo) / (lhi - llo));
     let boundaries: Vec<f64> = (0..p.saturating_sub(1))
         .filter(|&i| nodes.get(order[i]) != nodes.get(order[i + 1]))
@@ -164,31 +169,38 @@ pub fn traffic_heatmap(
                 PathElement::new(vec![(-0.5, b), (n - 0.5, b)], line),
             ])?;
         }
-        // colour bar
+        // colour bar on the data's range (log10 of bytes), five labelled ticks of its own:
+        // both ends and three between, so a narrow range is labelled as well as a wide one
         let mut cb = ChartBuilder::on(&bar)
-            .margin_top(45)
-            .margin_bottom(55)
-            .margin_right(10)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0.0..1.0, (lo..hi).log_scale())?;
-        cb.configure_mesh()
-            .disable_mesh()
-            .disable_x_axis()
-            .y_desc("bytes")
-            .y_labels(6)
-            .y_label_formatter(&|v| human_bytes(*v))
-            .label_style(font(12))
-            .axis_desc_style(font(14))
-            .draw()?;
+            .caption("bytes", font(14))
+            .margin_top(16)
+            .margin_bottom(60)
+            .margin_right(4)
+            .build_cartesian_2d(0.0..3.2, llo..lhi)?;
         let steps = 64;
         cb.draw_series((0..steps).map(|k| {
-            let a = 10f64.powf(llo + (lhi - llo) * k as f64 / steps as f64);
-            let b = 10f64.powf(llo + (lhi - llo) * (k + 1) as f64 / steps as f64);
+            let a = llo + (lhi - llo) * k as f64 / steps as f64;
+            let b = llo + (lhi - llo) * (k + 1) as f64 / steps as f64;
             Rectangle::new(
                 [(0.0, a), (1.0, b)],
                 viridis((k as f64 + 0.5) / steps as f64).filled(),
             )
         }))?;
+        let ticks: Vec<f64> = (0..5).map(|k| llo + (lhi - llo) * k as f64 / 4.0).collect();
+        cb.draw_series(
+            ticks
+                .iter()
+                .map(|&t| PathElement::new(vec![(1.0, t), (1.25, t)], BLACK.stroke_width(1))),
+        )?;
+        let style = font(12).pos(plotters::style::text_anchor::Pos::new(
+            plotters::style::text_anchor::HPos::Left,
+            plotters::style::text_anchor::VPos::Center,
+        ));
+        cb.draw_series(
+            ticks
+                .iter()
+                .map(|&t| Text::new(human_bytes(10f64.powf(t)), (1.35, t), style.clone())),
+        )?;
         Ok(())
     })
 }

@@ -72,6 +72,11 @@ fn create_dir(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::input("--out", format!("{}: {e}", dir.display())))
 }
 
+/// True if ranks exchanged bytes with other ranks (a 1-rank run never does).
+fn has_inter_rank_traffic(ranks: usize, traffic: &[TrafficRow]) -> bool {
+    ranks > 1 && traffic.iter().any(|r| r.src_rank != r.dst_rank && r.bytes > 0)
+}
+
 /// Write the charts and `report.md` of one run into `dir`; returns the files written.
 pub fn write_run(run: &Run, dir: &Path) -> Result<Vec<PathBuf>> {
     create_dir(dir)?;
@@ -79,11 +84,14 @@ pub fn write_run(run: &Run, dir: &Path) -> Result<Vec<PathBuf>> {
     let mut charts_done = Vec::new();
     if let Some(traffic) = &run.traffic {
         let nodes = run.rank_nodes();
-        files.extend(charts::traffic_heatmap(dir, run.ranks(), &nodes, traffic)?);
-        charts_done.push((
-            "traffic_heatmap",
-            "Rank-pair traffic (bytes, all phases; lines: node boundaries)",
-        ));
+        // one rank only sends to itself (its periodic and mirror images): nothing to map
+        if has_inter_rank_traffic(run.ranks(), traffic) {
+            files.extend(charts::traffic_heatmap(dir, run.ranks(), &nodes, traffic)?);
+            charts_done.push((
+                "traffic_heatmap",
+                "Rank-pair traffic (bytes, all phases; lines: node boundaries)",
+            ));
+        }
         files.extend(charts::traffic_time(dir, &traffic_by_interval(traffic))?);
         charts_done.push(("traffic_time", "Intra- and inter-node bytes per output interval"));
     }
@@ -333,6 +341,13 @@ pub fn run_markdown(run: &Run, charts: &[(&str, &str)]) -> String {
             w,
             "No `traffic.csv` in the run directory (a run from before traffic accounting): the \
              traffic heat map and the intra/inter-node chart are left out.\n"
+        );
+    } else if !charts.iter().any(|(stem, _)| *stem == "traffic_heatmap") {
+        let _ = writeln!(
+            w,
+            "No rank-pair heat map: this run's {} rank(s) exchanged no bytes with another rank (a \
+             rank's periodic and mirror images are sent to itself).\n",
+            run.ranks()
         );
     }
     for (stem, caption) in charts {
