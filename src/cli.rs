@@ -344,7 +344,7 @@ fn dispatch(cmd: Command) -> Result<i32> {
             // counts and the memory estimate come first, without building a particle
             let est = driver::check_limits(&scene, ranks.max(1), ranks.max(1), &opts)
                 .map_err(|e| locate(&src, e))?;
-            say(&estimate_report(&est, ranks.max(1)));
+            say(&estimate_report(&est, ranks.max(1), max_memory));
             say(&check_report(&scene).map_err(|e| locate(&src, e))?);
             Ok(0)
         }
@@ -396,9 +396,10 @@ fn parse_memory(s: &str) -> std::result::Result<f64, String> {
 }
 
 /// The estimate lines of `hsph check`.
-fn estimate_report(est: &crate::memory::Estimate, ranks: usize) -> String {
+fn estimate_report(est: &crate::memory::Estimate, ranks: usize, max_memory: Option<f64>) -> String {
     use crate::memory::{available, human};
-    let avail = available().map_or("unknown".to_string(), |(b, what)| {
+    let limit = max_memory.map(|m| (m, "--max-memory")).or_else(available);
+    let avail = limit.map_or("unknown".to_string(), |(b, what)| {
         format!("{} ({what})", human(b))
     });
     format!(

@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests: a deterministic RNG and unique temp dirs.
 #![allow(dead_code)]
 
+pub mod mutate;
+
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
