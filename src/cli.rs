@@ -437,6 +437,16 @@ fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
         w,
         "particles   {n} = {fluid} fluid + {dummy} dummy wall + {rep} repulsive wall"
     );
+    let _ = writeln!(
+        w,
+        "bodies      as built on the lattice (each particle fills a cell of dx)"
+    );
+    for line in crate::setup::extent_lines::<D>(scene) {
+        let _ = writeln!(w, "  - {line}");
+    }
+    for warning in crate::setup::extent_warnings::<D>(scene) {
+        let _ = writeln!(w, "  warning: {warning}");
+    }
     let _ = writeln!(w, "ghosts      {} (periodic and mirror images)", sim.halo.len());
     let _ = writeln!(
         w,

@@ -600,7 +600,11 @@ impl<'a, const D: usize> RankRun<'a, D> {
         let sim = Simulation::<D>::with_layout(scene, comm, &layout)?;
         layout.placed(sim.placement);
         if root {
-            for w in &layout.warnings {
+            for w in layout
+                .warnings
+                .iter()
+                .chain(&crate::setup::extent_warnings::<D>(scene))
+            {
                 eprintln!("hsph: warning: {w}");
             }
         }

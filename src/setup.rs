@@ -214,6 +214,176 @@ pub fn count_particles<const D: usize>(s: &Scene) -> u64 {
     n
 }
 
+/// A body as the lattice builds it: every lattice site whose centre lies in the scene's box
+/// `[min, max)` becomes a particle standing for a cell of side dx, so the body as built spans
+/// `[origin + lo·dx, origin + hi·dx)` along each axis.
+#[derive(Debug, Clone)]
+pub struct BuiltBody {
+    /// `fluid[i]`, `wall[i]` (a block) or `wall[i] inner` (a container's inner box).
+    pub key: String,
+    /// The body's name in the scene.
+    pub name: String,
+    /// Box in the scene (m).
+    pub scene: (Vec<f64>, Vec<f64>),
+    /// Box as built (m).
+    pub built: (Vec<f64>, Vec<f64>),
+    /// Sites per axis.
+    pub sites: Vec<u64>,
+}
+
+/// Largest relative difference between built and scene sizes (per axis, and of the volume).
+const EXTENT_TOLERANCE: f64 = 0.01;
+
+impl BuiltBody {
+    /// Relative size differences per axis and of the volume, (built − scene) / scene.
+    pub fn differences(&self) -> (Vec<f64>, f64) {
+        let len = |b: &(Vec<f64>, Vec<f64>), a: usize| b.1[a] - b.0[a];
+        let d = self.scene.0.len();
+        let per_axis: Vec<f64> = (0..d)
+            .map(|a| len(&self.built, a) / len(&self.scene, a) - 1.0)
+            .collect();
+        let vol = |b: &(Vec<f64>, Vec<f64>)| (0..d).map(|a| len(b, a)).product::<f64>();
+        (per_axis, vol(&self.built) / vol(&self.scene) - 1.0)
+    }
+
+    /// True if the body as built differs from the scene's by more than 1 % in size or volume.
+    pub fn off(&self) -> bool {
+        let (axes, vol) = self.differences();
+        vol.abs() > EXTENT_TOLERANCE || axes.iter().any(|x| x.abs() > EXTENT_TOLERANCE)
+    }
+}
+
+/// Every fluid block, wall block and container inner box as built on the scene's lattice.
+pub fn built_extents<const D: usize>(s: &Scene) -> Vec<BuiltBody> {
+    let lat = Lattice::<D>::new(s);
+    let body = |key: String, name: &str, min: &[f64], max: &[f64]| {
+        let r: Vec<(u64, u64)> = (0..D).map(|a| lat.range(a, min[a], max[a])).collect();
+        let edge = |i: u64, a: usize| lat.origin[a] + i as f64 * lat.dx;
+        BuiltBody {
+            key,
+            name: name.to_string(),
+            scene: (min.to_vec(), max.to_vec()),
+            built: (
+                (0..D).map(|a| edge(r[a].0, a)).collect(),
+                (0..D).map(|a| edge(r[a].1, a)).collect(),
+            ),
+            sites: r.iter().map(|(lo, hi)| hi.saturating_sub(*lo)).collect(),
+        }
+    };
+    let mut out: Vec<BuiltBody> = s
+        .fluids
+        .iter()
+        .enumerate()
+        .map(|(i, f)| body(format!("fluid[{i}]"), &f.name, &f.min, &f.max))
+        .collect();
+    for (i, w) in s.walls.iter().enumerate() {
+        match (w.shape, wall_kind(w.method)) {
+            (WallShape::Block, Some(_)) => out.push(body(format!("wall[{i}]"), &w.name, &w.min, &w.max)),
+            (WallShape::Container, Some(_)) => {
+                out.push(body(format!("wall[{i}] inner"), &w.name, &w.min, &w.max))
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
+/// The spacing nearest to the scene's dx (within ±30 %) on whose lattice every body is built
+/// exactly as written (every extent and offset from the domain's corner a whole number of
+/// spacings), if there is one.
+pub fn fitting_dx<const D: usize>(s: &Scene) -> Option<f64> {
+    let dx = s.discretisation.dx;
+    let origin = &s.domain.min;
+    let mut lengths = Vec::new();
+    for b in built_extents::<D>(s) {
+        for (a, o) in origin.iter().enumerate().take(D) {
+            lengths.push(b.scene.0[a] - o);
+            lengths.push(b.scene.1[a] - o);
+        }
+    }
+    let reference = lengths
+        .iter()
+        .copied()
+        .filter(|l| *l > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    if !reference.is_finite() {
+        return None;
+    }
+    let whole = |l: f64, h: f64| ((l / h) - (l / h).round()).abs() < 1e-6 * (l / h).abs().max(1.0);
+    let n0 = (reference / dx).round().max(1.0) as u64;
+    // candidates reference / n near n0, nearest first
+    (0..n0.max(8))
+        .flat_map(|k| [n0 + k, n0.saturating_sub(k)])
+        .filter(|&n| n > 0)
+        .map(|n| reference / n as f64)
+        .filter(|h| (h / dx - 1.0).abs() <= 0.3)
+        .find(|&h| lengths.iter().all(|&l| whole(l, h)))
+}
+
+/// Sizes "a × b (× c)" in metres with 4 significant digits.
+fn sizes(b: &(Vec<f64>, Vec<f64>)) -> String {
+    let v: Vec<String> =
+        b.0.iter()
+            .zip(&b.1)
+            .map(|(lo, hi)| format!("{:.4}", hi - lo))
+            .collect();
+    v.join(" × ")
+}
+
+/// One line per body: its size in the scene and as built, its particles per axis and the
+/// volume difference.
+pub fn extent_lines<const D: usize>(s: &Scene) -> Vec<String> {
+    built_extents::<D>(s)
+        .iter()
+        .map(|b| {
+            let (_, vol) = b.differences();
+            let n: Vec<String> = b.sites.iter().map(|k| k.to_string()).collect();
+            format!(
+                "{} `{}`: scene {} m, built {} m ({} sites), volume {:+.2} %",
+                b.key,
+                b.name,
+                sizes(&b.scene),
+                sizes(&b.built),
+                n.join(" × "),
+                100.0 * vol
+            )
+        })
+        .collect()
+}
+
+/// Warnings for bodies built more than 1 % off their scene size or volume (a body fills whole
+/// lattice cells of dx counted from `domain.min`), with the spacing that would build them all
+/// as written, if one lies within ±30 % of dx.
+pub fn extent_warnings<const D: usize>(s: &Scene) -> Vec<String> {
+    let off: Vec<BuiltBody> = built_extents::<D>(s).into_iter().filter(|b| b.off()).collect();
+    if off.is_empty() {
+        return Vec::new();
+    }
+    let fit = match fitting_dx::<D>(s) {
+        Some(h) => format!("discretisation.dx = {h:.6e} m would build every body as written"),
+        None => "no spacing within ±30 % of dx builds every body as written; align the bodies with \
+                 domain.min + k·dx"
+            .to_string(),
+    };
+    off.iter()
+        .map(|b| {
+            let (axes, vol) = b.differences();
+            let a: Vec<String> = axes.iter().map(|x| format!("{:+.1} %", 100.0 * x)).collect();
+            format!(
+                "{} `{}` is built {} m where the scene says {} m ({}; volume {:+.1} %): bodies fill \
+                 whole cells of dx = {} m counted from domain.min; {fit}",
+                b.key,
+                b.name,
+                sizes(&b.built),
+                sizes(&b.scene),
+                a.join(", "),
+                100.0 * vol,
+                s.discretisation.dx
+            )
+        })
+        .collect()
+}
+
 /// Sorted ids of the sites inside a box.
 fn lat_box_ids<const D: usize>(lat: &Lattice<D>, min: &[f64], max: &[f64]) -> Vec<u64> {
     let mut ids = Vec::new();
