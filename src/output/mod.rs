@@ -210,8 +210,12 @@ impl<const D: usize> RunWriter<D> {
         let mut timeseries = create(&dir.join("timeseries.csv"))?;
         let axes = ["x", "y", "z"];
         let mom: Vec<String> = axes[..d].iter().map(|a| format!("momentum_{a}")).collect();
-        writeln!(timeseries, "step,t,dt,kinetic_energy,{},max_speed", mom.join(","))
-            .map_err(|e| Error::io(dir, e))?;
+        writeln!(
+            timeseries,
+            "step,t,dt,kinetic_energy,{},max_speed,potential_energy,internal_energy,total_energy,mass",
+            mom.join(",")
+        )
+        .map_err(|e| Error::io(dir, e))?;
         let mut diagnostics = create(&dir.join("diagnostics.csv"))?;
         writeln!(diagnostics, "{diag_header}").map_err(|e| Error::io(dir, e))?;
         let mut traffic = create(&dir.join("traffic.csv"))?;
@@ -248,13 +252,17 @@ impl<const D: usize> RunWriter<D> {
         let mom: Vec<String> = o.momentum.iter().map(|m| format!("{m}")).collect();
         writeln!(
             self.timeseries,
-            "{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{}",
             sim.step,
             sim.t,
             sim.dt,
             o.kinetic_energy,
             mom.join(","),
-            o.max_speed
+            o.max_speed,
+            o.potential_energy,
+            o.internal_energy,
+            o.total_energy(),
+            o.mass
         )
         .map_err(io)?;
         writeln!(self.diagnostics, "{diag_row}").map_err(|e| Error::io(&self.dir, e))?;

@@ -46,6 +46,15 @@ impl MaterialModel {
         }
     }
 
+    /// Specific internal (compression) energy e(ρ) = ∫ from ρ0 to ρ of p(ρ')/ρ'² dρ' (J/kg) of a
+    /// barotropic fluid, with r = ρ/ρ0: Tait (B/ρ0)[(r^(γ−1) − 1)/(γ−1) + 1/r − 1], linear
+    /// c0²[ln r + 1/r − 1]; both ≈ c0²(r − 1)²/2 near ρ0. The work the pressure stores.
+    pub fn internal_energy(&self, rho: f64) -> f64 {
+        match self {
+            MaterialModel::Fluid(eos) => eos.internal_energy(rho),
+        }
+    }
+
     /// Sound speed used by the time-step limit and the numerical diffusion terms (m/s): the
     /// numerical c0 of a weakly compressible fluid.
     #[inline]
@@ -103,6 +112,18 @@ impl Eos {
         }
     }
 
+    /// Specific internal energy e(ρ) (J/kg), see [`MaterialModel::internal_energy`].
+    pub fn internal_energy(&self, rho: f64) -> f64 {
+        let r = rho / self.rho0;
+        match self.kind {
+            EosKind::Tait => {
+                let g = self.gamma;
+                self.b / self.rho0 * ((r.powf(g - 1.0) - 1.0) / (g - 1.0) + 1.0 / r - 1.0)
+            }
+            EosKind::Linear => self.c0 * self.c0 * (r.ln() + 1.0 / r - 1.0),
+        }
+    }
+
     /// Density ρ(p) (kg/m³), the inverse of [`Eos::pressure`]; tension is limited so the
     /// density stays positive.
     #[inline]
@@ -133,6 +154,24 @@ mod tests {
         assert!((tait.pressure(1010.0) - b * (1.01f64.powi(7) - 1.0)).abs() < 1e-9);
         let lin = Eos::new(&m(EosKind::Linear));
         assert_eq!(lin.pressure(1001.0), 400.0);
+        // e(ρ) is the integral of p/ρ²: compare with a fine midpoint rule, and ≈ c0²ε²/2
+        for eos in [tait, lin] {
+            let rho = 1012.0;
+            let n = 20_000;
+            let h = (rho - 1000.0) / n as f64;
+            let quad: f64 = (0..n)
+                .map(|k| {
+                    let s = 1000.0 + (k as f64 + 0.5) * h;
+                    eos.pressure(s) / (s * s) * h
+                })
+                .sum();
+            assert!((eos.internal_energy(rho) - quad).abs() < 1e-9 * quad, "{quad}");
+            assert_eq!(eos.internal_energy(1000.0), 0.0);
+            let eps: f64 = 1e-3;
+            assert!(
+                (eos.internal_energy(1000.0 * (1.0 + eps)) / (400.0 * eps * eps / 2.0) - 1.0).abs() < 0.01
+            );
+        }
         for rho in [990.0, 1000.0, 1003.5] {
             assert!((tait.density(tait.pressure(rho)) - rho).abs() < 1e-9);
             assert!((lin.density(lin.pressure(rho)) - rho).abs() < 1e-9);

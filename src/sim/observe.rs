@@ -23,7 +23,24 @@ pub struct Observables<const D: usize> {
     pub momentum: Vector<D>,
     /// Largest speed of an integrated particle (m/s).
     pub max_speed: f64,
+    /// Potential energy −Σ m g·x of the integrated particles (J, or J/m in 2D; zero at the origin).
+    pub potential_energy: f64,
+    /// Internal (compression) energy Σ m e(ρ) of the integrated particles (J, or J/m in 2D).
+    pub internal_energy: f64,
+    /// Mass Σ m of the integrated particles (kg, or kg/m in 2D).
+    pub mass: f64,
 }
+
+impl<const D: usize> Observables<D> {
+    /// Kinetic + potential + internal energy (J, or J/m in 2D).
+    pub fn total_energy(&self) -> f64 {
+        self.kinetic_energy + self.potential_energy + self.internal_energy
+    }
+}
+
+/// Exact sums kept by [`Simulation::observables`]: kinetic energy, potential energy, internal
+/// energy, mass, then the D momentum components.
+const SCALARS: usize = 4;
 
 /// The whole state gathered on rank 0 for output: every owned particle of every rank, sorted by
 /// id, no ghosts. Field names follow [`Simulation`] so output code reads either alike.
@@ -59,16 +76,21 @@ impl<const D: usize> Simulation<D> {
     /// summed exactly (independent of order, threads and ranks: integer limbs all-reduced).
     pub fn observables(&self, comm: &dyn Comm) -> Result<Observables<D>> {
         let p = &self.p;
-        let mut sums: Vec<ExactSum> = (0..=D).map(|_| ExactSum::new()).collect();
+        let (g, mats) = (&self.model.g, &self.model.materials);
+        let mut sums: Vec<ExactSum> = (0..SCALARS + D).map(|_| ExactSum::new()).collect();
         let mut vmax = 0.0f64;
         for i in 0..p.n_owned {
             if !p.kind[i].is_integrated() {
                 continue;
             }
+            let m = p.mass[i];
             let v2 = p.v[i].norm_squared();
-            sums[D].add(0.5 * p.mass[i] * v2);
-            for (a, sum) in sums[..D].iter_mut().enumerate() {
-                sum.add(p.mass[i] * p.v[i][a]);
+            sums[0].add(0.5 * m * v2);
+            sums[1].add(-m * g.dot(&p.x[i]));
+            sums[2].add(m * mats[p.mat[i] as usize].internal_energy(p.rho[i]));
+            sums[3].add(m);
+            for (a, sum) in sums[SCALARS..].iter_mut().enumerate() {
+                sum.add(m * p.v[i][a]);
             }
             vmax = vmax.max(v2.sqrt());
         }
@@ -76,14 +98,17 @@ impl<const D: usize> Simulation<D> {
         let mut limbs: Vec<i64> = sums.iter().flat_map(|s| s.limbs()).collect();
         let prev = comm.set_phase(Phase::Output);
         comm.all_reduce_sum_i64(&mut limbs)?;
-        let mut m = [vmax];
-        comm.all_reduce_max_f64(&mut m)?;
+        let mut mx = [vmax];
+        comm.all_reduce_max_f64(&mut mx)?;
         comm.set_phase(prev);
         let value = |k: usize| ExactSum::from_limbs(&limbs[k * per..(k + 1) * per]).value();
         Ok(Observables {
-            kinetic_energy: value(D),
-            momentum: Vector::from_fn(|a, _| value(a)),
-            max_speed: m[0],
+            kinetic_energy: value(0),
+            momentum: Vector::from_fn(|a, _| value(SCALARS + a)),
+            max_speed: mx[0],
+            potential_energy: value(1),
+            internal_energy: value(2),
+            mass: value(3),
         })
     }
 
