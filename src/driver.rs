@@ -507,7 +507,9 @@ fn diag_header() -> String {
             h.push_str(&format!(",{p}_s_{s}"));
         }
     }
-    h.push_str(",ghosts,remote_ghosts,ghost_fraction,imbalance,migrated,rebalances,particle_steps_per_s");
+    h.push_str(
+        ",ghosts,remote_ghosts,ghost_fraction,imbalance,migrated,rebalances,particle_steps_per_s,removed",
+    );
     h
 }
 
@@ -584,6 +586,10 @@ struct RankRun<'a, const D: usize> {
     quiet: bool,
     /// The signal all ranks agreed to stop on, if any.
     stopped_by: Option<&'static str>,
+    /// Fluid particles at the start, over all ranks.
+    n_fluid: u64,
+    /// Particles removed by the outflow rule so far, over all ranks.
+    removed: u64,
 }
 
 impl<'a, const D: usize> RankRun<'a, D> {
@@ -613,7 +619,11 @@ impl<'a, const D: usize> RankRun<'a, D> {
         } else {
             None
         };
-        let mut n_total = [sim.p.n_owned as u64];
+        let fluid = sim.p.kind[..sim.p.n_owned]
+            .iter()
+            .filter(|k| k.is_integrated())
+            .count();
+        let mut n_total = [sim.p.n_owned as u64, fluid as u64];
         comm.all_reduce_sum_u64(&mut n_total)?;
         let mut run = RankRun {
             scene,
@@ -630,6 +640,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
             steps_start: Instant::now(),
             quiet: opts.quiet || !root,
             stopped_by: None,
+            n_fluid: n_total[1],
+            removed: 0,
         };
         // the set-up's traffic (one step's exchanges at the initial positions) is step 0
         run.traffic(0)?;
@@ -685,13 +697,14 @@ impl<'a, const D: usize> RankRun<'a, D> {
             };
             let b = &self.sim.balance;
             row.push_str(&format!(
-                ",{},{},{:.6},{:.6},{},{},{rate:.1}",
+                ",{},{},{:.6},{:.6},{},{},{rate:.1},{}",
                 r.ghosts,
                 r.remote,
                 r.remote as f64 / r.particles.max(1) as f64,
                 b.imbalance,
                 r.migrated,
-                b.rebalance_steps.len()
+                b.rebalance_steps.len(),
+                self.removed
             ));
             w.output_step(&v, &obs, &row)?;
         }
@@ -708,6 +721,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         while !self.sim.done() {
             self.inject_fault();
             self.sim.advance(self.comm)?;
+            self.report_removals()?;
             if self.tracker.due(self.scene, self.sim.t) {
                 match &self.sim.gather(self.comm)? {
                     Some(v) => self.tracker.after_step(v),
@@ -729,6 +743,62 @@ impl<'a, const D: usize> RankRun<'a, D> {
             }
         }
         progress.finish();
+        Ok(())
+    }
+
+    /// Collective, under `outflow = "remove"`: count the particles every rank removed this step,
+    /// log them in `removed.csv` (rank 0, sorted by id) and stop the run once more than
+    /// `domain.max_removed_fraction` of the fluid is gone.
+    fn report_removals(&mut self) -> Result<()> {
+        if self.scene.domain.outflow != crate::scene::Outflow::Remove {
+            return Ok(());
+        }
+        let mine = std::mem::take(&mut self.sim.removed);
+        let prev = self.comm.set_phase(Phase::Other);
+        let mut count = [mine.len() as u64];
+        self.comm.all_reduce_sum_u64(&mut count)?;
+        if count[0] == 0 {
+            self.comm.set_phase(prev);
+            return Ok(());
+        }
+        let bytes: Vec<u8> = mine.iter().flat_map(|r| r.to_bytes()).collect();
+        let all = self.comm.all_gather_bytes(bytes)?;
+        self.comm.set_phase(prev);
+        let mut rows: Vec<_> = all
+            .iter()
+            .flat_map(|b| crate::sim::outflow::Removal::from_bytes(b, D))
+            .collect();
+        rows.sort_by_key(|r| r.id);
+        if let Some(w) = self.writer.as_mut() {
+            w.removed_rows(&rows)?;
+            if self.removed == 0 {
+                let r = &rows[0];
+                eprintln!(
+                    "hsph: warning: step {}: particle id {} {} at position {:?} and was removed \
+                     (domain.outflow = \"remove\"; every removal is in removed.csv and counted in summary.json)",
+                    r.step, r.id, r.reason, r.x
+                );
+            }
+        }
+        self.removed += count[0];
+        let limit = self.scene.domain.max_removed_fraction * self.n_fluid as f64;
+        if self.removed as f64 > limit {
+            let r = &rows[0];
+            return Err(Error::run(format!(
+                "step {}, t = {:.6e} s: {} of {} fluid particles removed ({:.3} %), more than \
+                 domain.max_removed_fraction = {}; among them particle id {} {} at position {:?} \
+                 (see removed.csv; enlarge the domain, check the walls, or raise the fraction)",
+                self.sim.step,
+                self.sim.t,
+                self.removed,
+                self.n_fluid,
+                100.0 * self.removed as f64 / self.n_fluid.max(1) as f64,
+                self.scene.domain.max_removed_fraction,
+                r.id,
+                r.reason,
+                r.x
+            )));
+        }
         Ok(())
     }
 
@@ -856,6 +926,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "imbalance": sim.balance.imbalance,
             "migrations": r.migrated,
             "migrations_per_step": r.migrated as f64 / steps.max(1) as f64,
+            "removed_particles": self.removed,
+            "removed_fraction": self.removed as f64 / self.n_fluid.max(1) as f64,
+            "outflow": self.scene.domain.outflow,
             "rebalances": sim.balance.rebalance_steps.len(),
             "rebalance_steps": sim.balance.rebalance_steps,
             "max_plane_shift_m": sim.balance.max_plane_shift,

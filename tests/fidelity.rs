@@ -135,3 +135,76 @@ fn timeseries_holds_total_mass_and_energy_and_they_behave() {
         }
     }
 }
+
+/// A drop thrown out of an open tank: removed, counted and logged instead of ending the run,
+/// with the same bits on 1 and 3 ranks; `outflow = "stop"` and a zero removal budget stop it.
+#[test]
+fn a_particle_leaving_the_domain_is_removed_and_counted() {
+    let dir = common::temp_dir("outflow");
+    let scene = dir.join("splash.toml");
+    let text = std::fs::read_to_string(common::repo_path("inputs/hydrostatic_2d.toml")).unwrap()
+        + "\n[[fluid]]\nname = \"drop\"\nmaterial = \"water\"\nmin = [0.5, 0.78]\nmax = [0.52, 0.8]\nvelocity = [0.0, 3.0]\n";
+    std::fs::write(&scene, text).unwrap();
+    let scene = scene.to_str().unwrap();
+    let base = [
+        "-q",
+        "--threads",
+        "1",
+        "--set",
+        "time.t_end=0.1",
+        "--set",
+        "material[0].c0=45",
+    ];
+    let run = |tag: &str, extra: &[&str]| {
+        let out = dir.join(tag);
+        let mut args = vec!["run", scene, "--out", out.to_str().unwrap()];
+        args.extend(base);
+        args.extend(extra);
+        let (code, _, err) = hsph(&args);
+        (code, err, out)
+    };
+    let (code, err, one) = run("r1", &[]);
+    assert_eq!(code, 0, "{err}");
+    let removed = std::fs::read_to_string(one.join("removed.csv")).unwrap();
+    let rows: Vec<&str> = removed.lines().collect();
+    assert_eq!(rows.len(), 2, "{removed}");
+    assert_eq!(rows[0], "step,t,id,reason,x,y,rho");
+    let f: Vec<&str> = rows[1].split(',').collect();
+    assert_eq!(f[3], "left the domain");
+    assert!(
+        f[5].parse::<f64>().unwrap() > 0.9,
+        "left through the top: {removed}"
+    );
+    let id = f[2];
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(one.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["removed_particles"], 1);
+    let fin = std::fs::read_to_string(one.join("final.csv")).unwrap();
+    assert!(
+        !fin.lines().any(|l| l.split(',').next() == Some(id)),
+        "particle {id} still in final.csv"
+    );
+    // the mass in timeseries.csv drops by the drop's
+    let m = &series(&one)["mass"];
+    assert!(m.last().unwrap() < &m[0]);
+    // same bits on 3 ranks
+    let (code, err, three) = run("r3", &["--ranks", "3"]);
+    assert_eq!(code, 0, "{err}");
+    for file in ["final.csv", "removed.csv", "timeseries.csv"] {
+        assert!(
+            std::fs::read(one.join(file)).unwrap() == std::fs::read(three.join(file)).unwrap(),
+            "{file} differs on 3 ranks"
+        );
+    }
+    // the other rules stop the run, naming the particle
+    let (code, err, _) = run("stop", &["--set", "domain.outflow=\"stop\""]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains(&format!("particle id {id} left the domain")),
+        "{err}"
+    );
+    let (code, err, out) = run("budget", &["--set", "domain.max_removed_fraction=0"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("more than domain.max_removed_fraction = 0"), "{err}");
+    assert!(!out.join("summary.json").exists());
+}

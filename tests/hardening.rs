@@ -312,6 +312,8 @@ fn row_13_a_blow_up_is_caught_while_the_state_is_still_physical() {
         "physics.artificial_viscosity=0",
         "--set",
         "physics.density_diffusion=\"none\"",
+        "--set",
+        "domain.outflow=\"stop\"",
     ]);
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{e}");
@@ -330,6 +332,29 @@ fn row_13_a_blow_up_is_caught_while_the_state_is_still_physical() {
         .and_then(|t| t.parse().ok())
         .unwrap_or(0.0);
     assert!(speed < 100.0, "caught at {speed} m/s: {e}");
+    // the default outflow = "remove" takes out the particles leaving the density band and stops
+    // once more than 1 % of the fluid is gone
+    let o = hsph(&[
+        "run",
+        SCENE,
+        "-q",
+        "--out",
+        temp_dir("blowup").join("run").to_str().unwrap(),
+        "--set",
+        "time.cfl=1",
+        "--set",
+        "physics.artificial_viscosity=0",
+        "--set",
+        "physics.density_diffusion=\"none\"",
+        "--set",
+        "time.t_end=0.4",
+    ]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("density out of band") && e.contains("more than domain.max_removed_fraction = 0.01"),
+        "{e}"
+    );
     // the limits are scene keys, validated
     let o = hsph(&["check", SCENE, "--set", "limits.density_ratio=[1.5, 2.0]"]);
     assert_input_error(&o, &["limits.density_ratio", "0 < low < 1 < high"]);

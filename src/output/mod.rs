@@ -96,6 +96,7 @@ pub fn prepare_dir(out: Option<&Path>, scene_name: &str, force: bool) -> Result<
                 "diagnostics.csv",
                 "final.csv",
                 "traffic.csv",
+                "removed.csv",
             ] {
                 let _ = fs::remove_file(dir.join(name));
             }
@@ -193,6 +194,7 @@ pub struct RunWriter<const D: usize> {
     diagnostics: BufWriter<File>,
     probes: Vec<BufWriter<File>>,
     traffic: BufWriter<File>,
+    removed: Option<BufWriter<File>>,
     snapshots: Option<Box<dyn SnapshotWriter<D>>>,
     fields: Vec<String>,
 }
@@ -234,11 +236,20 @@ impl<const D: usize> RunWriter<D> {
                 probes.push(f);
             }
         }
+        let removed = if scene.domain.outflow == crate::scene::Outflow::Remove {
+            let mut f = create(&dir.join("removed.csv"))?;
+            let xs: Vec<&str> = ["x", "y", "z"][..d].to_vec();
+            writeln!(f, "step,t,id,reason,{},rho", xs.join(",")).map_err(|e| Error::io(dir, e))?;
+            Some(f)
+        } else {
+            None
+        };
         Ok(RunWriter {
             dir: dir.to_path_buf(),
             timeseries,
             diagnostics,
             traffic,
+            removed,
             probes,
             snapshots: writer_for::<D>(scene.output.format, dir)?,
             fields: scene.output.fields.clone(),
@@ -300,10 +311,35 @@ impl<const D: usize> RunWriter<D> {
         self.traffic.flush().map_err(|e| Error::io(&self.dir, e))
     }
 
+    /// Append removed particles (sorted by step, then id) to `removed.csv`.
+    pub fn removed_rows(&mut self, rows: &[crate::sim::outflow::Removal]) -> Result<()> {
+        let Some(f) = self.removed.as_mut() else {
+            return Ok(());
+        };
+        for r in rows {
+            let x: Vec<String> = r.x.iter().map(|c| format!("{c}")).collect();
+            writeln!(
+                f,
+                "{},{},{},{},{},{}",
+                r.step,
+                r.t,
+                r.id,
+                r.reason,
+                x.join(","),
+                r.rho
+            )
+            .map_err(|e| Error::io(&self.dir, e))?;
+        }
+        Ok(())
+    }
+
     /// Flush every CSV series to disk.
     pub fn flush(&mut self) -> Result<()> {
         let dir = self.dir.clone();
         let io = |e| Error::io(&dir, e);
+        if let Some(f) = self.removed.as_mut() {
+            f.flush().map_err(io)?;
+        }
         self.timeseries.flush().map_err(io)?;
         self.diagnostics.flush().map_err(io)?;
         self.traffic.flush().map_err(io)?;

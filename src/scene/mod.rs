@@ -152,6 +152,28 @@ pub struct Domain {
     /// Periodic flag per axis (default: none periodic).
     #[serde(default)]
     pub periodic: Vec<bool>,
+    /// What a fluid particle that leaves the domain (or whose density leaves
+    /// `limits.density_ratio`) does: `remove` (counted and logged) or `stop` the run.
+    #[serde(default)]
+    pub outflow: Outflow,
+    /// Fraction of the particles that may be removed before the run stops (exit 1).
+    #[serde(default = "default_max_removed_fraction")]
+    pub max_removed_fraction: f64,
+}
+
+/// The outflow rule of a scene (`[domain] outflow`).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Outflow {
+    /// Remove the particle: counted, logged in `removed.csv`, reported in `summary.json`.
+    #[default]
+    Remove,
+    /// Stop the run (exit 1) naming the particle.
+    Stop,
+}
+
+fn default_max_removed_fraction() -> f64 {
+    0.01
 }
 
 /// Particle spacing and kernel choice.

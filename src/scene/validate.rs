@@ -90,6 +90,13 @@ pub fn validate(s: &mut Scene) -> Result<()> {
             format!("needs {d} booleans, e.g. [true, false]"),
         );
     }
+    let f = s.domain.max_removed_fraction;
+    if !(0.0..=1.0).contains(&f) {
+        return err(
+            "domain.max_removed_fraction",
+            format!("must lie in [0, 1] (a fraction of the particles), e.g. 0.01; got {f}"),
+        );
+    }
     let lim = &s.limits;
     if !(lim.density_ratio.len() == 2
         && lim.density_ratio[0] > 0.0

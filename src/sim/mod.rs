@@ -13,6 +13,7 @@
 pub mod balance;
 pub mod decompose;
 pub mod observe;
+pub mod outflow;
 pub mod step;
 pub mod timers;
 
@@ -79,6 +80,8 @@ pub struct Simulation<const D: usize> {
     pub pair_count: u64,
     /// The passes of a step, in order.
     pub schedule: Vec<Pass>,
+    /// Particles removed by the outflow rule and not yet reported (the driver drains it).
+    pub removed: Vec<outflow::Removal>,
     fresh: Freshness,
     kinematics: Vec<WallKinematics>,
 }
@@ -126,6 +129,7 @@ impl<const D: usize> Simulation<D> {
             timers: PhaseTimers::default(),
             pair_count: 0,
             fresh: Freshness::default(),
+            removed: Vec::new(),
             kinematics: WallKinematics::of(scene),
         };
         sim.apply_wall_motion(0.0, 0.0);
@@ -188,7 +192,7 @@ impl<const D: usize> Simulation<D> {
             Some(i) if !self.p.x[i].iter().all(|c| c.is_finite()) => {
                 Err(self.particle_error(i, "has a non-finite position (the run blew up: try a smaller time.cfl, more artificial viscosity or density diffusion)"))
             }
-            Some(i) => Err(self.particle_error(i, "left the domain (enlarge domain.min/domain.max or check the walls)")),
+            Some(i) => Err(self.particle_error(i, "left the domain (enlarge domain.min/domain.max, check the walls, or let such particles go with domain.outflow = \"remove\")")),
             None => Ok(()),
         }
     }

@@ -32,6 +32,7 @@ impl<const D: usize> Simulation<D> {
         self.run_passes(dt, comm, None)?;
         let t0 = Instant::now();
         self.half_kick(dt);
+        self.apply_outflow(true);
         self.check_finite()?;
         self.timers.add(Timer::Integrate, t0);
         self.dt = self.next_dt(comm)?;
@@ -57,6 +58,7 @@ impl<const D: usize> Simulation<D> {
         self.apply_wall_motion(self.t, t_new);
         self.t = t_new;
         self.step += 1;
+        self.apply_outflow(false);
         self.check_state()?;
         self.timers.add(Timer::Integrate, t0);
         Ok(())
