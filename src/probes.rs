@@ -20,6 +20,52 @@ pub fn columns(probe: &Probe, dim: usize) -> Vec<String> {
     }
 }
 
+/// A wave gauge: the elevation (m, along the last axis) of the free surface of the continuous
+/// water column under `point`. The column starts on the bed — the top of the wall particles
+/// under the gauge, or the domain's floor — and rises while the kernel-interpolated fraction of
+/// matter φ(z) = Σ_j W(x − x_j) V_j (fluid and wall particles) stays at or above ½; the
+/// surface is where φ crosses ½, interpolated linearly between samples dx/4 apart. Spray above
+/// the first crossing is not water under the gauge. A gauge whose first fluid row is not wet
+/// (φ < ½ at dx/2 above the bed) is dry and reads 0.
+fn gauge<const D: usize>(sim: &View<D>, order: &[usize], point: &[f64]) -> f64 {
+    let p = &sim.p;
+    let k = &sim.model.kernel;
+    let dx = sim.scene.discretisation.dx;
+    let up = D - 1;
+    let under = |i: usize| (0..up).all(|a| (p.x[i][a] - point[a]).abs() < 0.5 * dx);
+    let bed = order
+        .iter()
+        .copied()
+        .filter(|&i| p.kind[i].is_wall() && under(i))
+        .map(|i| p.x[i][up] + 0.5 * dx)
+        .fold(sim.scene.domain.min[up], f64::max);
+    let phi = |z: f64| {
+        let at = Vector::<D>::from_fn(|a, _| if a == up { z } else { point[a] });
+        let mut s = 0.0;
+        for &i in order {
+            let r = (at - p.x[i]).norm();
+            if r < k.support {
+                s += k.w(r) * p.mass[i] / p.rho[i];
+            }
+        }
+        s
+    };
+    let top = sim.scene.domain.max[up];
+    let (mut z, mut f) = (bed + 0.5 * dx, phi(bed + 0.5 * dx));
+    if f < 0.5 {
+        return 0.0;
+    }
+    let step = 0.25 * dx;
+    while z + step <= top {
+        let (z1, f1) = (z + step, phi(z + step));
+        if f1 < 0.5 {
+            return z + step * (f - 0.5) / (f - f1);
+        }
+        (z, f) = (z1, f1);
+    }
+    top
+}
+
 /// Sample a probe.
 pub fn sample<const D: usize>(sim: &View<D>, order: &[usize], probe: &Probe) -> Vec<f64> {
     let p = &sim.p;
@@ -53,18 +99,7 @@ pub fn sample<const D: usize>(sim: &View<D>, order: &[usize], probe: &Probe) -> 
             }
             out
         }
-        Probe::Gauge { point, .. } => {
-            let dx = sim.scene.discretisation.dx;
-            let eta = fluid()
-                .filter(|&i| (0..D - 1).all(|a| (p.x[i][a] - point[a]).abs() < dx))
-                .map(|i| p.x[i][D - 1] + 0.5 * dx)
-                .fold(f64::NAN, f64::max);
-            vec![if eta.is_nan() {
-                sim.scene.domain.min[D - 1]
-            } else {
-                eta
-            }]
-        }
+        Probe::Gauge { point, .. } => vec![gauge(sim, order, point)],
         Probe::Front { axis, .. } => {
             vec![fluid().map(|i| p.x[i][*axis]).fold(f64::NEG_INFINITY, f64::max)]
         }

@@ -208,3 +208,50 @@ fn a_particle_leaving_the_domain_is_removed_and_counted() {
     assert!(err.contains("more than domain.max_removed_fraction = 0"), "{err}");
     assert!(!out.join("summary.json").exists());
 }
+
+/// A wave gauge reads the water under it, not spray above it, and 0 when dry (a 0.5 m column
+/// at x < 0.5 m with a drop flying at 0.7 m over it: the gauge at x = 0.25 m reads the depth
+/// within dx = 0.02 m, the one at 0.8 m reads 0).
+#[test]
+fn a_gauge_reads_the_water_column_under_it() {
+    let dir = common::temp_dir("gauge");
+    let scene = dir.join("gauge.toml");
+    let text = std::fs::read_to_string(common::repo_path("inputs/hydrostatic_2d.toml"))
+        .unwrap()
+        .replacen(
+            "max = [1.0, 0.5]\nhydrostatic = true",
+            "max = [0.5, 0.5]\nhydrostatic = true",
+            1,
+        )
+        + "\n[[fluid]]\nname = \"spray\"\nmaterial = \"water\"\nmin = [0.24, 0.7]\nmax = [0.28, 0.72]\n"
+        + "\n[[probe]]\nname = \"wet\"\nkind = \"gauge\"\npoint = [0.25, 0.0]\n"
+        + "\n[[probe]]\nname = \"dry\"\nkind = \"gauge\"\npoint = [0.8, 0.0]\n";
+    std::fs::write(&scene, text).unwrap();
+    let out = dir.join("run");
+    let (code, _, err) = hsph(&[
+        "run",
+        scene.to_str().unwrap(),
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "time.max_steps=1",
+        "--set",
+        "material[0].c0=45",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let first = |name: &str| -> f64 {
+        let t = std::fs::read_to_string(out.join("probes").join(format!("{name}.csv"))).unwrap();
+        t.lines()
+            .nth(1)
+            .unwrap()
+            .split(',')
+            .nth(1)
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let wet = first("wet");
+    assert!((wet - 0.5).abs() < 0.02, "wet gauge {wet}");
+    assert_eq!(first("dry"), 0.0);
+}

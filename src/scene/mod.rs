@@ -491,8 +491,9 @@ pub enum Probe {
         /// Number of sample points (≥ 2).
         points: usize,
     },
-    /// Free-surface elevation at a station: highest fluid particle (plus dx/2) within dx of the
-    /// vertical line through `point`, measured along the last axis: column `eta`.
+    /// Wave gauge at a station: the elevation (along the last axis) where the continuous water
+    /// column on the bed under `point` ends (interpolated matter fraction ½; spray above it is
+    /// ignored), 0 when dry: column `eta`.
     Gauge {
         /// Probe name.
         name: String,
