@@ -125,22 +125,7 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
         match w.shape {
             WallShape::Block => lat.for_each_in(&w.min, &w.max, &mut push),
             WallShape::Container => {
-                let d = s.dimension;
-                let mut lo = w.min.clone();
-                let mut hi = w.max.clone();
-                for a in 0..d {
-                    let open = |up| {
-                        w.open
-                            .iter()
-                            .any(|o| crate::scene::face_of(o, d) == Some((a, up)))
-                    };
-                    if !open(false) {
-                        lo[a] -= w.layers as f64 * dx;
-                    }
-                    if !open(true) {
-                        hi[a] += w.layers as f64 * dx;
-                    }
-                }
+                let (lo, hi) = container_outer(w, s.dimension, dx);
                 let inner = lat_box_ids(&lat, &w.min, &w.max);
                 lat.for_each_in(&lo, &hi, |id, x| {
                     if inner.binary_search(&id).is_err() {
@@ -192,21 +177,7 @@ pub fn count_particles<const D: usize>(s: &Scene) -> u64 {
         n += match w.shape {
             WallShape::Block => sites(&w.min, &w.max),
             WallShape::Container => {
-                let mut lo = w.min.clone();
-                let mut hi = w.max.clone();
-                for a in 0..D {
-                    let open = |up| {
-                        w.open
-                            .iter()
-                            .any(|o| crate::scene::face_of(o, D) == Some((a, up)))
-                    };
-                    if !open(false) {
-                        lo[a] -= w.layers as f64 * dx;
-                    }
-                    if !open(true) {
-                        hi[a] += w.layers as f64 * dx;
-                    }
-                }
+                let (lo, hi) = container_outer(w, D, dx);
                 sites(&lo, &hi).saturating_sub(sites(&w.min, &w.max))
             }
         };
@@ -382,6 +353,27 @@ pub fn extent_warnings<const D: usize>(s: &Scene) -> Vec<String> {
             )
         })
         .collect()
+}
+
+/// The outer box of a container wall: its inner box grown by `layers` spacings on every closed
+/// face (open faces stay at the inner box).
+fn container_outer(w: &crate::scene::WallBody, d: usize, dx: f64) -> (Vec<f64>, Vec<f64>) {
+    let mut lo = w.min.clone();
+    let mut hi = w.max.clone();
+    for a in 0..d {
+        let open = |up| {
+            w.open
+                .iter()
+                .any(|o| crate::scene::face_of(o, d) == Some((a, up)))
+        };
+        if !open(false) {
+            lo[a] -= w.layers as f64 * dx;
+        }
+        if !open(true) {
+            hi[a] += w.layers as f64 * dx;
+        }
+    }
+    (lo, hi)
 }
 
 /// Sorted ids of the sites inside a box.

@@ -300,21 +300,20 @@ fn row_04_a_scene_too_large_for_the_memory_is_refused_with_its_estimate() {
 fn row_13_a_blow_up_is_caught_while_the_state_is_still_physical() {
     // no viscosity, no density diffusion, CFL 1: once caught only at a negative density with
     // velocities of 14 km/s
-    let o = hsph(&[
-        "run",
-        SCENE,
-        "-q",
-        "--out",
-        temp_dir("blowup").join("run").to_str().unwrap(),
-        "--set",
-        "time.cfl=1",
-        "--set",
-        "physics.artificial_viscosity=0",
-        "--set",
-        "physics.density_diffusion=\"none\"",
-        "--set",
-        "domain.outflow=\"stop\"",
-    ]);
+    let inviscid = |extra: &str| {
+        let out = temp_dir("blowup").join("run");
+        let mut args = vec!["run", SCENE, "-q", "--out", out.to_str().unwrap()];
+        for set in [
+            "time.cfl=1",
+            "physics.artificial_viscosity=0",
+            "physics.density_diffusion=\"none\"",
+            extra,
+        ] {
+            args.extend(["--set", set]);
+        }
+        hsph(&args)
+    };
+    let o = inviscid("domain.outflow=\"stop\"");
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{e}");
     assert!(
@@ -334,21 +333,7 @@ fn row_13_a_blow_up_is_caught_while_the_state_is_still_physical() {
     assert!(speed < 100.0, "caught at {speed} m/s: {e}");
     // the default outflow = "remove" takes out the particles leaving the density band and stops
     // once more than 1 % of the fluid is gone
-    let o = hsph(&[
-        "run",
-        SCENE,
-        "-q",
-        "--out",
-        temp_dir("blowup").join("run").to_str().unwrap(),
-        "--set",
-        "time.cfl=1",
-        "--set",
-        "physics.artificial_viscosity=0",
-        "--set",
-        "physics.density_diffusion=\"none\"",
-        "--set",
-        "time.t_end=0.4",
-    ]);
+    let o = inviscid("time.t_end=0.4");
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{e}");
     assert!(
