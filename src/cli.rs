@@ -264,35 +264,22 @@ fn dispatch(cmd: Command) -> Result<i32> {
             if ranks == 0 {
                 return Err(Error::input("--ranks", "must be at least 1, e.g. --ranks 4"));
             }
-            let topology = topology.map(|f| Topology::load(&f)).transpose()?;
-            let (scene, src) = load_scene(&scene, &set)?;
-            crate::signals::install()?;
-            driver::run_scene(
-                &scene,
-                &RunOptions {
-                    out,
-                    force,
-                    threads,
-                    quiet,
-                    ranks,
-                    backend,
-                    fault: driver::Fault::from_env(),
-                    ranks_per_node,
-                    topology,
-                    placement,
-                    bind,
-                    max_memory,
-                    min_particles_per_rank,
-                },
-            )
-            .map(|o| {
-                if o.stopped_by.is_some() {
-                    crate::signals::EXIT_STOPPED
-                } else {
-                    0
-                }
-            })
-            .map_err(|e| locate(&src, e))
+            let opts = RunOptions {
+                out,
+                force,
+                threads,
+                quiet,
+                ranks,
+                backend,
+                fault: driver::Fault::from_env(),
+                ranks_per_node,
+                topology: topology.map(|f| Topology::load(&f)).transpose()?,
+                placement,
+                bind,
+                max_memory,
+                min_particles_per_rank,
+            };
+            cmd_run(&scene, &set, &opts)
         }
         Command::Topology { ranks, threads } => {
             say(&crate::affinity::topology_report(ranks, threads)?);
@@ -307,47 +294,23 @@ fn dispatch(cmd: Command) -> Result<i32> {
             out,
             set,
         } => {
-            let (scene, _) = load_scene(&scene, &set)?;
-            if ranks == 0 {
-                return Err(Error::input("--ranks", "must be at least 1, e.g. --ranks 96"));
-            }
-            // the same resolution as `hsph run`, with the nodes declared (never discovered)
-            let req = LayoutRequest {
-                backend: Backend::Local,
+            let topology = topology.map(|f| Topology::load(&f)).transpose()?;
+            cmd_plan(
+                &scene,
+                &set,
                 ranks,
                 ranks_per_node,
-                topology: topology.map(|f| Topology::load(&f)).transpose()?,
-                ..Default::default()
-            };
-            let topo = RunLayout::resolve(&req, Backend::Local, ranks, None)?.placement_topology();
-            let methods = placement.methods();
-            let rows = crate::plan::plan(&scene, ranks, &topo, &methods)?;
-            say(&crate::plan::table(&scene, ranks, &topo, &rows));
-            if let Some(dir) = out {
-                crate::plan::write(&dir, &scene, ranks, &topo, &rows)?;
-                say(&format!("wrote {}/plan.json and plan.csv\n", dir.display()));
-            }
-            Ok(0)
+                topology,
+                placement,
+                out.as_deref(),
+            )
         }
         Command::Check {
             scene,
             set,
             ranks,
             max_memory,
-        } => {
-            let (scene, src) = load_scene(&scene, &set)?;
-            let opts = RunOptions {
-                max_memory,
-                min_particles_per_rank: 1,
-                ..Default::default()
-            };
-            // counts and the memory estimate come first, without building a particle
-            let est = driver::check_limits(&scene, ranks.max(1), ranks.max(1), &opts)
-                .map_err(|e| locate(&src, e))?;
-            say(&estimate_report(&est, ranks.max(1), max_memory));
-            say(&check_report(&scene).map_err(|e| locate(&src, e))?);
-            Ok(0)
-        }
+        } => cmd_check(&scene, &set, ranks.max(1), max_memory),
         Command::Bench {
             scenes,
             threads,
@@ -366,12 +329,70 @@ fn dispatch(cmd: Command) -> Result<i32> {
                 repeat,
                 overrides: set,
             };
-            let rows = bench::run(&scenes, &opts)?;
-            say(&bench::table(&rows));
+            say(&bench::table(&bench::run(&scenes, &opts)?));
             Ok(0)
         }
         Command::Report { runs, compare, out } => report::command(&runs, compare, out.as_deref()).map(|_| 0),
     }
+}
+
+/// `hsph run`: load the scene, install the signal handlers, run; 3 if a signal stopped it.
+fn cmd_run(scene: &std::path::Path, set: &[String], opts: &RunOptions) -> Result<i32> {
+    let (scene, src) = load_scene(scene, set)?;
+    crate::signals::install()?;
+    let outcome = driver::run_scene(&scene, opts).map_err(|e| locate(&src, e))?;
+    Ok(if outcome.stopped_by.is_some() {
+        crate::signals::EXIT_STOPPED
+    } else {
+        0
+    })
+}
+
+/// `hsph plan`: the layout resolved as `hsph run` resolves it (nodes declared, never
+/// discovered), then every placement asked for.
+fn cmd_plan(
+    scene: &std::path::Path,
+    set: &[String],
+    ranks: usize,
+    ranks_per_node: usize,
+    topology: Option<Topology>,
+    placement: PlanPlacement,
+    out: Option<&std::path::Path>,
+) -> Result<i32> {
+    let (scene, _) = load_scene(scene, set)?;
+    if ranks == 0 {
+        return Err(Error::input("--ranks", "must be at least 1, e.g. --ranks 96"));
+    }
+    let req = LayoutRequest {
+        backend: Backend::Local,
+        ranks,
+        ranks_per_node,
+        topology,
+        ..Default::default()
+    };
+    let topo = RunLayout::resolve(&req, Backend::Local, ranks, None)?.placement_topology();
+    let rows = crate::plan::plan(&scene, ranks, &topo, &placement.methods())?;
+    say(&crate::plan::table(&scene, ranks, &topo, &rows));
+    if let Some(dir) = out {
+        crate::plan::write(dir, &scene, ranks, &topo, &rows)?;
+        say(&format!("wrote {}/plan.json and plan.csv\n", dir.display()));
+    }
+    Ok(0)
+}
+
+/// `hsph check`: counts and the memory estimate first, without building a particle; then, if
+/// the scene fits, what a run would do.
+fn cmd_check(scene: &std::path::Path, set: &[String], ranks: usize, max_memory: Option<f64>) -> Result<i32> {
+    let (scene, src) = load_scene(scene, set)?;
+    let opts = RunOptions {
+        max_memory,
+        min_particles_per_rank: 1,
+        ..Default::default()
+    };
+    let est = driver::check_limits(&scene, ranks, ranks, &opts).map_err(|e| locate(&src, e))?;
+    say(&estimate_report(&est, ranks, max_memory));
+    say(&check_report(&scene).map_err(|e| locate(&src, e))?);
+    Ok(0)
 }
 
 /// Give a scene error found after loading (e.g. overlapping bodies, found while filling the

@@ -136,6 +136,46 @@ fn scene_case(rng: &mut Rng, text: &str, dir: &Path, n: usize, run: bool) -> Cas
     }
 }
 
+/// Run case `k` (at most 120 s) and check it neither panicked nor exited outside 0–2; its code.
+fn run_case(bin: &str, dir: &Path, k: usize, case: &Case) -> usize {
+    let mut child = Command::new(bin)
+        .args(&case.args)
+        .current_dir(dir)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    let status = loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            break st;
+        }
+        if t0.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            panic!("case {k} ran over 120 s: {}", case.what);
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    };
+    let mut err = String::new();
+    use std::io::Read;
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    assert!(
+        !err.contains("panicked"),
+        "case {k} panicked: {}\n{err}",
+        case.what
+    );
+    let code = status.code().unwrap_or(-1);
+    assert!(
+        (0..=2).contains(&code),
+        "case {k}: exit {code}: {}\n{err}",
+        case.what
+    );
+    if std::env::var("HSPH_FUZZ_VERBOSE").is_ok() {
+        eprintln!("case {k} exit {code}: {:?}\n  {}", case.args, err.trim());
+    }
+    code as usize
+}
+
 #[test]
 fn a_thousand_mutated_scenes_flags_and_layouts_never_panic() {
     let dir = temp_dir("fuzz");
@@ -195,42 +235,8 @@ fn a_thousand_mutated_scenes_flags_and_layouts_never_panic() {
             s.spawn(|| loop {
                 let k = next.fetch_add(1, Ordering::SeqCst);
                 let Some(case) = cases.get(k) else { break };
-                let mut child = Command::new(bin)
-                    .args(&case.args)
-                    .current_dir(&dir)
-                    .stdout(std::process::Stdio::null())
-                    .stderr(std::process::Stdio::piped())
-                    .spawn()
-                    .unwrap();
-                let t0 = Instant::now();
-                let status = loop {
-                    if let Some(st) = child.try_wait().unwrap() {
-                        break st;
-                    }
-                    if t0.elapsed() > Duration::from_secs(120) {
-                        let _ = child.kill();
-                        panic!("case {k} ran over 120 s: {}", case.what);
-                    }
-                    std::thread::sleep(Duration::from_millis(2));
-                };
-                let mut err = String::new();
-                use std::io::Read;
-                child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
-                assert!(
-                    !err.contains("panicked"),
-                    "case {k} panicked: {}\n{err}",
-                    case.what
-                );
-                let code = status.code().unwrap_or(-1);
-                assert!(
-                    (0..=2).contains(&code),
-                    "case {k}: exit {code}: {}\n{err}",
-                    case.what
-                );
-                if std::env::var("HSPH_FUZZ_VERBOSE").is_ok() {
-                    eprintln!("case {k} exit {code}: {:?}\n  {}", case.args, err.trim());
-                }
-                counts.lock().unwrap()[code as usize] += 1;
+                let code = run_case(bin, &dir, k, case);
+                counts.lock().unwrap()[code] += 1;
             });
         }
     });

@@ -169,40 +169,50 @@ pub fn traffic_heatmap(
                 PathElement::new(vec![(-0.5, b), (n - 0.5, b)], line),
             ])?;
         }
-        // colour bar on the data's range (log10 of bytes), five labelled ticks of its own:
-        // both ends and three between, so a narrow range is labelled as well as a wide one
-        let mut cb = ChartBuilder::on(&bar)
-            .caption("bytes", font(14))
-            .margin_top(16)
-            .margin_bottom(60)
-            .margin_right(4)
-            .build_cartesian_2d(0.0..3.2, llo..lhi)?;
-        let steps = 64;
-        cb.draw_series((0..steps).map(|k| {
-            let a = llo + (lhi - llo) * k as f64 / steps as f64;
-            let b = llo + (lhi - llo) * (k + 1) as f64 / steps as f64;
-            Rectangle::new(
-                [(0.0, a), (1.0, b)],
-                viridis((k as f64 + 0.5) / steps as f64).filled(),
-            )
-        }))?;
-        let ticks: Vec<f64> = (0..5).map(|k| llo + (lhi - llo) * k as f64 / 4.0).collect();
-        cb.draw_series(
-            ticks
-                .iter()
-                .map(|&t| PathElement::new(vec![(1.0, t), (1.25, t)], BLACK.stroke_width(1))),
-        )?;
-        let style = font(12).pos(plotters::style::text_anchor::Pos::new(
-            plotters::style::text_anchor::HPos::Left,
-            plotters::style::text_anchor::VPos::Center,
-        ));
-        cb.draw_series(
-            ticks
-                .iter()
-                .map(|&t| Text::new(human_bytes(10f64.powf(t)), (1.35, t), style.clone())),
-        )?;
+        colour_bar(&bar, llo, lhi)?;
         Ok(())
     })
+}
+
+/// The heat map's colour bar on the data's range `llo..lhi` (log10 of bytes), with five labelled
+/// ticks of its own: both ends and three between, so a narrow range is labelled as well as a
+/// wide one.
+fn colour_bar<DB: DrawingBackend>(
+    bar: &DrawingArea<DB, plotters::coord::Shift>,
+    llo: f64,
+    lhi: f64,
+) -> std::result::Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let mut cb = ChartBuilder::on(bar)
+        .caption("bytes", font(14))
+        .margin_top(16)
+        .margin_bottom(60)
+        .margin_right(4)
+        .build_cartesian_2d(0.0..3.2, llo..lhi)?;
+    let steps = 64;
+    cb.draw_series((0..steps).map(|k| {
+        let a = llo + (lhi - llo) * k as f64 / steps as f64;
+        let b = llo + (lhi - llo) * (k + 1) as f64 / steps as f64;
+        Rectangle::new(
+            [(0.0, a), (1.0, b)],
+            viridis((k as f64 + 0.5) / steps as f64).filled(),
+        )
+    }))?;
+    let ticks: Vec<f64> = (0..5).map(|k| llo + (lhi - llo) * k as f64 / 4.0).collect();
+    cb.draw_series(
+        ticks
+            .iter()
+            .map(|&t| PathElement::new(vec![(1.0, t), (1.25, t)], BLACK.stroke_width(1))),
+    )?;
+    let style = font(12).pos(plotters::style::text_anchor::Pos::new(
+        plotters::style::text_anchor::HPos::Left,
+        plotters::style::text_anchor::VPos::Center,
+    ));
+    cb.draw_series(
+        ticks
+            .iter()
+            .map(|&t| Text::new(human_bytes(10f64.powf(t)), (1.35, t), style.clone())),
+    )?;
+    Ok(())
 }
 
 /// An axis label for `v` on an axis up to `max`: scientific from 1e5, else without trailing
