@@ -299,21 +299,22 @@ fn row_04_a_scene_too_large_for_the_memory_is_refused_with_its_estimate() {
 #[test]
 fn row_13_a_blow_up_is_caught_while_the_state_is_still_physical() {
     // no viscosity, no density diffusion, CFL 1: once caught only at a negative density with
-    // velocities of 14 km/s
+    // velocities of 14 km/s; it blows up near t = 0.39 s
     let inviscid = |extra: &str| {
         let out = temp_dir("blowup").join("run");
         let mut args = vec!["run", SCENE, "-q", "--out", out.to_str().unwrap()];
         for set in [
             "time.cfl=1",
+            "time.t_end=0.6",
             "physics.artificial_viscosity=0",
             "physics.density_diffusion=\"none\"",
             extra,
         ] {
             args.extend(["--set", set]);
         }
-        hsph(&args)
+        (hsph(&args), out)
     };
-    let o = inviscid("domain.outflow=\"stop\"");
+    let (o, _) = inviscid("domain.outflow=\"stop\"");
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{e}");
     assert!(
@@ -331,15 +332,15 @@ fn row_13_a_blow_up_is_caught_while_the_state_is_still_physical() {
         .and_then(|t| t.parse().ok())
         .unwrap_or(0.0);
     assert!(speed < 100.0, "caught at {speed} m/s: {e}");
-    // the default outflow = "remove" takes out the particles leaving the density band and stops
-    // once more than 1 % of the fluid is gone
-    let o = inviscid("time.t_end=0.4");
+    // the default outflow = "remove" takes out the particles leaving the density band (and the
+    // domain) and stops once more than 1 % of the fluid is gone
+    let (o, out) = inviscid("domain.outflow=\"remove\"");
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{e}");
-    assert!(
-        e.contains("density out of band") && e.contains("more than domain.max_removed_fraction = 0.01"),
-        "{e}"
-    );
+    assert!(e.contains("more than domain.max_removed_fraction = 0.01"), "{e}");
+    let removed = fs::read_to_string(out.join("removed.csv")).unwrap();
+    assert!(removed.contains(",density out of band,"), "{removed}");
+    assert!(removed.lines().count() > 1 + 12, "{removed}");
     // the limits are scene keys, validated
     let o = hsph(&["check", SCENE, "--set", "limits.density_ratio=[1.5, 2.0]"]);
     assert_input_error(&o, &["limits.density_ratio", "0 < low < 1 < high"]);

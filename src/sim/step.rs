@@ -1,6 +1,7 @@
 //! The step: Störmer–Verlet with (x, ρ) as coordinates and v as momentum,
 //!   v_{n+½} = v_n + ½dt a_n;  x_{n+1} = x_n + dt v_{n+½};
-//!   ρ_{n+1} = ρ_n + dt (dρ/dt)(x_{n+1}, v_{n+½}, ρ_n);  v_{n+1} = v_{n+½} + ½dt a_{n+1}.
+//!   ρ_{n+1} = ρ_n + dt (dρ/dt)(x_{n+½}, v_{n+½}, ρ_n);  v_{n+1} = v_{n+½} + ½dt a_{n+1},
+//!   x_{n+½} = x_{n+1} − ½dt v_{n+½} in the kinematic term (`fluid::continuity`).
 //! Evaluating dρ/dt and dv/dt from one state instead (one fused pass) makes the acoustic
 //! (ρ, v) coupling grow by 1 + (ω dt)²/4 per step, which is why continuity and momentum are
 //! separate passes. Between the drift and the passes: migration (and, every `check_every`
@@ -86,7 +87,7 @@ impl<const D: usize> Simulation<D> {
         let t0 = Instant::now();
         match pass {
             Pass::DensityGradient => delta::renormalised_gradient(&mut self.p, &self.nl, &self.model),
-            Pass::Continuity => fluid::continuity(&mut self.p, &self.nl, &self.model),
+            Pass::Continuity => fluid::continuity(&mut self.p, &self.nl, &self.model, dt),
             Pass::DensityUpdate => self.update_density(dt),
             Pass::WallExtrapolation => dummy::extrapolate(&mut self.p, &self.nl, &self.model),
             Pass::Momentum => fluid::momentum(&mut self.p, &self.nl, &self.model),
