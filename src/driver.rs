@@ -12,6 +12,7 @@ pub use crate::layout::Backend;
 use crate::layout::{resolve_backend, LayoutRequest, RunLayout};
 use crate::output::{self, RunWriter};
 use crate::placement::Placement;
+use crate::probes::ProbeSet;
 use crate::progress::Progress;
 use crate::reference::Tracker;
 use crate::scene::Scene;
@@ -576,6 +577,8 @@ struct RankRun<'a, const D: usize> {
     sim: Simulation<D>,
     /// Rank 0 only.
     writer: Option<RunWriter<D>>,
+    /// Probes on their own clocks (files on rank 0).
+    probes: ProbeSet<D>,
     tracker: Tracker,
     totals: TrafficTotals,
     n_total: usize,
@@ -619,6 +622,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         } else {
             None
         };
+        let probes = ProbeSet::new(&sim.scene, root.then_some(dir))?;
         let fluid = sim.p.kind[..sim.p.n_owned]
             .iter()
             .filter(|k| k.is_integrated())
@@ -633,6 +637,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             opts,
             sim,
             writer,
+            probes,
             tracker: Tracker::default(),
             totals: TrafficTotals::default(),
             n_total: n_total[0] as usize,
@@ -662,6 +667,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             );
         }
         run.loop_start = Instant::now();
+        run.probes.after_step(&run.sim, comm, true)?;
         run.output()?;
         Ok(run)
     }
@@ -708,6 +714,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
             ));
             w.output_step(&v, &obs, &row)?;
         }
+        // a killed run loses at most the output interval of probe rows
+        self.probes.flush()?;
         self.sim.timers.add(Timer::Output, t0);
         Ok(())
     }
@@ -728,7 +736,11 @@ impl<'a, const D: usize> RankRun<'a, D> {
                     None => self.tracker.skip(self.scene, self.sim.t),
                 }
             }
-            if self.sim.t >= next_out * (1.0 - 1e-12) || self.sim.done() {
+            let output_now = self.sim.t >= next_out * (1.0 - 1e-12) || self.sim.done();
+            let t0 = Instant::now();
+            self.probes.after_step(&self.sim, self.comm, output_now)?;
+            self.sim.timers.add(Timer::Output, t0);
+            if output_now {
                 while next_out <= self.sim.t * (1.0 + 1e-12) {
                     next_out += interval;
                 }
@@ -818,6 +830,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
     /// Final gather, `final.csv` and `summary.json` (rank 0), the closing log lines.
     fn finish(mut self) -> Result<RunOutcome> {
         let wall = self.steps_start.elapsed().as_secs_f64();
+        self.probes.flush()?;
         let r = reduce(&self.sim, self.comm)?;
         let final_view = self.sim.gather(self.comm)?;
         let mut writer = self.writer.take();

@@ -448,9 +448,19 @@ pub fn migrate<const D: usize>(
 
 /// Every owned particle as whole records (for gathering output on one rank).
 pub fn pack_owned<const D: usize>(p: &Particles<D>) -> Vec<u8> {
-    let mut buf = Vec::with_capacity(p.n_owned * Record::<D>::words() * 8);
+    pack_owned_where(p, &|_, _| true)
+}
+
+/// The records of the owned particles `keep` selects, in storage order.
+pub fn pack_owned_where<const D: usize>(
+    p: &Particles<D>,
+    keep: &dyn Fn(&Particles<D>, usize) -> bool,
+) -> Vec<u8> {
+    let mut buf = Vec::new();
     for i in 0..p.n_owned {
-        p.record(i).put(&mut Words::new(&mut buf));
+        if keep(p, i) {
+            p.record(i).put(&mut Words::new(&mut buf));
+        }
     }
     buf
 }

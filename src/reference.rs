@@ -87,15 +87,14 @@ impl Tracker {
         }
     }
 
-    /// Called at every output step (front history for the dam break).
+    /// Called at every output step (front history for the dam break): the leading particle of
+    /// the main body along +x (the front probe's definition, detached spray ignored) plus dx/2,
+    /// the edge of its cell.
     pub fn at_output<const D: usize>(&mut self, sim: &View<D>) {
         if let Some(Reference::DamBreakFront { .. }) = &sim.scene.reference {
-            let front = (0..sim.p.n_owned)
-                .filter(|&i| sim.p.kind[i].is_fluid())
-                .map(|i| sim.p.x[i][0])
-                .fold(f64::NEG_INFINITY, f64::max);
-            self.front
-                .push((sim.t, front + 0.5 * sim.scene.discretisation.dx));
+            let dx = sim.scene.discretisation.dx;
+            let front = crate::probes::sensors::front(sim, 0, crate::scene::Direction::Plus, 1.5 * dx);
+            self.front.push((sim.t, front + 0.5 * dx));
         }
     }
 

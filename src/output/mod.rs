@@ -13,7 +13,6 @@ pub mod vtk;
 use crate::comm::TrafficEntry;
 use crate::error::{Error, Result};
 use crate::particles::Particles;
-use crate::probes;
 use crate::scene::Scene;
 use crate::sim::{Observables, View};
 use snapshot::{writer_for, SnapshotWriter};
@@ -159,7 +158,7 @@ pub(crate) fn create_file(path: &Path) -> Result<File> {
     f.map_err(|e| Error::io(path, e))
 }
 
-fn create(path: &Path) -> Result<BufWriter<File>> {
+pub(crate) fn create(path: &Path) -> Result<BufWriter<File>> {
     Ok(BufWriter::new(create_file(path)?))
 }
 
@@ -192,7 +191,6 @@ pub struct RunWriter<const D: usize> {
     dir: PathBuf,
     timeseries: BufWriter<File>,
     diagnostics: BufWriter<File>,
-    probes: Vec<BufWriter<File>>,
     traffic: BufWriter<File>,
     removed: Option<BufWriter<File>>,
     snapshots: Option<Box<dyn SnapshotWriter<D>>>,
@@ -226,16 +224,6 @@ impl<const D: usize> RunWriter<D> {
             "step,phase,src_rank,dst_rank,src_node,dst_node,bytes,messages"
         )
         .map_err(|e| Error::io(dir, e))?;
-        let mut probes = Vec::new();
-        if !scene.probes.is_empty() {
-            let pd = dir.join("probes");
-            fs::create_dir_all(&pd).map_err(|e| Error::io(&pd, e))?;
-            for pr in &scene.probes {
-                let mut f = create(&pd.join(format!("{}.csv", pr.name())))?;
-                writeln!(f, "t,{}", probes::columns(pr, d).join(",")).map_err(|e| Error::io(&pd, e))?;
-                probes.push(f);
-            }
-        }
         let removed = if scene.domain.outflow == crate::scene::Outflow::Remove {
             let mut f = create(&dir.join("removed.csv"))?;
             let xs: Vec<&str> = ["x", "y", "z"][..d].to_vec();
@@ -250,14 +238,14 @@ impl<const D: usize> RunWriter<D> {
             diagnostics,
             traffic,
             removed,
-            probes,
             snapshots: writer_for::<D>(scene.output.format, dir)?,
             fields: scene.output.fields.clone(),
         })
     }
 
     /// Write one output step: timeseries row (physics only), the diagnostics row the driver
-    /// composed (timers, ghosts, balance: machine and layout dependent), probes and a snapshot.
+    /// composed (timers, ghosts, balance: machine and layout dependent) and a snapshot; probes
+    /// write their own files ([`crate::probes::ProbeSet`]).
     pub fn output_step(&mut self, sim: &View<D>, o: &Observables<D>, diag_row: &str) -> Result<()> {
         let io = |e| Error::io(&self.dir, e);
         let mom: Vec<String> = o.momentum.iter().map(|m| format!("{m}")).collect();
@@ -277,14 +265,6 @@ impl<const D: usize> RunWriter<D> {
         )
         .map_err(io)?;
         writeln!(self.diagnostics, "{diag_row}").map_err(|e| Error::io(&self.dir, e))?;
-        let order = sim.by_id();
-        for (pr, f) in sim.scene.probes.iter().zip(self.probes.iter_mut()) {
-            let vals: Vec<String> = probes::sample(sim, &order, pr)
-                .iter()
-                .map(|v| format!("{v}"))
-                .collect();
-            writeln!(f, "{},{}", sim.t, vals.join(",")).map_err(|e| Error::io(&self.dir, e))?;
-        }
         if let Some(w) = self.snapshots.as_mut() {
             w.write(sim, &self.fields)?;
         }
@@ -343,9 +323,6 @@ impl<const D: usize> RunWriter<D> {
         self.timeseries.flush().map_err(io)?;
         self.diagnostics.flush().map_err(io)?;
         self.traffic.flush().map_err(io)?;
-        for f in &mut self.probes {
-            f.flush().map_err(io)?;
-        }
         Ok(())
     }
 

@@ -187,51 +187,82 @@ fn momentum_of<const D: usize>(
     if !p.kind[i].is_fluid() {
         return Vector::zeros();
     }
-    let k = &model.kernel;
-    let h = k.h;
-    let eta2 = 0.01 * h * h;
-    let c0 = model.materials[p.mat[i] as usize].c0();
-    // Π_ij = −α h c0 v_ij·x_ij / ((r² + η²) ρ̄_ij), ρ̄_ij = (ρ_i + ρ_j)/2
-    let av_coef = -2.0 * model.alpha * c0 * h;
-    let rep = &model.repulsive;
-    let (xi, vi, rhoi) = (p.x[i], p.v[i], p.rho[i]);
-    let pi_term = p_rho2[i];
+    let terms = PairTerms::of(p, model, i);
     let mut acc = Vector::<D>::zeros();
     for &j in nl.of(i) {
         let j = j as usize;
-        let xij = xi - p.x[j];
-        let r2 = xij.norm_squared();
-        let r = r2.sqrt();
-        let kind_j = p.kind[j];
-        if !kind_j.is_smoothed() {
-            if let Some(f) = rep.acceleration(&xij, r2, r) {
-                acc += f;
-            }
-            continue;
-        }
-        let f = k.dw_dr_over_r(r);
-        let (mj, rhoj) = (p.mass[j], p.rho[j]);
-        // viscous terms see the extrapolated velocity of dummy walls
-        let vij = if kind_j == Kind::Dummy {
-            vi - p.vw[j]
-        } else {
-            vi - p.v[j]
-        };
-        let mut pij = pi_term + p_rho2[j];
-        if kind_j == Kind::Dummy {
-            // walls push, never pull (module docs)
-            pij = pij.max(0.0);
-        }
-        let vx = vij.dot(&xij);
-        if model.alpha > 0.0 && vx < 0.0 {
-            pij += av_coef * vx / ((r2 + eta2) * (rhoi + rhoj));
-        }
-        acc -= xij * (f * mj * pij);
-        if model.nu > 0.0 {
-            // μ_i + μ_j = ν (ρ_i + ρ_j); x_ij·∇_i W_ij / r² = (1/r) ∂W/∂r (m⁻ᴰ⁻²)
-            let mu_sum = model.nu * (rhoi + rhoj);
-            acc += vij * (mj * mu_sum * f / (rhoi * rhoj));
-        }
+        acc += pair_acceleration(p, model, &terms, p_rho2[i], p_rho2[j], i, j);
     }
     acc + model.g
+}
+
+/// Per-particle constants of [`pair_acceleration`].
+pub struct PairTerms {
+    /// −2 α h c0 of particle i's material (m²/s): Π_ij = av_coef v_ij·x_ij / ((r² + η²)(ρ_i + ρ_j)).
+    av_coef: f64,
+    /// η² = 0.01 h² (m²), the artificial viscosity's regularisation.
+    eta2: f64,
+}
+
+impl PairTerms {
+    /// The constants for fluid particle `i`.
+    pub fn of<const D: usize>(p: &Particles<D>, model: &Model<D>, i: usize) -> Self {
+        let h = model.kernel.h;
+        let c0 = model.materials[p.mat[i] as usize].c0();
+        PairTerms {
+            av_coef: -2.0 * model.alpha * c0 * h,
+            eta2: 0.01 * h * h,
+        }
+    }
+}
+
+/// The acceleration (m/s²) of fluid particle i due to neighbour j, the body force excluded:
+/// pressure and artificial viscosity −m_j (p_i/ρ_i² + p_j/ρ_j² + Π_ij) ∇_i W_ij (the pressure
+/// part clamped at ≥ 0 for a dummy wall j) plus the laminar term for a smoothed j, the
+/// repulsive force for a repulsive wall j. `pi_term`, `pj_term` are p/ρ² of i and j
+/// (m⁵ kg⁻¹ s⁻²). The force probe sums m_i times this over a wall's particles, reversed.
+#[inline(always)]
+pub fn pair_acceleration<const D: usize>(
+    p: &Particles<D>,
+    model: &Model<D>,
+    terms: &PairTerms,
+    pi_term: f64,
+    pj_term: f64,
+    i: usize,
+    j: usize,
+) -> Vector<D> {
+    let xij = p.x[i] - p.x[j];
+    let r2 = xij.norm_squared();
+    let r = r2.sqrt();
+    let kind_j = p.kind[j];
+    if !kind_j.is_smoothed() {
+        return model
+            .repulsive
+            .acceleration(&xij, r2, r)
+            .unwrap_or_else(Vector::zeros);
+    }
+    let f = model.kernel.dw_dr_over_r(r);
+    let (rhoi, mj, rhoj) = (p.rho[i], p.mass[j], p.rho[j]);
+    // viscous terms see the extrapolated velocity of dummy walls
+    let vij = if kind_j == Kind::Dummy {
+        p.v[i] - p.vw[j]
+    } else {
+        p.v[i] - p.v[j]
+    };
+    let mut pij = pi_term + pj_term;
+    if kind_j == Kind::Dummy {
+        // walls push, never pull (module docs)
+        pij = pij.max(0.0);
+    }
+    let vx = vij.dot(&xij);
+    if model.alpha > 0.0 && vx < 0.0 {
+        pij += terms.av_coef * vx / ((r2 + terms.eta2) * (rhoi + rhoj));
+    }
+    let mut acc = xij * (-f * mj * pij);
+    if model.nu > 0.0 {
+        // μ_i + μ_j = ν (ρ_i + ρ_j); x_ij·∇_i W_ij / r² = (1/r) ∂W/∂r (m⁻ᴰ⁻²)
+        let mu_sum = model.nu * (rhoi + rhoj);
+        acc += vij * (mj * mu_sum * f / (rhoi * rhoj));
+    }
+    acc
 }

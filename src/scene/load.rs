@@ -240,6 +240,17 @@ impl SceneSource {
             .and_then(|s| ImDocument::parse(self.text.clone()).ok().map(|d| key_at(&d, &s)))
             .unwrap_or_default();
         let mut message = first_line(e.message()).to_string();
+        // inside a tagged table (a probe's kind) the parser can only point at the array; find
+        // the entry that holds the offending value instead
+        let mut span = span;
+        if let Some(found) = message
+            .strip_prefix("unknown variant `")
+            .and_then(|r| r.split('`').next())
+            .and_then(|v| key_holding(&self.text, &key, v))
+        {
+            key = found;
+            span = None;
+        }
         if let Some(field) = message
             .strip_prefix("missing field `")
             .and_then(|r| r.split('`').next())
@@ -323,6 +334,22 @@ fn span_in(t: &dyn TableLike, path: &[Seg], best: &mut Option<Range<usize>>) {
         (Item::Value(Value::InlineTable(tab)), Some(Seg::Key(_))) => span_in(tab, rest, best),
         _ => {}
     }
+}
+
+/// The key `array[i].k` of the first entry of the array of tables named by `at` (for example
+/// `probe[0]` or `probe`) whose key `k` holds the string `value`.
+fn key_holding(text: &str, at: &str, value: &str) -> Option<String> {
+    let name = at.split('[').next()?;
+    let doc = ImDocument::parse(text.to_string()).ok()?;
+    let Item::ArrayOfTables(a) = doc.as_table().get(name)? else {
+        return None;
+    };
+    let found = a.iter().enumerate().find_map(|(i, t)| {
+        t.iter()
+            .find(|(_, v)| v.as_str() == Some(value))
+            .map(|(k, _)| format!("{name}[{i}].{k}"))
+    });
+    found
 }
 
 /// The dotted key path of the deepest item whose span contains `span`.

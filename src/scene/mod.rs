@@ -469,16 +469,32 @@ impl Default for Output {
     }
 }
 
-/// A probe, sampled at every output step.
+/// A probe (`[[probe]]`), written to `probes/<name>.csv` on its own clock: every `interval`
+/// seconds of simulated time (default: at the output steps; 0 = every step), buffered and
+/// flushed at output steps. Sensors are documented in `src/probes/sensors.rs`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, tag = "kind", rename_all = "snake_case")]
 pub enum Probe {
-    /// Kernel-interpolated (Shepard) fluid pressure at a point: column `p`.
+    /// Pressure transducer at a point, usually on a wall face: the kernel-weighted (Shepard)
+    /// average of the fluid pressure around it (walls excluded), averaged over a sensing face
+    /// of `diameter` across `normal` and over the last `window` seconds: column `p` (Pa).
     Pressure {
         /// Probe name (file `probes/<name>.csv`).
         name: String,
-        /// Point (m).
+        /// Centre of the sensing face (m).
         point: Vec<f64>,
+        /// Diameter of the sensing face (m; 0 = a point).
+        #[serde(default)]
+        diameter: f64,
+        /// Normal of the sensing face (needed when `diameter` > 0; any length).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        normal: Option<Vec<f64>>,
+        /// Averaging window (s; 0 = instantaneous). A windowed sensor samples every step.
+        #[serde(default)]
+        window: f64,
+        /// Seconds between rows (default: the output interval; 0 = every step).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        interval: Option<f64>,
     },
     /// Kernel-interpolated velocity at `points` points from `from` to `to`.
     VelocityLine {
@@ -490,6 +506,9 @@ pub enum Probe {
         to: Vec<f64>,
         /// Number of sample points (≥ 2).
         points: usize,
+        /// Seconds between rows (default: the output interval; 0 = every step).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        interval: Option<f64>,
     },
     /// Wave gauge at a station: the elevation (along the last axis) where the continuous water
     /// column on the bed under `point` ends (interpolated matter fraction ½; spray above it is
@@ -499,15 +518,63 @@ pub enum Probe {
         name: String,
         /// A point on the vertical line (m); its last coordinate is ignored.
         point: Vec<f64>,
+        /// Seconds between rows (default: the output interval; 0 = every step).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        interval: Option<f64>,
     },
-    /// Front position: largest coordinate of any fluid particle along `axis` (0 = x): column `front`.
+    /// Front of the main body of fluid along `axis` in `direction`: the extreme coordinate of
+    /// the largest connected group of fluid particles (two particles connect when closer than
+    /// `link`·dx), so that detached drops and spray do not count: column `front` (m).
     Front {
         /// Probe name.
         name: String,
-        /// Axis index.
+        /// Axis index (0 = x).
         #[serde(default)]
         axis: usize,
+        /// `"+"` (largest coordinate, the default) or `"-"` (smallest).
+        #[serde(default)]
+        direction: Direction,
+        /// Connection distance in units of dx (default 1.5).
+        #[serde(default = "default_link")]
+        link: f64,
+        /// Seconds between rows (default: the output interval; 0 = every step).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        interval: Option<f64>,
     },
+    /// Force and moment the fluid exerts on the wall `body` (N and N·m; per metre of depth in
+    /// 2D), the same pair forces the walls exert on the fluid, reversed; the moment is about
+    /// `about`: columns `fx, fy[, fz]` then `mz` (2D) or `mx, my, mz` (3D).
+    Force {
+        /// Probe name.
+        name: String,
+        /// Name of a `[[wall]]` with dummy or repulsive particles.
+        body: String,
+        /// Point the moment is taken about (m; default the origin).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        about: Option<Vec<f64>>,
+        /// Averaging window (s; 0 = instantaneous). A windowed sensor samples every step.
+        #[serde(default)]
+        window: f64,
+        /// Seconds between rows (default: the output interval; 0 = every step).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        interval: Option<f64>,
+    },
+}
+
+/// Which way a front probe looks along its axis.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
+pub enum Direction {
+    /// Towards larger coordinates.
+    #[default]
+    #[serde(rename = "+")]
+    Plus,
+    /// Towards smaller coordinates.
+    #[serde(rename = "-")]
+    Minus,
+}
+
+fn default_link() -> f64 {
+    1.5
 }
 
 impl Probe {
@@ -517,7 +584,27 @@ impl Probe {
             Probe::Pressure { name, .. }
             | Probe::VelocityLine { name, .. }
             | Probe::Gauge { name, .. }
-            | Probe::Front { name, .. } => name,
+            | Probe::Front { name, .. }
+            | Probe::Force { name, .. } => name,
+        }
+    }
+
+    /// Seconds between rows, if set (`None`: at the output steps).
+    pub fn interval(&self) -> Option<f64> {
+        match self {
+            Probe::Pressure { interval, .. }
+            | Probe::VelocityLine { interval, .. }
+            | Probe::Gauge { interval, .. }
+            | Probe::Front { interval, .. }
+            | Probe::Force { interval, .. } => *interval,
+        }
+    }
+
+    /// Averaging window (s; 0 = none).
+    pub fn window(&self) -> f64 {
+        match self {
+            Probe::Pressure { window, .. } | Probe::Force { window, .. } => *window,
+            _ => 0.0,
         }
     }
 }

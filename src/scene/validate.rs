@@ -482,8 +482,53 @@ fn validate_probes(s: &mut Scene) -> Result<()> {
         if s.probes[..i].iter().any(|p| p.name() == name) {
             return err(format!("{k}.name"), format!("probe `{name}` is defined twice"));
         }
+        if let Some(iv) = s.probes[i].interval() {
+            if !(iv >= 0.0 && iv.is_finite()) {
+                return err(
+                    format!("{k}.interval"),
+                    format!("must be ≥ 0 s (0 = every step; leave it out for the output interval), got {iv}"),
+                );
+            }
+        }
+        let window = s.probes[i].window();
+        if !(window >= 0.0 && window.is_finite()) {
+            return err(
+                format!("{k}.window"),
+                format!("must be ≥ 0 s (0 = no time average), got {window}"),
+            );
+        }
         match &mut s.probes[i] {
-            Probe::Pressure { point, .. } | Probe::Gauge { point, .. } => {
+            Probe::Pressure {
+                point,
+                diameter,
+                normal,
+                ..
+            } => {
+                check_vec(point, d, &format!("{k}.point"), false)?;
+                point_in_domain(point, &format!("{k}.point"), &s.domain)?;
+                if !(*diameter >= 0.0 && diameter.is_finite()) {
+                    return err(format!("{k}.diameter"), format!("must be ≥ 0 m, got {diameter}"));
+                }
+                match normal {
+                    Some(n) => {
+                        check_vec(n, d, &format!("{k}.normal"), false)?;
+                        if n.iter().all(|c| *c == 0.0) {
+                            return err(
+                                format!("{k}.normal"),
+                                "must not be zero: the wall's normal, e.g. [-1.0, 0.0]",
+                            );
+                        }
+                    }
+                    None if *diameter > 0.0 && d > 1 => {
+                        return err(
+                            format!("{k}.normal"),
+                            "a sensing face with a diameter needs the wall's normal, e.g. normal = [-1.0, 0.0]",
+                        );
+                    }
+                    None => {}
+                }
+            }
+            Probe::Gauge { point, .. } => {
                 check_vec(point, d, &format!("{k}.point"), false)?;
                 point_in_domain(point, &format!("{k}.point"), &s.domain)?;
             }
@@ -496,9 +541,33 @@ fn validate_probes(s: &mut Scene) -> Result<()> {
                     return err(format!("{k}.points"), "needs at least 2 points");
                 }
             }
-            Probe::Front { axis, .. } => {
+            Probe::Front { axis, link, .. } => {
                 if *axis >= d {
                     return err(format!("{k}.axis"), format!("must be below dimension {d}"));
+                }
+                if !(*link >= 1.0 && link.is_finite()) {
+                    return err(
+                        format!("{k}.link"),
+                        format!("must be ≥ 1 (in units of dx; 1.5 is typical), got {link}"),
+                    );
+                }
+            }
+            Probe::Force { body, about, .. } => {
+                let Some(w) = s.walls.iter().find(|w| w.name == *body) else {
+                    let names: Vec<&str> = s.walls.iter().map(|w| w.name.as_str()).collect();
+                    return err(
+                        format!("{k}.body"),
+                        format!("no [[wall]] is named `{body}`; the walls are {names:?}"),
+                    );
+                };
+                if w.method == WallMethod::Mirror {
+                    return err(
+                        format!("{k}.body"),
+                        format!("wall `{body}` is a mirror, which has no particles to take a force on; use a dummy or repulsive wall"),
+                    );
+                }
+                if let Some(a) = about {
+                    check_vec(a, d, &format!("{k}.about"), false)?;
                 }
             }
         }

@@ -5,7 +5,7 @@ use super::Simulation;
 use crate::comm::{Comm, Phase, Tag};
 use crate::error::Result;
 use crate::exact::ExactSum;
-use crate::halo::{pack_owned, unpack_owned};
+use crate::halo::{pack_owned_where, unpack_owned};
 use crate::particles::Particles;
 use crate::physics::Model;
 use crate::scene::Scene;
@@ -115,14 +115,26 @@ impl<const D: usize> Simulation<D> {
     /// Gather every owned particle of every rank on rank 0, sorted by id (`None` on the other
     /// ranks). Collective: every rank must call it.
     pub fn gather(&self, comm: &dyn Comm) -> Result<Option<View<'_, D>>> {
+        self.gather_where(comm, &|_, _| true)
+    }
+
+    /// Gather on rank 0, sorted by id, the owned particles of every rank that `keep` selects
+    /// (`None` on the other ranks): what a probe needs without the whole state. Collective.
+    pub fn gather_where(
+        &self,
+        comm: &dyn Comm,
+        keep: &dyn Fn(&Particles<D>, usize) -> bool,
+    ) -> Result<Option<View<'_, D>>> {
         let mut all = Particles::<D>::default();
         if self.ranks == 1 {
             for i in 0..self.p.n_owned {
-                all.push_owned(self.p.record(i));
+                if keep(&self.p, i) {
+                    all.push_owned(self.p.record(i));
+                }
             }
         } else {
             let prev = comm.set_phase(Phase::Output);
-            let mine = pack_owned(&self.p);
+            let mine = pack_owned_where(&self.p, keep);
             if self.rank != 0 {
                 comm.send(0, TAG_GATHER, mine)?;
                 comm.set_phase(prev);

@@ -1,0 +1,306 @@
+//! Probes on their own clock: each `[[probe]]` writes `probes/<name>.csv` (first column `t`)
+//! every `interval` seconds of simulated time (default: at the output steps; 0 = every step),
+//! independently of snapshots. Rows are buffered and flushed at output steps and at the end.
+//!
+//! A probe never needs the whole state: at a sampling step every rank sends rank 0 only its
+//! owned particles inside the probes' regions (a box around a pressure point or a velocity line,
+//! the vertical column under a gauge, a force probe's wall with the fluid in reach of it; a
+//! front needs every fluid particle), and rank 0 samples them sorted by id — the same particles
+//! in the same order on any number of ranks, so probe files keep their bits.
+//!
+//! A probe with an averaging `window` samples every step and writes, at its rows, the mean of
+//! its samples over the last `window` seconds (trapezoid rule in time).
+
+pub mod sensors;
+
+use crate::comm::{Comm, Phase};
+use crate::error::{Error, Result};
+use crate::output::create;
+use crate::particles::Particles;
+use crate::scene::{Probe, Scene};
+use crate::sim::Simulation;
+use crate::Vector;
+use std::collections::VecDeque;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+pub use sensors::{columns, sample};
+
+/// When a probe writes a row.
+#[derive(Debug, Clone, Copy)]
+enum Clock {
+    /// At the output steps.
+    Output,
+    /// Every step.
+    Step,
+    /// At the first step at or after each multiple of the interval (s); the next such time.
+    Every { interval: f64, next: f64 },
+}
+
+/// The particles a probe reads, as a box (m) and which kinds.
+#[derive(Debug, Clone, Copy)]
+struct Region<const D: usize> {
+    min: Vector<D>,
+    max: Vector<D>,
+    /// Wall particles too (a gauge finds the bed; φ counts walls).
+    walls: bool,
+    /// Only the walls of this body (a force probe), with every fluid particle in the box.
+    body: Option<u16>,
+}
+
+impl<const D: usize> Region<D> {
+    fn contains(&self, p: &Particles<D>, i: usize) -> bool {
+        let k = p.kind[i];
+        let kind_ok = k.is_fluid() || (k.is_wall() && self.body.map_or(self.walls, |b| p.body[i] == b));
+        if !kind_ok {
+            return false;
+        }
+        if k.is_wall() && self.body.is_some() {
+            return true;
+        }
+        (0..D).all(|a| p.x[i][a] >= self.min[a] && p.x[i][a] <= self.max[a])
+    }
+}
+
+/// A time-averaged sensor's recent samples (t, values).
+type Window = VecDeque<(f64, Vec<f64>)>;
+
+/// Every probe of a run: clocks, averaging windows and (rank 0) the files.
+pub struct ProbeSet<const D: usize> {
+    probes: Vec<Probe>,
+    clocks: Vec<Clock>,
+    windows: Vec<Window>,
+    /// Wall body index of each force probe (0 for the others).
+    walls: Vec<u16>,
+    /// Rank 0 only: one file per probe.
+    files: Vec<BufWriter<File>>,
+    dir: PathBuf,
+}
+
+impl<const D: usize> ProbeSet<D> {
+    /// The probes of `scene`; with `dir` (rank 0) their files are created under `dir/probes`.
+    pub fn new(scene: &Scene, dir: Option<&Path>) -> Result<Self> {
+        let probes = scene.probes.clone();
+        let clocks = probes
+            .iter()
+            .map(|p| match p.interval() {
+                None => Clock::Output,
+                Some(iv) if iv <= 0.0 => Clock::Step,
+                Some(iv) => Clock::Every {
+                    interval: iv,
+                    next: 0.0,
+                },
+            })
+            .collect();
+        let walls = probes
+            .iter()
+            .map(|p| match p {
+                Probe::Force { body, .. } => {
+                    scene.walls.iter().position(|w| w.name == *body).unwrap_or(0) as u16
+                }
+                _ => 0,
+            })
+            .collect();
+        let mut files = Vec::new();
+        let pd = dir.map(|d| d.join("probes")).unwrap_or_default();
+        if let (Some(_), false) = (dir, probes.is_empty()) {
+            std::fs::create_dir_all(&pd).map_err(|e| Error::io(&pd, e))?;
+            for pr in &probes {
+                let mut f = create(&pd.join(format!("{}.csv", pr.name())))?;
+                writeln!(f, "t,{}", columns(pr, D).join(",")).map_err(|e| Error::io(&pd, e))?;
+                files.push(f);
+            }
+        }
+        Ok(ProbeSet {
+            windows: vec![Window::new(); probes.len()],
+            probes,
+            clocks,
+            walls,
+            files,
+            dir: pd,
+        })
+    }
+
+    /// Collective, after each step (and once at the start, with `output`): sample the probes
+    /// that are due now or average over a window, and write the rows of those that are due.
+    /// `output` says this is an output step.
+    pub fn after_step(&mut self, sim: &Simulation<D>, comm: &dyn Comm, output: bool) -> Result<()> {
+        if self.probes.is_empty() {
+            return Ok(());
+        }
+        let t = sim.t;
+        let due: Vec<bool> = self.clocks.iter_mut().map(|c| clock_due(c, t, output)).collect();
+        let sampled: Vec<bool> = (0..self.probes.len())
+            .map(|k| due[k] || self.probes[k].window() > 0.0)
+            .collect();
+        if !sampled.contains(&true) {
+            return Ok(());
+        }
+        let mut regions = Vec::new();
+        for k in (0..self.probes.len()).filter(|&k| sampled[k]) {
+            regions.push(self.region(k, sim, comm)?);
+        }
+        let prev = comm.set_phase(Phase::Output);
+        let view = sim.gather_where(comm, &|p, i| regions.iter().any(|r| r.contains(p, i)));
+        comm.set_phase(prev);
+        let Some(view) = view? else {
+            return Ok(());
+        };
+        for k in (0..self.probes.len()).filter(|&k| sampled[k]) {
+            let mut values = sample(&view, &self.probes[k], self.walls[k]);
+            let window = self.probes[k].window();
+            if window > 0.0 {
+                values = average(&mut self.windows[k], t, values, window);
+            }
+            if due[k] {
+                if let Some(f) = self.files.get_mut(k) {
+                    let row: Vec<String> = values.iter().map(|v| format!("{v}")).collect();
+                    writeln!(f, "{t},{}", row.join(",")).map_err(|e| Error::io(&self.dir, e))?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Flush every probe file (rank 0; a no-op elsewhere).
+    pub fn flush(&mut self) -> Result<()> {
+        for f in &mut self.files {
+            f.flush().map_err(|e| Error::io(&self.dir, e))?;
+        }
+        Ok(())
+    }
+
+    /// The region probe `k` reads now. A force probe's box is its wall's current extent
+    /// (all-reduced: walls may move) grown by the interaction reach.
+    fn region(&self, k: usize, sim: &Simulation<D>, comm: &dyn Comm) -> Result<Region<D>> {
+        let reach = sim.model.kernel.support.max(sim.model.repulsive.r0);
+        let vec_of = |x: &[f64]| Vector::<D>::from_fn(|a, _| x[a]);
+        let everywhere = Region {
+            min: Vector::from_element(f64::NEG_INFINITY),
+            max: Vector::from_element(f64::INFINITY),
+            walls: false,
+            body: None,
+        };
+        let around = |lo: Vector<D>, hi: Vector<D>, grow: f64| Region {
+            min: lo.add_scalar(-grow),
+            max: hi.add_scalar(grow),
+            ..everywhere
+        };
+        Ok(match &self.probes[k] {
+            Probe::Pressure { point, diameter, .. } => {
+                let c = vec_of(point);
+                around(c, c, reach + 0.5 * diameter)
+            }
+            Probe::VelocityLine { from, to, .. } => {
+                let (a, b) = (vec_of(from), vec_of(to));
+                around(a.inf(&b), b.sup(&a), reach)
+            }
+            Probe::Gauge { point, .. } => {
+                let mut r = around(vec_of(point), vec_of(point), reach);
+                r.min[D - 1] = f64::NEG_INFINITY;
+                r.max[D - 1] = f64::INFINITY;
+                r.walls = true;
+                r
+            }
+            Probe::Front { .. } => everywhere,
+            Probe::Force { .. } => {
+                let b = self.walls[k];
+                let p = &sim.p;
+                let (mut lo, mut hi) = ([f64::INFINITY; D], [f64::NEG_INFINITY; D]);
+                for i in (0..p.n_owned).filter(|&i| p.kind[i].is_wall() && p.body[i] == b) {
+                    for a in 0..D {
+                        lo[a] = lo[a].min(p.x[i][a]);
+                        hi[a] = hi[a].max(p.x[i][a]);
+                    }
+                }
+                let prev = comm.set_phase(Phase::Output);
+                comm.all_reduce_min_f64(&mut lo)?;
+                comm.all_reduce_max_f64(&mut hi)?;
+                comm.set_phase(prev);
+                Region {
+                    body: Some(b),
+                    ..around(vec_of(&lo), vec_of(&hi), reach)
+                }
+            }
+        })
+    }
+}
+
+/// Whether a clock writes a row at time `t` (s); advances an interval clock past `t`.
+fn clock_due(c: &mut Clock, t: f64, output: bool) -> bool {
+    match c {
+        Clock::Output => output,
+        Clock::Step => true,
+        Clock::Every { interval, next } => {
+            if t >= *next * (1.0 - 1e-12) - 1e-300 {
+                while *next <= t * (1.0 + 1e-12) {
+                    *next += *interval;
+                }
+                true
+            } else {
+                false
+            }
+        }
+    }
+}
+
+/// Push a sample (t, values) and return the time average over [t − window, t] of the samples
+/// kept (trapezoid rule; the sample itself when it is the only one).
+fn average(w: &mut Window, t: f64, values: Vec<f64>, window: f64) -> Vec<f64> {
+    w.push_back((t, values));
+    while w.len() > 1 && w[1].0 <= t - window {
+        w.pop_front();
+    }
+    let span = t - w[0].0;
+    if w.len() < 2 || span <= 0.0 {
+        return w[w.len() - 1].1.clone();
+    }
+    let mut sum = vec![0.0; w[0].1.len()];
+    for (a, b) in w.iter().zip(w.iter().skip(1)) {
+        let dt = b.0 - a.0;
+        for (s, (x, y)) in sum.iter_mut().zip(a.1.iter().zip(&b.1)) {
+            *s += 0.5 * (x + y) * dt;
+        }
+    }
+    sum.iter().map(|s| s / span).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_interval_clock_fires_at_the_first_step_past_each_multiple() {
+        let mut c = Clock::Every {
+            interval: 0.1,
+            next: 0.0,
+        };
+        let fired: Vec<f64> = [0.0, 0.04, 0.08, 0.12, 0.16, 0.2, 0.24, 0.31]
+            .into_iter()
+            .filter(|&t| clock_due(&mut c, t, false))
+            .collect();
+        assert_eq!(fired, vec![0.0, 0.12, 0.2, 0.31]);
+        let mut o = Clock::Output;
+        assert!(!clock_due(&mut o, 0.5, false) && clock_due(&mut o, 0.5, true));
+        assert!(clock_due(&mut Clock::Step, 0.5, false));
+    }
+
+    #[test]
+    fn the_window_average_is_the_trapezoid_mean_of_the_last_window() {
+        let mut w = Window::new();
+        // a linear ramp f = t averages to its midpoint value over any window
+        let mut last = vec![];
+        for k in 0..=20 {
+            let t = k as f64 * 0.01;
+            last = average(&mut w, t, vec![t], 0.05);
+        }
+        assert!((last[0] - 0.175).abs() < 1e-12, "{last:?}");
+        // a constant stays itself
+        let mut w = Window::new();
+        for k in 0..5 {
+            last = average(&mut w, k as f64, vec![3.0, -1.0], 2.5);
+        }
+        assert_eq!(last, vec![3.0, -1.0]);
+    }
+}

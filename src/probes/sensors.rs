@@ -1,0 +1,309 @@
+//! What each probe kind computes from the particles gathered for it (a [`View`] sorted by id).
+//!
+//! Interpolated values use Shepard's normalisation over fluid particles:
+//! f(x) = Σ_j f_j W(x − x_j) V_j / Σ_j W(x − x_j) V_j, V_j = m_j/ρ_j, summed in id order.
+
+use crate::physics::fluid::{pair_acceleration, PairTerms};
+use crate::scene::{Direction, Probe};
+use crate::sim::View;
+use crate::Vector;
+use std::collections::HashMap;
+
+/// Column names of a probe (after `t`).
+pub fn columns(probe: &Probe, dim: usize) -> Vec<String> {
+    let comps = ["vx", "vy", "vz"];
+    match probe {
+        Probe::Pressure { .. } => vec!["p".into()],
+        Probe::VelocityLine { points, .. } => (0..*points)
+            .flat_map(|k| comps[..dim].iter().map(move |c| format!("s{k}_{c}")))
+            .collect(),
+        Probe::Gauge { .. } => vec!["eta".into()],
+        Probe::Front { .. } => vec!["front".into()],
+        Probe::Force { .. } => {
+            let f = ["fx", "fy", "fz"][..dim].iter().map(|s| s.to_string());
+            let m: &[&str] = if dim == 3 { &["mx", "my", "mz"] } else { &["mz"] };
+            f.chain(m.iter().map(|s| s.to_string())).collect()
+        }
+    }
+}
+
+/// Sample a probe from the particles gathered for it. `wall` is the body index of a force
+/// probe's wall.
+pub fn sample<const D: usize>(v: &View<D>, probe: &Probe, wall: u16) -> Vec<f64> {
+    let vec_of = |x: &[f64]| Vector::<D>::from_fn(|a, _| x[a]);
+    match probe {
+        Probe::Pressure {
+            point,
+            diameter,
+            normal,
+            ..
+        } => {
+            let n = normal.as_deref().map(vec_of).unwrap_or_else(Vector::zeros);
+            vec![pressure(v, &vec_of(point), *diameter, &n)]
+        }
+        Probe::VelocityLine { from, to, points, .. } => {
+            let (a, b) = (vec_of(from), vec_of(to));
+            let mut out = Vec::with_capacity(points * D);
+            for k in 0..*points {
+                let s = k as f64 / (*points - 1) as f64;
+                let u = shepard(v, &(a + (b - a) * s), &|i| v.p.v[i]).unwrap_or_else(Vector::zeros);
+                out.extend(u.iter());
+            }
+            out
+        }
+        Probe::Gauge { point, .. } => vec![gauge(v, point)],
+        Probe::Front {
+            axis,
+            direction,
+            link,
+            ..
+        } => vec![front(v, *axis, *direction, *link * v.scene.discretisation.dx)],
+        Probe::Force { about, .. } => {
+            let at = about.as_deref().map(vec_of).unwrap_or_else(Vector::zeros);
+            force(v, wall, &at)
+        }
+    }
+}
+
+/// Shepard interpolation of `f` over the fluid particles at `at`; `None` where no fluid
+/// particle is within the kernel support.
+fn shepard<const D: usize>(v: &View<D>, at: &Vector<D>, f: &dyn Fn(usize) -> Vector<D>) -> Option<Vector<D>> {
+    let (p, k) = (&v.p, &v.model.kernel);
+    let (mut sw, mut s) = (0.0, Vector::<D>::zeros());
+    for i in 0..p.n_owned {
+        if !p.kind[i].is_fluid() {
+            continue;
+        }
+        let r = (at - p.x[i]).norm();
+        if r < k.support {
+            let w = k.w(r) * p.mass[i] / p.rho[i];
+            sw += w;
+            s += f(i) * w;
+        }
+    }
+    (sw > 0.0).then(|| s / sw)
+}
+
+/// A pressure transducer (Pa): the Shepard average of the fluid pressure (wall particles
+/// excluded, so on a wall face it averages the fluid within the support in front of the face),
+/// taken at the points of its sensing face — a disc (3D) or segment (2D) of `diameter` across
+/// the normal `n`, sampled every dx/4 — and averaged over them with equal weights. A point
+/// with no fluid in reach reads 0 (a dry part of the face feels no gauge pressure).
+fn pressure<const D: usize>(v: &View<D>, centre: &Vector<D>, diameter: f64, n: &Vector<D>) -> f64 {
+    let at = |x: &Vector<D>| shepard(v, x, &|i| Vector::from_element(v.p.p[i])).map_or(0.0, |s| s[0]);
+    if diameter <= 0.0 || D == 1 {
+        return at(centre);
+    }
+    let n = n.normalize();
+    // an orthonormal basis of the face: Gram–Schmidt on the coordinate axes
+    let mut basis: Vec<Vector<D>> = Vec::new();
+    for a in 0..D {
+        let mut e = Vector::<D>::from_fn(|b, _| if a == b { 1.0 } else { 0.0 });
+        e -= n * n.dot(&e);
+        for b in &basis {
+            e -= b * b.dot(&e);
+        }
+        if e.norm() > 1e-6 && basis.len() < D - 1 {
+            basis.push(e.normalize());
+        }
+    }
+    let radius = 0.5 * diameter;
+    let m = (radius / (0.25 * v.scene.discretisation.dx)).ceil().max(1.0) as i64;
+    let step = radius / m as f64;
+    let (mut sum, mut count) = (0.0, 0usize);
+    let span = -m..=m;
+    let second = if D == 3 { -m..=m } else { 0..=0 };
+    for a in span {
+        for b in second.clone() {
+            let (sa, sb) = (a as f64 * step, b as f64 * step);
+            if sa * sa + sb * sb > radius * radius * (1.0 + 1e-12) {
+                continue;
+            }
+            let mut x = centre + basis[0] * sa;
+            if D == 3 {
+                x += basis[1] * sb;
+            }
+            sum += at(&x);
+            count += 1;
+        }
+    }
+    sum / count as f64
+}
+
+/// A wave gauge: the elevation (m, along the last axis) of the free surface of the continuous
+/// water column under `point`. The column starts on the bed — the top of the wall particles
+/// under the gauge, or the domain's floor — and rises while the kernel-interpolated fraction of
+/// matter φ(z) = Σ_j W(x − x_j) V_j (fluid and wall particles) stays at or above ½; the
+/// surface is where φ crosses ½, interpolated linearly between samples dx/4 apart. Spray above
+/// the first crossing is not water under the gauge. A gauge whose first fluid row is not wet
+/// (φ < ½ at dx/2 above the bed) is dry and reads 0.
+fn gauge<const D: usize>(v: &View<D>, point: &[f64]) -> f64 {
+    let p = &v.p;
+    let k = &v.model.kernel;
+    let dx = v.scene.discretisation.dx;
+    let up = D - 1;
+    let under = |i: usize| (0..up).all(|a| (p.x[i][a] - point[a]).abs() < 0.5 * dx);
+    let bed = (0..p.n_owned)
+        .filter(|&i| p.kind[i].is_wall() && under(i))
+        .map(|i| p.x[i][up] + 0.5 * dx)
+        .fold(v.scene.domain.min[up], f64::max);
+    let phi = |z: f64| {
+        let at = Vector::<D>::from_fn(|a, _| if a == up { z } else { point[a] });
+        let mut s = 0.0;
+        for i in 0..p.n_owned {
+            let r = (at - p.x[i]).norm();
+            if r < k.support {
+                s += k.w(r) * p.mass[i] / p.rho[i];
+            }
+        }
+        s
+    };
+    let top = v.scene.domain.max[up];
+    let (mut z, mut f) = (bed + 0.5 * dx, phi(bed + 0.5 * dx));
+    if f < 0.5 {
+        return 0.0;
+    }
+    let step = 0.25 * dx;
+    while z + step <= top {
+        let (z1, f1) = (z + step, phi(z + step));
+        if f1 < 0.5 {
+            return z + step * (f - 0.5) / (f - f1);
+        }
+        (z, f) = (z1, f1);
+    }
+    top
+}
+
+/// Integer cell of `x` in a grid of spacing `size` (m).
+fn cell_of<const D: usize>(x: &Vector<D>, size: f64) -> [i64; D] {
+    std::array::from_fn(|a| (x[a] / size).floor() as i64)
+}
+
+/// The fluid particles of `v` binned in cells of side `size` (m), each cell in id order.
+fn bin_fluid<const D: usize>(v: &View<D>, size: f64) -> HashMap<[i64; D], Vec<usize>> {
+    let mut cells: HashMap<[i64; D], Vec<usize>> = HashMap::new();
+    for i in 0..v.p.n_owned {
+        if v.p.kind[i].is_fluid() {
+            cells.entry(cell_of(&v.p.x[i], size)).or_default().push(i);
+        }
+    }
+    cells
+}
+
+/// The 3^D cell offsets around a cell (itself included).
+fn around<const D: usize>(c: [i64; D]) -> impl Iterator<Item = [i64; D]> {
+    (0..3i64.pow(D as u32)).map(move |k| {
+        let mut k = k;
+        std::array::from_fn(|a| {
+            let o = k % 3 - 1;
+            k /= 3;
+            c[a] + o
+        })
+    })
+}
+
+/// Front of the main body (m): the largest connected group of fluid particles, two particles
+/// connected when closer than `link` (m) — ties to the group holding the smallest id — and
+/// its largest (`+`) or smallest (`-`) coordinate along `axis`. Detached drops and spray ahead
+/// of the body are separate groups and do not count. NaN when there is no fluid.
+pub(crate) fn front<const D: usize>(v: &View<D>, axis: usize, dir: Direction, link: f64) -> f64 {
+    let p = &v.p;
+    let cells = bin_fluid(v, link);
+    // union–find over particle indices (fluid only take part)
+    let mut parent: Vec<usize> = (0..p.n_owned).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for i in 0..p.n_owned {
+        if !p.kind[i].is_fluid() {
+            continue;
+        }
+        for c in around(cell_of(&p.x[i], link)) {
+            for &j in cells.get(&c).map_or(&[][..], |v| v.as_slice()) {
+                if j > i && (p.x[i] - p.x[j]).norm() < link {
+                    let (a, b) = (root(&mut parent, i), root(&mut parent, j));
+                    // the smaller index (id) becomes the root: deterministic
+                    if a != b {
+                        parent[a.max(b)] = a.min(b);
+                    }
+                }
+            }
+        }
+    }
+    let mut size = vec![0usize; p.n_owned];
+    for i in 0..p.n_owned {
+        if p.kind[i].is_fluid() {
+            let r = root(&mut parent, i);
+            size[r] += 1;
+        }
+    }
+    // largest group; among equals the one whose root (smallest member) comes first
+    let Some(main) = (0..p.n_owned)
+        .filter(|&r| size[r] > 0)
+        .max_by_key(|&r| (size[r], std::cmp::Reverse(r)))
+    else {
+        return f64::NAN;
+    };
+    let coords = (0..p.n_owned)
+        .filter(|&i| p.kind[i].is_fluid() && root(&mut parent, i) == main)
+        .map(|i| p.x[i][axis]);
+    match dir {
+        Direction::Plus => coords.fold(f64::NEG_INFINITY, f64::max),
+        Direction::Minus => coords.fold(f64::INFINITY, f64::min),
+    }
+}
+
+/// Force (N; N/m in 2D) and moment about `about` (N·m; N·m/m in 2D) the fluid exerts on the
+/// wall body `wall`: for every fluid particle i and wall particle j of the body within the
+/// kernel support, −m_i times the acceleration j gives i in the momentum equation
+/// ([`pair_acceleration`]), so the sensor reads exactly the reaction of the forces the solver
+/// applies. Summed fluid particle by fluid particle in id order, each over its wall neighbours
+/// in id order. Returns `fx, fy[, fz]` then `mz` (2D) or `mx, my, mz` (3D).
+fn force<const D: usize>(v: &View<D>, wall: u16, about: &Vector<D>) -> Vec<f64> {
+    let (p, model) = (&v.p, v.model);
+    let reach = model.kernel.support.max(model.repulsive.r0);
+    let mut walls: HashMap<[i64; D], Vec<usize>> = HashMap::new();
+    for j in 0..p.n_owned {
+        if p.kind[j].is_wall() && p.body[j] == wall {
+            walls.entry(cell_of(&p.x[j], reach)).or_default().push(j);
+        }
+    }
+    let p_rho2 = |i: usize| p.p[i] / (p.rho[i] * p.rho[i]);
+    let (mut f, mut m) = (Vector::<D>::zeros(), [0.0f64; 3]);
+    for i in 0..p.n_owned {
+        if !p.kind[i].is_fluid() {
+            continue;
+        }
+        let terms = PairTerms::of(p, model, i);
+        let mut near: Vec<usize> = around(cell_of(&p.x[i], reach))
+            .filter_map(|c| walls.get(&c))
+            .flatten()
+            .copied()
+            .filter(|&j| (p.x[i] - p.x[j]).norm() < reach)
+            .collect();
+        near.sort_unstable();
+        for j in near {
+            let fj = pair_acceleration(p, model, &terms, p_rho2(i), p_rho2(j), i, j) * -p.mass[i];
+            f += fj;
+            let r = p.x[j] - about;
+            if D == 2 {
+                m[2] += r[0] * fj[1] - r[1] * fj[0];
+            } else {
+                m[0] += r[1] * fj[2] - r[2] * fj[1];
+                m[1] += r[2] * fj[0] - r[0] * fj[2];
+                m[2] += r[0] * fj[1] - r[1] * fj[0];
+            }
+        }
+    }
+    let mut out: Vec<f64> = f.iter().copied().collect();
+    if D == 3 {
+        out.extend(m);
+    } else {
+        out.push(m[2]);
+    }
+    out
+}
