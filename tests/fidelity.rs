@@ -280,8 +280,7 @@ fn depth_into_tank_walls(sim: &hsph::sim::Simulation<2>) -> (f64, u64) {
 /// Before the fix the thin film left on the upstream wall went into tension, the extrapolated
 /// wall pressure went negative with it and the wall drew the film in: particle 406 crossed
 /// dx/2 at t = 0.267 s and kept sliding down inside the wall. With the fix the deepest
-/// excursion past the face is 0.30 dx, under the impact on the downstream wall (free-slip walls:
-/// 0.36 dx there).
+/// excursion past the face is 0.25 dx, under the impact on the downstream wall.
 #[test]
 fn no_slip_walls_keep_a_collapsing_column_out_at_every_step() {
     use hsph::comm::serial::SerialComm;
