@@ -187,51 +187,61 @@ fn momentum_of<const D: usize>(
     if !p.kind[i].is_fluid() {
         return Vector::zeros();
     }
-    let terms = PairTerms::of(p, model, i);
+    let terms = PairTerms::of(p, model, i, p_rho2[i]);
     let mut acc = Vector::<D>::zeros();
     for &j in nl.of(i) {
         let j = j as usize;
-        acc += pair_acceleration(p, model, &terms, p_rho2[i], p_rho2[j], i, j);
+        acc += pair_acceleration(p, model, &terms, p_rho2[j], j);
     }
     acc + model.g
 }
 
-/// Per-particle constants of [`pair_acceleration`].
-pub struct PairTerms {
+/// Fluid particle i as [`pair_acceleration`] needs it, loaded once per particle.
+pub struct PairTerms<const D: usize> {
+    /// Position x_i (m).
+    x: Vector<D>,
+    /// Velocity v_i (m/s).
+    v: Vector<D>,
+    /// Density ρ_i (kg/m³).
+    rho: f64,
+    /// p_i/ρ_i² (m⁵ kg⁻¹ s⁻²).
+    p_rho2: f64,
     /// −2 α h c0 of particle i's material (m²/s): Π_ij = av_coef v_ij·x_ij / ((r² + η²)(ρ_i + ρ_j)).
     av_coef: f64,
     /// η² = 0.01 h² (m²), the artificial viscosity's regularisation.
     eta2: f64,
 }
 
-impl PairTerms {
-    /// The constants for fluid particle `i`.
-    pub fn of<const D: usize>(p: &Particles<D>, model: &Model<D>, i: usize) -> Self {
+impl<const D: usize> PairTerms<D> {
+    /// The terms of fluid particle `i`, whose p/ρ² is `p_rho2`.
+    pub fn of(p: &Particles<D>, model: &Model<D>, i: usize, p_rho2: f64) -> Self {
         let h = model.kernel.h;
         let c0 = model.materials[p.mat[i] as usize].c0();
         PairTerms {
+            x: p.x[i],
+            v: p.v[i],
+            rho: p.rho[i],
+            p_rho2,
             av_coef: -2.0 * model.alpha * c0 * h,
             eta2: 0.01 * h * h,
         }
     }
 }
 
-/// The acceleration (m/s²) of fluid particle i due to neighbour j, the body force excluded:
-/// pressure and artificial viscosity −m_j (p_i/ρ_i² + p_j/ρ_j² + Π_ij) ∇_i W_ij (the pressure
-/// part clamped at ≥ 0 for a dummy wall j) plus the laminar term for a smoothed j, the
-/// repulsive force for a repulsive wall j. `pi_term`, `pj_term` are p/ρ² of i and j
-/// (m⁵ kg⁻¹ s⁻²). The force probe sums m_i times this over a wall's particles, reversed.
+/// The acceleration (m/s²) of fluid particle i (`terms`) due to neighbour j, the body force
+/// excluded: pressure and artificial viscosity −m_j (p_i/ρ_i² + p_j/ρ_j² + Π_ij) ∇_i W_ij (the
+/// pressure part clamped at ≥ 0 for a dummy wall j) plus the laminar term for a smoothed j, the
+/// repulsive force for a repulsive wall j. `pj_term` is p_j/ρ_j² (m⁵ kg⁻¹ s⁻²). The force
+/// probe sums m_i times this over a wall's particles, reversed.
 #[inline(always)]
 pub fn pair_acceleration<const D: usize>(
     p: &Particles<D>,
     model: &Model<D>,
-    terms: &PairTerms,
-    pi_term: f64,
+    terms: &PairTerms<D>,
     pj_term: f64,
-    i: usize,
     j: usize,
 ) -> Vector<D> {
-    let xij = p.x[i] - p.x[j];
+    let xij = terms.x - p.x[j];
     let r2 = xij.norm_squared();
     let r = r2.sqrt();
     let kind_j = p.kind[j];
@@ -242,15 +252,12 @@ pub fn pair_acceleration<const D: usize>(
             .unwrap_or_else(Vector::zeros);
     }
     let f = model.kernel.dw_dr_over_r(r);
-    let (rhoi, mj, rhoj) = (p.rho[i], p.mass[j], p.rho[j]);
+    let (rhoi, mj, rhoj) = (terms.rho, p.mass[j], p.rho[j]);
+    let dummy = kind_j == Kind::Dummy;
     // viscous terms see the extrapolated velocity of dummy walls
-    let vij = if kind_j == Kind::Dummy {
-        p.v[i] - p.vw[j]
-    } else {
-        p.v[i] - p.v[j]
-    };
-    let mut pij = pi_term + pj_term;
-    if kind_j == Kind::Dummy {
+    let vij = terms.v - if dummy { p.vw[j] } else { p.v[j] };
+    let mut pij = terms.p_rho2 + pj_term;
+    if dummy {
         // walls push, never pull (module docs)
         pij = pij.max(0.0);
     }

@@ -278,7 +278,7 @@ fn force<const D: usize>(v: &View<D>, wall: u16, about: &Vector<D>) -> Vec<f64> 
         if !p.kind[i].is_fluid() {
             continue;
         }
-        let terms = PairTerms::of(p, model, i);
+        let terms = PairTerms::of(p, model, i, p_rho2(i));
         let mut near: Vec<usize> = around(cell_of(&p.x[i], reach))
             .filter_map(|c| walls.get(&c))
             .flatten()
@@ -287,7 +287,7 @@ fn force<const D: usize>(v: &View<D>, wall: u16, about: &Vector<D>) -> Vec<f64> 
             .collect();
         near.sort_unstable();
         for j in near {
-            let fj = pair_acceleration(p, model, &terms, p_rho2(i), p_rho2(j), i, j) * -p.mass[i];
+            let fj = pair_acceleration(p, model, &terms, p_rho2(j), j) * -p.mass[i];
             f += fj;
             let r = p.x[j] - about;
             if D == 2 {
