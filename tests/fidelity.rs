@@ -3,20 +3,7 @@
 
 mod common;
 
-use std::process::Command;
-
-fn hsph(args: &[&str]) -> (i32, String, String) {
-    let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
-        .args(args)
-        .current_dir(common::repo_path(""))
-        .output()
-        .unwrap();
-    (
-        o.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
+use common::hsph;
 
 #[test]
 fn check_reports_bodies_as_built_and_warns_when_they_differ() {

@@ -5,18 +5,10 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 fn hsph(args: &[&str]) -> (i32, String) {
-    let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
-        .args(args)
-        .current_dir(common::repo_path(""))
-        .output()
-        .unwrap();
-    (
-        o.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
+    let (code, _, err) = common::hsph(args);
+    (code, err)
 }
 
 /// Run `scene` (text) written into a fresh directory with extra `--set`s; the run directory.

@@ -51,3 +51,17 @@ pub fn temp_dir(tag: &str) -> PathBuf {
 pub fn repo_path(rel: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(rel)
 }
+
+/// Run the `hsph` binary from the crate root: exit status (−1 when killed), stdout, stderr.
+pub fn hsph(args: &[&str]) -> (i32, String, String) {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_hsph"))
+        .args(args)
+        .current_dir(repo_path(""))
+        .output()
+        .unwrap();
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
