@@ -76,8 +76,14 @@ Examples:
   hsph run inputs/couette_2d.toml --out runs/couette --force --threads 2
   hsph run inputs/dam_break_2d.toml --set physics.artificial_viscosity=0.05 --set fluid[0].max=[0.6,0.6]")]
     Run {
-        /// Scene file (TOML).
-        scene: PathBuf,
+        /// Scene file (TOML); with --restart, the checkpoint's own scene is used.
+        #[arg(required_unless_present = "restart")]
+        scene: Option<PathBuf>,
+        /// Continue a run from a checkpoint: a checkpoint directory, or a run directory (its
+        /// newest complete checkpoint). The run continues in its own directory, on any number of
+        /// ranks; --set may change only time.t_end, time.max_steps, output and checkpoint keys.
+        #[arg(long, value_name = "DIR", conflicts_with_all = ["scene", "out", "force"])]
+        restart: Option<PathBuf>,
         /// Output directory (default runs/<scene>-<UTC timestamp>).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -241,6 +247,7 @@ fn dispatch(cmd: Command) -> Result<i32> {
     match cmd {
         Command::Run {
             scene,
+            restart,
             out,
             force,
             threads,
@@ -264,7 +271,7 @@ fn dispatch(cmd: Command) -> Result<i32> {
             if ranks == 0 {
                 return Err(Error::input("--ranks", "must be at least 1, e.g. --ranks 4"));
             }
-            let opts = RunOptions {
+            let mut opts = RunOptions {
                 out,
                 force,
                 threads,
@@ -278,8 +285,16 @@ fn dispatch(cmd: Command) -> Result<i32> {
                 bind,
                 max_memory,
                 min_particles_per_rank,
+                restart: None,
             };
-            cmd_run(&scene, &set, &opts)
+            match (scene, restart) {
+                (_, Some(from)) => cmd_restart(&from, &set, opts),
+                (Some(scene), None) => cmd_run(&scene, &set, &opts),
+                (None, None) => {
+                    opts.restart = None;
+                    Err(Error::input("SCENE", "give a scene file, or --restart DIR"))
+                }
+            }
         }
         Command::Topology { ranks, threads } => {
             say(&crate::affinity::topology_report(ranks, threads)?);
@@ -341,6 +356,32 @@ fn cmd_run(scene: &std::path::Path, set: &[String], opts: &RunOptions) -> Result
     let (scene, src) = load_scene(scene, set)?;
     crate::signals::install()?;
     let outcome = driver::run_scene(&scene, opts).map_err(|e| locate(&src, e))?;
+    Ok(if outcome.stopped_by.is_some() {
+        crate::signals::EXIT_STOPPED
+    } else {
+        0
+    })
+}
+
+/// `hsph run --restart`: the checkpoint's scene with the allowed `--set` changes, continued
+/// in the checkpoint's run directory.
+fn cmd_restart(from: &std::path::Path, set: &[String], mut opts: RunOptions) -> Result<i32> {
+    let ck = crate::checkpoint::locate(from)?;
+    let m = crate::checkpoint::manifest(&ck)?;
+    let at = ck.join("manifest.json");
+    let (original, _) = crate::scene::load_scene_str(&m.scene, &at, "restart", &[])?;
+    let (scene, src) = crate::scene::load_scene_str(&m.scene, &at, &original.name, set)?;
+    crate::checkpoint::compat::check(&original, &scene)?;
+    if scene.dimension != m.dimension {
+        return Err(Error::input(
+            "--restart",
+            "the checkpoint's scene and parts disagree on the dimension",
+        ));
+    }
+    opts.out = Some(crate::checkpoint::run_dir_of(&ck));
+    opts.restart = Some((ck, m));
+    crate::signals::install()?;
+    let outcome = driver::run_scene(&scene, &opts).map_err(|e| locate(&src, e))?;
     Ok(if outcome.stopped_by.is_some() {
         crate::signals::EXIT_STOPPED
     } else {

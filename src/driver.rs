@@ -96,6 +96,8 @@ pub struct RunOptions {
     /// Fewest particles per rank (`--min-particles-per-rank`; 0 means the default,
     /// [`MIN_PARTICLES_PER_RANK`]).
     pub min_particles_per_rank: usize,
+    /// Continue from this checkpoint (`--restart`): its directory and manifest.
+    pub restart: Option<(PathBuf, crate::checkpoint::Manifest)>,
 }
 
 /// Default fewest particles per rank: below it halos cost more than the rank computes.
@@ -264,6 +266,10 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
     }
     let layout = RunLayout::resolve(&req, backend, opts.ranks.max(1), None)?;
     check_limits(scene, layout.ranks, layout.ranks, opts)?;
+    if let (Some(dir), Some(_)) = (&opts.out, &opts.restart) {
+        // a restart continues in its run directory, which is not prepared afresh
+        return run_prepared(scene, opts, &layout, dir);
+    }
     let dir = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
     cleaning_up(&dir, run_prepared(scene, opts, &layout, &dir))
 }
@@ -344,6 +350,10 @@ fn run_mpi(scene: &Scene, opts: &RunOptions, req: &LayoutRequest) -> Result<RunO
 /// rank's input error.
 #[cfg(feature = "mpi")]
 fn mpi_prepare_dir(comm: &dyn Comm, scene: &Scene, opts: &RunOptions) -> Result<PathBuf> {
+    if let (Some(dir), Some(_)) = (&opts.out, &opts.restart) {
+        // a restart continues in its run directory, which is not prepared afresh
+        return Ok(dir.clone());
+    }
     let prepared = if comm.rank() == 0 {
         match output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force) {
             Ok(d) => format!("ok:{}", d.display()),
@@ -568,6 +578,24 @@ fn reduce<const D: usize>(sim: &Simulation<D>, comm: &dyn Comm) -> Result<Reduce
 }
 
 /// The state of one rank's run between the set-up and `summary.json`.
+/// Cut every series file of a restarted run back to its length at the checkpoint: rows
+/// written after it (before the run stopped) would otherwise be there twice.
+fn truncate_series(dir: &Path, series: &serde_json::Value) -> Result<()> {
+    let Some(map) = series.as_object() else {
+        return Err(Error::run("checkpoint: the run state lacks the series lengths"));
+    };
+    for (file, len) in map {
+        let path = dir.join(file);
+        let f = std::fs::OpenOptions::new()
+            .write(true)
+            .open(&path)
+            .map_err(|e| Error::io(&path, e))?;
+        f.set_len(len.as_u64().unwrap_or(0))
+            .map_err(|e| Error::io(&path, e))?;
+    }
+    Ok(())
+}
+
 struct RankRun<'a, const D: usize> {
     scene: &'a Scene,
     dir: &'a Path,
@@ -593,6 +621,12 @@ struct RankRun<'a, const D: usize> {
     n_fluid: u64,
     /// Particles removed by the outflow rule so far, over all ranks.
     removed: u64,
+    /// Simulated time of the next output step (s).
+    next_out: f64,
+    /// Simulated time of the next scheduled checkpoint (s; with `[checkpoint] every`).
+    next_checkpoint: f64,
+    /// Step of the last checkpoint written (none yet: `u64::MAX`).
+    checkpointed: u64,
 }
 
 impl<'a, const D: usize> RankRun<'a, D> {
@@ -606,7 +640,17 @@ impl<'a, const D: usize> RankRun<'a, D> {
         opts: &'a RunOptions,
     ) -> Result<Self> {
         let root = comm.rank() == 0;
-        let sim = Simulation::<D>::with_layout(scene, comm, &layout)?;
+        let resumed = opts.restart.as_ref();
+        let sim = match resumed {
+            None => Simulation::<D>::with_layout(scene, comm, &layout)?,
+            Some((ck, m)) => {
+                let (all, acc) = crate::checkpoint::particles::<D>(ck, m)?;
+                if root {
+                    truncate_series(dir, &m.run["series"])?;
+                }
+                Simulation::<D>::resume(scene, comm, &layout, all, &acc, (m.step, m.t, m.dt))?
+            }
+        };
         layout.placed(sim.placement);
         if root {
             for w in layout
@@ -618,11 +662,16 @@ impl<'a, const D: usize> RankRun<'a, D> {
             }
         }
         let writer = if root {
-            Some(RunWriter::new(dir, &sim.scene, &diag_header())?)
+            Some(RunWriter::new(
+                dir,
+                &sim.scene,
+                &diag_header(),
+                resumed.is_some(),
+            )?)
         } else {
             None
         };
-        let probes = ProbeSet::new(&sim.scene, root.then_some(dir))?;
+        let probes = ProbeSet::new(&sim.scene, root.then_some(dir), resumed.is_some())?;
         let fluid = sim.p.kind[..sim.p.n_owned]
             .iter()
             .filter(|k| k.is_integrated())
@@ -647,9 +696,27 @@ impl<'a, const D: usize> RankRun<'a, D> {
             stopped_by: None,
             n_fluid: n_total[1],
             removed: 0,
+            next_out: scene.output.interval,
+            next_checkpoint: scene.checkpoint.every,
+            checkpointed: u64::MAX,
         };
-        // the set-up's traffic (one step's exchanges at the initial positions) is step 0
-        run.traffic(0)?;
+        if let Some((ck, m)) = resumed {
+            run.restore(&m.run)?;
+            run.checkpointed = m.step;
+            if !run.quiet {
+                eprintln!(
+                    "hsph: continuing from {} (step {}, t = {:.6e} s, written on {} rank(s)) on {} rank(s)",
+                    ck.display(),
+                    m.step,
+                    m.t,
+                    m.ranks,
+                    comm.size()
+                );
+            }
+        } else {
+            // the set-up's traffic (one step's exchanges at the initial positions) is step 0
+            run.traffic(0)?;
+        }
         if !run.quiet {
             eprintln!(
                 "hsph {} ({}{}): {} ({}D), {} particles, {} rank(s) × {} thread(s) [{}], dt₀ = {:.3e} s, output in {}",
@@ -667,8 +734,10 @@ impl<'a, const D: usize> RankRun<'a, D> {
             );
         }
         run.loop_start = Instant::now();
-        run.probes.after_step(&run.sim, comm, true)?;
-        run.output()?;
+        if resumed.is_none() {
+            run.probes.after_step(&run.sim, comm, true, false)?;
+            run.output()?;
+        }
         Ok(run)
     }
 
@@ -723,7 +792,6 @@ impl<'a, const D: usize> RankRun<'a, D> {
     /// Steps until the end, with the reference tracker, output steps and progress.
     fn step_loop(&mut self) -> Result<()> {
         let interval = self.scene.output.interval;
-        let mut next_out = interval;
         let mut progress = Progress::new(self.n_total, self.quiet);
         self.steps_start = Instant::now();
         while !self.sim.done() {
@@ -736,13 +804,13 @@ impl<'a, const D: usize> RankRun<'a, D> {
                     None => self.tracker.skip(self.scene, self.sim.t),
                 }
             }
-            let output_now = self.sim.t >= next_out * (1.0 - 1e-12) || self.sim.done();
+            let scheduled = self.sim.t >= self.next_out * (1.0 - 1e-12);
             let t0 = Instant::now();
-            self.probes.after_step(&self.sim, self.comm, output_now)?;
+            self.probes.after_step(&self.sim, self.comm, scheduled, false)?;
             self.sim.timers.add(Timer::Output, t0);
-            if output_now {
-                while next_out <= self.sim.t * (1.0 + 1e-12) {
-                    next_out += interval;
+            if scheduled {
+                while self.next_out <= self.sim.t * (1.0 + 1e-12) {
+                    self.next_out += interval;
                 }
                 self.output()?;
                 self.traffic(self.sim.step)?;
@@ -750,6 +818,17 @@ impl<'a, const D: usize> RankRun<'a, D> {
             progress.update(self.sim.step, self.sim.t, self.scene.time.t_end);
             // a step boundary: stop here if any rank has received a stopping signal
             self.stopped_by = crate::signals::agreed_stop(self.comm)?;
+            let end = self.sim.done() && self.scene.checkpoint.scheduled();
+            if self.stopped_by.is_some() || self.checkpoint_due() || end {
+                self.checkpoint()?;
+            }
+            if self.sim.done() && !scheduled {
+                // the last state, off the output schedule: written after the checkpoint, so a
+                // continued run does not keep this row
+                self.probes.after_step(&self.sim, self.comm, true, true)?;
+                self.output()?;
+                self.traffic(self.sim.step)?;
+            }
             if self.stopped_by.is_some() {
                 break;
             }
@@ -827,9 +906,99 @@ impl<'a, const D: usize> RankRun<'a, D> {
         }
     }
 
+    /// True when `[checkpoint]` asks for one at this step.
+    fn checkpoint_due(&mut self) -> bool {
+        let c = &self.scene.checkpoint;
+        let by_steps = c.every_steps > 0 && self.sim.step % c.every_steps == 0;
+        let by_time = c.every > 0.0 && self.sim.t >= self.next_checkpoint * (1.0 - 1e-12);
+        if by_time {
+            while self.next_checkpoint <= self.sim.t * (1.0 + 1e-12) {
+                self.next_checkpoint += c.every;
+            }
+        }
+        by_steps || by_time
+    }
+
+    /// Collective: write a checkpoint of this step (series flushed first, their lengths in the
+    /// manifest so that a restart cuts off anything written after it).
+    fn checkpoint(&mut self) -> Result<()> {
+        let t0 = Instant::now();
+        let state = match self.writer.as_mut() {
+            Some(w) => {
+                w.flush()?;
+                self.probes.flush()?;
+                Some(self.state()?)
+            }
+            None => None,
+        };
+        let dir =
+            crate::checkpoint::write(&self.sim, self.comm, self.dir, state, self.scene.checkpoint.keep)?;
+        self.checkpointed = self.sim.step;
+        if self.stopped_by.is_some() && self.comm.rank() == 0 {
+            eprintln!(
+                "hsph: checkpoint {} written; continue with `hsph run --restart {}`",
+                dir.display(),
+                self.dir.display()
+            );
+        }
+        self.sim.timers.add(Timer::Output, t0);
+        Ok(())
+    }
+
+    /// Rank 0's state for a checkpoint: clocks, counters, reference history, snapshot list and
+    /// the length of every series file.
+    fn state(&self) -> Result<serde_json::Value> {
+        let mut files = vec![
+            "timeseries.csv".to_string(),
+            "diagnostics.csv".into(),
+            "traffic.csv".into(),
+        ];
+        if self.scene.domain.outflow == crate::scene::Outflow::Remove {
+            files.push("removed.csv".into());
+        }
+        files.extend(self.probes.files());
+        let mut series = serde_json::Map::new();
+        for f in files {
+            let path = self.dir.join(&f);
+            let len = std::fs::metadata(&path).map_err(|e| Error::io(&path, e))?.len();
+            series.insert(f, json!(len));
+        }
+        Ok(json!({
+            "next_out": self.next_out,
+            "next_checkpoint": self.next_checkpoint,
+            "removed": self.removed,
+            "n_fluid": self.n_fluid,
+            "tracker": self.tracker,
+            "probes": self.probes.state(),
+            "snapshots": self.writer.as_ref().map(|w| w.snapshot_state()),
+            "series": series,
+        }))
+    }
+
+    /// Continue from a checkpoint's [`RankRun::state`].
+    fn restore(&mut self, s: &serde_json::Value) -> Result<()> {
+        let bad = |what: &str| Error::run(format!("checkpoint: the run state lacks `{what}`"));
+        self.next_out = s["next_out"].as_f64().ok_or_else(|| bad("next_out"))?;
+        self.next_checkpoint = s["next_checkpoint"]
+            .as_f64()
+            .ok_or_else(|| bad("next_checkpoint"))?;
+        self.removed = s["removed"].as_u64().ok_or_else(|| bad("removed"))?;
+        self.n_fluid = s["n_fluid"].as_u64().ok_or_else(|| bad("n_fluid"))?;
+        self.tracker = serde_json::from_value(s["tracker"].clone()).map_err(|_| bad("tracker"))?;
+        self.probes.restore(&s["probes"])?;
+        if let Some(w) = self.writer.as_mut() {
+            w.restore_snapshots(&s["snapshots"])?;
+        }
+        Ok(())
+    }
+
     /// Final gather, `final.csv` and `summary.json` (rank 0), the closing log lines.
     fn finish(mut self) -> Result<RunOutcome> {
         let wall = self.steps_start.elapsed().as_secs_f64();
+        if self.scene.checkpoint.scheduled() && self.checkpointed != self.sim.step {
+            // a finished run can be continued to a later t_end
+            self.checkpoint()?;
+        }
         self.probes.flush()?;
         let r = reduce(&self.sim, self.comm)?;
         let final_view = self.sim.gather(self.comm)?;

@@ -12,6 +12,7 @@ pub mod affinity;
 pub mod bench;
 pub mod boundary;
 pub mod cells;
+pub mod checkpoint;
 pub mod cli;
 pub mod comm;
 pub mod decomp;

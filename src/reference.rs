@@ -42,8 +42,8 @@ pub fn couette(y: f64, t: f64, v0: f64, nu: f64, l: f64) -> f64 {
     u
 }
 
-/// Tracks a scene's reference during a run.
-#[derive(Debug, Default)]
+/// Tracks a scene's reference during a run (its state goes into checkpoints).
+#[derive(Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Tracker {
     /// Named errors measured so far.
     pub errors: BTreeMap<String, f64>,

@@ -162,6 +162,21 @@ pub(crate) fn create(path: &Path) -> Result<BufWriter<File>> {
     Ok(BufWriter::new(create_file(path)?))
 }
 
+/// A series file: created afresh with `header` as its first line, or, when `append` (a
+/// restart), the existing file opened for appending.
+pub(crate) fn series(path: &Path, header: &str, append: bool) -> Result<BufWriter<File>> {
+    if append {
+        let f = fs::OpenOptions::new()
+            .append(true)
+            .open(path)
+            .map_err(|e| Error::io(path, e))?;
+        return Ok(BufWriter::new(f));
+    }
+    let mut f = create(path)?;
+    writeln!(f, "{header}").map_err(|e| Error::io(path, e))?;
+    Ok(f)
+}
+
 /// Write a whole file atomically: into `<path>.tmp`, then renamed over `path`. On any failure
 /// the temporary file is removed and `path` is left as it was (never truncated).
 pub(crate) fn write_atomic(
@@ -199,36 +214,35 @@ pub struct RunWriter<const D: usize> {
 
 impl<const D: usize> RunWriter<D> {
     /// Create the files of a run in `dir` (already prepared) and write `scene.toml`;
-    /// `diag_header` is the header line of `diagnostics.csv`.
-    pub fn new(dir: &Path, scene: &Scene, diag_header: &str) -> Result<Self> {
+    /// `diag_header` is the header line of `diagnostics.csv`. With `append` (a restart) the
+    /// series files already there are continued instead.
+    pub fn new(dir: &Path, scene: &Scene, diag_header: &str, append: bool) -> Result<Self> {
         let d = D;
         let resolved = toml::to_string(scene).map_err(|e| Error::run(format!("scene.toml: {e}")))?;
         let header = "# Resolved scene written by hsph: every default filled in. Run it again with\n\
                       # `hsph run scene.toml`.\n";
         let sp = dir.join("scene.toml");
         write_atomic(&sp, |f| write!(f, "{header}{resolved}"))?;
-        let mut timeseries = create(&dir.join("timeseries.csv"))?;
         let axes = ["x", "y", "z"];
         let mom: Vec<String> = axes[..d].iter().map(|a| format!("momentum_{a}")).collect();
-        writeln!(
-            timeseries,
-            "step,t,dt,kinetic_energy,{},max_speed,potential_energy,internal_energy,total_energy,mass",
-            mom.join(",")
-        )
-        .map_err(|e| Error::io(dir, e))?;
-        let mut diagnostics = create(&dir.join("diagnostics.csv"))?;
-        writeln!(diagnostics, "{diag_header}").map_err(|e| Error::io(dir, e))?;
-        let mut traffic = create(&dir.join("traffic.csv"))?;
-        writeln!(
-            traffic,
-            "step,phase,src_rank,dst_rank,src_node,dst_node,bytes,messages"
-        )
-        .map_err(|e| Error::io(dir, e))?;
+        let timeseries = series(
+            &dir.join("timeseries.csv"),
+            &format!(
+                "step,t,dt,kinetic_energy,{},max_speed,potential_energy,internal_energy,total_energy,mass",
+                mom.join(",")
+            ),
+            append,
+        )?;
+        let diagnostics = series(&dir.join("diagnostics.csv"), diag_header, append)?;
+        let traffic = series(
+            &dir.join("traffic.csv"),
+            "step,phase,src_rank,dst_rank,src_node,dst_node,bytes,messages",
+            append,
+        )?;
         let removed = if scene.domain.outflow == crate::scene::Outflow::Remove {
-            let mut f = create(&dir.join("removed.csv"))?;
             let xs: Vec<&str> = ["x", "y", "z"][..d].to_vec();
-            writeln!(f, "step,t,id,reason,{},rho", xs.join(",")).map_err(|e| Error::io(dir, e))?;
-            Some(f)
+            let head = format!("step,t,id,reason,{},rho", xs.join(","));
+            Some(series(&dir.join("removed.csv"), &head, append)?)
         } else {
             None
         };
@@ -241,6 +255,21 @@ impl<const D: usize> RunWriter<D> {
             snapshots: writer_for::<D>(scene.output.format, dir)?,
             fields: scene.output.fields.clone(),
         })
+    }
+
+    /// The snapshot writer's state for a checkpoint (what it has written so far).
+    pub fn snapshot_state(&self) -> serde_json::Value {
+        self.snapshots
+            .as_ref()
+            .map_or(serde_json::Value::Null, |w| w.state())
+    }
+
+    /// Continue the snapshot series from a checkpoint's `state`.
+    pub fn restore_snapshots(&mut self, state: &serde_json::Value) -> Result<()> {
+        match self.snapshots.as_mut() {
+            Some(w) => w.restore(state),
+            None => Ok(()),
+        }
     }
 
     /// Write one output step: timeseries row (physics only), the diagnostics row the driver

@@ -13,6 +13,16 @@ use std::path::Path;
 pub trait SnapshotWriter<const D: usize> {
     /// Write the gathered state `view` with the snapshot `fields` (`output.fields`).
     fn write(&mut self, view: &View<D>, fields: &[String]) -> Result<()>;
+
+    /// What a restart needs to continue the series (the snapshots written so far).
+    fn state(&self) -> serde_json::Value {
+        serde_json::Value::Null
+    }
+
+    /// Continue from `state` (from [`SnapshotWriter::state`] of the same format).
+    fn restore(&mut self, _state: &serde_json::Value) -> Result<()> {
+        Ok(())
+    }
 }
 
 /// The writer of `format` putting its files under `dir` (the run directory), or `None` for

@@ -33,6 +33,18 @@ impl<const D: usize> SnapshotWriter<D> for VtkSeries {
         self.snapshots.push((view.t, name));
         write_pvd(&self.dir.join("series.pvd"), &self.snapshots)
     }
+
+    fn state(&self) -> serde_json::Value {
+        serde_json::json!(self.snapshots)
+    }
+
+    fn restore(&mut self, state: &serde_json::Value) -> Result<()> {
+        if !state.is_null() {
+            self.snapshots = serde_json::from_value(state.clone())
+                .map_err(|e| Error::run(format!("checkpoint: snapshot list: {e}")))?;
+        }
+        Ok(())
+    }
 }
 
 /// Write one snapshot of the owned particles in `order`, with the snapshot `fields` (names as

@@ -15,7 +15,7 @@ pub mod sensors;
 
 use crate::comm::{Comm, Phase};
 use crate::error::{Error, Result};
-use crate::output::create;
+use crate::output::series;
 use crate::particles::Particles;
 use crate::scene::{Probe, Scene};
 use crate::sim::Simulation;
@@ -28,7 +28,7 @@ use std::path::{Path, PathBuf};
 pub use sensors::{columns, sample};
 
 /// When a probe writes a row.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 enum Clock {
     /// At the output steps.
     Output,
@@ -79,8 +79,9 @@ pub struct ProbeSet<const D: usize> {
 }
 
 impl<const D: usize> ProbeSet<D> {
-    /// The probes of `scene`; with `dir` (rank 0) their files are created under `dir/probes`.
-    pub fn new(scene: &Scene, dir: Option<&Path>) -> Result<Self> {
+    /// The probes of `scene`; with `dir` (rank 0) their files are created under `dir/probes`,
+    /// or with `append` (a restart) continued.
+    pub fn new(scene: &Scene, dir: Option<&Path>, append: bool) -> Result<Self> {
         let probes = scene.probes.clone();
         let clocks = probes
             .iter()
@@ -107,9 +108,8 @@ impl<const D: usize> ProbeSet<D> {
         if let (Some(_), false) = (dir, probes.is_empty()) {
             std::fs::create_dir_all(&pd).map_err(|e| Error::io(&pd, e))?;
             for pr in &probes {
-                let mut f = create(&pd.join(format!("{}.csv", pr.name())))?;
-                writeln!(f, "t,{}", columns(pr, D).join(",")).map_err(|e| Error::io(&pd, e))?;
-                files.push(f);
+                let head = format!("t,{}", columns(pr, D).join(","));
+                files.push(series(&pd.join(format!("{}.csv", pr.name())), &head, append)?);
             }
         }
         Ok(ProbeSet {
@@ -124,15 +124,30 @@ impl<const D: usize> ProbeSet<D> {
 
     /// Collective, after each step (and once at the start, with `output`): sample the probes
     /// that are due now or average over a window, and write the rows of those that are due.
-    /// `output` says this is an output step.
-    pub fn after_step(&mut self, sim: &Simulation<D>, comm: &dyn Comm, output: bool) -> Result<()> {
+    /// `output` says this is an output step. With `output_only` (a second call for the same
+    /// step: the run's last state, off the output schedule) only the probes on the output clock
+    /// write, and windows are not sampled again.
+    pub fn after_step(
+        &mut self,
+        sim: &Simulation<D>,
+        comm: &dyn Comm,
+        output: bool,
+        output_only: bool,
+    ) -> Result<()> {
         if self.probes.is_empty() {
             return Ok(());
         }
         let t = sim.t;
-        let due: Vec<bool> = self.clocks.iter_mut().map(|c| clock_due(c, t, output)).collect();
+        let due: Vec<bool> = self
+            .clocks
+            .iter_mut()
+            .map(|c| match output_only {
+                true => output && matches!(c, Clock::Output),
+                false => clock_due(c, t, output),
+            })
+            .collect();
         let sampled: Vec<bool> = (0..self.probes.len())
-            .map(|k| due[k] || self.probes[k].window() > 0.0)
+            .map(|k| due[k] || (!output_only && self.probes[k].window() > 0.0))
             .collect();
         if !sampled.contains(&true) {
             return Ok(());
@@ -151,7 +166,10 @@ impl<const D: usize> ProbeSet<D> {
             let mut values = sample(&view, &self.probes[k], self.walls[k]);
             let window = self.probes[k].window();
             if window > 0.0 {
-                values = average(&mut self.windows[k], t, values, window);
+                if !output_only {
+                    push(&mut self.windows[k], t, values, window);
+                }
+                values = mean(&self.windows[k]);
             }
             if due[k] {
                 if let Some(f) = self.files.get_mut(k) {
@@ -161,6 +179,31 @@ impl<const D: usize> ProbeSet<D> {
             }
         }
         Ok(())
+    }
+
+    /// Clocks and averaging windows, for a checkpoint.
+    pub fn state(&self) -> serde_json::Value {
+        serde_json::json!({"clocks": self.clocks, "windows": self.windows})
+    }
+
+    /// Continue from a checkpoint's [`ProbeSet::state`].
+    pub fn restore(&mut self, state: &serde_json::Value) -> Result<()> {
+        let bad = |e: serde_json::Error| Error::run(format!("checkpoint: probe state: {e}"));
+        let clocks: Vec<Clock> = serde_json::from_value(state["clocks"].clone()).map_err(bad)?;
+        let windows: Vec<Window> = serde_json::from_value(state["windows"].clone()).map_err(bad)?;
+        if clocks.len() != self.probes.len() || windows.len() != self.probes.len() {
+            return Err(Error::run("checkpoint: the probes differ from the checkpoint's"));
+        }
+        (self.clocks, self.windows) = (clocks, windows);
+        Ok(())
+    }
+
+    /// The probe files (relative to the run directory), for a checkpoint's series lengths.
+    pub fn files(&self) -> Vec<String> {
+        self.probes
+            .iter()
+            .map(|p| format!("probes/{}.csv", p.name()))
+            .collect()
     }
 
     /// Flush every probe file (rank 0; a no-op elsewhere).
@@ -245,14 +288,18 @@ fn clock_due(c: &mut Clock, t: f64, output: bool) -> bool {
     }
 }
 
-/// Push a sample (t, values) and return the time average over [t − window, t] of the samples
-/// kept (trapezoid rule; the sample itself when it is the only one).
-fn average(w: &mut Window, t: f64, values: Vec<f64>, window: f64) -> Vec<f64> {
+/// Push a sample (t, values), keeping the samples of [t − window, t] (and the one just before).
+fn push(w: &mut Window, t: f64, values: Vec<f64>, window: f64) {
     w.push_back((t, values));
     while w.len() > 1 && w[1].0 <= t - window {
         w.pop_front();
     }
-    let span = t - w[0].0;
+}
+
+/// The time average of the samples kept (trapezoid rule; the sample itself when it is the
+/// only one).
+fn mean(w: &Window) -> Vec<f64> {
+    let span = w[w.len() - 1].0 - w[0].0;
     if w.len() < 2 || span <= 0.0 {
         return w[w.len() - 1].1.clone();
     }
@@ -293,13 +340,15 @@ mod tests {
         let mut last = vec![];
         for k in 0..=20 {
             let t = k as f64 * 0.01;
-            last = average(&mut w, t, vec![t], 0.05);
+            push(&mut w, t, vec![t], 0.05);
+            last = mean(&w);
         }
         assert!((last[0] - 0.175).abs() < 1e-12, "{last:?}");
         // a constant stays itself
         let mut w = Window::new();
         for k in 0..5 {
-            last = average(&mut w, k as f64, vec![3.0, -1.0], 2.5);
+            push(&mut w, k as f64, vec![3.0, -1.0], 2.5);
+            last = mean(&w);
         }
         assert_eq!(last, vec![3.0, -1.0]);
     }

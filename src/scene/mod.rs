@@ -60,6 +60,47 @@ pub struct Scene {
     /// Optional analytic or tabulated reference: errors land in `summary.json`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference: Option<Reference>,
+    /// Checkpoints for restarts (`[checkpoint]`).
+    #[serde(default)]
+    pub checkpoint: CheckpointSpec,
+}
+
+/// When checkpoints are written (`[checkpoint]`), under `<run>/checkpoints/step-<N>/`. A run
+/// stopped by a signal always writes one; with `every_steps` or `every` set, so does a run that
+/// reaches its end, so that it can be continued with a later `time.t_end`.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CheckpointSpec {
+    /// Steps between checkpoints (0 = none on a step count).
+    #[serde(default)]
+    pub every_steps: u64,
+    /// Simulated time between checkpoints (s; 0 = none on a time interval).
+    #[serde(default)]
+    pub every: f64,
+    /// Checkpoints kept; older ones are deleted once a newer one is complete.
+    #[serde(default = "default_keep")]
+    pub keep: usize,
+}
+
+fn default_keep() -> usize {
+    2
+}
+
+impl Default for CheckpointSpec {
+    fn default() -> Self {
+        CheckpointSpec {
+            every_steps: 0,
+            every: 0.0,
+            keep: default_keep(),
+        }
+    }
+}
+
+impl CheckpointSpec {
+    /// True when checkpoints are written on a schedule.
+    pub fn scheduled(&self) -> bool {
+        self.every_steps > 0 || self.every > 0.0
+    }
 }
 
 /// Bounds on the state of integrated particles (`[limits]`): a particle outside them stops

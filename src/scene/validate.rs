@@ -388,6 +388,19 @@ pub fn validate(s: &mut Scene) -> Result<()> {
         );
     }
     validate_probes(s)?;
+    let c = &s.checkpoint;
+    if !(c.every >= 0.0 && c.every.is_finite()) {
+        return err(
+            "checkpoint.every",
+            format!("must be ≥ 0 s (0 = no time schedule), got {}", c.every),
+        );
+    }
+    if c.keep == 0 {
+        return err(
+            "checkpoint.keep",
+            "must be at least 1 (2 keeps the previous one while a new one is written)",
+        );
+    }
     validate_reference(s)?;
     check_sound_speed(s)
 }

@@ -98,7 +98,50 @@ impl<const D: usize> Simulation<D> {
     /// whole lattice and balances the cut planes on it (identical on every rank, no
     /// communication), then keeps its block.
     pub fn with_layout(scene: &Scene, comm: &dyn Comm, layout: &RunLayout) -> Result<Self> {
-        let all = build_particles::<D>(scene)?;
+        let mut sim = Self::assemble(scene, comm, layout, build_particles::<D>(scene)?)?;
+        sim.apply_wall_motion(0.0, 0.0);
+        sim.check_state()?;
+        sim.update_pressure();
+        // the set-up runs the passes of a whole step at dt = 0 (its dρ/dt is recomputed before
+        // use), so its halo traffic is one step's, as `hsph plan` predicts
+        sim.rebuild_neighbours(comm)?;
+        sim.run_passes(0.0, comm, None)?;
+        sim.balance.imbalance = sim.load_imbalance(comm)?;
+        sim.balance.imbalance_history.push(sim.balance.imbalance);
+        sim.dt = sim.next_dt(comm)?;
+        Ok(sim)
+    }
+
+    /// Continue from a checkpoint's state: every particle `all` (sorted by id) with its
+    /// acceleration `acc` (m/s²), at step `step`, time `t` (s), next time step `dt` (s). The
+    /// domain is decomposed afresh over `comm.size()` ranks; nothing is recomputed, so the next
+    /// step is the step the checkpointed run would have taken.
+    pub fn resume(
+        scene: &Scene,
+        comm: &dyn Comm,
+        layout: &RunLayout,
+        all: Particles<D>,
+        acc: &[Vector<D>],
+        (step, t, dt): (u64, f64, f64),
+    ) -> Result<Self> {
+        let ids: Vec<u64> = all.id[..all.n_owned].to_vec();
+        let mut sim = Self::assemble(scene, comm, layout, all)?;
+        for i in 0..sim.p.n_owned {
+            let k = ids
+                .binary_search(&sim.p.id[i])
+                .map_err(|_| Error::run("resume: a particle lost its id"))?;
+            sim.p.acc[i] = acc[k];
+        }
+        (sim.step, sim.t, sim.dt) = (step, t, dt);
+        sim.check_state()?;
+        sim.balance.imbalance = sim.load_imbalance(comm)?;
+        sim.balance.imbalance_history.push(sim.balance.imbalance);
+        Ok(sim)
+    }
+
+    /// Decompose `all` over the ranks of `comm` as `layout` places them and keep this rank's
+    /// block: the state before any physics (t = 0, no neighbours).
+    fn assemble(scene: &Scene, comm: &dyn Comm, layout: &RunLayout, all: Particles<D>) -> Result<Self> {
         let (rank, ranks) = (comm.rank(), comm.size());
         debug_assert_eq!(ranks, layout.ranks, "layout resolved for this communicator");
         let model = Model::<D>::new(scene);
@@ -107,7 +150,7 @@ impl<const D: usize> Simulation<D> {
         let support = model.kernel.support;
         let (map, p, placement) = decompose(all, &space.min, &space.max, rank, layout, support)?;
         let boxes = map.boxes();
-        let mut sim = Simulation {
+        let sim = Simulation {
             scene: scene.clone(),
             schedule: schedule(&model),
             model,
@@ -132,16 +175,6 @@ impl<const D: usize> Simulation<D> {
             removed: Vec::new(),
             kinematics: WallKinematics::of(scene),
         };
-        sim.apply_wall_motion(0.0, 0.0);
-        sim.check_state()?;
-        sim.update_pressure();
-        // the set-up runs the passes of a whole step at dt = 0 (its dρ/dt is recomputed before
-        // use), so its halo traffic is one step's, as `hsph plan` predicts
-        sim.rebuild_neighbours(comm)?;
-        sim.run_passes(0.0, comm, None)?;
-        sim.balance.imbalance = sim.load_imbalance(comm)?;
-        sim.balance.imbalance_history.push(sim.balance.imbalance);
-        sim.dt = sim.next_dt(comm)?;
         Ok(sim)
     }
 

@@ -1,0 +1,334 @@
+//! Checkpoints: the complete state of a run at a step boundary, written by every rank in
+//! parallel, and read back on any number of ranks.
+//!
+//! Layout: `<run>/checkpoints/step-<N>/part-<rank>.bin` (one per rank: its owned particles
+//! sorted by id — every field of the particle table through the wire format, then the
+//! acceleration a_n, which the next half kick needs and which cannot be recomputed because it
+//! was evaluated with v_{n−½}) and `manifest.json` (format, code version, step, t, dt, the
+//! resolved scene, the driver's state, and per part its particle count, byte length and
+//! FNV-1a 64 checksum). Every file is written to a temporary name, synced and renamed; the
+//! manifest is written last, so a checkpoint without one is incomplete and is skipped. Once a
+//! manifest is in place the oldest checkpoints beyond `[checkpoint] keep` are deleted.
+//!
+//! Reading: every rank reads and checks every part (like the set-up, which builds the whole
+//! lattice on every rank), then keeps the particles of its block. A missing, truncated or
+//! corrupted part, a manifest that does not parse, or another dimension is bad input (exit 2)
+//! naming the file.
+
+pub mod compat;
+
+use crate::comm::{Comm, Phase};
+use crate::error::{Error, Location, Result};
+use crate::particles::wire::{Reader, Words};
+use crate::particles::{Particles, Record};
+use crate::sim::Simulation;
+use crate::Vector;
+use serde::{Deserialize, Serialize};
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Version of the checkpoint layout.
+pub const FORMAT: u32 = 1;
+/// First bytes of a part file.
+const MAGIC: &[u8; 8] = b"HSPHPART";
+
+/// One rank's part as the manifest lists it.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct PartInfo {
+    /// File name inside the checkpoint directory.
+    pub file: String,
+    /// Particles in the part.
+    pub particles: u64,
+    /// Length of the file (bytes).
+    pub bytes: u64,
+    /// FNV-1a 64 of the whole file, hexadecimal.
+    pub fnv1a64: String,
+}
+
+/// `manifest.json` of a checkpoint.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Manifest {
+    /// [`FORMAT`] of the writer.
+    pub format: u32,
+    /// Version of hsph that wrote it.
+    pub hsph_version: String,
+    /// Its git commit.
+    pub git_commit: String,
+    /// 2 or 3.
+    pub dimension: usize,
+    /// Steps taken.
+    pub step: u64,
+    /// Simulated time (s).
+    pub t: f64,
+    /// Time step of the next step (s).
+    pub dt: f64,
+    /// Ranks that wrote it (one part each).
+    pub ranks: usize,
+    /// The parts.
+    pub parts: Vec<PartInfo>,
+    /// The resolved scene (TOML).
+    pub scene: String,
+    /// The driver's state: output and probe clocks, series lengths, reference history.
+    pub run: serde_json::Value,
+}
+
+/// FNV-1a, 64 bit (Fowler, Noll & Vo): a checksum against torn and flipped bytes.
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+/// Write `bytes` to `path` through `<path>.tmp`, synced, then renamed.
+fn write_synced(path: &Path, bytes: &[u8]) -> Result<()> {
+    let tmp = path.with_extension("tmp");
+    let io = |e| Error::io(path, e);
+    let mut f = crate::output::create_file(&tmp)?;
+    f.write_all(bytes).map_err(io)?;
+    f.sync_all().map_err(io)?;
+    drop(f);
+    fs::rename(&tmp, path).map_err(io)
+}
+
+/// The directory of the checkpoint at `step` under the run directory `run`.
+pub fn dir_of(run: &Path, step: u64) -> PathBuf {
+    run.join("checkpoints").join(format!("step-{step:010}"))
+}
+
+/// This rank's part: header, owned records sorted by id, then their accelerations.
+fn encode<const D: usize>(sim: &Simulation<D>) -> Vec<u8> {
+    let p = &sim.p;
+    let order = sim.by_id();
+    let mut buf = Vec::with_capacity(24 + order.len() * (Record::<D>::words() + D) * 8);
+    buf.extend_from_slice(MAGIC);
+    buf.extend_from_slice(&FORMAT.to_le_bytes());
+    buf.extend_from_slice(&(D as u32).to_le_bytes());
+    buf.extend_from_slice(&(order.len() as u64).to_le_bytes());
+    for &i in &order {
+        p.record(i).put(&mut Words::new(&mut buf));
+    }
+    for &i in &order {
+        for a in 0..D {
+            buf.extend_from_slice(&p.acc[i][a].to_le_bytes());
+        }
+    }
+    buf
+}
+
+/// Collective: write the checkpoint of the current step under `run` — every rank its part,
+/// then rank 0 the manifest with `state` (the driver's state, rank 0's) — and delete the
+/// oldest beyond `keep`. Returns the checkpoint's directory.
+pub fn write<const D: usize>(
+    sim: &Simulation<D>,
+    comm: &dyn Comm,
+    run: &Path,
+    state: Option<serde_json::Value>,
+    keep: usize,
+) -> Result<PathBuf> {
+    let dir = dir_of(run, sim.step);
+    fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let bytes = encode(sim);
+    let file = format!("part-{:05}.bin", comm.rank());
+    write_synced(&dir.join(&file), &bytes)?;
+    let info = PartInfo {
+        file,
+        particles: sim.p.n_owned as u64,
+        bytes: bytes.len() as u64,
+        fnv1a64: format!("{:016x}", fnv1a64(&bytes)),
+    };
+    let prev = comm.set_phase(Phase::Output);
+    let infos = comm.all_gather_bytes(serde_json::to_vec(&info).map_err(|e| Error::run(e.to_string()))?);
+    comm.set_phase(prev);
+    let infos = infos?;
+    if let Ok(step) = std::env::var("HSPH_TEST_ABORT_IN_CHECKPOINT") {
+        // test-only: die like kill -9 after the parts, before the manifest
+        if step.parse() == Ok(sim.step) {
+            std::process::abort();
+        }
+    }
+    if comm.rank() != 0 {
+        return Ok(dir);
+    }
+    let parts = infos
+        .iter()
+        .map(|b| serde_json::from_slice(b).map_err(|e| Error::run(format!("checkpoint part list: {e}"))))
+        .collect::<Result<Vec<PartInfo>>>()?;
+    let manifest = Manifest {
+        format: FORMAT,
+        hsph_version: env!("CARGO_PKG_VERSION").into(),
+        git_commit: env!("HSPH_GIT_COMMIT").into(),
+        dimension: D,
+        step: sim.step,
+        t: sim.t,
+        dt: sim.dt,
+        ranks: comm.size(),
+        parts,
+        scene: toml::to_string(&sim.scene).map_err(|e| Error::run(format!("checkpoint scene: {e}")))?,
+        run: state.unwrap_or(serde_json::Value::Null),
+    };
+    let text = serde_json::to_vec_pretty(&manifest).map_err(|e| Error::run(e.to_string()))?;
+    write_synced(&dir.join("manifest.json"), &text)?;
+    if let Ok(d) = fs::File::open(&dir) {
+        let _ = d.sync_all();
+    }
+    prune(run, keep);
+    Ok(dir)
+}
+
+/// Complete checkpoints under `run`, oldest first.
+fn complete(run: &Path) -> Vec<PathBuf> {
+    let mut dirs: Vec<PathBuf> = fs::read_dir(run.join("checkpoints"))
+        .map(|rd| rd.filter_map(|e| e.ok().map(|e| e.path())).collect())
+        .unwrap_or_default();
+    dirs.retain(|d| d.join("manifest.json").is_file());
+    dirs.sort();
+    dirs
+}
+
+/// Delete the oldest complete checkpoints beyond `keep` and any incomplete one older than the
+/// newest complete one.
+fn prune(run: &Path, keep: usize) {
+    let done = complete(run);
+    let Some(newest) = done.last().cloned() else {
+        return;
+    };
+    for d in done.iter().take(done.len().saturating_sub(keep)) {
+        let _ = fs::remove_dir_all(d);
+    }
+    if let Ok(rd) = fs::read_dir(run.join("checkpoints")) {
+        for e in rd.flatten() {
+            let d = e.path();
+            if d < newest && !d.join("manifest.json").is_file() {
+                let _ = fs::remove_dir_all(&d);
+            }
+        }
+    }
+}
+
+fn bad(path: &Path, message: impl Into<String>) -> Error {
+    Error::Input {
+        at: Some(Location {
+            file: path.to_path_buf(),
+            line: None,
+        }),
+        key: "--restart".into(),
+        message: message.into(),
+    }
+}
+
+/// The checkpoint `path` names: a checkpoint directory (with `manifest.json`), or a run
+/// directory, whose newest complete checkpoint is taken.
+pub fn locate(path: &Path) -> Result<PathBuf> {
+    if path.join("manifest.json").is_file() {
+        return Ok(path.to_path_buf());
+    }
+    if path.is_dir() {
+        if let Some(d) = complete(path).pop() {
+            return Ok(d);
+        }
+        return Err(bad(
+            path,
+            "holds no complete checkpoint (a checkpoint directory has a manifest.json; runs write \
+             them with [checkpoint] every_steps or every, and when stopped by a signal)",
+        ));
+    }
+    Err(bad(path, "no such checkpoint or run directory"))
+}
+
+/// The run directory a checkpoint directory belongs to.
+pub fn run_dir_of(checkpoint: &Path) -> PathBuf {
+    checkpoint
+        .parent()
+        .and_then(Path::parent)
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."))
+}
+
+/// Read a checkpoint's manifest.
+pub fn manifest(dir: &Path) -> Result<Manifest> {
+    let path = dir.join("manifest.json");
+    let text = fs::read(&path).map_err(|e| bad(&path, format!("cannot read: {e}")))?;
+    let m: Manifest =
+        serde_json::from_slice(&text).map_err(|e| bad(&path, format!("not a checkpoint manifest: {e}")))?;
+    if m.format != FORMAT {
+        return Err(bad(
+            &path,
+            format!("checkpoint format {} (this hsph reads format {FORMAT})", m.format),
+        ));
+    }
+    Ok(m)
+}
+
+/// Every particle of a checkpoint, sorted by id, with the acceleration of each (m/s²), after
+/// checking every part against the manifest.
+pub fn particles<const D: usize>(dir: &Path, m: &Manifest) -> Result<(Particles<D>, Vec<Vector<D>>)> {
+    if m.dimension != D {
+        return Err(bad(
+            &dir.join("manifest.json"),
+            format!("a {}D checkpoint, not {D}D", m.dimension),
+        ));
+    }
+    let mut all = Particles::<D>::default();
+    let mut acc = Vec::new();
+    for part in &m.parts {
+        let path = dir.join(&part.file);
+        let bytes =
+            fs::read(&path).map_err(|e| bad(&path, format!("checkpoint part missing or unreadable: {e}")))?;
+        if bytes.len() as u64 != part.bytes {
+            return Err(bad(
+                &path,
+                format!(
+                    "checkpoint part is {} bytes, the manifest says {} (truncated?)",
+                    bytes.len(),
+                    part.bytes
+                ),
+            ));
+        }
+        if format!("{:016x}", fnv1a64(&bytes)) != part.fnv1a64 {
+            return Err(bad(
+                &path,
+                "checkpoint part is corrupt: its checksum differs from the manifest's",
+            ));
+        }
+        decode(&bytes, part.particles as usize, &mut all, &mut acc).map_err(|e| bad(&path, e))?;
+    }
+    let mut perm: Vec<usize> = (0..all.n_owned).collect();
+    perm.sort_unstable_by_key(|&i| all.id[i]);
+    all.permute_owned(&perm);
+    let acc = perm.iter().map(|&i| acc[i]).collect();
+    Ok((all, acc))
+}
+
+/// Append the particles of one part to `all` and their accelerations to `acc`.
+fn decode<const D: usize>(
+    bytes: &[u8],
+    n: usize,
+    all: &mut Particles<D>,
+    acc: &mut Vec<Vector<D>>,
+) -> std::result::Result<(), String> {
+    let rec = Record::<D>::words() * 8;
+    let need = 24 + n * (rec + D * 8);
+    if bytes.len() != need || &bytes[..8] != MAGIC {
+        return Err(format!("not a {D}D checkpoint part of {n} particles"));
+    }
+    let word = |k: usize| u32::from_le_bytes(bytes[k..k + 4].try_into().unwrap());
+    if word(8) != FORMAT || word(12) as usize != D {
+        return Err("checkpoint part of another format or dimension".into());
+    }
+    let mut r = Reader::new(&bytes[24..24 + n * rec]);
+    for _ in 0..n {
+        all.push_owned(Record::get(&mut r).map_err(|e| e.to_string())?);
+    }
+    let a0 = 24 + n * rec;
+    for k in 0..n {
+        acc.push(Vector::<D>::from_fn(|a, _| {
+            let o = a0 + (k * D + a) * 8;
+            f64::from_le_bytes(bytes[o..o + 8].try_into().unwrap())
+        }));
+    }
+    Ok(())
+}

@@ -1,0 +1,225 @@
+//! Checkpoints and restart (issue 10): a run checkpointed on P ranks and continued on Q ranks
+//! writes the same bytes as a run never interrupted; a checkpoint torn by a crash is skipped; a
+//! damaged part or a change to the physics is refused with exit 2.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const SCENE: &str = "inputs/dam_break_2d.toml";
+/// Files a continued run must reproduce byte for byte (`diagnostics.csv` and `traffic.csv`
+/// hold timers and layout-dependent traffic).
+const SAME: &[&str] = &[
+    "timeseries.csv",
+    "final.csv",
+    "probes/front.csv",
+    "probes/p_right_wall.csv",
+    "probes/tank.csv",
+    "snapshots/series.pvd",
+];
+
+fn hsph_env(args: &[&str], env: &[(&str, &str)]) -> (i32, String) {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_hsph"));
+    c.args(args).current_dir(common::repo_path(""));
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    let o = c.output().unwrap();
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// `hsph run SCENE` to t = 0.05 s (about 170 steps, rebalance checks every 20) on `ranks`.
+fn run(out: &Path, ranks: &str, extra: &[&str], env: &[(&str, &str)]) -> (i32, String) {
+    let mut args = vec![
+        "run",
+        SCENE,
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+        "--ranks",
+        ranks,
+        "--set",
+        "time.t_end=0.05",
+        "--set",
+        "output.interval=0.01",
+    ];
+    args.extend(extra);
+    hsph_env(&args, env)
+}
+
+fn restart(from: &Path, ranks: &str, extra: &[&str]) -> (i32, String) {
+    let mut args = vec!["run", "--restart", from.to_str().unwrap(), "-q", "--ranks", ranks];
+    args.extend(extra);
+    hsph_env(&args, &[])
+}
+
+fn reference() -> PathBuf {
+    let out = common::temp_dir("restart-ref").join("run");
+    let (code, err) = run(&out, "1", &[], &[]);
+    assert_eq!(code, 0, "{err}");
+    out
+}
+
+fn assert_same(a: &Path, b: &Path, what: &str) {
+    for f in SAME {
+        let read =
+            |d: &Path| std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{}: {e}", d.join(f).display()));
+        assert!(
+            read(a) == read(b),
+            "{what}: {f} differs from the uninterrupted run"
+        );
+    }
+}
+
+/// P → Q restarts at steps inside a rebalance interval (checks every 20 steps): 1 → 3 stopped by
+/// a signal at step 37, 4 → 2 and 3 → 7 from a checkpoint every 30 steps at the end of a
+/// first leg cut by `time.max_steps`.
+#[test]
+fn a_run_continued_on_another_rank_count_has_the_same_bits() {
+    let reference = reference();
+    let dir = common::temp_dir("restart");
+    // 1 → 3: SIGTERM at step 37 (the stop contract writes a checkpoint, exit 3)
+    let a = dir.join("a");
+    let (code, err) = run(&a, "1", &[], &[("HSPH_TEST_FAULT", "0:37:signal")]);
+    assert_eq!(code, 3, "{err}");
+    assert!(
+        a.join("checkpoints/step-0000000037/manifest.json").is_file(),
+        "{err}"
+    );
+    let (code, err) = restart(&a, "3", &[]);
+    assert_eq!(code, 0, "{err}");
+    assert_same(&reference, &a, "1 → 3 after a signal");
+    // 4 → 2 and 3 → 7: a first leg to step 45 checkpointing every 30 steps (and at its end)
+    for (p, q) in [("4", "2"), ("3", "7")] {
+        let b = dir.join(format!("b{p}{q}"));
+        let (code, err) = run(
+            &b,
+            p,
+            &["--set", "time.max_steps=45", "--set", "checkpoint.every_steps=30"],
+            &[],
+        );
+        assert_eq!(code, 0, "{err}");
+        let (code, err) = restart(&b, q, &["--set", "time.max_steps=0"]);
+        assert_eq!(code, 0, "{err}");
+        assert_same(&reference, &b, &format!("{p} → {q}"));
+    }
+}
+
+/// A wall on a motion law (a paddle oscillating in the tank, x(t) = x0 + A sin 2πt/T) continues
+/// from where it was: checkpointed on 2 ranks at step 125, continued on 3.
+#[test]
+fn a_moving_wall_restarts_where_it_was() {
+    let dir = common::temp_dir("restart-paddle");
+    let text = std::fs::read_to_string(common::repo_path(SCENE)).unwrap()
+        + "\n[[wall]]\nname = \"paddle\"\nshape = \"block\"\nmin = [0.45, 0.0]\nmax = [0.468, 0.12]\n\
+           method = \"dummy\"\nmotion = { law = \"sine\", amplitude = [0.01, 0.0], period = 0.04 }\n";
+    let scene = dir.join("paddle.toml");
+    std::fs::write(&scene, text).unwrap();
+    let go = |out: &str, extra: &[&str]| {
+        let out = dir.join(out);
+        let mut a = vec![
+            "run",
+            scene.to_str().unwrap(),
+            "-q",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        a.extend(["--set", "time.t_end=0.03", "--set", "output.interval=0.01"]);
+        a.extend(extra);
+        let (code, err) = hsph_env(&a, &[]);
+        assert_eq!(code, 0, "{err}");
+    };
+    go("ref", &[]);
+    go(
+        "cut",
+        &[
+            "--set",
+            "checkpoint.every_steps=125",
+            "--set",
+            "checkpoint.keep=10",
+            "--ranks",
+            "2",
+        ],
+    );
+    // the newest checkpoint is the one at the end: take the first explicitly
+    let first = std::fs::read_dir(dir.join("cut/checkpoints"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .min()
+        .unwrap();
+    assert!(first.ends_with("step-0000000125"), "{}", first.display());
+    let (code, err) = restart(&first, "3", &[]);
+    assert_eq!(code, 0, "{err}");
+    assert_same(&dir.join("ref"), &dir.join("cut"), "paddle 2 → 3");
+}
+
+/// kill -9 while a checkpoint is written (after the parts, before the manifest): the torn
+/// checkpoint is skipped and the run continues from the previous one with the same bits.
+#[test]
+fn a_checkpoint_torn_by_a_crash_is_skipped() {
+    let reference = reference();
+    let out = common::temp_dir("restart-torn").join("run");
+    let (code, _) = run(
+        &out,
+        "2",
+        &["--set", "checkpoint.every_steps=30"],
+        &[("HSPH_TEST_ABORT_IN_CHECKPOINT", "60")],
+    );
+    assert_ne!(code, 0);
+    assert!(out.join("checkpoints/step-0000000060/part-00000.bin").is_file());
+    assert!(!out.join("checkpoints/step-0000000060/manifest.json").exists());
+    let (code, err) = restart(&out, "1", &[]);
+    assert_eq!(code, 0, "{err}");
+    assert_same(&reference, &out, "after a torn checkpoint");
+}
+
+/// A flipped byte and a truncated part each give exit 2 naming the part; so does a change to
+/// the physics, naming the key; a later t_end is accepted.
+#[test]
+fn damaged_checkpoints_and_physics_changes_are_refused() {
+    let dir = common::temp_dir("restart-bad");
+    let out = dir.join("run");
+    let (code, err) = run(
+        &out,
+        "2",
+        &["--set", "time.max_steps=20", "--set", "checkpoint.every_steps=20"],
+        &[],
+    );
+    assert_eq!(code, 0, "{err}");
+    let ck = out.join("checkpoints/step-0000000020");
+    let part = ck.join("part-00001.bin");
+    let good = std::fs::read(&part).unwrap();
+    let (code, err) = restart(&out, "1", &["--set", "physics.artificial_viscosity=0.1"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("physics.artificial_viscosity") && err.contains("start a new run"),
+        "{err}"
+    );
+    let mut flipped = good.clone();
+    flipped[good.len() / 2] ^= 0x10;
+    std::fs::write(&part, &flipped).unwrap();
+    let (code, err) = restart(&out, "1", &[]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("part-00001.bin") && err.contains("corrupt"), "{err}");
+    std::fs::write(&part, &good[..good.len() - 8]).unwrap();
+    let (code, err) = restart(&ck, "1", &[]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("part-00001.bin") && err.contains("truncated"),
+        "{err}"
+    );
+    std::fs::write(&part, &good).unwrap();
+    let (code, err) = restart(
+        &out,
+        "1",
+        &["--set", "time.t_end=0.06", "--set", "time.max_steps=0"],
+    );
+    assert_eq!(code, 0, "{err}");
+    let (code, err) = restart(&dir.join("nowhere"), "1", &[]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("no such checkpoint"), "{err}");
+}
