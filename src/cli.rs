@@ -84,6 +84,13 @@ Examples:
         /// ranks; --set may change only time.t_end, time.max_steps, output and checkpoint keys.
         #[arg(long, value_name = "DIR", conflicts_with_all = ["scene", "out", "force"])]
         restart: Option<PathBuf>,
+        /// Wall-clock limit of the run, e.g. 23:50:00 (HH:MM:SS, MM:SS or seconds): before it
+        /// the run writes a checkpoint and stops with exit 3, to be continued with --restart.
+        #[arg(long, value_name = "HH:MM:SS", value_parser = parse_duration)]
+        max_wall: Option<f64>,
+        /// Write a checkpoint every M minutes of wall-clock time.
+        #[arg(long, value_name = "M")]
+        checkpoint_every_minutes: Option<f64>,
         /// Output directory (default runs/<scene>-<UTC timestamp>).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -248,6 +255,8 @@ fn dispatch(cmd: Command) -> Result<i32> {
         Command::Run {
             scene,
             restart,
+            max_wall,
+            checkpoint_every_minutes,
             out,
             force,
             threads,
@@ -286,7 +295,15 @@ fn dispatch(cmd: Command) -> Result<i32> {
                 max_memory,
                 min_particles_per_rank,
                 restart: None,
+                max_wall,
+                checkpoint_wall: checkpoint_every_minutes.map(|m| m * 60.0),
             };
+            if checkpoint_every_minutes.is_some_and(|m| !(m > 0.0 && m.is_finite())) {
+                return Err(Error::input(
+                    "--checkpoint-every-minutes",
+                    "must be a positive number of minutes, e.g. 30",
+                ));
+            }
             match (scene, restart) {
                 (_, Some(from)) => cmd_restart(&from, &set, opts),
                 (Some(scene), None) => cmd_run(&scene, &set, &opts),
@@ -452,6 +469,23 @@ pub fn say(text: &str) {
 }
 
 /// `--max-memory SIZE`.
+/// HH:MM:SS, MM:SS or seconds, as seconds.
+fn parse_duration(s: &str) -> std::result::Result<f64, String> {
+    let parts: Vec<&str> = s.split(':').collect();
+    let nums: Option<Vec<f64>> = parts.iter().map(|p| p.trim().parse::<f64>().ok()).collect();
+    match nums {
+        Some(n) if (1..=3).contains(&n.len()) && n.iter().all(|x| *x >= 0.0 && x.is_finite()) => {
+            let secs = n.iter().fold(0.0, |acc, x| acc * 60.0 + x);
+            if secs > 0.0 {
+                Ok(secs)
+            } else {
+                Err(format!("`{s}` is zero; e.g. 23:50:00"))
+            }
+        }
+        _ => Err(format!("`{s}` is not a duration; e.g. 23:50:00, 45:00 or 3600")),
+    }
+}
+
 fn parse_memory(s: &str) -> std::result::Result<f64, String> {
     crate::memory::parse_size(s)
         .ok_or_else(|| format!("`{s}` is not a size; e.g. 64G, 512MiB or 1000000 (bytes)"))

@@ -98,6 +98,10 @@ pub struct RunOptions {
     pub min_particles_per_rank: usize,
     /// Continue from this checkpoint (`--restart`): its directory and manifest.
     pub restart: Option<(PathBuf, crate::checkpoint::Manifest)>,
+    /// Wall-clock limit (s, `--max-wall`): stop with a checkpoint before it.
+    pub max_wall: Option<f64>,
+    /// Wall-clock time between checkpoints (s, `--checkpoint-every-minutes`).
+    pub checkpoint_wall: Option<f64>,
 }
 
 /// Default fewest particles per rank: below it halos cost more than the rank computes.
@@ -627,6 +631,8 @@ struct RankRun<'a, const D: usize> {
     next_checkpoint: f64,
     /// Step of the last checkpoint written (none yet: `u64::MAX`).
     checkpointed: u64,
+    /// When the last checkpoint was written (or the loop started), and how long it took (s).
+    checkpoint_clock: (Instant, f64),
 }
 
 impl<'a, const D: usize> RankRun<'a, D> {
@@ -699,6 +705,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             next_out: scene.output.interval,
             next_checkpoint: scene.checkpoint.every,
             checkpointed: u64::MAX,
+            checkpoint_clock: (Instant::now(), 0.0),
         };
         if let Some((ck, m)) = resumed {
             run.restore(&m.run)?;
@@ -794,6 +801,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
         let interval = self.scene.output.interval;
         let mut progress = Progress::new(self.n_total, self.quiet);
         self.steps_start = Instant::now();
+        self.checkpoint_clock.0 = Instant::now();
+        let mut last_step = Instant::now();
         while !self.sim.done() {
             self.inject_fault();
             self.sim.advance(self.comm)?;
@@ -816,10 +825,15 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 self.traffic(self.sim.step)?;
             }
             progress.update(self.sim.step, self.sim.t, self.scene.time.t_end);
-            // a step boundary: stop here if any rank has received a stopping signal
-            self.stopped_by = crate::signals::agreed_stop(self.comm)?;
+            // a step boundary: stop here if any rank has received a stopping signal or is about
+            // to run out of wall-clock time (one collective decides for all)
+            let mut clock = self.wall_clock_flags(&mut last_step);
+            self.stopped_by = crate::signals::agreed_stop_with(self.comm, &mut clock)?;
+            if self.stopped_by.is_none() && clock[0] > 0.0 {
+                self.stopped_by = Some("max-wall");
+            }
             let end = self.sim.done() && self.scene.checkpoint.scheduled();
-            if self.stopped_by.is_some() || self.checkpoint_due() || end {
+            if self.stopped_by.is_some() || self.checkpoint_due() || end || clock[1] > 0.0 {
                 self.checkpoint()?;
             }
             if self.sim.done() && !scheduled {
@@ -906,6 +920,22 @@ impl<'a, const D: usize> RankRun<'a, D> {
         }
     }
 
+    /// This rank's wall-clock decisions at a step boundary: [stop now before `--max-wall`
+    /// (margin: three times the last step plus twice the last checkpoint), checkpoint now for
+    /// `--checkpoint-every-minutes`], as 1.0/0.0 for the max-reduce.
+    fn wall_clock_flags(&self, last_step: &mut Instant) -> [f64; 2] {
+        let step_s = last_step.elapsed().as_secs_f64();
+        *last_step = Instant::now();
+        let elapsed = self.steps_start.elapsed().as_secs_f64();
+        let margin = 3.0 * step_s + 2.0 * self.checkpoint_clock.1;
+        let stop = self.opts.max_wall.is_some_and(|w| elapsed + margin >= w);
+        let due = self
+            .opts
+            .checkpoint_wall
+            .is_some_and(|w| self.checkpoint_clock.0.elapsed().as_secs_f64() >= w);
+        [stop as u8 as f64, due as u8 as f64]
+    }
+
     /// True when `[checkpoint]` asks for one at this step.
     fn checkpoint_due(&mut self) -> bool {
         let c = &self.scene.checkpoint;
@@ -934,6 +964,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         let dir =
             crate::checkpoint::write(&self.sim, self.comm, self.dir, state, self.scene.checkpoint.keep)?;
         self.checkpointed = self.sim.step;
+        self.checkpoint_clock = (Instant::now(), t0.elapsed().as_secs_f64());
         if self.stopped_by.is_some() && self.comm.rank() == 0 {
             eprintln!(
                 "hsph: checkpoint {} written; continue with `hsph run --restart {}`",

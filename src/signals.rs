@@ -64,9 +64,17 @@ pub fn name(sig: usize) -> &'static str {
 /// Collective: the signal any rank has received (the largest number), or `None`. Every rank
 /// gets the same answer, so all stop after the same step.
 pub fn agreed_stop(comm: &dyn Comm) -> Result<Option<&'static str>> {
-    let mut m = [pending() as f64];
+    agreed_stop_with(comm, &mut [])
+}
+
+/// [`agreed_stop`], max-reducing this rank's `flags` (wall-clock decisions) in the same
+/// collective: on return they hold the largest value over the ranks.
+pub fn agreed_stop_with(comm: &dyn Comm, flags: &mut [f64]) -> Result<Option<&'static str>> {
+    let mut m = vec![pending() as f64];
+    m.extend_from_slice(flags);
     let prev = comm.set_phase(Phase::Other);
     comm.all_reduce_max_f64(&mut m)?;
     comm.set_phase(prev);
+    flags.copy_from_slice(&m[1..]);
     Ok((m[0] > 0.0).then(|| name(m[0] as usize)))
 }

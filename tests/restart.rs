@@ -223,3 +223,23 @@ fn damaged_checkpoints_and_physics_changes_are_refused() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("no such checkpoint"), "{err}");
 }
+
+/// `--max-wall`: a limit already reached after the first step stops the run there with a
+/// checkpoint and exit 3 (the signal contract), and the run continues to the same bits.
+#[test]
+fn a_wall_clock_limit_stops_with_a_checkpoint() {
+    let reference = reference();
+    let out = common::temp_dir("restart-wall").join("run");
+    let (code, err) = run(&out, "2", &["--max-wall", "0.001"], &[]);
+    assert_eq!(code, 3, "{err}");
+    assert!(err.contains("stopped by max-wall after step 1 "), "{err}");
+    assert!(out.join("checkpoints/step-0000000001/manifest.json").is_file());
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(
+        summary.contains("\"complete\": false") && summary.contains("\"stopped_by\": \"max-wall\""),
+        "{summary}"
+    );
+    let (code, err) = restart(&out, "1", &[]);
+    assert_eq!(code, 0, "{err}");
+    assert_same(&reference, &out, "after --max-wall");
+}
