@@ -133,6 +133,51 @@ Examples:
         #[arg(long, value_name = "N", default_value_t = driver::MIN_PARTICLES_PER_RANK)]
         min_particles_per_rank: usize,
     },
+    /// Write a Slurm batch script for a scene: the layout as #SBATCH lines, rayon threads per
+    /// rank, the early USR1 forwarded to the run (checkpoint, exit 3) and a requeue that
+    /// continues from the checkpoint. Needs an hsph built with `--features mpi`.
+    #[command(after_help = "\
+Examples:
+  hsph jobscript inputs/dam_break_3d.toml --nodes 4 --ranks-per-node 24 --threads-per-rank 2 --time 12:00:00 > db3.sbatch
+  hsph jobscript inputs/dam_break_2d.toml --nodes 2 --ranks-per-node 2 --time 00:02:00 --signal-before 60 --launcher mpirun --script job.sh")]
+    Jobscript {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Nodes.
+        #[arg(long)]
+        nodes: usize,
+        /// Ranks (MPI tasks) per node.
+        #[arg(long)]
+        ranks_per_node: usize,
+        /// Rayon threads per rank (CPUs per task).
+        #[arg(long, default_value_t = 1)]
+        threads_per_rank: usize,
+        /// Time limit, HH:MM:SS (or MM:SS, or seconds).
+        #[arg(long, value_parser = parse_duration)]
+        time: f64,
+        /// Seconds before the limit at which the run is told to checkpoint and stop (default: a
+        /// tenth of the time, 60 s to 15 min).
+        #[arg(long, value_name = "SECONDS")]
+        signal_before: Option<u64>,
+        /// Slurm partition.
+        #[arg(long)]
+        partition: Option<String>,
+        /// Slurm account.
+        #[arg(long)]
+        account: Option<String>,
+        /// Placement of subdomains on ranks.
+        #[arg(long, value_enum, default_value_t = Placement::CentreDistance)]
+        placement: Placement,
+        /// How ranks are started.
+        #[arg(long, value_enum, default_value_t = crate::jobscript::Launcher::Srun)]
+        launcher: crate::jobscript::Launcher,
+        /// Run directory (default runs/<scene name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Write the script to this file (default: standard output).
+        #[arg(long)]
+        script: Option<PathBuf>,
+    },
     /// Show the machine as hwloc sees it (packages, NUMA nodes, cores, PUs with their cpusets)
     /// and which core each thread gets under `hsph run --bind cores` (cargo feature `hwloc`).
     #[command(after_help = "Example:\n  hsph topology --ranks 2 --threads 4")]
@@ -312,6 +357,56 @@ fn dispatch(cmd: Command) -> Result<i32> {
                     Err(Error::input("SCENE", "give a scene file, or --restart DIR"))
                 }
             }
+        }
+        Command::Jobscript {
+            scene,
+            nodes,
+            ranks_per_node,
+            threads_per_rank,
+            time,
+            signal_before,
+            partition,
+            account,
+            placement,
+            launcher,
+            out,
+            script,
+        } => {
+            let (sc, _) = load_scene(&scene, &[])?;
+            let abs = |p: &std::path::Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+            let run = out.unwrap_or_else(|| PathBuf::from("runs").join(&sc.name));
+            let time_s = time.round() as u64;
+            let spec = crate::jobscript::JobSpec {
+                scene: abs(&scene).display().to_string(),
+                run: abs(&run).display().to_string(),
+                hsph: std::env::current_exe().map_or("hsph".into(), |p| p.display().to_string()),
+                name: sc.name.clone(),
+                nodes,
+                ranks_per_node,
+                threads_per_rank,
+                time_s,
+                signal_s: signal_before.unwrap_or_else(|| crate::jobscript::default_signal(time_s)),
+                partition,
+                account,
+                placement: placement
+                    .to_possible_value()
+                    .map_or("rank-order".into(), |v| v.get_name().to_string()),
+                launcher,
+            };
+            spec.validate()?;
+            let text = spec.script();
+            match script {
+                Some(path) => {
+                    crate::output::write_atomic(&path, |f| std::io::Write::write_all(f, text.as_bytes()))?;
+                    say(&format!(
+                        "wrote {}: submit it with `sbatch {}`\n",
+                        path.display(),
+                        path.display()
+                    ));
+                }
+                None => say(&text),
+            }
+            Ok(0)
         }
         Command::Topology { ranks, threads } => {
             say(&crate::affinity::topology_report(ranks, threads)?);

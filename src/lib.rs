@@ -20,6 +20,7 @@ pub mod driver;
 pub mod error;
 pub mod exact;
 pub mod halo;
+pub mod jobscript;
 pub mod kernel;
 pub mod layout;
 pub mod memory;

@@ -1,0 +1,102 @@
+//! `hsph jobscript` (issue 10, item 5): the generated batch script, run by bash with stand-ins
+//! for `mpirun` (runs the command) and `scontrol` (records the requeue), goes through Slurm's
+//! stop-and-requeue cycle: USR1 to the batch shell before the limit → forwarded to the run →
+//! checkpoint, exit 3 → `scontrol requeue` → the requeued script continues from the checkpoint
+//! and ends with the bits of an uninterrupted run. (The real-Slurm CI test is still to come.)
+
+mod common;
+
+use std::os::unix::fs::PermissionsExt;
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+fn write_exec(path: &Path, text: &str) {
+    std::fs::write(path, text).unwrap();
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o755)).unwrap();
+}
+
+#[test]
+fn the_job_script_checkpoints_on_the_early_signal_and_the_requeued_job_continues() {
+    let dir = common::temp_dir("jobscript");
+    let bin = dir.join("bin");
+    std::fs::create_dir_all(&bin).unwrap();
+    // mpirun --map-by ppr:1:node:PE=1 --bind-to core HSPH ARGS... → HSPH ARGS...
+    write_exec(&bin.join("mpirun"), "#!/bin/bash\nshift 4\nexec \"$@\"\n");
+    let log = dir.join("scontrol.log");
+    write_exec(
+        &bin.join("scontrol"),
+        &format!("#!/bin/bash\necho \"$@\" >> {}\n", log.display()),
+    );
+    let scene = common::repo_path("inputs/dam_break_2d.toml");
+    let run = dir.join("run");
+    let job = dir.join("job.sh");
+    let (code, _, err) = common::hsph(&[
+        "jobscript",
+        scene.to_str().unwrap(),
+        "--nodes",
+        "1",
+        "--ranks-per-node",
+        "1",
+        "--time",
+        "00:10:00",
+        "--launcher",
+        "mpirun",
+        "--out",
+        run.to_str().unwrap(),
+        "--script",
+        job.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let path = format!("{}:{}", bin.display(), std::env::var("PATH").unwrap_or_default());
+    let batch = || {
+        let mut c = Command::new("bash");
+        c.arg(&job)
+            .current_dir(&dir)
+            .env("PATH", &path)
+            .env("SLURM_JOB_ID", "42")
+            .env("HSPH", env!("CARGO_BIN_EXE_hsph"));
+        c
+    };
+    // first job: USR1 to the batch shell once the run is under way
+    let mut first = batch().spawn().unwrap();
+    let start = Instant::now();
+    let rows = || std::fs::read_to_string(run.join("timeseries.csv")).map_or(0, |t| t.lines().count());
+    while rows() < 3 {
+        assert!(start.elapsed() < Duration::from_secs(60), "the run did not start");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let sent = Command::new("kill")
+        .args(["-USR1", &first.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let status = first.wait().unwrap();
+    assert_eq!(
+        status.code(),
+        Some(3),
+        "the batch script passes on the run's exit 3"
+    );
+    let requeued = std::fs::read_to_string(&log).unwrap_or_default();
+    assert_eq!(requeued.trim(), "requeue 42");
+    let summary = std::fs::read_to_string(run.join("summary.json")).unwrap();
+    assert!(summary.contains("\"stopped_by\": \"SIGUSR1\""), "{summary}");
+    // the requeued job finds the checkpoint and continues
+    let status = batch().status().unwrap();
+    assert_eq!(status.code(), Some(0));
+    let reference = dir.join("reference");
+    let (code, _, err) = common::hsph(&[
+        "run",
+        scene.to_str().unwrap(),
+        "-q",
+        "--threads",
+        "1",
+        "--out",
+        reference.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    for f in ["timeseries.csv", "final.csv", "probes/front.csv"] {
+        let read = |d: &Path| std::fs::read(d.join(f)).unwrap();
+        assert!(read(&run) == read(&reference), "{f} differs after the requeue");
+    }
+}
