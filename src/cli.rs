@@ -140,44 +140,7 @@ Examples:
 Examples:
   hsph jobscript inputs/dam_break_3d.toml --nodes 4 --ranks-per-node 24 --threads-per-rank 2 --time 12:00:00 > db3.sbatch
   hsph jobscript inputs/dam_break_2d.toml --nodes 2 --ranks-per-node 2 --time 00:02:00 --signal-before 60 --launcher mpirun --script job.sh")]
-    Jobscript {
-        /// Scene file (TOML).
-        scene: PathBuf,
-        /// Nodes.
-        #[arg(long)]
-        nodes: usize,
-        /// Ranks (MPI tasks) per node.
-        #[arg(long)]
-        ranks_per_node: usize,
-        /// Rayon threads per rank (CPUs per task).
-        #[arg(long, default_value_t = 1)]
-        threads_per_rank: usize,
-        /// Time limit, HH:MM:SS (or MM:SS, or seconds).
-        #[arg(long, value_parser = parse_duration)]
-        time: f64,
-        /// Seconds before the limit at which the run is told to checkpoint and stop (default: a
-        /// tenth of the time, 60 s to 15 min).
-        #[arg(long, value_name = "SECONDS")]
-        signal_before: Option<u64>,
-        /// Slurm partition.
-        #[arg(long)]
-        partition: Option<String>,
-        /// Slurm account.
-        #[arg(long)]
-        account: Option<String>,
-        /// Placement of subdomains on ranks.
-        #[arg(long, value_enum, default_value_t = Placement::CentreDistance)]
-        placement: Placement,
-        /// How ranks are started.
-        #[arg(long, value_enum, default_value_t = crate::jobscript::Launcher::Srun)]
-        launcher: crate::jobscript::Launcher,
-        /// Run directory (default runs/<scene name>).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Write the script to this file (default: standard output).
-        #[arg(long)]
-        script: Option<PathBuf>,
-    },
+    Jobscript(JobArgs),
     /// Show the machine as hwloc sees it (packages, NUMA nodes, cores, PUs with their cpusets)
     /// and which core each thread gets under `hsph run --bind cores` (cargo feature `hwloc`).
     #[command(after_help = "Example:\n  hsph topology --ranks 2 --threads 4")]
@@ -316,16 +279,8 @@ fn dispatch(cmd: Command) -> Result<i32> {
             max_memory,
             min_particles_per_rank,
         } => {
-            if backend == Backend::Mpi && !cfg!(feature = "mpi") {
-                return Err(Error::missing_feature("--backend", "mpi"));
-            }
-            if bind == Bind::Cores && !cfg!(feature = "hwloc") {
-                return Err(Error::missing_feature("--bind cores", "hwloc"));
-            }
-            if ranks == 0 {
-                return Err(Error::input("--ranks", "must be at least 1, e.g. --ranks 4"));
-            }
-            let mut opts = RunOptions {
+            check_run_flags(backend, bind, ranks, checkpoint_every_minutes)?;
+            let opts = RunOptions {
                 out,
                 force,
                 threads,
@@ -343,71 +298,13 @@ fn dispatch(cmd: Command) -> Result<i32> {
                 max_wall,
                 checkpoint_wall: checkpoint_every_minutes.map(|m| m * 60.0),
             };
-            if checkpoint_every_minutes.is_some_and(|m| !(m > 0.0 && m.is_finite())) {
-                return Err(Error::input(
-                    "--checkpoint-every-minutes",
-                    "must be a positive number of minutes, e.g. 30",
-                ));
-            }
             match (scene, restart) {
                 (_, Some(from)) => cmd_restart(&from, &set, opts),
                 (Some(scene), None) => cmd_run(&scene, &set, &opts),
-                (None, None) => {
-                    opts.restart = None;
-                    Err(Error::input("SCENE", "give a scene file, or --restart DIR"))
-                }
+                (None, None) => Err(Error::input("SCENE", "give a scene file, or --restart DIR")),
             }
         }
-        Command::Jobscript {
-            scene,
-            nodes,
-            ranks_per_node,
-            threads_per_rank,
-            time,
-            signal_before,
-            partition,
-            account,
-            placement,
-            launcher,
-            out,
-            script,
-        } => {
-            let (sc, _) = load_scene(&scene, &[])?;
-            let abs = |p: &std::path::Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
-            let run = out.unwrap_or_else(|| PathBuf::from("runs").join(&sc.name));
-            let time_s = time.round() as u64;
-            let spec = crate::jobscript::JobSpec {
-                scene: abs(&scene).display().to_string(),
-                run: abs(&run).display().to_string(),
-                hsph: std::env::current_exe().map_or("hsph".into(), |p| p.display().to_string()),
-                name: sc.name.clone(),
-                nodes,
-                ranks_per_node,
-                threads_per_rank,
-                time_s,
-                signal_s: signal_before.unwrap_or_else(|| crate::jobscript::default_signal(time_s)),
-                partition,
-                account,
-                placement: placement
-                    .to_possible_value()
-                    .map_or("rank-order".into(), |v| v.get_name().to_string()),
-                launcher,
-            };
-            spec.validate()?;
-            let text = spec.script();
-            match script {
-                Some(path) => {
-                    crate::output::write_atomic(&path, |f| std::io::Write::write_all(f, text.as_bytes()))?;
-                    say(&format!(
-                        "wrote {}: submit it with `sbatch {}`\n",
-                        path.display(),
-                        path.display()
-                    ));
-                }
-                None => say(&text),
-            }
-            Ok(0)
-        }
+        Command::Jobscript(a) => cmd_jobscript(a),
         Command::Topology { ranks, threads } => {
             say(&crate::affinity::topology_report(ranks, threads)?);
             Ok(0)
@@ -473,6 +370,126 @@ fn cmd_run(scene: &std::path::Path, set: &[String], opts: &RunOptions) -> Result
     } else {
         0
     })
+}
+
+/// Flags of `hsph run` that need no scene: the back end and binding this build has, a rank
+/// count, a positive checkpoint interval.
+fn check_run_flags(
+    backend: Backend,
+    bind: Bind,
+    ranks: usize,
+    checkpoint_minutes: Option<f64>,
+) -> Result<()> {
+    if backend == Backend::Mpi && !cfg!(feature = "mpi") {
+        return Err(Error::missing_feature("--backend", "mpi"));
+    }
+    if bind == Bind::Cores && !cfg!(feature = "hwloc") {
+        return Err(Error::missing_feature("--bind cores", "hwloc"));
+    }
+    if ranks == 0 {
+        return Err(Error::input("--ranks", "must be at least 1, e.g. --ranks 4"));
+    }
+    if checkpoint_minutes.is_some_and(|m| !(m > 0.0 && m.is_finite())) {
+        return Err(Error::input(
+            "--checkpoint-every-minutes",
+            "must be a positive number of minutes, e.g. 30",
+        ));
+    }
+    Ok(())
+}
+
+/// `hsph jobscript`'s flags.
+#[derive(clap::Args, Debug)]
+pub struct JobArgs {
+    /// Scene file (TOML).
+    scene: PathBuf,
+    /// Nodes.
+    #[arg(long)]
+    nodes: usize,
+    /// Ranks (MPI tasks) per node.
+    #[arg(long)]
+    ranks_per_node: usize,
+    /// Rayon threads per rank (CPUs per task).
+    #[arg(long, default_value_t = 1)]
+    threads_per_rank: usize,
+    /// Time limit, HH:MM:SS (or MM:SS, or seconds).
+    #[arg(long, value_parser = parse_duration)]
+    time: f64,
+    /// Seconds before the limit at which the run is told to checkpoint and stop (default: a
+    /// tenth of the time, 60 s to 15 min).
+    #[arg(long, value_name = "SECONDS")]
+    signal_before: Option<u64>,
+    /// Slurm partition.
+    #[arg(long)]
+    partition: Option<String>,
+    /// Slurm account.
+    #[arg(long)]
+    account: Option<String>,
+    /// Placement of subdomains on ranks.
+    #[arg(long, value_enum, default_value_t = Placement::CentreDistance)]
+    placement: Placement,
+    /// How ranks are started.
+    #[arg(long, value_enum, default_value_t = crate::jobscript::Launcher::Srun)]
+    launcher: crate::jobscript::Launcher,
+    /// Run directory (default runs/<scene name>).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Write the script to this file (default: standard output).
+    #[arg(long)]
+    script: Option<PathBuf>,
+}
+
+/// `hsph jobscript`: the sbatch script for a scene, to a file or standard output.
+fn cmd_jobscript(a: JobArgs) -> Result<i32> {
+    let JobArgs {
+        scene,
+        nodes,
+        ranks_per_node,
+        threads_per_rank,
+        time,
+        signal_before,
+        partition,
+        account,
+        placement,
+        launcher,
+        out,
+        script,
+    } = a;
+    let (sc, _) = load_scene(&scene, &[])?;
+    let abs = |p: &std::path::Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+    let run = out.unwrap_or_else(|| PathBuf::from("runs").join(&sc.name));
+    let time_s = time.round() as u64;
+    let spec = crate::jobscript::JobSpec {
+        scene: abs(&scene).display().to_string(),
+        run: abs(&run).display().to_string(),
+        hsph: std::env::current_exe().map_or("hsph".into(), |p| p.display().to_string()),
+        name: sc.name.clone(),
+        nodes,
+        ranks_per_node,
+        threads_per_rank,
+        time_s,
+        signal_s: signal_before.unwrap_or_else(|| crate::jobscript::default_signal(time_s)),
+        partition,
+        account,
+        placement: placement
+            .to_possible_value()
+            .map_or("rank-order".into(), |v| v.get_name().to_string()),
+        launcher,
+    };
+    spec.validate()?;
+    let text = spec.script();
+    match script {
+        Some(path) => {
+            crate::output::write_atomic(&path, |f| std::io::Write::write_all(f, text.as_bytes()))?;
+            say(&format!(
+                "wrote {}: submit it with `sbatch {}`\n",
+                path.display(),
+                path.display()
+            ));
+        }
+        None => say(&text),
+    }
+    Ok(0)
 }
 
 /// `hsph run --restart`: the checkpoint's scene with the allowed `--set` changes, continued

@@ -724,28 +724,33 @@ impl<'a, const D: usize> RankRun<'a, D> {
             // the set-up's traffic (one step's exchanges at the initial positions) is step 0
             run.traffic(0)?;
         }
-        if !run.quiet {
-            eprintln!(
-                "hsph {} ({}{}): {} ({}D), {} particles, {} rank(s) × {} thread(s) [{}], dt₀ = {:.3e} s, output in {}",
-                env!("CARGO_PKG_VERSION"),
-                env!("HSPH_GIT_COMMIT"),
-                features().iter().map(|f| format!(", {f}")).collect::<String>(),
-                scene.name,
-                D,
-                run.n_total,
-                comm.size(),
-                rayon::current_num_threads(),
-                run.layout.backend.name(),
-                run.sim.dt,
-                dir.display()
-            );
-        }
+        run.banner();
         run.loop_start = Instant::now();
         if resumed.is_none() {
             run.probes.after_step(&run.sim, comm, true, false)?;
             run.output()?;
         }
         Ok(run)
+    }
+
+    /// The run's first log line: version, scene, particles, layout, dt₀, where the output goes.
+    fn banner(&self) {
+        if !self.quiet {
+            eprintln!(
+            "hsph {} ({}{}): {} ({}D), {} particles, {} rank(s) × {} thread(s) [{}], dt₀ = {:.3e} s, output in {}",
+            env!("CARGO_PKG_VERSION"),
+            env!("HSPH_GIT_COMMIT"),
+            features().iter().map(|f| format!(", {f}")).collect::<String>(),
+            self.scene.name,
+            D,
+            self.n_total,
+            self.comm.size(),
+            rayon::current_num_threads(),
+            self.layout.backend.name(),
+            self.sim.dt,
+            self.dir.display()
+        );
+        }
     }
 
     /// Append the traffic since the last call to `traffic.csv` as of `step` (collective).

@@ -388,19 +388,7 @@ pub fn validate(s: &mut Scene) -> Result<()> {
         );
     }
     validate_probes(s)?;
-    let c = &s.checkpoint;
-    if !(c.every >= 0.0 && c.every.is_finite()) {
-        return err(
-            "checkpoint.every",
-            format!("must be ≥ 0 s (0 = no time schedule), got {}", c.every),
-        );
-    }
-    if c.keep == 0 {
-        return err(
-            "checkpoint.keep",
-            "must be at least 1 (2 keeps the previous one while a new one is written)",
-        );
-    }
+    validate_checkpoint(&s.checkpoint)?;
     validate_reference(s)?;
     check_sound_speed(s)
 }
@@ -477,8 +465,104 @@ fn point_in_domain(p: &[f64], key: &str, dom: &Domain) -> Result<()> {
     )
 }
 
-fn validate_probes(s: &mut Scene) -> Result<()> {
+fn validate_checkpoint(c: &CheckpointSpec) -> Result<()> {
+    if !(c.every >= 0.0 && c.every.is_finite()) {
+        return err(
+            "checkpoint.every",
+            format!("must be ≥ 0 s (0 = no time schedule), got {}", c.every),
+        );
+    }
+    if c.keep == 0 {
+        return err(
+            "checkpoint.keep",
+            "must be at least 1 (2 keeps the previous one while a new one is written)",
+        );
+    }
+    Ok(())
+}
+
+/// The keys of probe `i` (named `k`) that depend on its kind.
+fn validate_probe_kind(k: &str, i: usize, s: &mut Scene) -> Result<()> {
     let d = s.dimension;
+    let (domain, walls) = (s.domain.clone(), s.walls.clone());
+    match &mut s.probes[i] {
+        Probe::Pressure {
+            point,
+            diameter,
+            normal,
+            ..
+        } => {
+            check_vec(point, d, &format!("{k}.point"), false)?;
+            point_in_domain(point, &format!("{k}.point"), &domain)?;
+            if !(*diameter >= 0.0 && diameter.is_finite()) {
+                return err(format!("{k}.diameter"), format!("must be ≥ 0 m, got {diameter}"));
+            }
+            match normal {
+                Some(n) => {
+                    check_vec(n, d, &format!("{k}.normal"), false)?;
+                    if n.iter().all(|c| *c == 0.0) {
+                        return err(
+                            format!("{k}.normal"),
+                            "must not be zero: the wall's normal, e.g. [-1.0, 0.0]",
+                        );
+                    }
+                }
+                None if *diameter > 0.0 && d > 1 => {
+                    return err(
+                        format!("{k}.normal"),
+                        "a sensing face with a diameter needs the wall's normal, e.g. normal = [-1.0, 0.0]",
+                    );
+                }
+                None => {}
+            }
+        }
+        Probe::Gauge { point, .. } => {
+            check_vec(point, d, &format!("{k}.point"), false)?;
+            point_in_domain(point, &format!("{k}.point"), &domain)?;
+        }
+        Probe::VelocityLine { from, to, points, .. } => {
+            check_vec(from, d, &format!("{k}.from"), false)?;
+            check_vec(to, d, &format!("{k}.to"), false)?;
+            point_in_domain(from, &format!("{k}.from"), &domain)?;
+            point_in_domain(to, &format!("{k}.to"), &domain)?;
+            if *points < 2 {
+                return err(format!("{k}.points"), "needs at least 2 points");
+            }
+        }
+        Probe::Front { axis, link, .. } => {
+            if *axis >= d {
+                return err(format!("{k}.axis"), format!("must be below dimension {d}"));
+            }
+            if !(*link >= 1.0 && link.is_finite()) {
+                return err(
+                    format!("{k}.link"),
+                    format!("must be ≥ 1 (in units of dx; 1.5 is typical), got {link}"),
+                );
+            }
+        }
+        Probe::Force { body, about, .. } => {
+            let Some(w) = walls.iter().find(|w| w.name == *body) else {
+                let names: Vec<&str> = walls.iter().map(|w| w.name.as_str()).collect();
+                return err(
+                    format!("{k}.body"),
+                    format!("no [[wall]] is named `{body}`; the walls are {names:?}"),
+                );
+            };
+            if w.method == WallMethod::Mirror {
+                return err(
+                    format!("{k}.body"),
+                    format!("wall `{body}` is a mirror, which has no particles to take a force on; use a dummy or repulsive wall"),
+                );
+            }
+            if let Some(a) = about {
+                check_vec(a, d, &format!("{k}.about"), false)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+fn validate_probes(s: &mut Scene) -> Result<()> {
     for i in 0..s.probes.len() {
         let k = format!("probe[{i}]");
         let name = s.probes[i].name().to_string();
@@ -510,80 +594,7 @@ fn validate_probes(s: &mut Scene) -> Result<()> {
                 format!("must be ≥ 0 s (0 = no time average), got {window}"),
             );
         }
-        match &mut s.probes[i] {
-            Probe::Pressure {
-                point,
-                diameter,
-                normal,
-                ..
-            } => {
-                check_vec(point, d, &format!("{k}.point"), false)?;
-                point_in_domain(point, &format!("{k}.point"), &s.domain)?;
-                if !(*diameter >= 0.0 && diameter.is_finite()) {
-                    return err(format!("{k}.diameter"), format!("must be ≥ 0 m, got {diameter}"));
-                }
-                match normal {
-                    Some(n) => {
-                        check_vec(n, d, &format!("{k}.normal"), false)?;
-                        if n.iter().all(|c| *c == 0.0) {
-                            return err(
-                                format!("{k}.normal"),
-                                "must not be zero: the wall's normal, e.g. [-1.0, 0.0]",
-                            );
-                        }
-                    }
-                    None if *diameter > 0.0 && d > 1 => {
-                        return err(
-                            format!("{k}.normal"),
-                            "a sensing face with a diameter needs the wall's normal, e.g. normal = [-1.0, 0.0]",
-                        );
-                    }
-                    None => {}
-                }
-            }
-            Probe::Gauge { point, .. } => {
-                check_vec(point, d, &format!("{k}.point"), false)?;
-                point_in_domain(point, &format!("{k}.point"), &s.domain)?;
-            }
-            Probe::VelocityLine { from, to, points, .. } => {
-                check_vec(from, d, &format!("{k}.from"), false)?;
-                check_vec(to, d, &format!("{k}.to"), false)?;
-                point_in_domain(from, &format!("{k}.from"), &s.domain)?;
-                point_in_domain(to, &format!("{k}.to"), &s.domain)?;
-                if *points < 2 {
-                    return err(format!("{k}.points"), "needs at least 2 points");
-                }
-            }
-            Probe::Front { axis, link, .. } => {
-                if *axis >= d {
-                    return err(format!("{k}.axis"), format!("must be below dimension {d}"));
-                }
-                if !(*link >= 1.0 && link.is_finite()) {
-                    return err(
-                        format!("{k}.link"),
-                        format!("must be ≥ 1 (in units of dx; 1.5 is typical), got {link}"),
-                    );
-                }
-            }
-            Probe::Force { body, about, .. } => {
-                let Some(w) = s.walls.iter().find(|w| w.name == *body) else {
-                    let names: Vec<&str> = s.walls.iter().map(|w| w.name.as_str()).collect();
-                    return err(
-                        format!("{k}.body"),
-                        format!("no [[wall]] is named `{body}`; the walls are {names:?}"),
-                    );
-                };
-                if w.method == WallMethod::Mirror {
-                    return err(
-                        format!("{k}.body"),
-                        format!("wall `{body}` is a mirror, which has no particles to take a force on; use a dummy or repulsive wall"),
-                    );
-                }
-                if let Some(a) = about {
-                    check_vec(a, d, &format!("{k}.about"), false)?;
-                }
-            }
-        }
+        validate_probe_kind(&k, i, s)?;
     }
     Ok(())
 }
