@@ -75,64 +75,7 @@ Examples:
   hsph run inputs/dam_break_2d.toml
   hsph run inputs/couette_2d.toml --out runs/couette --force --threads 2
   hsph run inputs/dam_break_2d.toml --set physics.artificial_viscosity=0.05 --set fluid[0].max=[0.6,0.6]")]
-    Run {
-        /// Scene file (TOML); with --restart, the checkpoint's own scene is used.
-        #[arg(required_unless_present = "restart")]
-        scene: Option<PathBuf>,
-        /// Continue a run from a checkpoint: a checkpoint directory, or a run directory (its
-        /// newest complete checkpoint). The run continues in its own directory, on any number of
-        /// ranks; --set may change only time.t_end, time.max_steps, output and checkpoint keys.
-        #[arg(long, value_name = "DIR", conflicts_with_all = ["scene", "out", "force"])]
-        restart: Option<PathBuf>,
-        /// Wall-clock limit of the run, e.g. 23:50:00 (HH:MM:SS, MM:SS or seconds): before it
-        /// the run writes a checkpoint and stops with exit 3, to be continued with --restart.
-        #[arg(long, value_name = "HH:MM:SS", value_parser = parse_duration)]
-        max_wall: Option<f64>,
-        /// Write a checkpoint every M minutes of wall-clock time.
-        #[arg(long, value_name = "M")]
-        checkpoint_every_minutes: Option<f64>,
-        /// Output directory (default runs/<scene>-<UTC timestamp>).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Overwrite a non-empty output directory.
-        #[arg(long)]
-        force: bool,
-        /// Rayon threads per rank (default: one per core).
-        #[arg(long, default_value_t = 0)]
-        threads: usize,
-        /// Override a scene key by its dotted TOML path, e.g. --set time.t_end=0.5 (repeatable).
-        #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
-        set: Vec<String>,
-        /// Communication back end.
-        #[arg(long, value_enum, default_value_t = Backend::Auto)]
-        backend: Backend,
-        /// Ranks (subdomains) of the local back end: threads of this process, no MPI needed.
-        #[arg(long, default_value_t = 1)]
-        ranks: usize,
-        /// Virtual nodes of K consecutive ranks (wins over the nodes MPI discovers).
-        #[arg(long, value_name = "K", default_value_t = 0, conflicts_with = "topology")]
-        ranks_per_node: usize,
-        /// Node layout file (see topology/), e.g. topology/four_nodes_24.toml.
-        #[arg(long, value_name = "FILE")]
-        topology: Option<PathBuf>,
-        /// Placement of subdomains on ranks.
-        #[arg(long, value_enum, default_value_t = Placement::RankOrder)]
-        placement: Placement,
-        /// No progress output.
-        #[arg(long, short)]
-        quiet: bool,
-        /// Pin each rank's rayon threads to cores of the launcher's cpuset (`cores`, cargo
-        /// feature `hwloc`; `hsph topology` shows the plan and the policy).
-        #[arg(long, value_enum, default_value_t = Bind::None)]
-        bind: Bind,
-        /// Memory this process may use, e.g. 64G or 512MiB (default: the smallest of the cgroup
-        /// limit, the memory available and ulimit -v). A run estimated above it is refused.
-        #[arg(long, value_name = "SIZE", value_parser = parse_memory)]
-        max_memory: Option<f64>,
-        /// Fewest particles per rank: more ranks than particles / N are refused.
-        #[arg(long, value_name = "N", default_value_t = driver::MIN_PARTICLES_PER_RANK)]
-        min_particles_per_rank: usize,
-    },
+    Run(RunArgs),
     /// Write a Slurm batch script for a scene: the layout as #SBATCH lines, rayon threads per
     /// rank, the early USR1 forwarded to the run (checkpoint, exit 3) and a requeue that
     /// continues from the checkpoint. Needs an hsph built with `--features mpi`.
@@ -260,50 +203,7 @@ pub fn main() -> i32 {
 /// Run a command; the exit status of a success (0, or 3 for a run stopped early by a signal).
 fn dispatch(cmd: Command) -> Result<i32> {
     match cmd {
-        Command::Run {
-            scene,
-            restart,
-            max_wall,
-            checkpoint_every_minutes,
-            out,
-            force,
-            threads,
-            set,
-            backend,
-            ranks,
-            ranks_per_node,
-            topology,
-            placement,
-            quiet,
-            bind,
-            max_memory,
-            min_particles_per_rank,
-        } => {
-            check_run_flags(backend, bind, ranks, checkpoint_every_minutes)?;
-            let opts = RunOptions {
-                out,
-                force,
-                threads,
-                quiet,
-                ranks,
-                backend,
-                fault: driver::Fault::from_env(),
-                ranks_per_node,
-                topology: topology.map(|f| Topology::load(&f)).transpose()?,
-                placement,
-                bind,
-                max_memory,
-                min_particles_per_rank,
-                restart: None,
-                max_wall,
-                checkpoint_wall: checkpoint_every_minutes.map(|m| m * 60.0),
-            };
-            match (scene, restart) {
-                (_, Some(from)) => cmd_restart(&from, &set, opts),
-                (Some(scene), None) => cmd_run(&scene, &set, &opts),
-                (None, None) => Err(Error::input("SCENE", "give a scene file, or --restart DIR")),
-            }
-        }
+        Command::Run(a) => cmd_run_args(a),
         Command::Jobscript(a) => cmd_jobscript(a),
         Command::Topology { ranks, threads } => {
             say(&crate::affinity::topology_report(ranks, threads)?);
@@ -370,6 +270,114 @@ fn cmd_run(scene: &std::path::Path, set: &[String], opts: &RunOptions) -> Result
     } else {
         0
     })
+}
+
+/// `hsph run`'s flags.
+#[derive(clap::Args, Debug)]
+pub struct RunArgs {
+    /// Scene file (TOML); with --restart, the checkpoint's own scene is used.
+    #[arg(required_unless_present = "restart")]
+    scene: Option<PathBuf>,
+    /// Continue a run from a checkpoint: a checkpoint directory, or a run directory (its
+    /// newest complete checkpoint). The run continues in its own directory, on any number of
+    /// ranks; --set may change only time.t_end, time.max_steps, output and checkpoint keys.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["scene", "out", "force"])]
+    restart: Option<PathBuf>,
+    /// Wall-clock limit of the run, e.g. 23:50:00 (HH:MM:SS, MM:SS or seconds): before it
+    /// the run writes a checkpoint and stops with exit 3, to be continued with --restart.
+    #[arg(long, value_name = "HH:MM:SS", value_parser = parse_duration)]
+    max_wall: Option<f64>,
+    /// Write a checkpoint every M minutes of wall-clock time.
+    #[arg(long, value_name = "M")]
+    checkpoint_every_minutes: Option<f64>,
+    /// Output directory (default runs/<scene>-<UTC timestamp>).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Overwrite a non-empty output directory.
+    #[arg(long)]
+    force: bool,
+    /// Rayon threads per rank (default: one per core).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Override a scene key by its dotted TOML path, e.g. --set time.t_end=0.5 (repeatable).
+    #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
+    set: Vec<String>,
+    /// Communication back end.
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    backend: Backend,
+    /// Ranks (subdomains) of the local back end: threads of this process, no MPI needed.
+    #[arg(long, default_value_t = 1)]
+    ranks: usize,
+    /// Virtual nodes of K consecutive ranks (wins over the nodes MPI discovers).
+    #[arg(long, value_name = "K", default_value_t = 0, conflicts_with = "topology")]
+    ranks_per_node: usize,
+    /// Node layout file (see topology/), e.g. topology/four_nodes_24.toml.
+    #[arg(long, value_name = "FILE")]
+    topology: Option<PathBuf>,
+    /// Placement of subdomains on ranks.
+    #[arg(long, value_enum, default_value_t = Placement::RankOrder)]
+    placement: Placement,
+    /// No progress output.
+    #[arg(long, short)]
+    quiet: bool,
+    /// Pin each rank's rayon threads to cores of the launcher's cpuset (`cores`, cargo
+    /// feature `hwloc`; `hsph topology` shows the plan and the policy).
+    #[arg(long, value_enum, default_value_t = Bind::None)]
+    bind: Bind,
+    /// Memory this process may use, e.g. 64G or 512MiB (default: the smallest of the cgroup
+    /// limit, the memory available and ulimit -v). A run estimated above it is refused.
+    #[arg(long, value_name = "SIZE", value_parser = parse_memory)]
+    max_memory: Option<f64>,
+    /// Fewest particles per rank: more ranks than particles / N are refused.
+    #[arg(long, value_name = "N", default_value_t = driver::MIN_PARTICLES_PER_RANK)]
+    min_particles_per_rank: usize,
+}
+
+/// `hsph run`: a scene, or `--restart` of a checkpoint.
+fn cmd_run_args(a: RunArgs) -> Result<i32> {
+    let RunArgs {
+        scene,
+        restart,
+        max_wall,
+        checkpoint_every_minutes,
+        out,
+        force,
+        threads,
+        set,
+        backend,
+        ranks,
+        ranks_per_node,
+        topology,
+        placement,
+        quiet,
+        bind,
+        max_memory,
+        min_particles_per_rank,
+    } = a;
+    check_run_flags(backend, bind, ranks, checkpoint_every_minutes)?;
+    let opts = RunOptions {
+        out,
+        force,
+        threads,
+        quiet,
+        ranks,
+        backend,
+        fault: driver::Fault::from_env(),
+        ranks_per_node,
+        topology: topology.map(|f| Topology::load(&f)).transpose()?,
+        placement,
+        bind,
+        max_memory,
+        min_particles_per_rank,
+        restart: None,
+        max_wall,
+        checkpoint_wall: checkpoint_every_minutes.map(|m| m * 60.0),
+    };
+    match (scene, restart) {
+        (_, Some(from)) => cmd_restart(&from, &set, opts),
+        (Some(scene), None) => cmd_run(&scene, &set, &opts),
+        (None, None) => Err(Error::input("SCENE", "give a scene file, or --restart DIR")),
+    }
 }
 
 /// Flags of `hsph run` that need no scene: the back end and binding this build has, a rank

@@ -156,9 +156,7 @@ impl<const D: usize> ProbeSet<D> {
         for k in (0..self.probes.len()).filter(|&k| sampled[k]) {
             regions.push(self.region(k, sim, comm)?);
         }
-        let prev = comm.set_phase(Phase::Output);
         let view = sim.gather_where(comm, &|p, i| regions.iter().any(|r| r.contains(p, i)));
-        comm.set_phase(prev);
         let Some(view) = view? else {
             return Ok(());
         };
