@@ -10,6 +10,7 @@ use crate::comm::{Comm, Phase, TrafficEntry};
 use crate::error::{Error, Result};
 pub use crate::layout::Backend;
 use crate::layout::{resolve_backend, LayoutRequest, RunLayout};
+use crate::output::snapshot::{Piece, SnapshotWriter};
 use crate::output::{self, RunWriter};
 use crate::placement::Placement;
 use crate::probes::ProbeSet;
@@ -609,6 +610,8 @@ struct RankRun<'a, const D: usize> {
     sim: Simulation<D>,
     /// Rank 0 only.
     writer: Option<RunWriter<D>>,
+    /// Every rank: its snapshot pieces (rank 0 also the index); `None` for `format = "none"`.
+    snapshots: Option<Box<dyn SnapshotWriter<D>>>,
     /// Probes on their own clocks (files on rank 0).
     probes: ProbeSet<D>,
     tracker: Tracker,
@@ -678,6 +681,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             None
         };
         let probes = ProbeSet::new(&sim.scene, root.then_some(dir), resumed.is_some())?;
+        let snapshots = output::snapshot::writer_for::<D>(scene.output.format, dir)?;
         let fluid = sim.p.kind[..sim.p.n_owned]
             .iter()
             .filter(|k| k.is_integrated())
@@ -692,6 +696,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             opts,
             sim,
             writer,
+            snapshots,
             probes,
             tracker: Tracker::default(),
             totals: TrafficTotals::default(),
@@ -707,6 +712,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             checkpointed: u64::MAX,
             checkpoint_clock: (Instant::now(), 0.0),
         };
+        run.report_layout()?;
         if let Some((ck, m)) = resumed {
             run.restore(&m.run)?;
             run.checkpointed = m.step;
@@ -753,6 +759,49 @@ impl<'a, const D: usize> RankRun<'a, D> {
         }
     }
 
+    /// Collective when it has something to say: print the layout the run got (nodes, ranks
+    /// per node, threads, CPU sets) and warn where it differs from the job script's plan
+    /// (`HSPH_JOB_PLAN`, [`crate::joblayout`]).
+    fn report_layout(&self) -> Result<()> {
+        use crate::joblayout::{self as jl, Plan, RankLayout};
+        let plan_text = std::env::var(jl::PLAN_VAR).ok();
+        if self.opts.quiet && plan_text.is_none() {
+            return Ok(());
+        }
+        let me = RankLayout {
+            node: self.layout.node_of[self.comm.rank()],
+            threads: rayon::current_num_threads(),
+            cpus: jl::cpus_allowed(),
+        };
+        let all = self.comm.all_gather_bytes(me.encode())?;
+        if self.comm.rank() != 0 {
+            return Ok(());
+        }
+        let ranks: Vec<RankLayout> = all.iter().filter_map(|b| RankLayout::decode(b)).collect();
+        if !self.opts.quiet {
+            eprintln!("hsph: {}", jl::describe(&ranks));
+        }
+        match plan_text.as_deref().map(|t| (t, Plan::parse(t))) {
+            Some((_, Some(plan))) => {
+                for d in jl::differences(&plan, &ranks) {
+                    eprintln!("hsph: warning: {d}");
+                }
+            }
+            Some((t, None)) => eprintln!(
+                "hsph: warning: {}=`{t}` is not of the form {}",
+                jl::PLAN_VAR,
+                Plan {
+                    nodes: 2,
+                    ranks_per_node: 4,
+                    threads_per_rank: 6
+                }
+                .encode()
+            ),
+            None => {}
+        }
+        Ok(())
+    }
+
     /// Append the traffic since the last call to `traffic.csv` as of `step` (collective).
     fn traffic(&mut self, step: u64) -> Result<()> {
         log_traffic(
@@ -764,21 +813,30 @@ impl<'a, const D: usize> RankRun<'a, D> {
         )
     }
 
-    /// One output step: observables, reduced diagnostics, the gathered state (collective).
+    /// One output step (collective): observables, reduced diagnostics, every rank's snapshot
+    /// piece; the state is gathered only for a reference that measures the whole flow.
     fn output(&mut self) -> Result<()> {
         let t0 = Instant::now();
         let obs = self.sim.observables(self.comm)?;
         let r = reduce(&self.sim, self.comm)?;
-        let view = self.sim.gather(self.comm)?;
+        if Tracker::measures_at_output(self.scene) {
+            if let Some(v) = self.sim.gather(self.comm)? {
+                self.tracker.at_output(&v);
+            }
+        }
         let wall = self.loop_start.elapsed().as_secs_f64();
-        if let (Some(v), Some(w)) = (view, self.writer.as_mut()) {
-            self.tracker.at_output(&v);
-            let mut row = format!("{},{},{wall:.6}", v.step, v.t);
+        let stamp = output::Stamp {
+            step: self.sim.step,
+            t: self.sim.t,
+            dt: self.sim.dt,
+        };
+        if let Some(w) = self.writer.as_mut() {
+            let mut row = format!("{},{},{wall:.6}", stamp.step, stamp.t);
             for t in &r.timers {
                 row.push_str(&format!(",{:.6},{:.6},{:.6}", t[0], t[1], t[2]));
             }
             let rate = if wall > 0.0 {
-                r.particles as f64 * v.step as f64 / wall
+                r.particles as f64 * stamp.step as f64 / wall
             } else {
                 0.0
             };
@@ -793,10 +851,23 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 b.rebalance_steps.len(),
                 self.removed
             ));
-            w.output_step(&v, &obs, &row)?;
+            w.output_step(&stamp, &obs, &row)?;
+        }
+        if let Some(w) = self.snapshots.as_mut() {
+            let sim = &self.sim;
+            let piece = Piece::new(
+                &sim.p,
+                (sim.t, sim.step),
+                (self.comm.rank(), self.comm.size()),
+                &sim.scene,
+            );
+            w.write(&piece, &self.scene.output.fields)?;
         }
         // a killed run loses at most the output interval of probe rows
         self.probes.flush()?;
+        if let Some(w) = self.writer.as_ref() {
+            w.mirror_series(&self.probes.files())?;
+        }
         self.sim.timers.add(Timer::Output, t0);
         Ok(())
     }
@@ -1006,7 +1077,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "n_fluid": self.n_fluid,
             "tracker": self.tracker,
             "probes": self.probes.state(),
-            "snapshots": self.writer.as_ref().map(|w| w.snapshot_state()),
+            "snapshots": self.snapshots.as_ref().map(|w| w.state()),
             "series": series,
         }))
     }
@@ -1022,8 +1093,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
         self.n_fluid = s["n_fluid"].as_u64().ok_or_else(|| bad("n_fluid"))?;
         self.tracker = serde_json::from_value(s["tracker"].clone()).map_err(|_| bad("tracker"))?;
         self.probes.restore(&s["probes"])?;
-        if let Some(w) = self.writer.as_mut() {
-            w.restore_snapshots(&s["snapshots"])?;
+        let root = self.comm.rank() == 0;
+        if let Some(w) = self.snapshots.as_mut() {
+            w.restore(&s["snapshots"], root)?;
         }
         Ok(())
     }
@@ -1037,7 +1109,21 @@ impl<'a, const D: usize> RankRun<'a, D> {
         }
         self.probes.flush()?;
         let r = reduce(&self.sim, self.comm)?;
-        let final_view = self.sim.gather(self.comm)?;
+        let p = &self.sim.p;
+        let mut n_fluid = [p.kind[..p.n_owned].iter().filter(|k| k.is_fluid()).count() as u64];
+        self.comm.all_reduce_sum_u64(&mut n_fluid)?;
+        // final.csv gathered on rank 0 up to `output.gather_limit` particles, else per rank
+        let gathered = self.n_total <= self.scene.output.gather_limit;
+        let final_view = if gathered {
+            self.sim.gather(self.comm)?
+        } else {
+            let piece = Piece::new(p, (0.0, 0), (self.comm.rank(), 1), &self.sim.scene);
+            let dir = self.dir.join("final");
+            std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+            let path = dir.join(format!("rank_{:04}.csv", self.comm.rank()));
+            output::write_final(&path, p, &piece.order)?;
+            None
+        };
         let mut writer = self.writer.take();
         log_traffic(
             self.comm,
@@ -1046,7 +1132,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             &self.layout.node_of,
             self.sim.step,
         )?;
-        let (Some(view), Some(mut writer)) = (final_view, writer) else {
+        let Some(mut writer) = writer else {
             return Ok(RunOutcome {
                 dir: self.dir.to_path_buf(),
                 summary: serde_json::Value::Null,
@@ -1054,11 +1140,19 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 stopped_by: self.stopped_by,
             });
         };
-        self.tracker.finish(&view);
-        writer.finish(&view)?;
-        let n_fluid = view.p.kind.iter().filter(|k| k.is_fluid()).count();
-        drop(view);
-        let summary = self.summary(&r, wall, n_fluid);
+        writer.flush()?;
+        writer.mirror_series(&self.probes.files())?;
+        if let Some(view) = final_view {
+            self.tracker.finish(&view);
+            output::write_final(&self.dir.join("final.csv"), &view.p, &view.by_id())?;
+        } else if self.scene.reference.is_some() {
+            eprintln!(
+                "hsph: warning: {} particles exceed output.gather_limit = {}: the reference errors \
+                 that need the whole final state are not measured",
+                self.n_total, self.scene.output.gather_limit
+            );
+        }
+        let summary = self.summary(&r, wall, n_fluid[0] as usize);
         output::write_summary(self.dir, &summary)?;
         if let Some(sig) = self.stopped_by {
             // said even with -q: the run did not finish

@@ -20,6 +20,7 @@ pub mod driver;
 pub mod error;
 pub mod exact;
 pub mod halo;
+pub mod joblayout;
 pub mod jobscript;
 pub mod kernel;
 pub mod layout;

@@ -87,6 +87,11 @@ impl Tracker {
         }
     }
 
+    /// True if `scene`'s reference measures the gathered flow at every output step.
+    pub fn measures_at_output(scene: &crate::scene::Scene) -> bool {
+        matches!(scene.reference, Some(Reference::DamBreakFront { .. }))
+    }
+
     /// Called at every output step (front history for the dam break): the leading particle of
     /// the main body along +x (the front probe's definition, detached spray ignored) plus dx/2,
     /// the edge of its cell.

@@ -181,13 +181,13 @@ fn row_12_failures_leave_no_empty_directory_and_no_truncated_file() {
             "time.t_end=0.1",
         ])
         .current_dir(repo_path(""))
-        .env("HSPH_TEST_FULL_DISK", "snapshot_00003.vtu.tmp")
+        .env("HSPH_TEST_FULL_DISK", "snapshot_00003/rank_0000.vtu.tmp")
         .output()
         .unwrap();
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{e}");
     assert!(
-        e.contains("snapshot_00003.vtu") && e.contains("No space left on device"),
+        e.contains("snapshot_00003/rank_0000.vtu") && e.contains("No space left on device"),
         "{e}"
     );
     assert!(!e.contains("panicked"), "{e}");
@@ -196,10 +196,17 @@ fn row_12_failures_leave_no_empty_directory_and_no_truncated_file() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     assert!(snaps.iter().all(|n| !n.ends_with(".tmp")), "{snaps:?}");
-    assert!(!snaps.contains(&"snapshot_00003.vtu".to_string()), "{snaps:?}");
+    assert!(!snaps.contains(&"snapshot_00003.pvtu".to_string()), "{snaps:?}");
+    let piece = out.join("snapshots/snapshot_00003/rank_0000.vtu");
+    assert!(!piece.exists() && !piece.with_extension("vtu.tmp").exists());
     for k in 0..3 {
-        let v = fs::read_to_string(out.join("snapshots").join(format!("snapshot_{k:05}.vtu"))).unwrap();
-        assert!(v.trim_end().ends_with("</VTKFile>"));
+        for f in [
+            format!("snapshot_{k:05}.pvtu"),
+            format!("snapshot_{k:05}/rank_0000.vtu"),
+        ] {
+            let v = fs::read_to_string(out.join("snapshots").join(f)).unwrap();
+            assert!(v.trim_end().ends_with("</VTKFile>"));
+        }
     }
     assert!(!out.join("summary.json").exists() && !out.join("summary.json.tmp").exists());
     let ts = fs::read_to_string(out.join("timeseries.csv")).unwrap();

@@ -82,7 +82,13 @@ fn probes_keep_their_own_clock_and_their_bits_across_ranks() {
     assert_eq!(rows(&one, "front").len(), 3);
     let vtu = std::fs::read_dir(one.join("snapshots"))
         .unwrap()
-        .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "vtu"))
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .path()
+                .extension()
+                .is_some_and(|x| x == "pvtu")
+        })
         .count();
     assert_eq!(vtu, 3);
     let mut three = sets.to_vec();

@@ -10,6 +10,7 @@ pub const CHANGEABLE: &[&str] = &[
     "output.interval",
     "output.fields",
     "output.format",
+    "output.gather_limit",
     "checkpoint",
     "description",
 ];

@@ -7,6 +7,7 @@
 //! - `probes/<name>.csv`, `snapshots/*.vtu` + `snapshots/series.pvd`;
 //! - `summary.json` — written last and atomically: its presence marks a complete run.
 
+pub mod netcdf;
 pub mod snapshot;
 pub mod vtk;
 
@@ -14,8 +15,7 @@ use crate::comm::TrafficEntry;
 use crate::error::{Error, Result};
 use crate::particles::Particles;
 use crate::scene::Scene;
-use crate::sim::{Observables, View};
-use snapshot::{writer_for, SnapshotWriter};
+use crate::sim::Observables;
 use std::fs::{self, File};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -208,8 +208,11 @@ pub struct RunWriter<const D: usize> {
     diagnostics: BufWriter<File>,
     traffic: BufWriter<File>,
     removed: Option<BufWriter<File>>,
-    snapshots: Option<Box<dyn SnapshotWriter<D>>>,
-    fields: Vec<String>,
+    /// Mirror the series into netCDF (`output.format = "netcdf"`).
+    netcdf: bool,
+    /// Scene name (the netCDF files' title).
+    title: String,
+    _dim: std::marker::PhantomData<[(); D]>,
 }
 
 impl<const D: usize> RunWriter<D> {
@@ -252,30 +255,31 @@ impl<const D: usize> RunWriter<D> {
             diagnostics,
             traffic,
             removed,
-            snapshots: writer_for::<D>(scene.output.format, dir)?,
-            fields: scene.output.fields.clone(),
+            netcdf: scene.output.format == crate::scene::SnapshotFormat::Netcdf,
+            title: scene.name.clone(),
+            _dim: std::marker::PhantomData,
         })
     }
 
-    /// The snapshot writer's state for a checkpoint (what it has written so far).
-    pub fn snapshot_state(&self) -> serde_json::Value {
-        self.snapshots
-            .as_ref()
-            .map_or(serde_json::Value::Null, |w| w.state())
-    }
-
-    /// Continue the snapshot series from a checkpoint's `state`.
-    pub fn restore_snapshots(&mut self, state: &serde_json::Value) -> Result<()> {
-        match self.snapshots.as_mut() {
-            Some(w) => w.restore(state),
-            None => Ok(()),
+    /// With `output.format = "netcdf"`: mirror `timeseries.csv` and the probe files
+    /// (`probes`, relative to the run directory) into netCDF ([`netcdf::mirror_series`]).
+    pub fn mirror_series(&self, probes: &[String]) -> Result<()> {
+        if !self.netcdf {
+            return Ok(());
         }
+        let files = std::iter::once("timeseries.csv".to_string()).chain(probes.iter().cloned());
+        for f in files {
+            let csv = self.dir.join(&f);
+            netcdf::mirror_series(&csv, &csv.with_extension("nc"), &self.title, D)?;
+        }
+        Ok(())
     }
 
-    /// Write one output step: timeseries row (physics only), the diagnostics row the driver
-    /// composed (timers, ghosts, balance: machine and layout dependent) and a snapshot; probes
-    /// write their own files ([`crate::probes::ProbeSet`]).
-    pub fn output_step(&mut self, sim: &View<D>, o: &Observables<D>, diag_row: &str) -> Result<()> {
+    /// Write one output step: timeseries row (physics only) and the diagnostics row the driver
+    /// composed (timers, ghosts, balance: machine and layout dependent). Every rank writes its
+    /// snapshot piece ([`snapshot::SnapshotWriter`]); probes write their own files
+    /// ([`crate::probes::ProbeSet`]).
+    pub fn output_step(&mut self, sim: &Stamp, o: &Observables<D>, diag_row: &str) -> Result<()> {
         let io = |e| Error::io(&self.dir, e);
         let mom: Vec<String> = o.momentum.iter().map(|m| format!("{m}")).collect();
         writeln!(
@@ -294,9 +298,6 @@ impl<const D: usize> RunWriter<D> {
         )
         .map_err(io)?;
         writeln!(self.diagnostics, "{diag_row}").map_err(|e| Error::io(&self.dir, e))?;
-        if let Some(w) = self.snapshots.as_mut() {
-            w.write(sim, &self.fields)?;
-        }
         // a killed run loses at most the output interval since this step
         self.flush()
     }
@@ -354,18 +355,23 @@ impl<const D: usize> RunWriter<D> {
         self.traffic.flush().map_err(io)?;
         Ok(())
     }
-
-    /// Flush the series and write `final.csv`.
-    pub fn finish(&mut self, sim: &View<D>) -> Result<()> {
-        self.flush()?;
-        write_final(&self.dir.join("final.csv"), sim)
-    }
 }
 
-/// `final.csv`: every owned particle sorted by id, the fields the particle table gives a CSV
-/// column (vectors one column per axis), shortest round-trip floats.
-pub fn write_final<const D: usize>(path: &Path, sim: &View<D>) -> Result<()> {
-    let p = &sim.p;
+/// Where an output step stands: steps taken, simulated time (s), next time step (s).
+#[derive(Debug, Clone, Copy)]
+pub struct Stamp {
+    /// Steps taken.
+    pub step: u64,
+    /// Simulated time (s).
+    pub t: f64,
+    /// Time step for the next step (s).
+    pub dt: f64,
+}
+
+/// `final.csv` (or one rank's `final/rank_000r.csv`): the particles `order` of `p` (sorted by
+/// id), the fields the particle table gives a CSV column (vectors one column per axis),
+/// shortest round-trip floats.
+pub fn write_final<const D: usize>(path: &Path, p: &Particles<D>, order: &[usize]) -> Result<()> {
     let cols: Vec<_> = Particles::<D>::field_table()
         .into_iter()
         .filter_map(|m| Some((m.csv?, p.column(m.name)?)))
@@ -374,7 +380,7 @@ pub fn write_final<const D: usize>(path: &Path, sim: &View<D>) -> Result<()> {
     write_atomic(path, |f| {
         writeln!(f, "{}", header.join(","))?;
         let mut line = String::new();
-        for i in sim.by_id() {
+        for &i in order {
             line.clear();
             for (k, (_, c)) in cols.iter().enumerate() {
                 if k > 0 {

@@ -1,63 +1,131 @@
-//! VTK XML snapshots ParaView opens: one `.vtu` per output step (particles as vertices) and a
-//! `.pvd` collection with the simulated time of each. Fields are read from the particle table
-//! by their snapshot names, so a new field with a snapshot name can be written at once.
+//! VTK XML snapshots ParaView opens, written in parallel: each rank writes its owned particles
+//! (as vertices, in id order) to `snapshot_0000k/rank_000r.vtu`; rank 0 writes the
+//! `snapshot_0000k.pvtu` that lists every piece and the `series.pvd` collection with the
+//! simulated time of each snapshot. Fields are read from the particle table by their snapshot
+//! names, so a new field with a snapshot name can be written at once.
 
-use super::snapshot::SnapshotWriter;
-use crate::error::{Error, Result};
+use super::snapshot::{piece_name, Piece, Series, SnapshotWriter};
+use crate::error::Result;
 use crate::particles::{Column, Particles};
-use crate::sim::View;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// A series of `.vtu` snapshots in `dir` with its `series.pvd`.
+/// A series of parallel `.pvtu` snapshots with its `series.pvd`.
 pub struct VtkSeries {
-    dir: PathBuf,
-    snapshots: Vec<(f64, String)>,
+    series: Series,
 }
 
 impl VtkSeries {
     /// Snapshots go into `dir` (created).
     pub fn new(dir: &Path) -> Result<Self> {
-        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
         Ok(VtkSeries {
-            dir: dir.to_path_buf(),
-            snapshots: Vec::new(),
+            series: Series::new(dir)?,
         })
     }
 }
 
 impl<const D: usize> SnapshotWriter<D> for VtkSeries {
-    fn write(&mut self, view: &View<D>, fields: &[String]) -> Result<()> {
-        let name = format!("snapshot_{:05}.vtu", self.snapshots.len());
-        write_vtu(&self.dir.join(&name), view, &view.by_id(), fields)?;
-        self.snapshots.push((view.t, name));
-        write_pvd(&self.dir.join("series.pvd"), &self.snapshots)
+    fn write(&mut self, piece: &Piece<D>, fields: &[String]) -> Result<()> {
+        let path = self.series.next_piece(piece, "vtu")?;
+        write_vtu(&path, piece.p, &piece.order, fields)?;
+        let k = self.series.entries.len();
+        self.series.push(piece);
+        if piece.rank != 0 {
+            return Ok(());
+        }
+        let pieces: Vec<String> = (0..piece.ranks).map(|r| piece_name(k, r, "vtu")).collect();
+        let index = format!("snapshot_{k:05}.pvtu");
+        write_pvtu::<D>(&self.series.dir.join(&index), &pieces, fields)?;
+        let list: Vec<(f64, String)> = (0..self.series.entries.len())
+            .map(|j| (self.series.entries[j].t, format!("snapshot_{j:05}.pvtu")))
+            .collect();
+        write_pvd(&self.series.dir.join("series.pvd"), &list)
     }
 
     fn state(&self) -> serde_json::Value {
-        serde_json::json!(self.snapshots)
+        self.series.state()
     }
 
-    fn restore(&mut self, state: &serde_json::Value) -> Result<()> {
-        if !state.is_null() {
-            self.snapshots = serde_json::from_value(state.clone())
-                .map_err(|e| Error::run(format!("checkpoint: snapshot list: {e}")))?;
-        }
-        Ok(())
+    fn restore(&mut self, state: &serde_json::Value, clean: bool) -> Result<()> {
+        self.series.restore(state, clean)
     }
+}
+
+/// VTK type name of a column.
+fn vtk_type<const D: usize>(col: &Column<D>) -> &'static str {
+    match col {
+        Column::U64(_) => "UInt64",
+        Column::U16(_) => "UInt16",
+        Column::Kind(_) => "UInt8",
+        Column::F64(_) | Column::Vector(_) => "Float64",
+    }
+}
+
+/// The snapshot `fields` this build writes, with their columns in `p`, after the id.
+fn point_data<'a, const D: usize>(
+    p: &'a Particles<D>,
+    fields: &'a [String],
+) -> Vec<(&'a str, Column<'a, D>)> {
+    let table = Particles::<D>::field_table();
+    let mut v = vec![("id", Column::<D>::U64(&p.id))];
+    for name in fields {
+        if let Some(meta) = table.iter().find(|m| m.snapshot == Some(name.as_str())) {
+            v.push((
+                name.as_str(),
+                p.column(meta.name).expect("a table field has a column"),
+            ));
+        }
+    }
+    v
+}
+
+/// The parallel index of one snapshot: the arrays every piece holds and the pieces.
+fn write_pvtu<const D: usize>(path: &Path, pieces: &[String], fields: &[String]) -> Result<()> {
+    // the types and names only: an empty store has the columns
+    let empty = Particles::<D>::default();
+    super::write_atomic(path, |f| {
+        writeln!(f, "<?xml version=\"1.0\"?>")?;
+        writeln!(
+            f,
+            "<VTKFile type=\"PUnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\">"
+        )?;
+        writeln!(f, "<PUnstructuredGrid GhostLevel=\"0\">")?;
+        writeln!(f, "<PPointData>")?;
+        for (name, col) in point_data(&empty, fields) {
+            let comps = if matches!(col, Column::Vector(_)) { 3 } else { 1 };
+            writeln!(
+                f,
+                "<PDataArray type=\"{}\" Name=\"{name}\" NumberOfComponents=\"{comps}\"/>",
+                vtk_type(&col)
+            )?;
+        }
+        writeln!(f, "</PPointData>")?;
+        writeln!(
+            f,
+            "<PPoints><PDataArray type=\"Float64\" NumberOfComponents=\"3\"/></PPoints>"
+        )?;
+        writeln!(
+            f,
+            "<PCells><PDataArray type=\"Int64\" Name=\"connectivity\"/>\
+             <PDataArray type=\"Int64\" Name=\"offsets\"/>\
+             <PDataArray type=\"UInt8\" Name=\"types\"/></PCells>"
+        )?;
+        for p in pieces {
+            writeln!(f, "<Piece Source=\"{p}\"/>")?;
+        }
+        writeln!(f, "</PUnstructuredGrid></VTKFile>")
+    })
 }
 
 /// Write one snapshot of the owned particles in `order`, with the snapshot `fields` (names as
 /// in `output.fields`; unknown names are skipped: the scene was validated against the table).
 pub fn write_vtu<const D: usize>(
     path: &Path,
-    sim: &View<D>,
+    p: &Particles<D>,
     order: &[usize],
     fields: &[String],
 ) -> Result<()> {
     let n = order.len();
-    let p = &sim.p;
-    let table = Particles::<D>::field_table();
     super::write_atomic(path, |f| {
         writeln!(f, "<?xml version=\"1.0\"?>")?;
         writeln!(
@@ -101,12 +169,7 @@ pub fn write_vtu<const D: usize>(
         }
         writeln!(f, "</DataArray></Cells>")?;
         writeln!(f, "<PointData>")?;
-        write_array(f, "id", &Column::<D>::U64(&p.id), order)?;
-        for name in fields {
-            let Some(meta) = table.iter().find(|m| m.snapshot == Some(name.as_str())) else {
-                continue;
-            };
-            let col = p.column(meta.name).expect("a table field has a column");
+        for (name, col) in point_data(p, fields) {
             write_array(f, name, &col, order)?;
         }
         writeln!(f, "</PointData></Piece></UnstructuredGrid></VTKFile>")
@@ -121,12 +184,7 @@ fn write_array<const D: usize>(
     col: &Column<D>,
     order: &[usize],
 ) -> std::io::Result<()> {
-    let ty = match col {
-        Column::U64(_) => "UInt64",
-        Column::U16(_) => "UInt16",
-        Column::Kind(_) => "UInt8",
-        Column::F64(_) | Column::Vector(_) => "Float64",
-    };
+    let ty = vtk_type(col);
     if let Column::Vector(v) = col {
         writeln!(
             f,

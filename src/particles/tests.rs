@@ -103,7 +103,7 @@ fn written_to_output(all: Particles<2>) {
     };
     let dir = std::env::temp_dir().join(format!("hsph-field-table-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    crate::output::write_final(&dir.join("final.csv"), &view).unwrap();
+    crate::output::write_final(&dir.join("final.csv"), &view.p, &view.by_id()).unwrap();
     let text = std::fs::read_to_string(dir.join("final.csv")).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
@@ -119,7 +119,7 @@ fn written_to_output(all: Particles<2>) {
         assert_eq!(r[10], tag(r[0] as u64, 1));
     }
     let vtu = dir.join("s.vtu");
-    crate::output::vtk::write_vtu(&vtu, &view, &view.by_id(), &["tag".to_string()]).unwrap();
+    crate::output::vtk::write_vtu(&vtu, &view.p, &view.by_id(), &["tag".to_string()]).unwrap();
     let text = std::fs::read_to_string(&vtu).unwrap();
     let at = text.find("Name=\"tag\"").expect("a tag array");
     let values: Vec<f64> = text[at..]

@@ -468,7 +468,9 @@ fn default_cfl() -> f64 {
 pub enum SnapshotFormat {
     /// VTK XML unstructured grid (`.vtu` + `.pvd`), ParaView opens it.
     Vtk,
-    /// netCDF-4 (needs the `netcdf` cargo feature; roadmap item 3).
+    /// netCDF-3 with 64-bit offsets, one file per snapshot and rank with a manifest, CF point
+    /// layout (`src/output/netcdf.rs`), and the series mirrored into `timeseries.nc` and
+    /// `probes/*.nc`. Pure Rust: every build writes it.
     Netcdf,
     /// No snapshots.
     None,
@@ -488,6 +490,14 @@ pub struct Output {
     /// the particle table's snapshot names).
     #[serde(default = "default_fields")]
     pub fields: Vec<String>,
+    /// Largest particle count for which `final.csv` is gathered on rank 0; above it every rank
+    /// writes its own `final/rank_000r.csv`. Snapshots are always written per rank.
+    #[serde(default = "default_gather_limit")]
+    pub gather_limit: usize,
+}
+
+fn default_gather_limit() -> usize {
+    2_000_000
 }
 
 fn default_format() -> SnapshotFormat {
@@ -506,6 +516,7 @@ impl Default for Output {
             interval: 0.0,
             format: default_format(),
             fields: default_fields(),
+            gather_limit: default_gather_limit(),
         }
     }
 }

@@ -1,0 +1,479 @@
+//! netCDF output in the default build: netCDF-3 with 64-bit offsets (CDF-2), written by the
+//! pure-Rust `netcdf3` crate, read by `ncdump`, the netCDF-C library, netCDF4-python and xarray.
+//!
+//! **Snapshots** (`output.format = "netcdf"`): one file per snapshot and rank,
+//! `snapshots/snapshot_0000k/rank_000r.nc`, holding that rank's owned particles in id order, and
+//! `snapshots/series.json`, the manifest that lists every snapshot's time, step and pieces.
+//! Each file follows the CF conventions' discrete-sampling-geometry *point* layout
+//! (`featureType = "point"`): one dimension `particle`; a scalar `time` (s); coordinates `x`,
+//! `y` (and `z`) in m; then `id` and the fields of `output.fields` with `units` and `long_name`
+//! from the particle table (vectors one variable per component: `velocity_x`, …). The point
+//! layout fits because particles are scattered samples without a grid; a snapshot's pieces are
+//! concatenated along `particle` (xarray: `open_mfdataset(pieces, combine="nested",
+//! concat_dim="particle")`).
+//!
+//! **Series** (`timeseries.nc`, `probes/<name>.nc`): the CSV series mirrored with an unlimited
+//! `time` dimension (a coordinate variable `time` in s), rewritten from the CSV at every output
+//! step, so a restart that cuts the CSV back cuts the netCDF file back too. In 2D, extensive
+//! quantities are per metre of depth (units say so).
+
+use super::snapshot::{piece_name, Piece, Series, SnapshotWriter};
+use crate::error::{Error, Result};
+use crate::particles::{Column, Particles};
+use netcdf3::{DataSet, FileWriter, Version};
+use std::cell::RefCell;
+use std::io::{Cursor, Seek, SeekFrom, Write};
+use std::path::Path;
+use std::rc::Rc;
+
+/// CF conventions version the files follow.
+pub const CONVENTIONS: &str = "CF-1.8";
+
+/// A series of per-rank netCDF snapshots with its `series.json`.
+pub struct NetcdfSeries {
+    series: Series,
+}
+
+impl NetcdfSeries {
+    /// Snapshots go into `dir` (created).
+    pub fn new(dir: &Path) -> Result<Self> {
+        Ok(NetcdfSeries {
+            series: Series::new(dir)?,
+        })
+    }
+
+    /// `series.json`: format, conventions and every snapshot with its pieces.
+    fn write_manifest(&self) -> Result<()> {
+        let snaps: Vec<serde_json::Value> = self
+            .series
+            .entries
+            .iter()
+            .enumerate()
+            .map(|(k, e)| {
+                let pieces: Vec<String> = (0..e.pieces).map(|r| piece_name(k, r, "nc")).collect();
+                serde_json::json!({ "t": e.t, "step": e.step, "pieces": pieces })
+            })
+            .collect();
+        let m = serde_json::json!({
+            "format": "netCDF-3 64-bit offset (CDF-2)",
+            "conventions": CONVENTIONS,
+            "featureType": "point",
+            "concat_dim": "particle",
+            "snapshots": snaps,
+        });
+        let text = serde_json::to_string_pretty(&m).map_err(|e| Error::run(e.to_string()))?;
+        let path = self.series.dir.join("series.json");
+        super::write_atomic(&path, |f| writeln!(f, "{text}"))
+    }
+}
+
+impl<const D: usize> SnapshotWriter<D> for NetcdfSeries {
+    fn write(&mut self, piece: &Piece<D>, fields: &[String]) -> Result<()> {
+        let path = self.series.next_piece(piece, "nc")?;
+        write_piece(&path, piece, fields)?;
+        self.series.push(piece);
+        if piece.rank == 0 {
+            self.write_manifest()?;
+        }
+        Ok(())
+    }
+
+    fn state(&self) -> serde_json::Value {
+        self.series.state()
+    }
+
+    fn restore(&mut self, state: &serde_json::Value, clean: bool) -> Result<()> {
+        self.series.restore(state, clean)
+    }
+}
+
+/// A variable's values before they are written.
+enum Values {
+    I8(Vec<i8>),
+    I32(Vec<i32>),
+    F64(Vec<f64>),
+}
+
+/// A variable: name, values, units, long name.
+struct Var {
+    name: String,
+    values: Values,
+    unit: String,
+    long_name: String,
+}
+
+/// The variables of one column of `p` in `order` (a vector gives one per component).
+fn column_vars<const D: usize>(
+    col: &Column<D>,
+    stem: &str,
+    unit: &str,
+    long: &str,
+    order: &[usize],
+) -> Vec<Var> {
+    let var = |name: String, long_name: String, values| Var {
+        name,
+        values,
+        unit: unit.to_string(),
+        long_name,
+    };
+    match col {
+        Column::Vector(_) => (0..D)
+            .map(|a| {
+                let axis = ["x", "y", "z"][a];
+                let v = order.iter().map(|&i| col.value(i, a)).collect();
+                var(
+                    format!("{stem}_{axis}"),
+                    format!("{long}, {axis} component"),
+                    Values::F64(v),
+                )
+            })
+            .collect(),
+        Column::Kind(k) => {
+            let v = order.iter().map(|&i| k[i].code() as i8).collect();
+            vec![var(stem.into(), long.into(), Values::I8(v))]
+        }
+        Column::U16(u) => {
+            let v = order.iter().map(|&i| i32::from(u[i])).collect();
+            vec![var(stem.into(), long.into(), Values::I32(v))]
+        }
+        Column::U64(u) => {
+            // netCDF-3 has no 64-bit integers: ids below 2³¹ as int, larger ones as double
+            // (exact to 2⁵³)
+            let values = if order.iter().all(|&i| u[i] <= i32::MAX as u64) {
+                Values::I32(order.iter().map(|&i| u[i] as i32).collect())
+            } else {
+                Values::F64(order.iter().map(|&i| u[i] as f64).collect())
+            };
+            vec![var(stem.into(), long.into(), values)]
+        }
+        Column::F64(_) => {
+            let v = order.iter().map(|&i| col.value(i, 0)).collect();
+            vec![var(stem.into(), long.into(), Values::F64(v))]
+        }
+    }
+}
+
+/// Write one rank's snapshot piece (CF point layout, see the module documentation).
+fn write_piece<const D: usize>(path: &Path, piece: &Piece<D>, fields: &[String]) -> Result<()> {
+    let p = piece.p;
+    let order = &piece.order;
+    let table = Particles::<D>::field_table();
+    let per_depth = if D == 2 { " m-1" } else { "" };
+    let mut vars = Vec::new();
+    for (a, axis) in ["x", "y", "z"][..D].iter().enumerate() {
+        vars.push(Var {
+            name: axis.to_string(),
+            values: Values::F64(order.iter().map(|&i| p.x[i][a]).collect()),
+            unit: "m".into(),
+            long_name: format!("position, {axis} component"),
+        });
+    }
+    let id_meta = table.iter().find(|m| m.name == "id").expect("the table has ids");
+    vars.extend(column_vars(
+        &Column::<D>::U64(&p.id),
+        "id",
+        id_meta.unit,
+        id_meta.long_name,
+        order,
+    ));
+    for name in fields {
+        if let Some(m) = table.iter().find(|m| m.snapshot == Some(name.as_str())) {
+            let col = p.column(m.name).expect("a table field has a column");
+            let unit = if m.name == "mass" {
+                format!("{}{per_depth}", m.unit)
+            } else {
+                m.unit.to_string()
+            };
+            vars.extend(column_vars(&col, name, &unit, m.long_name, order));
+        }
+    }
+    let global = [
+        ("title", piece.scene.name.clone()),
+        ("Conventions", CONVENTIONS.to_string()),
+        ("featureType", "point".to_string()),
+        ("source", source()),
+        (
+            "piece",
+            format!(
+                "rank {} of {}: its owned particles in id order; the snapshot is every piece \
+                 concatenated along `particle`",
+                piece.rank, piece.ranks
+            ),
+        ),
+    ];
+    let coords = ["time x", "time x y", "time x y z"][D - 1];
+    write_file(
+        path,
+        piece.order.len(),
+        &global,
+        &vars,
+        (piece.t, piece.step),
+        coords,
+    )
+}
+
+/// `hsph <version> (<commit>)`.
+fn source() -> String {
+    format!("hsph {} ({})", env!("CARGO_PKG_VERSION"), env!("HSPH_GIT_COMMIT"))
+}
+
+fn nc_err(path: &Path, e: impl std::fmt::Debug) -> Error {
+    Error::io(path, std::io::Error::other(format!("netCDF: {e:?}")))
+}
+
+/// Write a snapshot file: dimension `particle` of `n`, a scalar `time` and `step`, `vars`
+/// along `particle` with `coordinates` (atomically: temporary file, then rename).
+fn write_file(
+    path: &Path,
+    n: usize,
+    global: &[(&str, String)],
+    vars: &[Var],
+    (t, step): (f64, u64),
+    coordinates: &str,
+) -> Result<()> {
+    let e = |err| nc_err(path, err);
+    let mut ds = DataSet::new();
+    ds.add_fixed_dim("particle", n).map_err(e)?;
+    for (k, v) in global {
+        ds.add_global_attr_string(k, v).map_err(e)?;
+    }
+    ds.add_var_f64::<&str>("time", &[]).map_err(e)?;
+    for (k, v) in [
+        ("standard_name", "time"),
+        ("long_name", "simulated time"),
+        ("units", "s"),
+        ("axis", "T"),
+    ] {
+        ds.add_var_attr_string("time", k, v).map_err(e)?;
+    }
+    ds.add_var_i32::<&str>("step", &[]).map_err(e)?;
+    ds.add_var_attr_string("step", "long_name", "time steps taken")
+        .map_err(e)?;
+    ds.add_var_attr_string("step", "units", "1").map_err(e)?;
+    for v in vars {
+        match v.values {
+            Values::I8(_) => ds.add_var_i8(&v.name, &["particle"]),
+            Values::I32(_) => ds.add_var_i32(&v.name, &["particle"]),
+            Values::F64(_) => ds.add_var_f64(&v.name, &["particle"]),
+        }
+        .map_err(e)?;
+        ds.add_var_attr_string(&v.name, "units", &v.unit).map_err(e)?;
+        ds.add_var_attr_string(&v.name, "long_name", &v.long_name)
+            .map_err(e)?;
+        if ["x", "y", "z"].contains(&v.name.as_str()) {
+            ds.add_var_attr_string(&v.name, "axis", v.name.to_uppercase())
+                .map_err(e)?;
+        } else {
+            ds.add_var_attr_string(&v.name, "coordinates", coordinates)
+                .map_err(e)?;
+        }
+    }
+    write_dataset(path, &ds, |w| {
+        w.write_var_f64("time", &[t])?;
+        w.write_var_i32("step", &[i32::try_from(step).unwrap_or(i32::MAX)])?;
+        for v in vars {
+            match &v.values {
+                Values::I8(x) => w.write_var_i8(&v.name, x)?,
+                Values::I32(x) => w.write_var_i32(&v.name, x)?,
+                Values::F64(x) => w.write_var_f64(&v.name, x)?,
+            }
+        }
+        Ok(())
+    })
+}
+
+/// The bytes of a file being made: the netCDF writer seeks and writes into memory, and the
+/// whole file then goes to disk through [`super::write_atomic`] (temporary file, rename; the
+/// test-only full-disk switch applies as to every output file).
+#[derive(Clone, Default)]
+struct Memory(Rc<RefCell<Cursor<Vec<u8>>>>);
+
+impl Write for Memory {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        self.0.borrow_mut().write(b)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Seek for Memory {
+    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+        self.0.borrow_mut().seek(pos)
+    }
+}
+
+/// Write `ds` to `path`, its data through `fill`.
+fn write_dataset(
+    path: &Path,
+    ds: &DataSet,
+    fill: impl FnOnce(&mut FileWriter) -> std::result::Result<(), netcdf3::WriteError>,
+) -> Result<()> {
+    let mem = Memory::default();
+    let mut w = FileWriter::open_seek_write(&path.to_string_lossy(), Box::new(mem.clone()))
+        .map_err(|e| nc_err(path, e))?;
+    w.set_def(ds, Version::Offset64Bit, 0)
+        .map_err(|e| nc_err(path, e))?;
+    fill(&mut w).map_err(|e| nc_err(path, e))?;
+    w.close().map_err(|e| nc_err(path, e))?;
+    let bytes = std::mem::take(mem.0.borrow_mut().get_mut());
+    super::write_atomic(path, |f| f.write_all(&bytes))
+}
+
+/// Units and long name of a series column (`timeseries.csv` or a probe file) in `D`
+/// dimensions; unknown columns get none.
+fn series_meta(col: &str, d: usize) -> (String, String) {
+    let depth = if d == 2 { " m-1" } else { "" };
+    let (unit, long): (String, &str) = match col {
+        "dt" => ("s".into(), "time step"),
+        "kinetic_energy" => (format!("J{depth}"), "kinetic energy"),
+        "potential_energy" => (format!("J{depth}"), "potential energy in gravity"),
+        "internal_energy" => (format!("J{depth}"), "internal (compression) energy"),
+        "total_energy" => (format!("J{depth}"), "total energy"),
+        "mass" => (format!("kg{depth}"), "total mass"),
+        "max_speed" => ("m s-1".into(), "largest particle speed"),
+        "p" => ("Pa".into(), "pressure at the sensor"),
+        "eta" => ("m".into(), "water level at the gauge"),
+        "front" => ("m".into(), "position of the front"),
+        "fx" | "fy" | "fz" => (format!("N{depth}"), "force of the fluid on the wall"),
+        "mx" | "my" | "mz" => (
+            if d == 2 { "N".into() } else { "N m".into() },
+            "moment of the fluid on the wall",
+        ),
+        c if c.starts_with("momentum_") => (
+            if d == 2 {
+                "kg s-1".into()
+            } else {
+                "kg m s-1".into()
+            },
+            "total momentum",
+        ),
+        c if c.starts_with('s') && c.contains("_v") => ("m s-1".into(), "velocity at the line point"),
+        _ => (String::new(), ""),
+    };
+    (unit, long.to_string())
+}
+
+/// Mirror a CSV series (header `step,t,…` or `t,…`, numbers only) into a netCDF file with an
+/// unlimited `time` dimension; `t` becomes the coordinate variable `time` (s), `step` an int.
+pub fn mirror_series(csv: &Path, nc: &Path, title: &str, d: usize) -> Result<()> {
+    let text = std::fs::read_to_string(csv).map_err(|e| Error::io(csv, e))?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
+    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); header.len()];
+    for (k, line) in lines.enumerate() {
+        let vals: Vec<&str> = line.split(',').collect();
+        if vals.len() != header.len() {
+            // a row cut off by a crash: the mirror ends before it
+            break;
+        }
+        let parsed: Option<Vec<f64>> = vals.iter().map(|v| v.parse::<f64>().ok()).collect();
+        let Some(parsed) = parsed else {
+            return Err(Error::run(format!(
+                "{}: row {} is not numeric",
+                csv.display(),
+                k + 2
+            )));
+        };
+        for (c, v) in cols.iter_mut().zip(parsed) {
+            c.push(v);
+        }
+    }
+    let rows = cols.first().map_or(0, Vec::len);
+    let e = |err| nc_err(nc, err);
+    let mut ds = DataSet::new();
+    ds.set_unlimited_dim("time", rows).map_err(e)?;
+    for (k, v) in [
+        ("title", title.to_string()),
+        ("Conventions", CONVENTIONS.to_string()),
+        ("source", source()),
+        (
+            "history",
+            format!(
+                "mirrors {}",
+                csv.file_name().unwrap_or_default().to_string_lossy()
+            ),
+        ),
+    ] {
+        ds.add_global_attr_string(k, v).map_err(e)?;
+    }
+    let names: Vec<String> = header
+        .iter()
+        .map(|h| {
+            if *h == "t" {
+                "time".to_string()
+            } else {
+                h.to_string()
+            }
+        })
+        .collect();
+    for name in &names {
+        if name == "step" {
+            ds.add_var_i32(name, &["time"]).map_err(e)?;
+            ds.add_var_attr_string(name, "long_name", "time steps taken")
+                .map_err(e)?;
+            ds.add_var_attr_string(name, "units", "1").map_err(e)?;
+        } else if name == "time" {
+            ds.add_var_f64(name, &["time"]).map_err(e)?;
+            for (k, v) in [
+                ("standard_name", "time"),
+                ("long_name", "simulated time"),
+                ("units", "s"),
+                ("axis", "T"),
+            ] {
+                ds.add_var_attr_string(name, k, v).map_err(e)?;
+            }
+        } else {
+            ds.add_var_f64(name, &["time"]).map_err(e)?;
+            let (unit, long) = series_meta(name, d);
+            if !unit.is_empty() {
+                ds.add_var_attr_string(name, "units", unit).map_err(e)?;
+                ds.add_var_attr_string(name, "long_name", long).map_err(e)?;
+            }
+        }
+    }
+    write_dataset(nc, &ds, |w| {
+        for (name, col) in names.iter().zip(&cols) {
+            if name == "step" {
+                let s: Vec<i32> = col.iter().map(|&v| v as i32).collect();
+                w.write_var_i32(name, &s)?;
+            } else {
+                w.write_var_f64(name, col)?;
+            }
+        }
+        Ok(())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_series_mirror_reads_back_with_its_units_and_every_row() {
+        let dir = std::env::temp_dir().join(format!("hsph-nc-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let csv = dir.join("ts.csv");
+        std::fs::write(
+            &csv,
+            "step,t,kinetic_energy,mass\n0,0,0,1.5\n3,0.1,2.25,1.5\n7,0.2,0.1,1.5\n9,0.3",
+        )
+        .unwrap();
+        let nc = dir.join("ts.nc");
+        mirror_series(&csv, &nc, "test", 2).unwrap();
+        let mut r = netcdf3::FileReader::open(&nc).unwrap();
+        assert_eq!(r.version(), Version::Offset64Bit);
+        let ds = r.data_set();
+        assert_eq!(ds.num_records(), Some(3), "the cut-off last row is left out");
+        assert_eq!(
+            ds.get_var_attr("kinetic_energy", "units")
+                .unwrap()
+                .get_as_string(),
+            Some("J m-1".to_string())
+        );
+        assert_eq!(r.read_var_i32("step").unwrap(), vec![0, 3, 7]);
+        assert_eq!(r.read_var_f64("time").unwrap(), vec![0.0, 0.1, 0.2]);
+        assert_eq!(r.read_var_f64("kinetic_energy").unwrap(), vec![0.0, 2.25, 0.1]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
