@@ -65,6 +65,18 @@ fn reference() -> PathBuf {
 }
 
 fn assert_same(a: &Path, b: &Path, what: &str) {
+    // every snapshot directory holds exactly the pieces its index lists: a restart on fewer
+    // ranks leaves no stale piece of the interrupted run behind
+    let snaps = b.join("snapshots");
+    for e in std::fs::read_dir(&snaps).unwrap() {
+        let path = e.unwrap().path();
+        if path.extension().is_some_and(|x| x == "pvtu") {
+            let index = std::fs::read_to_string(&path).unwrap();
+            let listed = index.matches("<Piece ").count();
+            let on_disk = std::fs::read_dir(path.with_extension("")).unwrap().count();
+            assert_eq!(listed, on_disk, "{what}: {}", path.display());
+        }
+    }
     for f in SAME {
         let read =
             |d: &Path| std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{}: {e}", d.join(f).display()));
