@@ -8,6 +8,8 @@
 //! - `summary.json` — written last and atomically: its presence marks a complete run.
 
 pub mod netcdf;
+#[cfg(feature = "netcdf")]
+pub mod netcdf4;
 pub mod snapshot;
 pub mod vtk;
 
@@ -255,7 +257,10 @@ impl<const D: usize> RunWriter<D> {
             diagnostics,
             traffic,
             removed,
-            netcdf: scene.output.format == crate::scene::SnapshotFormat::Netcdf,
+            netcdf: matches!(
+                scene.output.format,
+                crate::scene::SnapshotFormat::Netcdf | crate::scene::SnapshotFormat::Netcdf4
+            ),
             title: scene.name.clone(),
             _dim: std::marker::PhantomData,
         })

@@ -29,16 +29,27 @@ use std::rc::Rc;
 /// CF conventions version the files follow.
 pub const CONVENTIONS: &str = "CF-1.8";
 
+/// Which netCDF a series writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Flavour {
+    /// netCDF-3 with 64-bit offsets (CDF-2), pure Rust.
+    Classic,
+    /// netCDF-4 (HDF5) with deflate and shuffle, through the system library (`netcdf` feature).
+    Netcdf4,
+}
+
 /// A series of per-rank netCDF snapshots with its `series.json`.
 pub struct NetcdfSeries {
     series: Series,
+    flavour: Flavour,
 }
 
 impl NetcdfSeries {
-    /// Snapshots go into `dir` (created).
-    pub fn new(dir: &Path) -> Result<Self> {
+    /// Snapshots of `flavour` go into `dir` (created).
+    pub fn new(dir: &Path, flavour: Flavour) -> Result<Self> {
         Ok(NetcdfSeries {
             series: Series::new(dir)?,
+            flavour,
         })
     }
 
@@ -55,7 +66,10 @@ impl NetcdfSeries {
             })
             .collect();
         let m = serde_json::json!({
-            "format": "netCDF-3 64-bit offset (CDF-2)",
+            "format": match self.flavour {
+                Flavour::Classic => "netCDF-3 64-bit offset (CDF-2)",
+                Flavour::Netcdf4 => "netCDF-4 (deflate level 4, shuffle)",
+            },
             "conventions": CONVENTIONS,
             "featureType": "point",
             "concat_dim": "particle",
@@ -70,7 +84,14 @@ impl NetcdfSeries {
 impl<const D: usize> SnapshotWriter<D> for NetcdfSeries {
     fn write(&mut self, piece: &Piece<D>, fields: &[String]) -> Result<()> {
         let path = self.series.next_piece(piece, "nc")?;
-        write_piece(&path, piece, fields)?;
+        let data = piece_data(piece, fields);
+        match self.flavour {
+            Flavour::Classic => write_file(&path, &data)?,
+            #[cfg(feature = "netcdf")]
+            Flavour::Netcdf4 => super::netcdf4::write_file(&path, &data)?,
+            #[cfg(not(feature = "netcdf"))]
+            Flavour::Netcdf4 => return Err(Error::missing_feature("output.format", "netcdf")),
+        }
         self.series.push(piece);
         if piece.rank == 0 {
             self.write_manifest()?;
@@ -88,18 +109,46 @@ impl<const D: usize> SnapshotWriter<D> for NetcdfSeries {
 }
 
 /// A variable's values before they are written.
-enum Values {
+#[derive(Clone)]
+pub(crate) enum Values {
+    /// Small codes (particle kinds).
     I8(Vec<i8>),
+    /// Indices.
     I32(Vec<i32>),
+    /// Ids (netCDF-3 has no 64-bit integers: written as int below 2³¹, else as double).
+    U64(Vec<u64>),
+    /// Reals.
     F64(Vec<f64>),
 }
 
-/// A variable: name, values, units, long name.
-struct Var {
-    name: String,
-    values: Values,
-    unit: String,
-    long_name: String,
+/// A variable along `particle`: name, values, units, long name.
+pub(crate) struct Var {
+    pub name: String,
+    pub values: Values,
+    pub unit: String,
+    pub long_name: String,
+}
+
+/// What one snapshot piece holds, whatever the file format: global attributes, the variables
+/// along `particle`, the `coordinates` attribute of data variables, time (s) and step.
+pub(crate) struct PieceData {
+    pub global: Vec<(&'static str, String)>,
+    pub vars: Vec<Var>,
+    pub coordinates: &'static str,
+    pub t: f64,
+    pub step: u64,
+    pub n: usize,
+}
+
+/// The classic-format form of `values` (ids as int or double).
+fn classic(values: &Values) -> std::borrow::Cow<'_, Values> {
+    match values {
+        Values::U64(u) if u.iter().all(|&v| v <= i32::MAX as u64) => {
+            std::borrow::Cow::Owned(Values::I32(u.iter().map(|&v| v as i32).collect()))
+        }
+        Values::U64(u) => std::borrow::Cow::Owned(Values::F64(u.iter().map(|&v| v as f64).collect())),
+        _ => std::borrow::Cow::Borrowed(values),
+    }
 }
 
 /// The variables of one column of `p` in `order` (a vector gives one per component).
@@ -137,14 +186,8 @@ fn column_vars<const D: usize>(
             vec![var(stem.into(), long.into(), Values::I32(v))]
         }
         Column::U64(u) => {
-            // netCDF-3 has no 64-bit integers: ids below 2³¹ as int, larger ones as double
-            // (exact to 2⁵³)
-            let values = if order.iter().all(|&i| u[i] <= i32::MAX as u64) {
-                Values::I32(order.iter().map(|&i| u[i] as i32).collect())
-            } else {
-                Values::F64(order.iter().map(|&i| u[i] as f64).collect())
-            };
-            vec![var(stem.into(), long.into(), values)]
+            let v = order.iter().map(|&i| u[i]).collect();
+            vec![var(stem.into(), long.into(), Values::U64(v))]
         }
         Column::F64(_) => {
             let v = order.iter().map(|&i| col.value(i, 0)).collect();
@@ -153,8 +196,8 @@ fn column_vars<const D: usize>(
     }
 }
 
-/// Write one rank's snapshot piece (CF point layout, see the module documentation).
-fn write_piece<const D: usize>(path: &Path, piece: &Piece<D>, fields: &[String]) -> Result<()> {
+/// One rank's snapshot piece in the CF point layout (see the module documentation).
+pub(crate) fn piece_data<const D: usize>(piece: &Piece<D>, fields: &[String]) -> PieceData {
     let p = piece.p;
     let order = &piece.order;
     let table = Particles::<D>::field_table();
@@ -187,7 +230,7 @@ fn write_piece<const D: usize>(path: &Path, piece: &Piece<D>, fields: &[String])
             vars.extend(column_vars(&col, name, &unit, m.long_name, order));
         }
     }
-    let global = [
+    let global = vec![
         ("title", piece.scene.name.clone()),
         ("Conventions", CONVENTIONS.to_string()),
         ("featureType", "point".to_string()),
@@ -201,19 +244,18 @@ fn write_piece<const D: usize>(path: &Path, piece: &Piece<D>, fields: &[String])
             ),
         ),
     ];
-    let coords = ["time x", "time x y", "time x y z"][D - 1];
-    write_file(
-        path,
-        piece.order.len(),
-        &global,
-        &vars,
-        (piece.t, piece.step),
-        coords,
-    )
+    PieceData {
+        global,
+        vars,
+        coordinates: ["time x", "time x y", "time x y z"][D - 1],
+        t: piece.t,
+        step: piece.step,
+        n: piece.order.len(),
+    }
 }
 
 /// `hsph <version> (<commit>)`.
-fn source() -> String {
+pub(crate) fn source() -> String {
     format!("hsph {} ({})", env!("CARGO_PKG_VERSION"), env!("HSPH_GIT_COMMIT"))
 }
 
@@ -221,20 +263,15 @@ fn nc_err(path: &Path, e: impl std::fmt::Debug) -> Error {
     Error::io(path, std::io::Error::other(format!("netCDF: {e:?}")))
 }
 
-/// Write a snapshot file: dimension `particle` of `n`, a scalar `time` and `step`, `vars`
-/// along `particle` with `coordinates` (atomically: temporary file, then rename).
-fn write_file(
-    path: &Path,
-    n: usize,
-    global: &[(&str, String)],
-    vars: &[Var],
-    (t, step): (f64, u64),
-    coordinates: &str,
-) -> Result<()> {
+/// Write a classic (CDF-2) snapshot file: dimension `particle`, a scalar `time` and `step`,
+/// the variables along `particle` (atomically: temporary file, then rename).
+fn write_file(path: &Path, data: &PieceData) -> Result<()> {
     let e = |err| nc_err(path, err);
+    let (vars, coordinates) = (&data.vars, data.coordinates);
+    let values: Vec<_> = vars.iter().map(|v| classic(&v.values)).collect();
     let mut ds = DataSet::new();
-    ds.add_fixed_dim("particle", n).map_err(e)?;
-    for (k, v) in global {
+    ds.add_fixed_dim("particle", data.n).map_err(e)?;
+    for (k, v) in &data.global {
         ds.add_global_attr_string(k, v).map_err(e)?;
     }
     ds.add_var_f64::<&str>("time", &[]).map_err(e)?;
@@ -250,11 +287,11 @@ fn write_file(
     ds.add_var_attr_string("step", "long_name", "time steps taken")
         .map_err(e)?;
     ds.add_var_attr_string("step", "units", "1").map_err(e)?;
-    for v in vars {
-        match v.values {
+    for (v, values) in vars.iter().zip(&values) {
+        match values.as_ref() {
             Values::I8(_) => ds.add_var_i8(&v.name, &["particle"]),
             Values::I32(_) => ds.add_var_i32(&v.name, &["particle"]),
-            Values::F64(_) => ds.add_var_f64(&v.name, &["particle"]),
+            Values::U64(_) | Values::F64(_) => ds.add_var_f64(&v.name, &["particle"]),
         }
         .map_err(e)?;
         ds.add_var_attr_string(&v.name, "units", &v.unit).map_err(e)?;
@@ -269,13 +306,14 @@ fn write_file(
         }
     }
     write_dataset(path, &ds, |w| {
-        w.write_var_f64("time", &[t])?;
-        w.write_var_i32("step", &[i32::try_from(step).unwrap_or(i32::MAX)])?;
-        for v in vars {
-            match &v.values {
+        w.write_var_f64("time", &[data.t])?;
+        w.write_var_i32("step", &[i32::try_from(data.step).unwrap_or(i32::MAX)])?;
+        for (v, values) in vars.iter().zip(&values) {
+            match values.as_ref() {
                 Values::I8(x) => w.write_var_i8(&v.name, x)?,
                 Values::I32(x) => w.write_var_i32(&v.name, x)?,
                 Values::F64(x) => w.write_var_f64(&v.name, x)?,
+                Values::U64(_) => unreachable!("classic() converted the ids"),
             }
         }
         Ok(())

@@ -174,7 +174,14 @@ pub fn writer_for<const D: usize>(
     let snaps = dir.join("snapshots");
     match format {
         SnapshotFormat::Vtk => Ok(Some(Box::new(super::vtk::VtkSeries::new(&snaps)?))),
-        SnapshotFormat::Netcdf => Ok(Some(Box::new(super::netcdf::NetcdfSeries::new(&snaps)?))),
+        SnapshotFormat::Netcdf | SnapshotFormat::Netcdf4 => {
+            let flavour = if format == SnapshotFormat::Netcdf {
+                super::netcdf::Flavour::Classic
+            } else {
+                super::netcdf::Flavour::Netcdf4
+            };
+            Ok(Some(Box::new(super::netcdf::NetcdfSeries::new(&snaps, flavour)?)))
+        }
         SnapshotFormat::None => Ok(None),
     }
 }

@@ -472,6 +472,9 @@ pub enum SnapshotFormat {
     /// layout (`src/output/netcdf.rs`), and the series mirrored into `timeseries.nc` and
     /// `probes/*.nc`. Pure Rust: every build writes it.
     Netcdf,
+    /// netCDF-4 (HDF5, deflate level 4 with shuffle), otherwise laid out as `netcdf`; needs
+    /// the `netcdf` cargo feature (system libnetcdf).
+    Netcdf4,
     /// No snapshots.
     None,
 }

@@ -352,6 +352,9 @@ pub fn validate(s: &mut Scene) -> Result<()> {
     if s.output.interval == 0.0 {
         s.output.interval = s.time.t_end / 50.0;
     }
+    if s.output.format == SnapshotFormat::Netcdf4 && !cfg!(feature = "netcdf") {
+        return Err(Error::missing_feature("output.format", "netcdf"));
+    }
     // the particle table names what snapshots can hold (the same in 2D and 3D)
     let valid = crate::particles::Particles::<3>::snapshot_names();
     for (j, f) in s.output.fields.iter().enumerate() {
