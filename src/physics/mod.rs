@@ -12,6 +12,7 @@ pub mod delta;
 pub mod fluid;
 pub mod material;
 pub mod passes;
+pub mod solid;
 
 use crate::boundary::repulsive::Repulsion;
 use crate::kernel::Kernel;
