@@ -76,6 +76,52 @@ impl<const D: usize> Lattice<D> {
     }
 }
 
+/// A fluid body's initial fields by expression (`velocity_field`, `pressure_field`).
+struct BodyFields<const D: usize> {
+    velocity: Option<Vec<crate::scene::expr::FieldExpr>>,
+    pressure: Option<crate::scene::expr::FieldExpr>,
+}
+
+impl<const D: usize> BodyFields<D> {
+    fn new(f: &crate::scene::FluidBody, b: usize, s: &Scene) -> Result<Self> {
+        use crate::scene::expr::FieldExpr;
+        let k = format!("fluid[{b}]");
+        let velocity = match &f.velocity_field {
+            Some(v) => Some(
+                v.iter()
+                    .enumerate()
+                    .map(|(a, t)| FieldExpr::parse(&format!("{k}.velocity_field[{a}]"), t, D, &s.constants))
+                    .collect::<Result<Vec<_>>>()?,
+            ),
+            None => None,
+        };
+        let pressure = match &f.pressure_field {
+            Some(t) => Some(FieldExpr::parse(
+                &format!("{k}.pressure_field"),
+                t,
+                D,
+                &s.constants,
+            )?),
+            None => None,
+        };
+        Ok(BodyFields { velocity, pressure })
+    }
+
+    /// Set the velocity `v` (m/s) and density `rho` (kg/m³, from the pressure through the
+    /// material's EOS) of the site at `x` where expressions give them.
+    fn apply(&self, x: &Vector<D>, eos: &MaterialModel, v: &mut Vector<D>, rho: &mut f64) -> Result<()> {
+        if let Some(vs) = &self.velocity {
+            for (a, e) in vs.iter().enumerate() {
+                v[a] = e.eval(x.as_slice())?;
+            }
+        }
+        if let Some(p) = &self.pressure {
+            *rho = eos.density(p.eval(x.as_slice())?);
+        }
+        Ok(())
+    }
+}
+
 /// Build the owned particles of a scene (sorted by id).
 pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
     let lat = Lattice::<D>::new(s);
@@ -100,16 +146,25 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
         } else {
             0.0
         };
+        let fields = BodyFields::<D>::new(f, b, s)?;
+        let mut bad = None;
         lat.for_each_in(&f.min, &f.max, |id, x| {
-            let rho = if f.hydrostatic && gmag > 0.0 {
+            let mut rho = if f.hydrostatic && gmag > 0.0 {
                 let depth = x.dot(&g) / gmag - top;
                 e.density(e.rho0() * gmag * depth.max(0.0))
             } else {
                 e.rho0()
             };
+            let mut v = v;
+            if let Err(err) = fields.apply(&x, &e, &mut v, &mut rho) {
+                bad.get_or_insert(err);
+            }
             let r = Record::new(id, Kind::Fluid, b as u16, mat, x, v, rho * vol, rho);
             protos.push((r, format!("fluid[{b}]")));
         });
+        if let Some(err) = bad {
+            return Err(err);
+        }
     }
     for (b, w) in s.walls.iter().enumerate() {
         let Some(kind) = wall_kind(w.method) else {

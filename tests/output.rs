@@ -37,18 +37,6 @@ fn read(p: &Path) -> String {
     std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
 }
 
-/// Values of the `<DataArray Name="name">` of a `.vtu` piece, as text tokens (vectors give
-/// three per point).
-fn vtu_array(text: &str, name: &str) -> Vec<String> {
-    let at = text
-        .find(&format!("Name=\"{name}\""))
-        .unwrap_or_else(|| panic!("no array {name}"));
-    let body = &text[at..];
-    let start = body.find('>').unwrap() + 1;
-    let end = body.find("</DataArray>").unwrap();
-    body[start..end].split_whitespace().map(String::from).collect()
-}
-
 /// Snapshot `k` of a VTK run, merged from its pieces: id → (x y z, density, pressure).
 fn merged_vtk(run: &Path, k: usize, ranks: usize) -> BTreeMap<u64, Vec<String>> {
     let snaps = run.join("snapshots");
@@ -61,19 +49,10 @@ fn merged_vtk(run: &Path, k: usize, ranks: usize) -> BTreeMap<u64, Vec<String>> 
             "the index lacks {name}:\n{index}"
         );
         let text = read(&snaps.join(&name));
-        let ids = vtu_array(&text, "id");
-        let points = {
-            let at = text.find("<Points>").unwrap();
-            let body = &text[at..];
-            let start = body.find("format=\"ascii\">").unwrap() + "format=\"ascii\">".len();
-            let end = body.find("</DataArray>").unwrap();
-            body[start..end]
-                .split_whitespace()
-                .map(String::from)
-                .collect::<Vec<_>>()
-        };
-        let rho = vtu_array(&text, "density");
-        let p = vtu_array(&text, "pressure");
+        let ids = common::vtu_array(&text, "id");
+        let points = { common::vtu_points(&text) };
+        let rho = common::vtu_array(&text, "density");
+        let p = common::vtu_array(&text, "pressure");
         assert_eq!(points.len(), 3 * ids.len());
         let mut last = None;
         for (j, id) in ids.iter().enumerate() {
@@ -105,7 +84,7 @@ fn every_rank_writes_its_piece_and_the_pieces_are_the_whole_state_on_any_rank_co
         let sizes: Vec<usize> = (0..4)
             .map(|r| {
                 let t = read(&four.join(format!("snapshots/snapshot_{k:05}/rank_{r:04}.vtu")));
-                vtu_array(&t, "id").len()
+                common::vtu_array(&t, "id").len()
             })
             .collect();
         let a = merged_vtk(&one, k, 1);

@@ -5,6 +5,7 @@
 //! has a default, and `hsph run` writes the resolved scene (defaults filled in) to the run
 //! directory. The key reference lives in README.md ("Scene files").
 
+pub mod expr;
 mod load;
 mod validate;
 
@@ -14,6 +15,7 @@ pub use validate::{expected_speed, face as face_of, validate};
 
 use crate::kernel::KernelKind;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// A whole scene.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -63,6 +65,9 @@ pub struct Scene {
     /// Checkpoints for restarts (`[checkpoint]`).
     #[serde(default)]
     pub checkpoint: CheckpointSpec,
+    /// Named constants for initial-field expressions (`[constants]`, e.g. `U = 1.0`).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub constants: BTreeMap<String, f64>,
 }
 
 /// When checkpoints are written (`[checkpoint]`), under `<run>/checkpoints/step-<N>/`. A run
@@ -342,6 +347,14 @@ pub struct FluidBody {
     /// top of the block along the body force), instead of ρ0 everywhere.
     #[serde(default)]
     pub hydrostatic: bool,
+    /// Initial velocity as one expression per axis of `x`, `y`[, `z`] (m) and the scene's
+    /// `[constants]` (m/s), instead of `velocity`; see [`expr`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub velocity_field: Option<Vec<String>>,
+    /// Initial pressure as an expression of the same names (Pa); the density follows from the
+    /// material's EOS. Instead of `hydrostatic`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pressure_field: Option<String>,
 }
 
 /// Shape of a wall body.

@@ -11,6 +11,108 @@ fn err<T>(key: impl Into<String>, msg: impl Into<String>) -> Result<T> {
 }
 
 /// Check a vector key has `d` components, all finite; fill an empty one with zeros if allowed.
+/// The initial-field expressions of fluid body `k` (`velocity_field`, `pressure_field`): one
+/// per axis, parsed against the coordinates and `[constants]`, not together with the plain
+/// key they replace; finite at the body's corners and centre (every site is checked at set-up).
+fn validate_fields(
+    f: &crate::scene::FluidBody,
+    k: &str,
+    d: usize,
+    constants: &std::collections::BTreeMap<String, f64>,
+) -> Result<()> {
+    use crate::scene::expr::FieldExpr;
+    for (name, v) in constants {
+        if ["x", "y", "z"].contains(&name.as_str()) || !v.is_finite() {
+            return err(
+                format!("constants.{name}"),
+                "a constant needs a finite value and a name other than x, y, z",
+            );
+        }
+    }
+    let mut exprs = Vec::new();
+    if let Some(v) = &f.velocity_field {
+        if v.len() != d {
+            return err(
+                format!("{k}.velocity_field"),
+                format!("needs {d} expressions (one per axis), got {}", v.len()),
+            );
+        }
+        if f.velocity.iter().any(|&c| c != 0.0) {
+            return err(
+                format!("{k}.velocity_field"),
+                "give either `velocity` or `velocity_field`, not both",
+            );
+        }
+        for (a, t) in v.iter().enumerate() {
+            exprs.push(FieldExpr::parse(
+                &format!("{k}.velocity_field[{a}]"),
+                t,
+                d,
+                constants,
+            )?);
+        }
+    }
+    if let Some(t) = &f.pressure_field {
+        if f.hydrostatic {
+            return err(
+                format!("{k}.pressure_field"),
+                "give either `hydrostatic = true` or `pressure_field`, not both",
+            );
+        }
+        exprs.push(FieldExpr::parse(&format!("{k}.pressure_field"), t, d, constants)?);
+    }
+    for e in &exprs {
+        for x in box_samples(&f.min, &f.max, 2) {
+            e.eval(&x)?;
+        }
+    }
+    Ok(())
+}
+
+/// `(n + 1)^d` points spread over the box [min, max] (corners included).
+fn box_samples(min: &[f64], max: &[f64], n: usize) -> Vec<Vec<f64>> {
+    let d = min.len();
+    let mut out = vec![Vec::new()];
+    for a in 0..d {
+        out = out
+            .into_iter()
+            .flat_map(|p| {
+                (0..=n).map(move |k| {
+                    let mut q = p.clone();
+                    q.push(min[a] + (max[a] - min[a]) * k as f64 / n as f64);
+                    q
+                })
+            })
+            .collect();
+    }
+    out
+}
+
+/// Largest speed of a `velocity_field` over a grid of 9 points per axis in the body (m/s; 0
+/// without one): the set-up's estimate for the sound-speed check.
+fn sampled_speed(
+    f: &crate::scene::FluidBody,
+    d: usize,
+    constants: &std::collections::BTreeMap<String, f64>,
+) -> f64 {
+    use crate::scene::expr::FieldExpr;
+    let Some(v) = &f.velocity_field else { return 0.0 };
+    let exprs: Vec<FieldExpr> = v
+        .iter()
+        .filter_map(|t| FieldExpr::parse("", t, d, constants).ok())
+        .collect();
+    box_samples(&f.min, &f.max, 8)
+        .iter()
+        .map(|x| {
+            exprs
+                .iter()
+                .map(|e| e.eval(x).unwrap_or(0.0).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .fold(0.0, f64::max)
+}
+
 fn check_vec(v: &mut Vec<f64>, d: usize, key: &str, empty_is_zero: bool) -> Result<()> {
     if v.is_empty() && empty_is_zero {
         *v = vec![0.0; d];
@@ -227,6 +329,7 @@ pub fn validate(s: &mut Scene) -> Result<()> {
         check_vec(&mut f.max, d, &format!("{k}.max"), false)?;
         check_box(&f.min, &f.max, &k)?;
         check_vec(&mut f.velocity, d, &format!("{k}.velocity"), true)?;
+        validate_fields(f, &k, d, &s.constants)?;
         in_domain(&f.min, &f.max, &k, &s.domain)?;
     }
     let dx = s.discretisation.dx;
@@ -667,7 +770,9 @@ pub fn expected_speed(s: &Scene) -> f64 {
     }
     let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
     for f in &s.fluids {
-        speed = speed.max(norm(&f.velocity));
+        speed = speed
+            .max(norm(&f.velocity))
+            .max(sampled_speed(f, d, &s.constants));
     }
     for w in &s.walls {
         speed = speed.max(norm(&w.velocity));

@@ -65,3 +65,24 @@ pub fn hsph(args: &[&str]) -> (i32, String, String) {
         String::from_utf8_lossy(&o.stderr).into_owned(),
     )
 }
+
+/// Values of the `<DataArray Name="name">` of a `.vtu` piece, as text tokens (vectors give
+/// three per point).
+pub fn vtu_array(text: &str, name: &str) -> Vec<String> {
+    let at = text
+        .find(&format!("Name=\"{name}\""))
+        .unwrap_or_else(|| panic!("no array {name}"));
+    let body = &text[at..];
+    let start = body.find('>').unwrap() + 1;
+    let end = body.find("</DataArray>").unwrap();
+    body[start..end].split_whitespace().map(String::from).collect()
+}
+
+/// The point coordinates of a `.vtu` piece, three tokens per point.
+pub fn vtu_points(text: &str) -> Vec<String> {
+    let at = text.find("<Points>").unwrap();
+    let body = &text[at..];
+    let start = body.find("format=\"ascii\">").unwrap() + "format=\"ascii\">".len();
+    let end = body.find("</DataArray>").unwrap();
+    body[start..end].split_whitespace().map(String::from).collect()
+}

@@ -1,0 +1,98 @@
+//! Initial fields by expression (issue 18, item 4): every particle of a body starts with the
+//! velocity and pressure its expressions give at its position; bad expressions are exit 2
+//! naming the key.
+
+mod common;
+
+use std::f64::consts::PI;
+
+const SCENE: &str = "tests/data/taylor_green_fields.toml";
+
+#[test]
+fn every_particle_starts_with_the_expressions_values() {
+    let out = common::temp_dir("fields").join("run");
+    let (code, _, err) = common::hsph(&[
+        "run",
+        SCENE,
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+        "--ranks",
+        "2",
+        "--set",
+        "time.max_steps=1",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let (u0, l, p0, rho0, c0) = (0.05, 0.1, 50.0, 1000.0, 1.0);
+    let mut n = 0;
+    for r in 0..2 {
+        let text =
+            std::fs::read_to_string(out.join(format!("snapshots/snapshot_00000/rank_{r:04}.vtu"))).unwrap();
+        let num = |v: Vec<String>| -> Vec<f64> { v.iter().map(|s| s.parse().unwrap()).collect() };
+        let x = num(common::vtu_points(&text));
+        let v = num(common::vtu_array(&text, "velocity"));
+        let rho = num(common::vtu_array(&text, "density"));
+        for k in 0..rho.len() {
+            let (px, py) = (x[3 * k], x[3 * k + 1]);
+            let (s, c) = ((2.0 * PI * px / l).sin_cos(), (2.0 * PI * py / l).sin_cos());
+            let (u, w) = (u0 * s.0 * c.1, -u0 * s.1 * c.0);
+            assert!(
+                (v[3 * k] - u).abs() < 1e-15 && (v[3 * k + 1] - w).abs() < 1e-15,
+                "u at ({px}, {py})"
+            );
+            let p = p0 * ((4.0 * PI * px / l).cos() + (4.0 * PI * py / l).cos());
+            assert!(
+                (rho[k] - (rho0 + p / (c0 * c0))).abs() < 1e-10,
+                "ρ at ({px}, {py})"
+            );
+            n += 1;
+        }
+    }
+    assert_eq!(n, 400, "the 20 × 20 body");
+}
+
+#[test]
+fn bad_expressions_are_input_errors_naming_the_key() {
+    let text = std::fs::read_to_string(common::repo_path(SCENE)).unwrap();
+    let dir = common::temp_dir("fields-bad");
+    for (from, to, key, says) in [
+        (
+            "U*sin(2*PI*x/L)",
+            "Q*sin(x)",
+            "fluid[0].velocity_field[0]",
+            "unknown name `Q`",
+        ),
+        (
+            "P0*(cos(4*PI*x/L)",
+            "P0*(cos(4*PI*x/L",
+            "fluid[0].pressure_field",
+            "cannot parse",
+        ),
+        (
+            "-U*cos(2*PI*x/L)*sin(2*PI*y/L)",
+            "z",
+            "fluid[0].velocity_field[1]",
+            "unknown name `z`",
+        ),
+        (
+            "P0*(cos(4*PI*x/L)",
+            "ln(x - 1)*(cos(4*PI*x/L)",
+            "fluid[0].pressure_field",
+            "finite",
+        ),
+        (
+            "name = \"vortices\"",
+            "name = \"vortices\"\nvelocity = [1.0, 0.0]",
+            "fluid[0].velocity_field",
+            "not both",
+        ),
+    ] {
+        assert!(text.contains(from), "{from}");
+        let scene = dir.join("bad.toml");
+        std::fs::write(&scene, text.replacen(from, to, 1)).unwrap();
+        let (code, _, err) = common::hsph(&["check", scene.to_str().unwrap()]);
+        assert_eq!(code, 2, "{to}: {err}");
+        assert!(err.contains(key) && err.contains(says), "{to}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
