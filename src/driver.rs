@@ -985,6 +985,18 @@ impl<'a, const D: usize> RankRun<'a, D> {
 
     /// The test-only fault of `opts`, if it is due on this rank now.
     fn inject_fault(&mut self) {
+        // test-only: `HSPH_TEST_STEP_DELAY_MS=N` sleeps N ms before every step, so that a
+        // small run outlasts a real scheduler time limit on any machine (the Slurm CI test);
+        // the physics and its bits are untouched
+        static DELAY: std::sync::OnceLock<Option<u64>> = std::sync::OnceLock::new();
+        let delay = DELAY.get_or_init(|| {
+            std::env::var("HSPH_TEST_STEP_DELAY_MS")
+                .ok()
+                .and_then(|v| v.parse::<u64>().ok())
+        });
+        if let Some(ms) = *delay {
+            std::thread::sleep(std::time::Duration::from_millis(ms));
+        }
         if let Some(f) = self.opts.fault {
             if f.rank == self.comm.rank() && f.step == self.sim.step + 1 {
                 match f.kind {
