@@ -87,6 +87,15 @@ impl JobSpec {
         Ok(())
     }
 
+    /// The layout the script asks for, as `HSPH_JOB_PLAN`
+    /// (`nodes=N,ranks_per_node=K,threads_per_rank=T`).
+    pub fn plan(&self) -> String {
+        format!(
+            "nodes={},ranks_per_node={},threads_per_rank={}",
+            self.nodes, self.ranks_per_node, self.threads_per_rank
+        )
+    }
+
     /// The sbatch script.
     pub fn script(&self) -> String {
         let ranks = self.nodes * self.ranks_per_node;
@@ -121,7 +130,9 @@ impl JobSpec {
         s += "set -u\n";
         s += &format!("HSPH=\"${{HSPH:-{}}}\"\n", self.hsph);
         s += &format!("SCENE=\"{}\"\nRUN=\"{}\"\n", self.scene, self.run);
-        s += &format!("export RAYON_NUM_THREADS={t}\n\n");
+        s += &format!("export RAYON_NUM_THREADS={t}\n");
+        s += "# the layout asked for here; the run compares it with the one it gets and warns\n";
+        s += &format!("export HSPH_JOB_PLAN=\"{}\"\n\n", self.plan());
         s += "if ls \"$RUN\"/checkpoints/*/manifest.json >/dev/null 2>&1; then\n";
         s += "    ARGS=(run --restart \"$RUN\")\n";
         s += "else\n";
@@ -130,7 +141,13 @@ impl JobSpec {
         s += "fi\n";
         s += &format!("ARGS+=(--threads {t} --placement {})\n\n", self.placement);
         s += "# USR1 reaches this shell only: pass it on to the launcher, which passes it to the ranks\n";
-        s += "forward() { echo \"hsph job: USR1 before the time limit, asking the run to checkpoint\"; kill -USR1 \"$pid\" 2>/dev/null; }\n";
+        s += "# (Slurm may send it up to a minute early: if it comes before the launch, it is passed on\n";
+        s += "# right after the launch)\n";
+        s += "pid=\nearly=0\n";
+        s += "forward() {\n";
+        s += "    echo \"hsph job: USR1 before the time limit, asking the run to checkpoint\"\n";
+        s += "    if [ -n \"$pid\" ]; then kill -USR1 \"$pid\" 2>/dev/null; else early=1; fi\n";
+        s += "}\n";
         s += "trap forward USR1\n";
         match self.launcher {
             Launcher::Srun => {
@@ -147,12 +164,15 @@ impl JobSpec {
             }
         }
         s += "pid=$!\n";
+        s += "if [ \"$early\" = 1 ]; then kill -USR1 \"$pid\" 2>/dev/null; fi\n";
         s += "# a trapped signal interrupts wait: wait again until the run has finished its checkpoint\n";
         s += "wait \"$pid\"; rc=$?\n";
         s += "while kill -0 \"$pid\" 2>/dev/null; do wait \"$pid\"; rc=$?; done\n";
         s += "if [ \"$rc\" -eq 3 ]; then\n";
         s += "    echo \"hsph job: stopped early with a checkpoint; requeueing to continue\"\n";
-        s += "    scontrol requeue \"$SLURM_JOB_ID\"\n";
+        s += "    # (this ends the job: Slurm cancels it and queues it again)\n";
+        s += "    scontrol requeue \"$SLURM_JOB_ID\" ||\n";
+        s += "        echo \"hsph job: scontrol requeue failed (JobRequeue?): submit this script again to continue\"\n";
         s += "fi\n";
         s += "exit \"$rc\"\n";
         s
@@ -199,6 +219,7 @@ mod tests {
             "--ranks 8",
             "--placement centre-distance",
             "scontrol requeue \"$SLURM_JOB_ID\"",
+            "export HSPH_JOB_PLAN=\"nodes=2,ranks_per_node=4,threads_per_rank=6\"\n",
         ] {
             assert!(s.contains(line), "missing {line:?} in\n{s}");
         }
@@ -208,6 +229,42 @@ mod tests {
             m.contains("mpirun --map-by ppr:4:node:PE=6 --bind-to core"),
             "{m}"
         );
+    }
+
+    #[test]
+    fn an_early_signal_waits_for_the_launch_and_the_plan_is_exported_before_it() {
+        for launcher in [Launcher::Srun, Launcher::Mpirun] {
+            let s = spec(launcher).script();
+            let at = |needle: &str| s.find(needle).unwrap_or_else(|| panic!("{needle:?} in\n{s}"));
+            // `set -u` and a USR1 before the launch: the trap must not read an unset $pid
+            assert!(at("pid=\nearly=0\n") < at("trap forward USR1"), "{s}");
+            assert!(s.contains("else early=1; fi"), "{s}");
+            let launch = at(" \"$HSPH\" \"${ARGS[@]}\" &\n");
+            assert!(at("export HSPH_JOB_PLAN=") < launch);
+            assert!(at("if [ \"$early\" = 1 ]; then kill -USR1 \"$pid\"") > launch);
+            assert!(s.contains("scontrol requeue failed"), "{s}");
+        }
+        assert_eq!(
+            spec(Launcher::Srun).plan(),
+            "nodes=2,ranks_per_node=4,threads_per_rank=6"
+        );
+    }
+
+    #[test]
+    fn the_script_is_valid_bash() {
+        for launcher in [Launcher::Srun, Launcher::Mpirun] {
+            let mut sp = spec(launcher);
+            sp.account = Some("proj-1".into());
+            let out = std::process::Command::new("bash")
+                .args(["-n", "-c", &sp.script()])
+                .output()
+                .expect("bash");
+            assert!(
+                out.status.success(),
+                "{launcher:?}: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
     }
 
     #[test]
