@@ -2,7 +2,7 @@
 //! for `mpirun` (runs the command) and `scontrol` (records the requeue), goes through Slurm's
 //! stop-and-requeue cycle: USR1 to the batch shell before the limit → forwarded to the run →
 //! checkpoint, exit 3 → `scontrol requeue` → the requeued script continues from the checkpoint
-//! and ends with the bits of an uninterrupted run. (The real-Slurm CI test is still to come.)
+//! and ends with the bits of an uninterrupted run. The real-Slurm test is .ci/slurm-stage, run by CI.
 
 mod common;
 
