@@ -149,6 +149,9 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
         let fields = BodyFields::<D>::new(f, b, s)?;
         let mut bad = None;
         lat.for_each_in(&f.min, &f.max, |id, x| {
+            if !f.contains(x.as_slice()) {
+                return;
+            }
             let mut rho = if f.hydrostatic && gmag > 0.0 {
                 let depth = x.dot(&g) / gmag - top;
                 e.density(e.rho0() * gmag * depth.max(0.0))
@@ -300,6 +303,7 @@ pub fn built_extents<const D: usize>(s: &Scene) -> Vec<BuiltBody> {
         .fluids
         .iter()
         .enumerate()
+        .filter(|(_, f)| f.shape == crate::scene::BodyShape::Block)
         .map(|(i, f)| body(format!("fluid[{i}]"), &f.name, &f.min, &f.max))
         .collect();
     for (i, w) in s.walls.iter().enumerate() {
@@ -381,9 +385,10 @@ pub fn extent_lines<const D: usize>(s: &Scene) -> Vec<String> {
 /// lattice cells of dx counted from `domain.min`), with the spacing that would build them all
 /// as written, if one lies within ±30 % of dx.
 pub fn extent_warnings<const D: usize>(s: &Scene) -> Vec<String> {
+    let mut out = sphere_warnings::<D>(s);
     let off: Vec<BuiltBody> = built_extents::<D>(s).into_iter().filter(|b| b.off()).collect();
     if off.is_empty() {
-        return Vec::new();
+        return out;
     }
     let fit = match fitting_dx::<D>(s) {
         Some(h) => format!("discretisation.dx = {h:.6e} m would build every body as written"),
@@ -391,23 +396,54 @@ pub fn extent_warnings<const D: usize>(s: &Scene) -> Vec<String> {
                  domain.min + k·dx"
             .to_string(),
     };
-    off.iter()
-        .map(|b| {
-            let (axes, vol) = b.differences();
-            let a: Vec<String> = axes.iter().map(|x| format!("{:+.1} %", 100.0 * x)).collect();
-            format!(
-                "{} `{}` is built {} m where the scene says {} m ({}; volume {:+.1} %): bodies fill \
+    out.extend(off.iter().map(|b| {
+        let (axes, vol) = b.differences();
+        let a: Vec<String> = axes.iter().map(|x| format!("{:+.1} %", 100.0 * x)).collect();
+        format!(
+            "{} `{}` is built {} m where the scene says {} m ({}; volume {:+.1} %): bodies fill \
                  whole cells of dx = {} m counted from domain.min; {fit}",
-                b.key,
-                b.name,
-                sizes(&b.built),
-                sizes(&b.scene),
-                a.join(", "),
-                100.0 * vol,
-                s.discretisation.dx
-            )
-        })
-        .collect()
+            b.key,
+            b.name,
+            sizes(&b.built),
+            sizes(&b.scene),
+            a.join(", "),
+            100.0 * vol,
+            s.discretisation.dx
+        )
+    }));
+    out
+}
+
+/// Spheres (discs in 2D) whose lattice volume (sites × dx^D) differs from the true volume by
+/// more than 1 %: a sphere is resolved by its diameter in spacings.
+fn sphere_warnings<const D: usize>(s: &Scene) -> Vec<String> {
+    let lat = Lattice::<D>::new(s);
+    let dx = s.discretisation.dx;
+    let mut out = Vec::new();
+    for (i, f) in s.fluids.iter().enumerate() {
+        if f.shape != crate::scene::BodyShape::Sphere {
+            continue;
+        }
+        let mut n = 0u64;
+        lat.for_each_in(&f.min, &f.max, |_, x| n += f.contains(x.as_slice()) as u64);
+        let exact = if D == 2 {
+            std::f64::consts::PI * f.radius.powi(2)
+        } else {
+            4.0 / 3.0 * std::f64::consts::PI * f.radius.powi(3)
+        };
+        let rel = n as f64 * dx.powi(D as i32) / exact - 1.0;
+        if rel.abs() > 0.01 {
+            out.push(format!(
+                "fluid[{i}] `{}` (a sphere of radius {} m, {:.1} spacings across) is built with a \
+                 volume {:+.1} % off the true one; a finer dx resolves it better",
+                f.name,
+                f.radius,
+                2.0 * f.radius / dx,
+                100.0 * rel
+            ));
+        }
+    }
+    out
 }
 
 /// The outer box of a container wall: its inner box grown by `layers` spacings on every closed

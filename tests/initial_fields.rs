@@ -96,3 +96,86 @@ fn bad_expressions_are_input_errors_naming_the_key() {
         assert!(!err.contains("panicked"), "{err}");
     }
 }
+
+/// A sphere body (a disc in 2D) holds exactly the lattice sites closer than its radius to its
+/// centre (brute-force count over the lattice), carries its expression fields, and its keys
+/// are checked.
+#[test]
+fn a_sphere_holds_exactly_the_sites_inside_it() {
+    let text = std::fs::read_to_string(common::repo_path(SCENE)).unwrap();
+    let block = "material = \"water\"\nmin = [0.0, 0.0]\nmax = [0.1, 0.1]\n";
+    assert!(text.contains(block));
+    let (c, r) = ([0.05, 0.045], 0.033);
+    let disc = text.replacen(
+        block,
+        &format!(
+            "material = \"water\"\nshape = \"sphere\"\ncentre = [{}, {}]\nradius = {r}\n",
+            c[0], c[1]
+        ),
+        1,
+    );
+    let dir = common::temp_dir("sphere");
+    let scene = dir.join("disc.toml");
+    std::fs::write(&scene, &disc).unwrap();
+    let out = dir.join("run");
+    let (code, _, err) = common::hsph(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "time.max_steps=1",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    // 13.2 spacings across: the lattice disc (140 sites) is 2.3 % larger than the true one
+    assert!(
+        err.contains("a sphere of radius 0.033 m") && err.contains("volume +2.3 %"),
+        "{err}"
+    );
+    let t = std::fs::read_to_string(out.join("snapshots/snapshot_00000/rank_0000.vtu")).unwrap();
+    let x: Vec<f64> = common::vtu_points(&t)
+        .iter()
+        .map(|s| s.parse().unwrap())
+        .collect();
+    let mut got: Vec<(i64, i64)> = x
+        .chunks(3)
+        .map(|p| {
+            (
+                ((p[0] / 0.005) - 0.5).round() as i64,
+                ((p[1] / 0.005) - 0.5).round() as i64,
+            )
+        })
+        .collect();
+    got.sort_unstable();
+    let mut want = Vec::new();
+    for i in 0..20 {
+        for j in 0..20 {
+            let (px, py) = ((i as f64 + 0.5) * 0.005, (j as f64 + 0.5) * 0.005);
+            if (px - c[0]).powi(2) + (py - c[1]).powi(2) < r * r {
+                want.push((i, j));
+            }
+        }
+    }
+    assert_eq!(got, want, "the disc's sites");
+    assert!(want.len() > 100);
+    // sphere keys are checked: no radius, sphere keys on a block, a box given as well
+    for (from, to, says) in [
+        (format!("radius = {r}\n"), String::new(), "fluid[0].radius"),
+        (
+            "shape = \"sphere\"\n".to_string(),
+            String::new(),
+            "fluid[0].shape",
+        ),
+        (
+            format!("radius = {r}\n"),
+            format!("radius = {r}\nmin = [0.0, 0.0]\n"),
+            "fluid[0].min",
+        ),
+    ] {
+        let bad = dir.join("bad.toml");
+        std::fs::write(&bad, disc.replacen(&from, &to, 1)).unwrap();
+        let (code, _, err) = common::hsph(&["check", bad.to_str().unwrap()]);
+        assert_eq!(code, 2, "{err}");
+        assert!(err.contains(says), "{says}: {err}");
+    }
+}

@@ -336,10 +336,22 @@ pub struct FluidBody {
     pub name: String,
     /// Material name.
     pub material: String,
-    /// Lower corner (m).
+    /// Shape: `block` (every site in [min, max)) or `sphere` (a disc in 2D: every site closer
+    /// than `radius` to `centre`).
+    #[serde(default)]
+    pub shape: BodyShape,
+    /// Lower corner (m); for a sphere, set from centre and radius.
+    #[serde(default)]
     pub min: Vec<f64>,
-    /// Upper corner (m).
+    /// Upper corner (m); for a sphere, set from centre and radius.
+    #[serde(default)]
     pub max: Vec<f64>,
+    /// Centre of a sphere (m).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub centre: Vec<f64>,
+    /// Radius of a sphere (m).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub radius: f64,
     /// Initial velocity (m/s); default zero.
     #[serde(default)]
     pub velocity: Vec<f64>,
@@ -355,6 +367,35 @@ pub struct FluidBody {
     /// material's EOS. Instead of `hydrostatic`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pressure_field: Option<String>,
+}
+
+/// Shape of a fluid body.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum BodyShape {
+    /// A block [min, max).
+    #[default]
+    Block,
+    /// A sphere (a disc in 2D): the sites with |x − centre| < radius.
+    Sphere,
+}
+
+impl FluidBody {
+    /// True if the lattice site at `x` (inside [min, max)) belongs to the body.
+    #[inline]
+    pub fn contains(&self, x: &[f64]) -> bool {
+        match self.shape {
+            BodyShape::Block => true,
+            BodyShape::Sphere => {
+                let r2: f64 = x.iter().zip(&self.centre).map(|(a, c)| (a - c) * (a - c)).sum();
+                r2 < self.radius * self.radius
+            }
+        }
+    }
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// Shape of a wall body.

@@ -11,6 +11,44 @@ fn err<T>(key: impl Into<String>, msg: impl Into<String>) -> Result<T> {
 }
 
 /// Check a vector key has `d` components, all finite; fill an empty one with zeros if allowed.
+/// A sphere's box from its centre and radius (a resolved scene already holds it; any other
+/// box is an error), and no sphere keys on a block.
+fn sphere_box(f: &mut crate::scene::FluidBody, k: &str, d: usize) -> Result<()> {
+    use crate::scene::BodyShape;
+    match f.shape {
+        BodyShape::Block => {
+            if !f.centre.is_empty() || f.radius != 0.0 {
+                return err(
+                    format!("{k}.shape"),
+                    "`centre` and `radius` belong to `shape = \"sphere\"`; a block takes min and max",
+                );
+            }
+        }
+        BodyShape::Sphere => {
+            check_vec(&mut f.centre, d, &format!("{k}.centre"), false)?;
+            if !(f.radius > 0.0 && f.radius.is_finite()) {
+                return err(
+                    format!("{k}.radius"),
+                    format!(
+                        "a sphere needs a positive radius (m), got {}; e.g. radius = 0.05",
+                        f.radius
+                    ),
+                );
+            }
+            let lo: Vec<f64> = f.centre.iter().map(|c| c - f.radius).collect();
+            let hi: Vec<f64> = f.centre.iter().map(|c| c + f.radius).collect();
+            if (!f.min.is_empty() && f.min != lo) || (!f.max.is_empty() && f.max != hi) {
+                return err(
+                    format!("{k}.min"),
+                    "a sphere's box comes from `centre` and `radius`: leave out min and max",
+                );
+            }
+            (f.min, f.max) = (lo, hi);
+        }
+    }
+    Ok(())
+}
+
 /// The initial-field expressions of fluid body `k` (`velocity_field`, `pressure_field`): one
 /// per axis, parsed against the coordinates and `[constants]`, not together with the plain
 /// key they replace; finite at the body's corners and centre (every site is checked at set-up).
@@ -325,6 +363,7 @@ pub fn validate(s: &mut Scene) -> Result<()> {
                 ),
             );
         }
+        sphere_box(f, &k, d)?;
         check_vec(&mut f.min, d, &format!("{k}.min"), false)?;
         check_vec(&mut f.max, d, &format!("{k}.max"), false)?;
         check_box(&f.min, &f.max, &k)?;
