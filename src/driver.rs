@@ -636,6 +636,9 @@ struct RankRun<'a, const D: usize> {
     checkpointed: u64,
     /// When the last checkpoint was written (or the loop started), and how long it took (s).
     checkpoint_clock: (Instant, f64),
+    /// Wall time of the earlier segments of a run continued from checkpoints (s), and their
+    /// number.
+    earlier: (f64, u64),
 }
 
 impl<'a, const D: usize> RankRun<'a, D> {
@@ -711,6 +714,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             next_checkpoint: scene.checkpoint.every,
             checkpointed: u64::MAX,
             checkpoint_clock: (Instant::now(), 0.0),
+            earlier: (0.0, 0),
         };
         run.report_layout()?;
         if let Some((ck, m)) = resumed {
@@ -1090,6 +1094,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "tracker": self.tracker,
             "probes": self.probes.state(),
             "snapshots": self.snapshots.as_ref().map(|w| w.state()),
+            "wall_s": self.earlier.0 + self.steps_start.elapsed().as_secs_f64(),
+            "segments": self.earlier.1 + 1,
             "series": series,
         }))
     }
@@ -1105,6 +1111,11 @@ impl<'a, const D: usize> RankRun<'a, D> {
         self.n_fluid = s["n_fluid"].as_u64().ok_or_else(|| bad("n_fluid"))?;
         self.tracker = serde_json::from_value(s["tracker"].clone()).map_err(|_| bad("tracker"))?;
         self.probes.restore(&s["probes"])?;
+        // absent in checkpoints of older builds: counted from this segment on
+        self.earlier = (
+            s["wall_s"].as_f64().unwrap_or(0.0),
+            s["segments"].as_u64().unwrap_or(0),
+        );
         let root = self.comm.rank() == 0;
         if let Some(w) = self.snapshots.as_mut() {
             w.restore(&s["snapshots"], root)?;
@@ -1235,6 +1246,10 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "t_end": self.scene.time.t_end,
             "t": sim.t,
             "wall_s": wall,
+            // a run continued from checkpoints: every segment's wall time up to its checkpoint
+            // plus this one (a segment's steps after its last checkpoint were redone)
+            "wall_s_all_segments": self.earlier.0 + wall,
+            "segments": self.earlier.1 + 1,
             "particle_steps_per_s": per_s(n as f64 * steps as f64),
             "pair_interactions_per_s": per_s(sim.pair_count as f64 * self.comm.size() as f64),
             "threads": rayon::current_num_threads(),

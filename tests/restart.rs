@@ -105,6 +105,11 @@ fn a_run_continued_on_another_rank_count_has_the_same_bits() {
     let (code, err) = restart(&a, "3", &[]);
     assert_eq!(code, 0, "{err}");
     assert_same(&reference, &a, "1 → 3 after a signal");
+    // the summary counts both segments' wall time
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(a.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["segments"], 2);
+    assert!(summary["wall_s_all_segments"].as_f64().unwrap() > summary["wall_s"].as_f64().unwrap());
     // 4 → 2 and 3 → 7: a first leg to step 45 checkpointing every 30 steps (and at its end)
     for (p, q) in [("4", "2"), ("3", "7")] {
         let b = dir.join(format!("b{p}{q}"));
