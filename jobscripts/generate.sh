@@ -47,6 +47,9 @@ gen jobscripts/dam_break_3d.sh inputs/dam_break_3d.toml --out runs/dam_break_3d 
 # 275 000 particles, ~150 steps (the benchmark): four nodes.
 gen jobscripts/dam_break_3d_bench.sh inputs/dam_break_3d_bench.toml --out runs/dam_break_3d_bench \
     --nodes 4 --ranks-per-node 8 --threads-per-rank 4 --time 00:15:00
+# 302 000 particles to t = 1.6 s (about 18 600 steps): DualSPHysics's CaseDambreak on four nodes.
+gen jobscripts/dam_break_3d_dsph.sh inputs/dam_break_3d_dsph.toml --out runs/dam_break_3d_dsph \
+    --nodes 4 --ranks-per-node 8 --threads-per-rank 4 --time 06:00:00
 
 # Scaling sweep: the benchmark scene on 1, 2, 4, 8 ranks of one node, one thread each; the run
 # directories feed `hsph report --compare` (jobscripts/scaling/submit.sh does both).
