@@ -421,22 +421,28 @@ fn sphere_warnings<const D: usize>(s: &Scene) -> Vec<String> {
     let dx = s.discretisation.dx;
     let mut out = Vec::new();
     for (i, f) in s.fluids.iter().enumerate() {
-        if f.shape != crate::scene::BodyShape::Sphere {
+        if f.shape == crate::scene::BodyShape::Block {
             continue;
         }
         let mut n = 0u64;
         lat.for_each_in(&f.min, &f.max, |_, x| n += f.contains(x.as_slice()) as u64);
-        let exact = if D == 2 {
-            std::f64::consts::PI * f.radius.powi(2)
-        } else {
-            4.0 / 3.0 * std::f64::consts::PI * f.radius.powi(3)
+        let pi = std::f64::consts::PI;
+        let exact = match (f.shape, D) {
+            (crate::scene::BodyShape::Cylinder, _) => pi * f.radius.powi(2) * f.length,
+            (_, 2) => pi * f.radius.powi(2),
+            _ => 4.0 / 3.0 * pi * f.radius.powi(3),
         };
         let rel = n as f64 * dx.powi(D as i32) / exact - 1.0;
         if rel.abs() > 0.01 {
             out.push(format!(
-                "fluid[{i}] `{}` (a sphere of radius {} m, {:.1} spacings across) is built with a \
+                "fluid[{i}] `{}` (a {} of radius {} m, {:.1} spacings across) is built with a \
                  volume {:+.1} % off the true one; a finer dx resolves it better",
                 f.name,
+                if f.shape == crate::scene::BodyShape::Cylinder {
+                    "cylinder"
+                } else {
+                    "sphere"
+                },
                 f.radius,
                 2.0 * f.radius / dx,
                 100.0 * rel

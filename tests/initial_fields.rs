@@ -179,3 +179,84 @@ fn a_sphere_holds_exactly_the_sites_inside_it() {
         assert!(err.contains(says), "{says}: {err}");
     }
 }
+
+/// A cylinder (3D) along x holds exactly the lattice sites within its radius of the axis and
+/// within half its length of the centre (brute-force count); a cylinder in 2D is exit 2.
+#[test]
+fn a_cylinder_holds_exactly_the_sites_inside_it() {
+    let text = std::fs::read_to_string(common::repo_path("tests/data/dam_break_3d_small.toml")).unwrap();
+    let block = "min = [0.0, 0.0, 0.0]\nmax = [0.2, 0.2, 0.3]\nhydrostatic = true\n";
+    assert!(text.contains(block));
+    let (c, r, len) = ([0.3, 0.1, 0.15], 0.09, 0.4);
+    let cyl = text.replacen(
+        block,
+        &format!(
+            "shape = \"cylinder\"\ncentre = [{}, {}, {}]\nradius = {r}\naxis = 0\nlength = {len}\n",
+            c[0], c[1], c[2]
+        ),
+        1,
+    );
+    let dir = common::temp_dir("cylinder");
+    let scene = dir.join("cyl.toml");
+    std::fs::write(&scene, &cyl).unwrap();
+    let out = dir.join("run");
+    let (code, _, err) = common::hsph(&[
+        "run",
+        scene.to_str().unwrap(),
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "time.max_steps=1",
+        "--set",
+        "output.format=\"vtk\"",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let t = std::fs::read_to_string(out.join("snapshots/snapshot_00000/rank_0000.vtu")).unwrap();
+    let x: Vec<f64> = common::vtu_points(&t)
+        .iter()
+        .map(|s| s.parse().unwrap())
+        .collect();
+    let kind = common::vtu_array(&t, "kind");
+    let (o, dx) = (-0.08, 0.025);
+    let site = |v: f64| ((v - o) / dx - 0.5).round() as i64;
+    let mut got: Vec<[i64; 3]> = x
+        .chunks(3)
+        .zip(&kind)
+        .filter(|(_, k)| *k == "0")
+        .map(|(p, _)| [site(p[0]), site(p[1]), site(p[2])])
+        .collect();
+    got.sort_unstable();
+    let mut want = Vec::new();
+    for i in 0..31 {
+        for j in 0..15 {
+            for k in 0..23 {
+                let p = [i, j, k].map(|n| o + (n as f64 + 0.5) * dx);
+                let inside = p[0] >= c[0] - len / 2.0
+                    && p[0] < c[0] + len / 2.0
+                    && (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2) < r * r;
+                if inside {
+                    want.push([i, j, k]);
+                }
+            }
+        }
+    }
+    assert_eq!(got, want, "the cylinder's sites");
+    assert!(want.len() > 300, "{}", want.len());
+    // a cylinder needs 3D
+    let disc = std::fs::read_to_string(common::repo_path(SCENE))
+        .unwrap()
+        .replacen(
+            "min = [0.0, 0.0]\nmax = [0.1, 0.1]\nvelocity_field",
+            "shape = \"cylinder\"\ncentre = [0.05, 0.05]\nradius = 0.02\nlength = 0.1\nvelocity_field",
+            1,
+        );
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, disc).unwrap();
+    let (code, _, err) = common::hsph(&["check", bad.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("fluid[0].shape") && err.contains("needs a 3D scene"),
+        "{err}"
+    );
+}

@@ -336,8 +336,9 @@ pub struct FluidBody {
     pub name: String,
     /// Material name.
     pub material: String,
-    /// Shape: `block` (every site in [min, max)) or `sphere` (a disc in 2D: every site closer
-    /// than `radius` to `centre`).
+    /// Shape: `block` (every site in [min, max); a plate is a thin block), `sphere` (a disc in
+    /// 2D: every site closer than `radius` to `centre`) or `cylinder` (3D: every site closer than
+    /// `radius` to the axis through `centre` along `axis`, within `length`/2 of `centre`).
     #[serde(default)]
     pub shape: BodyShape,
     /// Lower corner (m); for a sphere, set from centre and radius.
@@ -349,9 +350,15 @@ pub struct FluidBody {
     /// Centre of a sphere (m).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub centre: Vec<f64>,
-    /// Radius of a sphere (m).
+    /// Radius of a sphere or cylinder (m).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub radius: f64,
+    /// Axis of a cylinder: 0, 1 or 2 (x, y, z).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<usize>,
+    /// Length of a cylinder along its axis (m).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub length: f64,
     /// Initial velocity (m/s); default zero.
     #[serde(default)]
     pub velocity: Vec<f64>,
@@ -378,6 +385,8 @@ pub enum BodyShape {
     Block,
     /// A sphere (a disc in 2D): the sites with |x − centre| < radius.
     Sphere,
+    /// A cylinder (3D): the sites closer than radius to the axis, within length/2 of centre.
+    Cylinder,
 }
 
 impl FluidBody {
@@ -388,6 +397,14 @@ impl FluidBody {
             BodyShape::Block => true,
             BodyShape::Sphere => {
                 let r2: f64 = x.iter().zip(&self.centre).map(|(a, c)| (a - c) * (a - c)).sum();
+                r2 < self.radius * self.radius
+            }
+            BodyShape::Cylinder => {
+                let axis = self.axis.unwrap_or(2);
+                let r2: f64 = (0..x.len())
+                    .filter(|&a| a != axis)
+                    .map(|a| (x[a] - self.centre[a]).powi(2))
+                    .sum();
                 r2 < self.radius * self.radius
             }
         }

@@ -11,41 +11,67 @@ fn err<T>(key: impl Into<String>, msg: impl Into<String>) -> Result<T> {
 }
 
 /// Check a vector key has `d` components, all finite; fill an empty one with zeros if allowed.
-/// A sphere's box from its centre and radius (a resolved scene already holds it; any other
-/// box is an error), and no sphere keys on a block.
+/// A sphere's or cylinder's box from its centre, radius (and axis and length); a resolved
+/// scene already holds it, any other box is an error; no such keys on a block.
 fn sphere_box(f: &mut crate::scene::FluidBody, k: &str, d: usize) -> Result<()> {
     use crate::scene::BodyShape;
-    match f.shape {
-        BodyShape::Block => {
-            if !f.centre.is_empty() || f.radius != 0.0 {
-                return err(
-                    format!("{k}.shape"),
-                    "`centre` and `radius` belong to `shape = \"sphere\"`; a block takes min and max",
-                );
-            }
+    if f.shape == BodyShape::Block {
+        if !f.centre.is_empty() || f.radius != 0.0 || f.axis.is_some() || f.length != 0.0 {
+            return err(
+                format!("{k}.shape"),
+                "`centre`, `radius`, `axis` and `length` belong to `shape = \"sphere\"` or \"cylinder\"; a block takes min and max",
+            );
         }
-        BodyShape::Sphere => {
-            check_vec(&mut f.centre, d, &format!("{k}.centre"), false)?;
-            if !(f.radius > 0.0 && f.radius.is_finite()) {
-                return err(
-                    format!("{k}.radius"),
-                    format!(
-                        "a sphere needs a positive radius (m), got {}; e.g. radius = 0.05",
-                        f.radius
-                    ),
-                );
-            }
-            let lo: Vec<f64> = f.centre.iter().map(|c| c - f.radius).collect();
-            let hi: Vec<f64> = f.centre.iter().map(|c| c + f.radius).collect();
-            if (!f.min.is_empty() && f.min != lo) || (!f.max.is_empty() && f.max != hi) {
-                return err(
-                    format!("{k}.min"),
-                    "a sphere's box comes from `centre` and `radius`: leave out min and max",
-                );
-            }
-            (f.min, f.max) = (lo, hi);
-        }
+        return Ok(());
     }
+    check_vec(&mut f.centre, d, &format!("{k}.centre"), false)?;
+    if !(f.radius > 0.0 && f.radius.is_finite()) {
+        return err(
+            format!("{k}.radius"),
+            format!(
+                "needs a positive radius (m), got {}; e.g. radius = 0.05",
+                f.radius
+            ),
+        );
+    }
+    let mut half: Vec<f64> = vec![f.radius; d];
+    if f.shape == BodyShape::Cylinder {
+        if d != 3 {
+            return err(
+                format!("{k}.shape"),
+                "a cylinder needs a 3D scene; in 2D a disc is `shape = \"sphere\"`, a rectangle a block",
+            );
+        }
+        let axis = f.axis.unwrap_or(2);
+        if axis >= d {
+            return err(
+                format!("{k}.axis"),
+                format!("must be 0, 1 or 2 (x, y, z), got {axis}"),
+            );
+        }
+        if !(f.length > 0.0 && f.length.is_finite()) {
+            return err(
+                format!("{k}.length"),
+                format!(
+                    "a cylinder needs a positive length (m) along its axis, got {}",
+                    f.length
+                ),
+            );
+        }
+        f.axis = Some(axis);
+        half[axis] = 0.5 * f.length;
+    } else if f.axis.is_some() || f.length != 0.0 {
+        return err(format!("{k}.axis"), "`axis` and `length` belong to a cylinder");
+    }
+    let lo: Vec<f64> = (0..d).map(|a| f.centre[a] - half[a]).collect();
+    let hi: Vec<f64> = (0..d).map(|a| f.centre[a] + half[a]).collect();
+    if (!f.min.is_empty() && f.min != lo) || (!f.max.is_empty() && f.max != hi) {
+        return err(
+            format!("{k}.min"),
+            "the box of a sphere or cylinder comes from its centre, radius and length: leave out min and max",
+        );
+    }
+    (f.min, f.max) = (lo, hi);
     Ok(())
 }
 
