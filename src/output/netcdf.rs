@@ -26,6 +26,14 @@ use std::io::{Cursor, Seek, SeekFrom, Write};
 use std::path::Path;
 use std::rc::Rc;
 
+/// Attributes of the `time` variable (CF: a time coordinate in seconds).
+pub(crate) const TIME_ATTRS: [(&str, &str); 4] = [
+    ("standard_name", "time"),
+    ("long_name", "simulated time"),
+    ("units", "s"),
+    ("axis", "T"),
+];
+
 /// CF conventions version the files follow.
 pub const CONVENTIONS: &str = "CF-1.8";
 
@@ -275,12 +283,7 @@ fn write_file(path: &Path, data: &PieceData) -> Result<()> {
         ds.add_global_attr_string(k, v).map_err(e)?;
     }
     ds.add_var_f64::<&str>("time", &[]).map_err(e)?;
-    for (k, v) in [
-        ("standard_name", "time"),
-        ("long_name", "simulated time"),
-        ("units", "s"),
-        ("axis", "T"),
-    ] {
+    for (k, v) in TIME_ATTRS {
         ds.add_var_attr_string("time", k, v).map_err(e)?;
     }
     ds.add_var_i32::<&str>("step", &[]).map_err(e)?;
@@ -453,12 +456,7 @@ pub fn mirror_series(csv: &Path, nc: &Path, title: &str, d: usize) -> Result<()>
             ds.add_var_attr_string(name, "units", "1").map_err(e)?;
         } else if name == "time" {
             ds.add_var_f64(name, &["time"]).map_err(e)?;
-            for (k, v) in [
-                ("standard_name", "time"),
-                ("long_name", "simulated time"),
-                ("units", "s"),
-                ("axis", "T"),
-            ] {
+            for (k, v) in TIME_ATTRS {
                 ds.add_var_attr_string(name, k, v).map_err(e)?;
             }
         } else {

@@ -36,12 +36,7 @@ fn fill(path: &Path, data: &PieceData) -> netcdf::Result<()> {
     }
     {
         let mut t = f.add_variable::<f64>("time", &[])?;
-        for (k, v) in [
-            ("standard_name", "time"),
-            ("long_name", "simulated time"),
-            ("units", "s"),
-            ("axis", "T"),
-        ] {
+        for (k, v) in super::netcdf::TIME_ATTRS {
             t.put_attribute(k, v)?;
         }
         t.put_value(data.t, ..)?;

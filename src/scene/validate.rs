@@ -240,6 +240,42 @@ pub fn face(name: &str, dim: usize) -> Option<(usize, bool)> {
 
 /// Validate a scene and fill the defaults that depend on other keys.
 pub fn validate(s: &mut Scene) -> Result<()> {
+    let support = validate_domain(s)?;
+    validate_materials(s)?;
+    let mat_names: Vec<String> = s.materials.iter().map(|m| m.name.clone()).collect();
+    validate_fluids(s, &mat_names)?;
+    validate_walls(s, &mat_names, support)?;
+    validate_time_output(s)?;
+    check_particle_count(s)?;
+    if !(s.balance.threshold >= 1.0 && s.balance.threshold.is_finite()) {
+        return err(
+            "balance.threshold",
+            format!(
+                "must be a number ≥ 1 (max/mean load), got {}; 1.1 is typical",
+                s.balance.threshold
+            ),
+        );
+    }
+    if let Some((k, w)) = s
+        .balance
+        .weights
+        .iter()
+        .enumerate()
+        .find(|(_, w)| !(**w > 0.0 && w.is_finite()))
+    {
+        return err(
+            format!("balance.weights[{k}]"),
+            format!("must be a positive relative speed, got {w}"),
+        );
+    }
+    validate_probes(s)?;
+    validate_checkpoint(&s.checkpoint)?;
+    validate_reference(s)?;
+    check_sound_speed(s)
+}
+
+/// Dimension, domain, limits and discretisation; returns the kernel support (m).
+fn validate_domain(s: &mut Scene) -> Result<f64> {
     let d = s.dimension;
     if d != 2 && d != 3 {
         return err("dimension", format!("must be 2 or 3, got {d}"));
@@ -333,6 +369,12 @@ pub fn validate(s: &mut Scene) -> Result<()> {
             ),
         );
     }
+    Ok(support)
+}
+
+/// Materials (unique names, positive constants) and the physics switches.
+fn validate_materials(s: &mut Scene) -> Result<()> {
+    let d = s.dimension;
     if s.materials.is_empty() {
         return err("material", "at least one [[material]] is needed");
     }
@@ -348,46 +390,53 @@ pub fn validate(s: &mut Scene) -> Result<()> {
             );
         }
     }
-    let mat_names: Vec<String> = s.materials.iter().map(|m| m.name.clone()).collect();
-    let known = |n: &str| mat_names.iter().any(|m| m == n);
     let ph = &mut s.physics;
     non_negative(ph.delta, "physics.delta")?;
     non_negative(ph.artificial_viscosity, "physics.artificial_viscosity")?;
     non_negative(ph.laminar_viscosity, "physics.laminar_viscosity")?;
     check_vec(&mut ph.body_force, d, "physics.body_force", true)?;
 
-    // `body` is the key of the body; the error names its `min` or `max`, whichever is out
-    let in_domain = |min: &[f64], max: &[f64], body: &str, dom: &Domain| -> Result<()> {
-        let tol = 1e-9 * disc_scale(dom);
-        for a in 0..d {
-            let low = min[a] < dom.min[a] - tol;
-            if low || max[a] > dom.max[a] + tol {
-                return err(
-                    format!("{body}.{}", if low { "min" } else { "max" }),
-                    format!(
-                        "the body [{:?}, {:?}] lies outside the domain [{:?}, {:?}] on axis {a}; \
-                         enlarge domain.min/domain.max or move the body",
-                        min, max, dom.min, dom.max
-                    ),
-                );
-            }
+    Ok(())
+}
+
+/// An unknown material name of body key `k` (exit 2 listing the defined ones).
+fn unknown_material(k: &str, name: &str, mat_names: &[String]) -> Result<()> {
+    err(
+        format!("{k}.material"),
+        format!("unknown material `{name}`; defined: {}", mat_names.join(", ")),
+    )
+}
+
+/// A body [min, max] must lie in the domain; `body` is its key, the error names its `min` or
+/// `max`, whichever is out.
+fn in_domain(min: &[f64], max: &[f64], body: &str, dom: &Domain) -> Result<()> {
+    let tol = 1e-9 * disc_scale(dom);
+    for a in 0..min.len() {
+        let low = min[a] < dom.min[a] - tol;
+        if low || max[a] > dom.max[a] + tol {
+            return err(
+                format!("{body}.{}", if low { "min" } else { "max" }),
+                format!(
+                    "the body [{:?}, {:?}] lies outside the domain [{:?}, {:?}] on axis {a}; \
+                     enlarge domain.min/domain.max or move the body",
+                    min, max, dom.min, dom.max
+                ),
+            );
         }
-        Ok(())
-    };
+    }
+    Ok(())
+}
+
+/// Fluid bodies: material, shape and box, velocity and initial-field expressions, in the domain.
+fn validate_fluids(s: &mut Scene, mat_names: &[String]) -> Result<()> {
+    let d = s.dimension;
     if s.fluids.is_empty() {
         return err("fluid", "at least one [[fluid]] block is needed");
     }
     for (i, f) in s.fluids.iter_mut().enumerate() {
         let k = format!("fluid[{i}]");
-        if !known(&f.material) {
-            return err(
-                format!("{k}.material"),
-                format!(
-                    "unknown material `{}`; defined: {}",
-                    f.material,
-                    mat_names.join(", ")
-                ),
-            );
+        if !mat_names.contains(&f.material) {
+            return unknown_material(&k, &f.material, mat_names);
         }
         sphere_box(f, &k, d)?;
         check_vec(&mut f.min, d, &format!("{k}.min"), false)?;
@@ -397,6 +446,12 @@ pub fn validate(s: &mut Scene) -> Result<()> {
         validate_fields(f, &k, d, &s.constants)?;
         in_domain(&f.min, &f.max, &k, &s.domain)?;
     }
+    Ok(())
+}
+
+/// Walls: box, material, open faces, container layers, motion.
+fn validate_walls(s: &mut Scene, mat_names: &[String], support: f64) -> Result<()> {
+    let d = s.dimension;
     let dx = s.discretisation.dx;
     for (i, w) in s.walls.iter_mut().enumerate() {
         let k = format!("wall[{i}]");
@@ -406,15 +461,8 @@ pub fn validate(s: &mut Scene) -> Result<()> {
         check_vec(&mut w.velocity, d, &format!("{k}.velocity"), true)?;
         if w.material.is_empty() {
             w.material = mat_names[0].clone();
-        } else if !known(&w.material) {
-            return err(
-                format!("{k}.material"),
-                format!(
-                    "unknown material `{}`; defined: {}",
-                    w.material,
-                    mat_names.join(", ")
-                ),
-            );
+        } else if !mat_names.contains(&w.material) {
+            return unknown_material(&k, &w.material, mat_names);
         }
         for (j, o) in w.open.iter().enumerate() {
             if face(o, d).is_none() {
@@ -480,33 +528,44 @@ pub fn validate(s: &mut Scene) -> Result<()> {
                 in_domain(&w.min, &w.max, &k, &s.domain)?;
             }
         }
-        if let Some(m) = &mut w.motion {
-            if w.method == WallMethod::Mirror {
-                return err(
-                    format!("{k}.motion"),
-                    "mirror walls cannot move (their planes are fixed); use method = \"dummy\" for a \
-                     moving wall",
-                );
+        validate_motion(w, &k, d)?;
+    }
+    Ok(())
+}
+
+/// A wall's motion law: not on a mirror wall, not with a surface velocity, valid constants.
+fn validate_motion(w: &mut crate::scene::WallBody, k: &str, d: usize) -> Result<()> {
+    if let Some(m) = &mut w.motion {
+        if w.method == WallMethod::Mirror {
+            return err(
+                format!("{k}.motion"),
+                "mirror walls cannot move (their planes are fixed); use method = \"dummy\" for a \
+                 moving wall",
+            );
+        }
+        if w.velocity.iter().any(|&v| v != 0.0) {
+            return err(
+                format!("{k}.motion"),
+                "a wall has either a surface `velocity` or a `motion` law, not both",
+            );
+        }
+        match m {
+            Motion::Sine {
+                amplitude, period, ..
+            } => {
+                check_vec(amplitude, d, &format!("{k}.motion.amplitude"), false)?;
+                positive(*period, &format!("{k}.motion.period"), "period = 1.0")?;
             }
-            if w.velocity.iter().any(|&v| v != 0.0) {
-                return err(
-                    format!("{k}.motion"),
-                    "a wall has either a surface `velocity` or a `motion` law, not both",
-                );
-            }
-            match m {
-                Motion::Sine {
-                    amplitude, period, ..
-                } => {
-                    check_vec(amplitude, d, &format!("{k}.motion.amplitude"), false)?;
-                    positive(*period, &format!("{k}.motion.period"), "period = 1.0")?;
-                }
-                Motion::ConstantVelocity { velocity } => {
-                    check_vec(velocity, d, &format!("{k}.motion.velocity"), false)?;
-                }
+            Motion::ConstantVelocity { velocity } => {
+                check_vec(velocity, d, &format!("{k}.motion.velocity"), false)?;
             }
         }
     }
+    Ok(())
+}
+
+/// Time stepping, output schedule, format and snapshot fields.
+fn validate_time_output(s: &mut Scene) -> Result<()> {
     let t = &s.time;
     positive(t.t_end, "time.t_end", "t_end = 1.0")?;
     if !(t.cfl > 0.0 && t.cfl <= 1.0) {
@@ -533,32 +592,7 @@ pub fn validate(s: &mut Scene) -> Result<()> {
             );
         }
     }
-    check_particle_count(s)?;
-    if !(s.balance.threshold >= 1.0 && s.balance.threshold.is_finite()) {
-        return err(
-            "balance.threshold",
-            format!(
-                "must be a number ≥ 1 (max/mean load), got {}; 1.1 is typical",
-                s.balance.threshold
-            ),
-        );
-    }
-    if let Some((k, w)) = s
-        .balance
-        .weights
-        .iter()
-        .enumerate()
-        .find(|(_, w)| !(**w > 0.0 && w.is_finite()))
-    {
-        return err(
-            format!("balance.weights[{k}]"),
-            format!("must be a positive relative speed, got {w}"),
-        );
-    }
-    validate_probes(s)?;
-    validate_checkpoint(&s.checkpoint)?;
-    validate_reference(s)?;
-    check_sound_speed(s)
+    Ok(())
 }
 
 /// Largest number of cells of the global cell grid (1 GiB of u32 cell offsets).
