@@ -162,11 +162,15 @@ Examples:
     /// Charts (PNG, SVG) and a markdown summary of a finished run, or several runs compared.
     #[command(after_help = "\
 Writes into RUNDIR/report/ (or --out): traffic_heatmap, traffic_time, ghosts_imbalance and
-phase_times as .png and .svg, and report.md. With --compare (default --out report-compare):
-compare.md (a table) and compare.png/.svg (bars per run).
+phase_times as .png and .svg, and report.md. A run with a hole probe (an impact) also gets
+impact_top (the plate seen along its normal: particles coloured by --field, the hole's cells and
+its fitted ellipse) and impact_side (every solid particle seen across the impact plane: the
+debris cloud). With --compare (default --out report-compare): compare.md (a table) and
+compare.png/.svg (bars per run).
 
 Examples:
   hsph report runs/dam_break_3d-20250101T120000Z
+  hsph report runs/impact_oblique_45-20250101T120000Z --field p
   hsph report --compare runs/rank-order runs/centre-distance --out runs/placements")]
     Report {
         /// Run directory (several with --compare).
@@ -178,6 +182,9 @@ Examples:
         /// Output directory.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// `final.csv` column that colours the impact views (e.g. eps_p, p, rho, e, vx).
+        #[arg(long, default_value = "eps_p")]
+        field: String,
     },
 }
 
@@ -256,7 +263,12 @@ fn dispatch(cmd: Command) -> Result<i32> {
             say(&bench::table(&bench::run(&scenes, &opts)?));
             Ok(0)
         }
-        Command::Report { runs, compare, out } => report::command(&runs, compare, out.as_deref()).map(|_| 0),
+        Command::Report {
+            runs,
+            compare,
+            out,
+            field,
+        } => report::command(&runs, compare, out.as_deref(), &field).map(|_| 0),
     }
 }
 
@@ -640,6 +652,7 @@ fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
     let n = sim.p.n_owned;
     let count = |k: Kind| sim.p.kind[..n].iter().filter(|&&x| x == k).count();
     let (fluid, dummy, rep) = (count(Kind::Fluid), count(Kind::Dummy), count(Kind::Repulsive));
+    let (solid, clamped) = (count(Kind::Solid), count(Kind::Clamped));
     let mut s = String::new();
     let w = &mut s;
     let _ = writeln!(
@@ -649,9 +662,14 @@ fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
         D,
         scene.description.trim()
     );
+    let solids = if solid + clamped > 0 {
+        format!(" + {solid} solid + {clamped} clamped solid")
+    } else {
+        String::new()
+    };
     let _ = writeln!(
         w,
-        "particles   {n} = {fluid} fluid + {dummy} dummy wall + {rep} repulsive wall"
+        "particles   {n} = {fluid} fluid + {dummy} dummy wall + {rep} repulsive wall{solids}"
     );
     let _ = writeln!(
         w,
@@ -687,8 +705,8 @@ fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
         steps,
         (scene.time.t_end / scene.output.interval).round()
     );
-    let bytes = n * Particles::<D>::bytes_per_particle()
-        + sim.halo.len() * Particles::<D>::bytes_per_ghost()
+    let bytes = n * Particles::<D>::bytes_per_particle_carried(sim.p.dropped)
+        + sim.halo.len() * Particles::<D>::bytes_per_ghost_carried(sim.p.dropped)
         + sim.nl.pairs() * 4
         + sim.cells.order.len() * 8;
     let _ = writeln!(

@@ -970,7 +970,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         if self.removed as f64 > limit {
             let r = &rows[0];
             return Err(Error::run(format!(
-                "step {}, t = {:.6e} s: {} of {} fluid particles removed ({:.3} %), more than \
+                "step {}, t = {:.6e} s: {} of {} moving (fluid and solid) particles removed ({:.3} %), more than \
                  domain.max_removed_fraction = {}; among them particle id {} {} at position {:?} \
                  (see removed.csv; enlarge the domain, check the walls, or raise the fraction)",
                 self.sim.step,
@@ -1133,7 +1133,11 @@ impl<'a, const D: usize> RankRun<'a, D> {
         self.probes.flush()?;
         let r = reduce(&self.sim, self.comm)?;
         let p = &self.sim.p;
-        let mut n_fluid = [p.kind[..p.n_owned].iter().filter(|k| k.is_fluid()).count() as u64];
+        let kinds = &p.kind[..p.n_owned];
+        let mut n_fluid = [
+            kinds.iter().filter(|k| k.is_fluid()).count() as u64,
+            kinds.iter().filter(|k| k.is_solid()).count() as u64,
+        ];
         self.comm.all_reduce_sum_u64(&mut n_fluid)?;
         // final.csv gathered on rank 0 up to `output.gather_limit` particles, else per rank
         let gathered = self.n_total <= self.scene.output.gather_limit;
@@ -1175,7 +1179,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 self.n_total, self.scene.output.gather_limit
             );
         }
-        let summary = self.summary(&r, wall, n_fluid[0] as usize);
+        let summary = self.summary(&r, wall, n_fluid[0] as usize, n_fluid[1] as usize);
         output::write_summary(self.dir, &summary)?;
         if let Some(sig) = self.stopped_by {
             // said even with -q: the run did not finish
@@ -1207,8 +1211,30 @@ impl<'a, const D: usize> RankRun<'a, D> {
         })
     }
 
+    /// The settled hole of the scene's hole probe, read back from its file on rank 0 (the
+    /// whole history, across restarts); null without one.
+    fn hole_summary(&self) -> serde_json::Value {
+        let Some(name) = self.scene.probes.iter().find_map(|p| match p {
+            crate::scene::Probe::Hole { name, .. } => Some(name),
+            _ => None,
+        }) else {
+            return serde_json::Value::Null;
+        };
+        let path = self.dir.join("probes").join(format!("{name}.csv"));
+        let reference = match &self.scene.reference {
+            Some(crate::scene::Reference::Hole { major, minor, source }) => {
+                Some((*major, *minor, source.as_str()))
+            }
+            _ => None,
+        };
+        match std::fs::read_to_string(&path) {
+            Ok(text) => crate::probes::hole::settled(&text, reference),
+            Err(_) => serde_json::Value::Null,
+        }
+    }
+
     /// `summary.json`.
-    fn summary(&self, r: &Reduced, wall: f64, n_fluid: usize) -> serde_json::Value {
+    fn summary(&self, r: &Reduced, wall: f64, n_fluid: usize, n_solid: usize) -> serde_json::Value {
         let sim = &self.sim;
         let n = r.particles as usize;
         let steps = sim.step;
@@ -1232,7 +1258,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             .topology
             .as_ref()
             .map_or(DEFAULT_COST, |t: &Topology| t.cost);
-        json!({
+        let mut summary = json!({
             "hsph_version": env!("CARGO_PKG_VERSION"),
             "build": provenance(self.layout.backend),
             "complete": self.stopped_by.is_none(),
@@ -1241,7 +1267,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "dimension": D,
             "particles": n,
             "fluid_particles": n_fluid,
-            "wall_particles": n - n_fluid,
+            "solid_particles": n_solid,
+            "wall_particles": n - n_fluid - n_solid,
             "steps": steps,
             "t_end": self.scene.time.t_end,
             "t": sim.t,
@@ -1275,6 +1302,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "balance_fraction": r.mean(Timer::Balance) / wall.max(1e-12),
             "timers": timers,
             "errors": errors,
-        })
+        });
+        summary["hole"] = self.hole_summary();
+        summary
     }
 }

@@ -130,9 +130,10 @@ pub fn ghost_counts<const D: usize>(
         )
 }
 
-/// Payload bytes of one ghost in the whole-record build message.
-pub fn record_bytes<const D: usize>() -> u64 {
-    (Record::<D>::words() * 8) as u64
+/// Payload bytes of one ghost in the whole-record build message of a store without the
+/// `dropped` fields.
+pub fn record_bytes<const D: usize>(dropped: Fields) -> u64 {
+    (Record::<D>::words_carried(dropped) * 8) as u64
 }
 
 /// Payload bytes of one ghost in a refresh of `fields`.
@@ -226,19 +227,21 @@ impl<const D: usize> Targets<D> {
     }
 }
 
-/// Read `n` whole records from a message of exactly that length and append each with `push`.
+/// Read `n` records without the `dropped` fields from a message of exactly that length and
+/// append each with `push`.
 fn read_records<const D: usize>(
     m: &[u8],
     n: usize,
+    dropped: Fields,
     what: &str,
     mut push: impl FnMut(Record<D>),
 ) -> Result<()> {
-    if m.len() != n * Record::<D>::words() * 8 {
+    if m.len() != n * Record::<D>::words_carried(dropped) * 8 {
         return Err(Error::run(format!("{what}: message of unexpected length")));
     }
     let mut r = Reader::new(m);
     for _ in 0..n {
-        push(Record::get(&mut r)?);
+        push(Record::get_carried(dropped, &mut r)?);
     }
     Ok(())
 }
@@ -305,16 +308,17 @@ impl<const D: usize> HaloPlan<D> {
             .enumerate()
             .filter(|(_, l)| !l.is_empty())
             .collect();
-        let words = Record::<D>::words();
+        let dropped = p.dropped;
+        let words = Record::<D>::words_carried(dropped);
         let sends = self.pack(words, |buf, e| {
             let i = e.src as usize;
             p.record(i)
                 .imaged(&space.image(p.id[i], &e.ops))
-                .put(&mut Words::new(buf));
+                .put_carried(dropped, &mut Words::new(buf));
         });
         let msgs = comm.exchange(sends, &self.sources(), TAG_GHOSTS)?;
         for ((_, n), m) in self.inc.iter().zip(&msgs) {
-            read_records::<D>(m, *n, "halo", |r| p.push_ghost(&r))?;
+            read_records::<D>(m, *n, dropped, "halo", |r| p.push_ghost(&r))?;
         }
         comm.set_phase(prev);
         Ok(())
@@ -417,7 +421,8 @@ pub fn migrate<const D: usize>(
         .filter(|&s| s != me && counts[s * size + me] > 0)
         .collect();
     let sent: usize = per_dst.iter().map(|l| l.len()).sum();
-    let words = Record::<D>::words();
+    let dropped = p.dropped;
+    let words = Record::<D>::words_carried(dropped);
     let sends: Vec<(usize, Vec<u8>)> = per_dst
         .iter()
         .enumerate()
@@ -425,7 +430,7 @@ pub fn migrate<const D: usize>(
         .map(|(dst, list)| {
             let mut buf = Vec::with_capacity(list.len() * words * 8);
             for &i in list {
-                p.record(i).put(&mut Words::new(&mut buf));
+                p.record(i).put_carried(dropped, &mut Words::new(&mut buf));
             }
             (dst, buf)
         })
@@ -440,7 +445,7 @@ pub fn migrate<const D: usize>(
     }
     for (s, m) in from.iter().zip(&msgs) {
         let n = counts[s * size + me] as usize;
-        read_records::<D>(m, n, "migration", |r| p.push_owned(r))?;
+        read_records::<D>(m, n, dropped, "migration", |r| p.push_owned(r))?;
     }
     comm.set_phase(prev);
     Ok(sent)
@@ -459,17 +464,19 @@ pub fn pack_owned_where<const D: usize>(
     let mut buf = Vec::new();
     for i in 0..p.n_owned {
         if keep(p, i) {
-            p.record(i).put(&mut Words::new(&mut buf));
+            p.record(i).put_carried(p.dropped, &mut Words::new(&mut buf));
         }
     }
     buf
 }
 
-/// Append the records of [`pack_owned`] to `p` as owned particles (no ghosts may exist).
+/// Append the records of [`pack_owned`] to `p` as owned particles (no ghosts may exist; `p`
+/// drops the fields the sender's store dropped).
 pub fn unpack_owned<const D: usize>(bytes: &[u8], p: &mut Particles<D>) -> Result<()> {
-    let w = Record::<D>::words() * 8;
+    let dropped = p.dropped;
+    let w = Record::<D>::words_carried(dropped) * 8;
     if bytes.len() % w != 0 {
         return Err(Error::run("gather: message of unexpected length"));
     }
-    read_records::<D>(bytes, bytes.len() / w, "gather", |r| p.push_owned(r))
+    read_records::<D>(bytes, bytes.len() / w, dropped, "gather", |r| p.push_owned(r))
 }

@@ -42,8 +42,10 @@ pub mod topology;
 
 /// Fixed-size position/velocity vector in `D` dimensions (m, m/s, ...).
 pub type Vector<const D: usize> = nalgebra::SVector<f64, D>;
-/// `D`×`D` matrix (renormalisation matrices, later stress tensors).
+/// `D`×`D` matrix (renormalisation matrices, velocity gradients).
 pub type Matrix<const D: usize> = nalgebra::SMatrix<f64, D, D>;
+/// A `D`×`D` tensor (stresses, Pa; stored whole, sent as its upper triangle when symmetric).
+pub type Tensor<const D: usize> = Matrix<D>;
 
 /// Evaluate `$body` with `$D` bound to a dimension known at run time (2 or 3) as a `const`,
 /// so generic code over `const D: usize` is called once per dimension; any other dimension is

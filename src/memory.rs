@@ -56,7 +56,8 @@ pub fn estimate<const D: usize>(
     let p = ranks.max(1) as f64;
     // body records with a heap-allocated name (~24 B) each, then the store, in growing vectors
     let record = (std::mem::size_of::<(Record<D>, String)>() + 24) as f64;
-    let store = Particles::<D>::bytes_per_particle() as f64;
+    let dropped = crate::setup::dropped_fields(scene);
+    let store = Particles::<D>::bytes_per_particle_carried(dropped) as f64;
     // vectors grown by doubling hold up to twice their length
     let growth = 2.0;
     let counts = 2.0 * 8.0 * p * p;
@@ -65,7 +66,7 @@ pub fn estimate<const D: usize>(
     let owned = n / p;
     let ghosts = owned.min(n) * 0.5 + 1000.0;
     let rank_run = owned * store
-        + ghosts * Particles::<D>::bytes_per_ghost() as f64
+        + ghosts * Particles::<D>::bytes_per_ghost_carried(dropped) as f64
         + (owned + ghosts) * 8.0
         + owned * neighbours(scene, D) * 4.0
         + counts;

@@ -51,7 +51,7 @@ pub fn step_exchanges<const D: usize>(scene: &Scene) -> Vec<(&'static str, u64)>
     exchanges(&schedule(&Model::<D>::new(scene)))
         .into_iter()
         .map(|(name, fields)| match fields {
-            None => (name, record_bytes::<D>()),
+            None => (name, record_bytes::<D>(crate::setup::dropped_fields(scene))),
             Some(f) => (name, field_bytes::<D>(f)),
         })
         .collect()

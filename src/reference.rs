@@ -82,8 +82,7 @@ impl Tracker {
                     self.next_time += 1;
                 }
             }
-            Reference::DamBreakFront { .. } => {}
-            Reference::Hydrostatic { .. } => {}
+            Reference::DamBreakFront { .. } | Reference::Hydrostatic { .. } | Reference::Hole { .. } => {}
         }
     }
 
@@ -106,6 +105,25 @@ impl Tracker {
     /// Called once at the end of the run.
     pub fn finish<const D: usize>(&mut self, sim: &View<D>) {
         match &sim.scene.reference {
+            Some(Reference::Hole { major, minor, .. }) => {
+                // the hole of the final state (the settled history is the probe's, in
+                // summary.json's `hole`)
+                let probe = sim.scene.probes.iter().find_map(|p| match p {
+                    crate::scene::Probe::Hole {
+                        plate, projectile, ..
+                    } => Some((plate, projectile)),
+                    _ => None,
+                });
+                if let Some((plate, projectile)) = probe {
+                    let setup = crate::probes::hole::HoleSetup::<D>::of(sim.scene, plate, projectile);
+                    let ids: Vec<usize> = (0..sim.p.n_owned).collect();
+                    let h = crate::probes::hole::measure(&sim.p, &ids, &setup);
+                    self.errors
+                        .insert("hole_major".into(), (h.major / major - 1.0).abs());
+                    self.errors
+                        .insert("hole_minor".into(), (h.minor / minor - 1.0).abs());
+                }
+            }
             Some(Reference::Hydrostatic { surface, bottom }) => {
                 let g = sim.model.g.norm();
                 let rho0 = sim.model.materials[0].rho0();

@@ -6,7 +6,7 @@
 
 use crate::boundary::wall_kind;
 use crate::error::{Error, Result};
-use crate::particles::{Kind, Particles, Record};
+use crate::particles::{Fields, Kind, Particles, Record};
 use crate::physics::material::MaterialModel;
 use crate::scene::{Scene, WallShape};
 use crate::Vector;
@@ -83,9 +83,8 @@ struct BodyFields<const D: usize> {
 }
 
 impl<const D: usize> BodyFields<D> {
-    fn new(f: &crate::scene::FluidBody, b: usize, s: &Scene) -> Result<Self> {
+    fn new(f: &crate::scene::FluidBody, k: &str, s: &Scene) -> Result<Self> {
         use crate::scene::expr::FieldExpr;
-        let k = format!("fluid[{b}]");
         let velocity = match &f.velocity_field {
             Some(v) => Some(
                 v.iter()
@@ -122,6 +121,36 @@ impl<const D: usize> BodyFields<D> {
     }
 }
 
+/// The shared particle fields a scene's run does not need: the solid fields when it has no
+/// solid body (no storage, no traffic; see [`Particles::dropped`]).
+pub fn dropped_fields(s: &Scene) -> Fields {
+    if s.solids.is_empty() {
+        Fields::SOLID
+    } else {
+        Fields::NONE
+    }
+}
+
+/// A fluid body and a solid body whose boxes overlap or come within a kernel support of each
+/// other: they would pass through each other, since fluids and solids do not interact yet.
+pub fn coupling_warnings(s: &Scene) -> Vec<String> {
+    let reach = s.discretisation.h_over_dx * s.discretisation.dx * 3.0;
+    let mut out = Vec::new();
+    for (i, f) in s.fluids.iter().enumerate() {
+        for (j, b) in s.solids.iter().enumerate() {
+            let near = (0..s.dimension).all(|a| f.min[a] - reach < b.max[a] && b.min[a] - reach < f.max[a]);
+            if near {
+                out.push(format!(
+                    "fluid[{i}] `{}` and solid[{j}] `{}` touch or overlap, but fluids and solids do not \
+                     interact yet (no coupling): each moves through the other",
+                    f.name, b.name
+                ));
+            }
+        }
+    }
+    out
+}
+
 /// Build the owned particles of a scene (sorted by id).
 pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
     let lat = Lattice::<D>::new(s);
@@ -133,7 +162,20 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
     let gmag = g.norm();
     // every site claimed by a body, with the body's name (to report overlaps)
     let mut protos: Vec<(Record<D>, String)> = Vec::new();
-    for (b, f) in s.fluids.iter().enumerate() {
+    let solid_kind = |f: &crate::scene::FluidBody| if f.clamped { Kind::Clamped } else { Kind::Solid };
+    let bodies = (s
+        .fluids
+        .iter()
+        .enumerate()
+        .map(|(b, f)| (b, f, Kind::Fluid, "fluid")))
+    .chain(
+        s.solids
+            .iter()
+            .enumerate()
+            .map(|(b, f)| (b, f, solid_kind(f), "solid")),
+    );
+    for (b, f, kind, label) in bodies {
+        let key = format!("{label}[{b}]");
         let mat = mat_index(&f.material);
         let e = materials[mat as usize];
         let v = Vector::<D>::from_fn(|a, _| f.velocity[a]);
@@ -146,7 +188,7 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
         } else {
             0.0
         };
-        let fields = BodyFields::<D>::new(f, b, s)?;
+        let fields = BodyFields::<D>::new(f, &key, s)?;
         let mut bad = None;
         lat.for_each_in(&f.min, &f.max, |id, x| {
             if !f.contains(x.as_slice()) {
@@ -162,8 +204,8 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
             if let Err(err) = fields.apply(&x, &e, &mut v, &mut rho) {
                 bad.get_or_insert(err);
             }
-            let r = Record::new(id, Kind::Fluid, b as u16, mat, x, v, rho * vol, rho);
-            protos.push((r, format!("fluid[{b}]")));
+            let r = Record::new(id, kind, b as u16, mat, x, v, rho * vol, rho);
+            protos.push((r, key.clone()));
         });
         if let Some(err) = bad {
             return Err(err);
@@ -207,7 +249,7 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
             ));
         }
     }
-    let mut p = Particles::<D>::default();
+    let mut p = Particles::<D>::without(dropped_fields(s));
     for (r, _) in protos {
         p.push_owned(r);
     }
@@ -227,7 +269,12 @@ pub fn count_particles<const D: usize>(s: &Scene) -> u64 {
             })
             .product()
     };
-    let mut n: u64 = s.fluids.iter().map(|f| sites(&f.min, &f.max)).sum();
+    let mut n: u64 = s
+        .fluids
+        .iter()
+        .chain(&s.solids)
+        .map(|f| sites(&f.min, &f.max))
+        .sum();
     for w in &s.walls {
         if wall_kind(w.method).is_none() {
             continue;
@@ -386,6 +433,7 @@ pub fn extent_lines<const D: usize>(s: &Scene) -> Vec<String> {
 /// as written, if one lies within ±30 % of dx.
 pub fn extent_warnings<const D: usize>(s: &Scene) -> Vec<String> {
     let mut out = sphere_warnings::<D>(s);
+    out.extend(coupling_warnings(s));
     let off: Vec<BuiltBody> = built_extents::<D>(s).into_iter().filter(|b| b.off()).collect();
     if off.is_empty() {
         return out;

@@ -347,3 +347,63 @@ fn mutated_files_through_hsph_check() {
     assert!(two > 0);
     let _ = fs::remove_dir_all(&dir);
 }
+
+fn impact() -> String {
+    fs::read_to_string(repo_path("inputs/impact_oblique_45.toml")).unwrap()
+}
+
+/// Bad solid materials (issue 12): each names its key, line and what would be valid.
+#[test]
+fn bad_solid_materials_name_their_key() {
+    let with = |extra: &str| {
+        impact().replace(
+            "failure_strain = 0.5\n",
+            &format!("failure_strain = 0.5\n{extra}\n"),
+        )
+    };
+    run_bad_scene(
+        "negshear",
+        &with("shear_modulus = -27.6e9"),
+        "material[0].shear_modulus",
+        "shear_modulus = -27.6e9",
+        &["must be a number > 0", "e.g. shear_modulus ="],
+    );
+    run_bad_scene(
+        "melt",
+        &with("t_melt = 250.0"),
+        "material[0].t_melt",
+        "t_melt = 250.0",
+        &["melt temperature 250 K is not above the room temperature 294 K"],
+    );
+    run_bad_scene(
+        "model",
+        &impact().replace("model = \"solid\"", "model = \"plastic\""),
+        "material[0].model",
+        "model = \"plastic\"",
+        &["unknown variant `plastic`", "fluid", "solid"],
+    );
+    run_bad_scene(
+        "library",
+        &impact().replace("library = \"al6061-t6\"", "library = \"al2024-t3\""),
+        "material[0].library",
+        "library = \"al2024-t3\"",
+        &["unknown library material `al2024-t3`", "al6061-t6"],
+    );
+    // a solid material on a fluid body, a fluid key on a solid
+    let fluid_body = impact().replacen("[[solid]]\nname = \"plate\"", "[[fluid]]\nname = \"plate\"", 1);
+    run_bad_scene(
+        "solid-on-fluid",
+        &fluid_body,
+        "fluid[0].material",
+        "material = \"al6061\"",
+        &["is a solid", "[[solid]]"],
+    );
+    let hydro = impact().replace("name = \"plate\"\n", "name = \"plate\"\nhydrostatic = true\n");
+    run_bad_scene(
+        "hydro",
+        &hydro,
+        "solid[0].hydrostatic",
+        "hydrostatic = true",
+        &["fluid bodies only"],
+    );
+}

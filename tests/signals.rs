@@ -106,7 +106,7 @@ fn a_signal_stops_every_rank_after_the_same_step_and_keeps_what_was_written() {
     assert_eq!(final_rows, 1 + s["particles"].as_u64().unwrap() as usize);
     // hsph report draws the partial run and says so
     let rep = out.parent().unwrap().join("report");
-    hsph::report::command(std::slice::from_ref(&out), false, Some(&rep)).unwrap();
+    hsph::report::command(std::slice::from_ref(&out), false, Some(&rep), "eps_p").unwrap();
     let md = fs::read_to_string(rep.join("report.md")).unwrap();
     assert!(
         md.contains("**Partial run**: stopped by SIGTERM after step 9"),

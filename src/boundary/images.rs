@@ -7,7 +7,7 @@
 
 use super::mirror::MirrorPlane;
 use crate::particles::{Imager, IMAGE_BITS};
-use crate::Vector;
+use crate::{Tensor, Vector};
 
 /// What happens to a particle along one axis to make an image.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -160,5 +160,21 @@ impl<const D: usize> Imager<D> for Image<'_, D> {
             }
         }
         v
+    }
+
+    #[inline]
+    fn tensor(&self, t: &Tensor<D>) -> Tensor<D> {
+        let mut t = *t;
+        for (a, op) in self.ops.iter().enumerate() {
+            if let AxisOp::Mirror(_) = *op {
+                for b in 0..D {
+                    if b != a {
+                        t[(a, b)] = -t[(a, b)];
+                        t[(b, a)] = -t[(b, a)];
+                    }
+                }
+            }
+        }
+        t
     }
 }

@@ -185,6 +185,18 @@ fn column_vars<const D: usize>(
                 )
             })
             .collect(),
+        Column::Tensor(_) => (0..col.components())
+            .map(|k| {
+                let (r, c) = crate::particles::value::tensor_component::<D>(k);
+                let comp = format!("{}{}", ["x", "y", "z"][r], ["x", "y", "z"][c]);
+                let v = order.iter().map(|&i| col.value(i, k)).collect();
+                var(
+                    format!("{stem}_{comp}"),
+                    format!("{long}, {comp} component"),
+                    Values::F64(v),
+                )
+            })
+            .collect(),
         Column::Kind(k) => {
             let v = order.iter().map(|&i| k[i].code() as i8).collect();
             vec![var(stem.into(), long.into(), Values::I8(v))]

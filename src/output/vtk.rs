@@ -57,7 +57,7 @@ fn vtk_type<const D: usize>(col: &Column<D>) -> &'static str {
         Column::U64(_) => "UInt64",
         Column::U16(_) => "UInt16",
         Column::Kind(_) => "UInt8",
-        Column::F64(_) | Column::Vector(_) => "Float64",
+        Column::F64(_) | Column::Vector(_) | Column::Tensor(_) => "Float64",
     }
 }
 
@@ -92,7 +92,11 @@ fn write_pvtu<const D: usize>(path: &Path, pieces: &[String], fields: &[String])
         writeln!(f, "<PUnstructuredGrid GhostLevel=\"0\">")?;
         writeln!(f, "<PPointData>")?;
         for (name, col) in point_data(&empty, fields) {
-            let comps = if matches!(col, Column::Vector(_)) { 3 } else { 1 };
+            let comps = if matches!(col, Column::Vector(_)) {
+                3
+            } else {
+                col.components()
+            };
             writeln!(
                 f,
                 "<PDataArray type=\"{}\" Name=\"{name}\" NumberOfComponents=\"{comps}\"/>",
@@ -193,6 +197,17 @@ fn write_array<const D: usize>(
         for &i in order {
             let z = if D == 3 { v[i][2] } else { 0.0 };
             writeln!(f, "{} {} {}", v[i][0], v[i][1], z)?;
+        }
+    } else if let Column::Tensor(_) = col {
+        // symmetric: the upper triangle (xx xy yy in 2D, xx xy xz yy yz zz in 3D)
+        let comps = col.components();
+        writeln!(
+            f,
+            "<DataArray type=\"{ty}\" Name=\"{name}\" NumberOfComponents=\"{comps}\" format=\"ascii\">"
+        )?;
+        for &i in order {
+            let line: Vec<String> = (0..comps).map(|k| col.value(i, k).to_string()).collect();
+            writeln!(f, "{}", line.join(" "))?;
         }
     } else {
         writeln!(f, "<DataArray type=\"{ty}\" Name=\"{name}\" format=\"ascii\">")?;

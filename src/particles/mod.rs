@@ -18,7 +18,7 @@ pub mod wire;
 
 use crate::error::Result;
 use table::particle_table;
-pub use value::{Column, FieldValue, ImageRule, Imager};
+pub use value::{Column, FieldValue, ImageRule, Imager, Sym};
 use wire::{Count, Reader, Sink};
 
 use crate::Vector;
@@ -34,6 +34,11 @@ pub enum Kind {
     Dummy = 1,
     /// Monaghan repulsive wall particle.
     Repulsive = 2,
+    /// Elastic–plastic solid (stress tensor, internal energy, plastic strain).
+    Solid = 3,
+    /// A solid particle held in place (a clamp): its stress evolves with its neighbours'
+    /// motion, but it is not moved.
+    Clamped = 4,
 }
 
 impl Kind {
@@ -48,6 +53,8 @@ impl Kind {
             0 => Some(Kind::Fluid),
             1 => Some(Kind::Dummy),
             2 => Some(Kind::Repulsive),
+            3 => Some(Kind::Solid),
+            4 => Some(Kind::Clamped),
             _ => None,
         }
     }
@@ -55,7 +62,7 @@ impl Kind {
     /// Integrated by the equations of motion (kick, drift, continuity); walls are not.
     #[inline]
     pub fn is_integrated(self) -> bool {
-        self == Kind::Fluid
+        matches!(self, Kind::Fluid | Kind::Solid)
     }
 
     /// A fluid particle.
@@ -64,10 +71,16 @@ impl Kind {
         self == Kind::Fluid
     }
 
-    /// A wall particle (moved only by its wall's motion law).
+    /// A wall particle of a fluid (moved only by its wall's motion law).
     #[inline]
     pub fn is_wall(self) -> bool {
-        self != Kind::Fluid
+        matches!(self, Kind::Dummy | Kind::Repulsive)
+    }
+
+    /// A solid particle (free or clamped): carries a stress and runs the solid passes.
+    #[inline]
+    pub fn is_solid(self) -> bool {
+        matches!(self, Kind::Solid | Kind::Clamped)
     }
 
     /// Enters the SPH sums of its neighbours (kernel-weighted); repulsive particles exert a
@@ -83,6 +96,8 @@ impl Kind {
             Kind::Fluid => "fluid",
             Kind::Dummy => "dummy wall",
             Kind::Repulsive => "repulsive wall",
+            Kind::Solid => "solid",
+            Kind::Clamped => "clamped solid",
         }
     }
 }
@@ -165,7 +180,7 @@ particle_table! {
         /// Particle kind.
         kind / KIND: Kind {
             image: Same, csv: Some("kind"), snapshot: Some("kind"), unit: "1",
-            long_name: "particle kind (0 fluid, 1 dummy wall, 2 repulsive wall)",
+            long_name: "particle kind (0 fluid, 1 dummy wall, 2 repulsive wall, 3 solid, 4 clamped solid)",
         }
         /// Body index: into the scene's fluids for fluid particles, walls for wall particles.
         body / BODY: u16 {
@@ -208,6 +223,34 @@ particle_table! {
             image: Vector, csv: None, snapshot: None, unit: "kg m-4",
             long_name: "renormalised density gradient",
         }
+        /// Deviatoric stress S (Pa) of solid particles (symmetric; in 2D the in-plane block of
+        /// a plane-strain deviator, S_zz = −S_xx − S_yy).
+        stress / STRESS: Sym<D> {
+            image: Tensor, csv: Some("s"), snapshot: Some("stress"), unit: "Pa",
+            long_name: "deviatoric stress",
+        }
+        /// Kernel-gradient correction B = M⁻¹ of solid particles, M = −(1/ρ) Σ_j m_j x_ij ⊗
+        /// ∇W_ij (symmetric; I in the bulk of a lattice), so corrected gradients are exact for
+        /// linear fields up to free surfaces (–).
+        correction / CORRECTION: Sym<D> {
+            image: Tensor, csv: None, snapshot: None, unit: "1",
+            long_name: "kernel gradient correction",
+        }
+        /// Specific internal energy e of solid particles (J/kg), from the state at rest.
+        energy / ENERGY: f64 {
+            image: Same, csv: Some("e"), snapshot: Some("energy"), unit: "J kg-1",
+            long_name: "specific internal energy",
+        }
+        /// Equivalent plastic strain ε_p of solid particles (–).
+        plastic / PLASTIC: f64 {
+            image: Same, csv: Some("eps_p"), snapshot: Some("plastic_strain"), unit: "1",
+            long_name: "equivalent plastic strain",
+        }
+        /// 1 once a solid particle has failed (no tension, no shear from then on), else 0.
+        failed / FAILED: u16 {
+            image: Same, csv: Some("failed"), snapshot: Some("failed"), unit: "1",
+            long_name: "failed (1) or intact (0)",
+        }
         /// A field that exists only in unit tests: proves that one table entry is enough for a
         /// field to travel through halos and migration and reach `final.csv` and snapshots.
         [cfg(test)]
@@ -223,7 +266,38 @@ particle_table! {
     }
 }
 
+impl Fields {
+    /// The fields only solid particles use: a run without solids drops them (no storage, no
+    /// traffic).
+    pub const SOLID: Fields = Fields::STRESS
+        .or(Fields::CORRECTION)
+        .or(Fields::ENERGY)
+        .or(Fields::PLASTIC)
+        .or(Fields::FAILED);
+}
+
 impl<const D: usize> Particles<D> {
+    /// An empty store that holds every shared field except `dropped`.
+    pub fn without(dropped: Fields) -> Self {
+        Particles {
+            dropped,
+            ..Particles::default()
+        }
+    }
+
+    /// The same owned particles in a store that drops `dropped` (no ghosts may exist): a
+    /// checkpoint's store holds every field; a fluid-only run keeps none of the solid ones.
+    pub fn dropping(self, dropped: Fields) -> Self {
+        if self.dropped == dropped {
+            return self;
+        }
+        let mut q = Particles::without(dropped);
+        for i in 0..self.n_owned {
+            q.push_owned(self.record(i));
+        }
+        q
+    }
+
     /// Total number of particles, owned and ghost.
     pub fn len(&self) -> usize {
         self.id.len()

@@ -49,6 +49,9 @@ macro_rules! particle_table {
         pub struct Particles<const D: usize> {
             /// Number of owned particles; the rest are ghosts.
             pub n_owned: usize,
+            /// Shared fields this store does not hold (a fluid-only run drops the solid
+            /// fields): no storage, never sent, read as zero by [`Particles::record`].
+            pub dropped: Fields,
             $( $(#[doc = $doc])* $(#[cfg($cfg)])? pub $name: Vec<$ty>, )*
             $( $(#[doc = $odoc])* pub $oname: Vec<$oty>, )*
         }
@@ -89,6 +92,42 @@ macro_rules! particle_table {
                 }
             }
 
+            /// Write the record without the `dropped` fields (what halos, migration and
+            /// gathers send).
+            #[inline]
+            pub fn put_carried(&self, dropped: Fields, s: &mut impl Sink) {
+                $(
+                    $(#[cfg($cfg)])?
+                    if !dropped.has(Fields::$flag) {
+                        <$ty as FieldValue<D>>::put(&self.$name, s);
+                    }
+                )*
+                s.end();
+            }
+
+            /// Read a record written by [`Record::put_carried`] with the same `dropped`
+            /// fields (which read as zero).
+            #[inline]
+            pub fn get_carried(dropped: Fields, r: &mut Reader) -> Result<Self> {
+                #[allow(unused_mut)]
+                let mut rec = Record::default();
+                $(
+                    $(#[cfg($cfg)])?
+                    if !dropped.has(Fields::$flag) {
+                        rec.$name = <$ty as FieldValue<D>>::get(r)?;
+                    }
+                )*
+                r.end();
+                Ok(rec)
+            }
+
+            /// 8-byte words of a record without the `dropped` fields.
+            pub fn words_carried(dropped: Fields) -> usize {
+                let mut c = Count::default();
+                Self::default().put_carried(dropped, &mut c);
+                c.words
+            }
+
             /// 8-byte words of a whole record.
             pub fn words() -> usize {
                 let mut c = Count::default();
@@ -115,19 +154,38 @@ macro_rules! particle_table {
                     let old = std::mem::take(v);
                     v.extend(perm.iter().map(|&i| old[i]));
                 }
-                $( $(#[cfg($cfg)])? gather(&mut self.$name, perm); )*
+                $(
+                    $(#[cfg($cfg)])?
+                    if !self.dropped.has(Fields::$flag) {
+                        gather(&mut self.$name, perm);
+                    }
+                )*
                 $( gather(&mut self.$oname, perm); )*
             }
 
             /// The shared fields of particle `i`.
             #[inline]
             pub fn record(&self, i: usize) -> Record<D> {
-                Record { $( $(#[cfg($cfg)])? $name: self.$name[i], )* }
+                Record {
+                    $(
+                        $(#[cfg($cfg)])?
+                        $name: if self.dropped.has(Fields::$flag) {
+                            <$ty as FieldValue<D>>::zero()
+                        } else {
+                            self.$name[i]
+                        },
+                    )*
+                }
             }
 
             #[inline]
             fn push_shared(&mut self, r: &Record<D>) {
-                $( $(#[cfg($cfg)])? self.$name.push(r.$name); )*
+                $(
+                    $(#[cfg($cfg)])?
+                    if !self.dropped.has(Fields::$flag) {
+                        self.$name.push(r.$name);
+                    }
+                )*
             }
 
             #[inline]
@@ -177,13 +235,28 @@ macro_rules! particle_table {
             /// Bytes per particle of this store, shared and owned-only fields (for memory
             /// estimates; a ghost costs the shared part only).
             pub fn bytes_per_particle() -> usize {
-                Self::bytes_per_ghost() $( + std::mem::size_of::<$oty>() )*
+                Self::bytes_per_particle_carried(Fields::NONE)
+            }
+
+            /// Bytes per particle of a store without the `dropped` fields.
+            pub fn bytes_per_particle_carried(dropped: Fields) -> usize {
+                Self::bytes_per_ghost_carried(dropped) $( + std::mem::size_of::<$oty>() )*
             }
 
             /// Bytes per ghost: the shared fields only.
             pub fn bytes_per_ghost() -> usize {
+                Self::bytes_per_ghost_carried(Fields::NONE)
+            }
+
+            /// Bytes per ghost of a store without the `dropped` fields.
+            pub fn bytes_per_ghost_carried(dropped: Fields) -> usize {
                 let mut b = 0;
-                $( $(#[cfg($cfg)])? { b += std::mem::size_of::<$ty>(); } )*
+                $(
+                    $(#[cfg($cfg)])?
+                    if !dropped.has(Fields::$flag) {
+                        b += std::mem::size_of::<$ty>();
+                    }
+                )*
                 b
             }
 
@@ -211,6 +284,9 @@ macro_rules! particle_table {
                 $(
                     $(#[cfg($cfg)])?
                     if name == stringify!($name) {
+                        if self.dropped.has(Fields::$flag) {
+                            return None;
+                        }
                         return Some(<$ty as FieldValue<D>>::column(&self.$name));
                     }
                 )*

@@ -5,7 +5,7 @@
 use super::wire::{Reader, Sink};
 use super::Kind;
 use crate::error::{Error, Result};
-use crate::Vector;
+use crate::{Tensor, Vector};
 use std::fmt::Write as _;
 
 /// How a field changes when a particle is seen through an image operation.
@@ -22,6 +22,9 @@ pub enum ImageRule {
     Velocity,
     /// A polar vector such as a gradient: a mirror flips the normal component.
     Vector,
+    /// A symmetric second-order tensor such as a stress: a mirror across the plane normal to
+    /// axis a flips the components T_ab with b ≠ a (T' = R T Rᵀ).
+    Tensor,
 }
 
 /// One image operation applied to fields (implemented by the boundary image geometry).
@@ -34,6 +37,8 @@ pub trait Imager<const D: usize> {
     fn velocity(&self, v: &Vector<D>) -> Vector<D>;
     /// Image of a polar vector.
     fn vector(&self, v: &Vector<D>) -> Vector<D>;
+    /// Image of a symmetric tensor.
+    fn tensor(&self, t: &Tensor<D>) -> Tensor<D>;
 }
 
 /// A whole field of the store, typed, for output writers.
@@ -49,6 +54,32 @@ pub enum Column<'a, const D: usize> {
     F64(&'a [f64]),
     /// Vectors of `D` components.
     Vector(&'a [Vector<D>]),
+    /// Symmetric tensors, written as their D(D+1)/2 upper-triangle components.
+    Tensor(&'a [Sym<D>]),
+}
+
+/// A symmetric D×D tensor as a particle field (a stress, Pa): stored whole, sent and written as
+/// its upper triangle. A newtype so that its rules (wire, images) differ from a vector's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sym<const D: usize>(pub Tensor<D>);
+
+impl<const D: usize> Default for Sym<D> {
+    fn default() -> Self {
+        Sym(Tensor::zeros())
+    }
+}
+
+/// Row and column of component `k` of a symmetric tensor's upper triangle (xx, xy[, xz], yy[,
+/// yz, zz]).
+pub fn tensor_component<const D: usize>(k: usize) -> (usize, usize) {
+    let mut k = k;
+    for r in 0..D {
+        if k < D - r {
+            return (r, r + k);
+        }
+        k -= D - r;
+    }
+    panic!("tensor component {k} out of range")
 }
 
 impl<const D: usize> Column<'_, D> {
@@ -59,6 +90,12 @@ impl<const D: usize> Column<'_, D> {
                 .iter()
                 .map(|a| format!("{stem}{a}"))
                 .collect(),
+            Column::Tensor(_) => (0..self.components())
+                .map(|k| {
+                    let (r, c) = tensor_component::<D>(k);
+                    format!("{stem}{}{}", ["x", "y", "z"][r], ["x", "y", "z"][c])
+                })
+                .collect(),
             _ => vec![stem.to_string()],
         }
     }
@@ -67,6 +104,7 @@ impl<const D: usize> Column<'_, D> {
     pub fn components(&self) -> usize {
         match self {
             Column::Vector(_) => D,
+            Column::Tensor(_) => D * (D + 1) / 2,
             _ => 1,
         }
     }
@@ -88,6 +126,15 @@ impl<const D: usize> Column<'_, D> {
                 }
                 Ok(())
             }
+            Column::Tensor(_) => {
+                for k in 0..self.components() {
+                    if k > 0 {
+                        out.push(',');
+                    }
+                    let _ = write!(out, "{}", self.value(i, k));
+                }
+                Ok(())
+            }
         }
         .expect("writing to a String");
     }
@@ -100,6 +147,10 @@ impl<const D: usize> Column<'_, D> {
             Column::Kind(v) => v[i].code() as f64,
             Column::F64(v) => v[i],
             Column::Vector(v) => v[i][a],
+            Column::Tensor(t) => {
+                let (r, c) = tensor_component::<D>(a);
+                t[i].0[(r, c)]
+            }
         }
     }
 }
@@ -232,10 +283,47 @@ impl<const D: usize> FieldValue<D> for Vector<D> {
             ImageRule::Same | ImageRule::Key => *self,
             ImageRule::Position => im.position(self),
             ImageRule::Velocity => im.velocity(self),
-            ImageRule::Vector => im.vector(self),
+            ImageRule::Vector | ImageRule::Tensor => im.vector(self),
         }
     }
     fn column(v: &[Self]) -> Column<'_, D> {
         Column::Vector(v)
+    }
+}
+
+impl<const D: usize> FieldValue<D> for Sym<D> {
+    fn zero() -> Self {
+        Sym(Tensor::zeros())
+    }
+    /// The upper triangle only.
+    #[inline]
+    fn put(&self, s: &mut impl Sink) {
+        for r in 0..D {
+            for c in r..D {
+                s.word(self.0[(r, c)].to_bits());
+            }
+        }
+    }
+    #[inline]
+    fn get(r: &mut Reader) -> Result<Self> {
+        let mut t = Tensor::<D>::zeros();
+        for a in 0..D {
+            for b in a..D {
+                let v = f64::from_bits(r.word()?);
+                t[(a, b)] = v;
+                t[(b, a)] = v;
+            }
+        }
+        Ok(Sym(t))
+    }
+    #[inline]
+    fn imaged(&self, rule: ImageRule, im: &impl Imager<D>) -> Self {
+        match rule {
+            ImageRule::Tensor => Sym(im.tensor(&self.0)),
+            _ => *self,
+        }
+    }
+    fn column(v: &[Self]) -> Column<'_, D> {
+        Column::Tensor(v)
     }
 }

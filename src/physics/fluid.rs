@@ -158,7 +158,7 @@ fn continuity_of<const D: usize>(
     for &j in nl.of(i) {
         let j = j as usize;
         let kind_j = p.kind[j];
-        if !kind_j.is_smoothed() {
+        if !kind_j.is_smoothed() || kind_j.is_solid() {
             continue;
         }
         let xij = xi - p.x[j];
@@ -191,6 +191,10 @@ fn momentum_of<const D: usize>(
     let mut acc = Vector::<D>::zeros();
     for &j in nl.of(i) {
         let j = j as usize;
+        // fluids and solids are not coupled (yet)
+        if p.kind[j].is_solid() {
+            continue;
+        }
         acc += pair_acceleration(p, model, &terms, p_rho2[j], j);
     }
     acc + model.g

@@ -4,6 +4,7 @@
 //! (Mie–Grüneisen, Johnson–Cook) join [`MaterialModel`] as a second variant with their own
 //! side fields, so the step loop asks the model and never the scene.
 
+use super::solid::SolidModel;
 use crate::scene::{EosKind, Material};
 
 /// The model of one material of the scene.
@@ -11,20 +12,36 @@ use crate::scene::{EosKind, Material};
 pub enum MaterialModel {
     /// A weakly compressible fluid with a barotropic EOS.
     Fluid(Eos),
+    /// An elastic–plastic solid (Mie–Grüneisen, shear modulus, Johnson–Cook, failure).
+    Solid(SolidModel),
 }
 
 impl MaterialModel {
     /// The model of a scene material.
     pub fn new(m: &Material) -> Self {
-        MaterialModel::Fluid(Eos::new(m))
+        if m.is_solid() {
+            MaterialModel::Solid(SolidModel::new(m))
+        } else {
+            MaterialModel::Fluid(Eos::new(m))
+        }
+    }
+
+    /// The solid model, if this is a solid.
+    #[inline]
+    pub fn solid(&self) -> Option<&SolidModel> {
+        match self {
+            MaterialModel::Solid(s) => Some(s),
+            MaterialModel::Fluid(_) => None,
+        }
     }
 
     /// Pressure p(ρ, e) (Pa) from density ρ (kg/m³) and specific internal energy e (J/kg);
     /// a barotropic fluid ignores e.
     #[inline]
-    pub fn pressure(&self, rho: f64, _e: f64) -> f64 {
+    pub fn pressure(&self, rho: f64, e: f64) -> f64 {
         match self {
             MaterialModel::Fluid(eos) => eos.pressure(rho),
+            MaterialModel::Solid(s) => s.eos.pressure(rho, e),
         }
     }
 
@@ -35,6 +52,8 @@ impl MaterialModel {
     pub fn density(&self, p: f64) -> f64 {
         match self {
             MaterialModel::Fluid(eos) => eos.density(p),
+            // the linear (acoustic) branch: exact in tension, first order in compression
+            MaterialModel::Solid(s) => s.eos.rho0 * (1.0 + p / (s.eos.rho0 * s.eos.c0 * s.eos.c0)),
         }
     }
 
@@ -43,15 +62,18 @@ impl MaterialModel {
     pub fn rho0(&self) -> f64 {
         match self {
             MaterialModel::Fluid(eos) => eos.rho0,
+            MaterialModel::Solid(s) => s.eos.rho0,
         }
     }
 
     /// Specific internal (compression) energy e(ρ) = ∫ from ρ0 to ρ of p(ρ')/ρ'² dρ' (J/kg) of a
     /// barotropic fluid, with r = ρ/ρ0: Tait (B/ρ0)[(r^(γ−1) − 1)/(γ−1) + 1/r − 1], linear
-    /// c0²[ln r + 1/r − 1]; both ≈ c0²(r − 1)²/2 near ρ0. The work the pressure stores.
+    /// c0²[ln r + 1/r − 1]; both ≈ c0²(r − 1)²/2 near ρ0. The work the pressure stores. A
+    /// solid carries its specific internal energy as a field: 0 here.
     pub fn internal_energy(&self, rho: f64) -> f64 {
         match self {
             MaterialModel::Fluid(eos) => eos.internal_energy(rho),
+            MaterialModel::Solid(_) => 0.0,
         }
     }
 
@@ -61,6 +83,7 @@ impl MaterialModel {
     pub fn c0(&self) -> f64 {
         match self {
             MaterialModel::Fluid(eos) => eos.c0,
+            MaterialModel::Solid(s) => s.eos.c0,
         }
     }
 }
@@ -141,13 +164,7 @@ mod tests {
 
     #[test]
     fn pressure_and_density_are_inverse_and_match_hand_values() {
-        let m = |eos| Material {
-            name: "w".into(),
-            rho0: 1000.0,
-            c0: 20.0,
-            eos,
-            gamma: 7.0,
-        };
+        let m = |eos| Material::fluid("w", 1000.0, 20.0, eos);
         let tait = Eos::new(&m(EosKind::Tait));
         // B = 1000·400/7; p(1010) = B (1.01^7 − 1)
         let b = 1000.0 * 400.0 / 7.0;

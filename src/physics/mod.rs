@@ -33,6 +33,16 @@ pub struct Model<const D: usize> {
     pub delta: f64,
     /// Monaghan α.
     pub alpha: f64,
+    /// Quadratic artificial viscosity β of solids.
+    pub beta: f64,
+    /// Artificial-stress coefficient ε of solids (0 = off).
+    pub artificial_stress: f64,
+    /// Lattice spacing Δp (m), the artificial stress's reference distance.
+    pub dx: f64,
+    /// The scene has fluid bodies (the fluid passes run).
+    pub has_fluid: bool,
+    /// The scene has solid bodies (the solid passes run).
+    pub has_solid: bool,
     /// Kinematic viscosity ν (m²/s).
     pub nu: f64,
     /// Body force g (m/s²).
@@ -55,11 +65,17 @@ impl<const D: usize> Model<D> {
         let h = s.discretisation.h_over_dx * s.discretisation.dx;
         let materials: Vec<MaterialModel> = s.materials.iter().map(MaterialModel::new).collect();
         let c_max = materials.iter().fold(0.0f64, |m, e| m.max(e.c0()));
+        let has_solid = !s.solids.is_empty();
         Model {
             kernel: Kernel::new(s.discretisation.kernel, h, D),
             diffusion: s.physics.density_diffusion,
             delta: s.physics.delta,
             alpha: s.physics.artificial_viscosity,
+            beta: s.physics.artificial_viscosity_beta,
+            artificial_stress: s.physics.artificial_stress,
+            dx: s.discretisation.dx,
+            has_fluid: !s.fluids.is_empty(),
+            has_solid,
             nu: s.physics.laminar_viscosity,
             g: Vector::from_fn(|a, _| s.physics.body_force[a]),
             repulsive: Repulsion::new(c_max, s.discretisation.dx),
@@ -83,7 +99,25 @@ impl<const D: usize> Model<D> {
             self.kernel.h,
             self.kernel.support
         )];
-        v.push("continuity equation + EOS (weakly compressible)".into());
+        if self.has_fluid {
+            v.push("continuity equation + EOS (weakly compressible)".into());
+        }
+        if self.has_solid {
+            v.push(
+                "elastic-plastic solids: Mie-Grüneisen EOS, Jaumann stress rate, energy equation \
+                 (docs/solids.md)"
+                    .into(),
+            );
+            if self.beta > 0.0 {
+                v.push(format!("solid artificial viscosity β = {}", self.beta));
+            }
+            if self.artificial_stress > 0.0 {
+                v.push(format!(
+                    "artificial stress ε = {} (n = 4)",
+                    self.artificial_stress
+                ));
+            }
+        }
         match self.diffusion {
             DensityDiffusion::None => {}
             DensityDiffusion::Molteni => v.push(format!("δ-SPH Molteni–Colagrossi, δ = {}", self.delta)),

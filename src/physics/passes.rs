@@ -21,6 +21,15 @@ pub enum Pass {
     WallExtrapolation,
     /// dv/dt of fluid particles: [`super::fluid::momentum`].
     Momentum,
+    /// Kernel-gradient correction B of solid particles: [`super::solid::dynamics::correction`].
+    SolidCorrection,
+    /// dρ/dt, dS/dt, de/dt of solid particles: [`super::solid::dynamics::rates`].
+    SolidRates,
+    /// ρ, e, S (with radial return), p and failure of solid particles (no neighbours):
+    /// [`super::solid::dynamics::update`].
+    SolidUpdate,
+    /// dv/dt of solid particles: [`super::solid::dynamics::momentum`].
+    SolidMomentum,
 }
 
 impl Pass {
@@ -42,6 +51,25 @@ impl Pass {
                 .or(Fields::P)
                 .or(Fields::VW)
                 .or(Fields::MAT),
+            Pass::SolidCorrection => geometry.or(Fields::RHO),
+            // the sound speed of the viscosity comes from (ρ, e)
+            // σ of neighbours for the artificial stress's work
+            Pass::SolidRates => geometry
+                .or(Fields::V)
+                .or(Fields::RHO)
+                .or(Fields::P)
+                .or(Fields::STRESS)
+                .or(Fields::ENERGY)
+                .or(Fields::MAT),
+            Pass::SolidUpdate => Fields::NONE,
+            Pass::SolidMomentum => geometry
+                .or(Fields::V)
+                .or(Fields::RHO)
+                .or(Fields::P)
+                .or(Fields::STRESS)
+                .or(Fields::CORRECTION)
+                .or(Fields::ENERGY)
+                .or(Fields::MAT),
         }
     }
 
@@ -49,7 +77,14 @@ impl Pass {
     pub fn writes(self) -> Fields {
         match self {
             Pass::DensityGradient => Fields::GRAD_RHO,
-            Pass::Continuity | Pass::Momentum => Fields::NONE,
+            Pass::Continuity | Pass::Momentum | Pass::SolidRates | Pass::SolidMomentum => Fields::NONE,
+            Pass::SolidCorrection => Fields::CORRECTION,
+            Pass::SolidUpdate => Fields::RHO
+                .or(Fields::P)
+                .or(Fields::STRESS)
+                .or(Fields::ENERGY)
+                .or(Fields::PLASTIC)
+                .or(Fields::FAILED),
             Pass::DensityUpdate => Fields::RHO.or(Fields::P),
             Pass::WallExtrapolation => Fields::P.or(Fields::RHO).or(Fields::VW),
         }
@@ -57,7 +92,7 @@ impl Pass {
 
     /// True if the pass walks the neighbour lists (counted as pair interactions).
     pub fn pairs(self) -> bool {
-        self != Pass::DensityUpdate
+        !matches!(self, Pass::DensityUpdate | Pass::SolidUpdate)
     }
 
     /// Name in logs and in `hsph plan`'s exchange list.
@@ -68,23 +103,45 @@ impl Pass {
             Pass::DensityUpdate => "density_update",
             Pass::WallExtrapolation => "wall_extrapolation",
             Pass::Momentum => "momentum",
+            Pass::SolidCorrection => "solid_correction",
+            Pass::SolidRates => "solid_rates",
+            Pass::SolidUpdate => "solid_update",
+            Pass::SolidMomentum => "solid_momentum",
         }
     }
 }
 
 /// The passes a model runs, in order (Störmer–Verlet with (x, ρ) as coordinates: continuity
 /// and the density update come before the forces; see `Simulation::advance`).
+/// A scene without fluid runs no fluid pass, one without solids no solid pass.
 pub fn schedule<const D: usize>(model: &Model<D>) -> Vec<Pass> {
-    let mut s = Vec::with_capacity(5);
-    if model.diffusion == DensityDiffusion::Antuono {
+    let mut s = Vec::with_capacity(8);
+    let (fluid, solid) = (model.has_fluid, model.has_solid);
+    if fluid && model.diffusion == DensityDiffusion::Antuono {
         s.push(Pass::DensityGradient);
     }
-    s.push(Pass::Continuity);
-    s.push(Pass::DensityUpdate);
-    if model.has_dummy {
+    if fluid {
+        s.push(Pass::Continuity);
+    }
+    if solid {
+        s.push(Pass::SolidCorrection);
+        s.push(Pass::SolidRates);
+    }
+    if fluid {
+        s.push(Pass::DensityUpdate);
+    }
+    if solid {
+        s.push(Pass::SolidUpdate);
+    }
+    if fluid && model.has_dummy {
         s.push(Pass::WallExtrapolation);
     }
-    s.push(Pass::Momentum);
+    if fluid {
+        s.push(Pass::Momentum);
+    }
+    if solid {
+        s.push(Pass::SolidMomentum);
+    }
     s
 }
 

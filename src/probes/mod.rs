@@ -11,6 +11,7 @@
 //! A probe with an averaging `window` samples every step and writes, at its rows, the mean of
 //! its samples over the last `window` seconds (trapezoid rule in time).
 
+pub mod hole;
 pub mod sensors;
 
 use crate::comm::{Comm, Phase};
@@ -47,11 +48,16 @@ struct Region<const D: usize> {
     walls: bool,
     /// Only the walls of this body (a force probe), with every fluid particle in the box.
     body: Option<u16>,
+    /// Solid particles instead of fluid ones (a hole probe).
+    solids: bool,
 }
 
 impl<const D: usize> Region<D> {
     fn contains(&self, p: &Particles<D>, i: usize) -> bool {
         let k = p.kind[i];
+        if self.solids {
+            return k.is_solid();
+        }
         let kind_ok = k.is_fluid() || (k.is_wall() && self.body.map_or(self.walls, |b| p.body[i] == b));
         if !kind_ok {
             return false;
@@ -222,6 +228,7 @@ impl<const D: usize> ProbeSet<D> {
             max: Vector::from_element(f64::INFINITY),
             walls: false,
             body: None,
+            solids: false,
         };
         let around = |lo: Vector<D>, hi: Vector<D>, grow: f64| Region {
             min: lo.add_scalar(-grow),
@@ -245,6 +252,10 @@ impl<const D: usize> ProbeSet<D> {
                 r
             }
             Probe::Front { .. } => everywhere,
+            Probe::Hole { .. } => Region {
+                solids: true,
+                ..everywhere
+            },
             Probe::Force { .. } => {
                 let b = self.walls[k];
                 let p = &sim.p;

@@ -19,6 +19,7 @@ pub fn columns(probe: &Probe, dim: usize) -> Vec<String> {
             .collect(),
         Probe::Gauge { .. } => vec!["eta".into()],
         Probe::Front { .. } => vec!["front".into()],
+        Probe::Hole { .. } => super::hole::Hole::COLUMNS.iter().map(|c| c.to_string()).collect(),
         Probe::Force { .. } => {
             let f = ["fx", "fy", "fz"][..dim].iter().map(|s| s.to_string());
             let m: &[&str] = if dim == 3 { &["mx", "my", "mz"] } else { &["mz"] };
@@ -61,6 +62,13 @@ pub fn sample<const D: usize>(v: &View<D>, probe: &Probe, wall: u16) -> Vec<f64>
         Probe::Force { about, .. } => {
             let at = about.as_deref().map(vec_of).unwrap_or_else(Vector::zeros);
             force(v, wall, &at)
+        }
+        Probe::Hole {
+            plate, projectile, ..
+        } => {
+            let setup = super::hole::HoleSetup::<D>::of(v.scene, plate, projectile);
+            let ids: Vec<usize> = (0..v.p.n_owned).collect();
+            super::hole::measure(&v.p, &ids, &setup).values()
         }
     }
 }

@@ -11,9 +11,9 @@ use std::path::{Path, PathBuf};
 /// Font family name the charts use; registered from the embedded DejaVu Sans.
 pub const FONT: &str = "sans-serif";
 
-type Res = std::result::Result<(), Box<dyn std::error::Error>>;
+pub(super) type Res = std::result::Result<(), Box<dyn std::error::Error>>;
 
-fn register_font() {
+pub(super) fn register_font() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
         // DejaVu Sans is a valid TrueType font; failure here would be a broken build.
@@ -48,6 +48,7 @@ macro_rules! both {
         Ok(vec![png, svg])
     }};
 }
+pub(super) use both;
 
 /// Eight distinguishable colours (Okabe–Ito, then grey).
 const PALETTE: [RGBColor; 8] = [
@@ -62,7 +63,7 @@ const PALETTE: [RGBColor; 8] = [
 ];
 
 /// Viridis at `x` in [0, 1] (linear between 6 stops).
-fn viridis(x: f64) -> RGBColor {
+pub(super) fn viridis(x: f64) -> RGBColor {
     const STOPS: [(f64, f64, f64); 6] = [
         (68.0, 1.0, 84.0),
         (65.0, 68.0, 135.0),
@@ -82,7 +83,7 @@ fn viridis(x: f64) -> RGBColor {
 /// Largest heat-map side in cells; more ranks are binned into groups.
 const MAX_CELLS: usize = 256;
 
-fn font(size: u32) -> TextStyle<'static> {
+pub(super) fn font(size: u32) -> TextStyle<'static> {
     (FONT, size).into_font().into()
 }
 

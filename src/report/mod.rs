@@ -10,6 +10,7 @@
 //! Sans compiled into the binary, so no system font library is needed.
 
 pub mod charts;
+mod impact;
 mod load;
 
 pub use load::{Diagnostics, Run, TrafficRow};
@@ -31,7 +32,7 @@ pub const RUN_CHARTS: [&str; 4] = [
 
 /// Entry point of `hsph report`: one run (`compare == false`) or several side by side. Prints
 /// the files written and returns the output directory.
-pub fn command(runs: &[PathBuf], compare: bool, out: Option<&Path>) -> Result<PathBuf> {
+pub fn command(runs: &[PathBuf], compare: bool, out: Option<&Path>, field: &str) -> Result<PathBuf> {
     let (dir, files) = if compare {
         if runs.len() < 2 {
             return Err(Error::input(
@@ -59,7 +60,8 @@ pub fn command(runs: &[PathBuf], compare: bool, out: Option<&Path>) -> Result<Pa
         let dir = out
             .map(Path::to_path_buf)
             .unwrap_or_else(|| run.dir.join("report"));
-        let files = write_run(&run, &dir)?;
+        let mut files = write_run(&run, &dir)?;
+        files.extend(impact::charts(&run.dir, &dir, field)?);
         (dir, files)
     };
     for f in &files {

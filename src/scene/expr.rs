@@ -11,6 +11,14 @@
 
 use crate::error::{Error, Result};
 use exmex::prelude::*;
+use exmex::{literal_matcher_from_pattern, FloatOpsFactory, MatchLiteral};
+
+// Number literals with an optional exponent (`2.0e5`, `1e-3`): exmex's default matcher stops
+// at the `e`, which made `-2.0e5` an error.
+literal_matcher_from_pattern!(Scientific, r"^([0-9]+(\.[0-9]*)?|\.[0-9]+)([eE][+-]?[0-9]+)?");
+
+/// The expressions of a scene: f64 with the usual operators and scientific literals.
+type Expr = FlatEx<f64, FloatOpsFactory<f64>, Scientific>;
 use std::collections::BTreeMap;
 
 /// Where each variable of a parsed expression comes from.
@@ -27,7 +35,7 @@ enum Slot {
 pub struct FieldExpr {
     key: String,
     text: String,
-    expr: FlatEx<f64>,
+    expr: Expr,
     slots: Vec<Slot>,
 }
 
@@ -35,8 +43,7 @@ impl FieldExpr {
     /// Parse `text` (the value of scene key `key`) for a `dim`-dimensional scene with
     /// `constants`.
     pub fn parse(key: &str, text: &str, dim: usize, constants: &BTreeMap<String, f64>) -> Result<Self> {
-        let expr = exmex::parse::<f64>(text)
-            .map_err(|e| Error::input(key, format!("cannot parse `{text}`: {e}")))?;
+        let expr = Expr::parse(text).map_err(|e| Error::input(key, format!("cannot parse `{text}`: {e}")))?;
         let axes = &["x", "y", "z"][..dim];
         let mut slots = Vec::new();
         for name in expr.var_names() {
@@ -111,6 +118,9 @@ mod tests {
         let e = FieldExpr::parse("k", "sin(x", 2, &c).unwrap_err();
         assert_eq!(e.exit_code(), 2);
         assert!(e.to_string().contains("cannot parse"), "{e}");
+        // scientific literals, also after a unary minus
+        let f = FieldExpr::parse("k", "-2.0e5 + 1E-3*x + 3e2", 2, &c).unwrap();
+        assert_eq!(f.eval(&[1.0, 0.0]).unwrap(), -2.0e5 + 1e-3 + 300.0);
         let f = FieldExpr::parse("k", "ln(x)", 2, &c).unwrap();
         let e = f.eval(&[0.0, 1.0]).unwrap_err();
         assert!(e.to_string().contains("must be finite"), "{e}");

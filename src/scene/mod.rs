@@ -8,6 +8,7 @@
 pub mod expr;
 mod load;
 mod validate;
+mod validate_solid;
 
 pub(crate) use load::{first_line, key_at, line_of, span_of_key};
 pub use load::{load_scene, load_scene_str, SceneSource};
@@ -42,6 +43,10 @@ pub struct Scene {
     /// Fluid blocks filled on the lattice (`[[fluid]]`).
     #[serde(default, rename = "fluid")]
     pub fluids: Vec<FluidBody>,
+    /// Elastic–plastic solid bodies filled on the lattice (`[[solid]]`: the keys of a fluid
+    /// body, a solid material, and `clamped`).
+    #[serde(default, rename = "solid", skip_serializing_if = "Vec::is_empty")]
+    pub solids: Vec<FluidBody>,
     /// Walls (`[[wall]]`).
     #[serde(default, rename = "wall")]
     pub walls: Vec<WallBody>,
@@ -113,12 +118,13 @@ impl CheckpointSpec {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Limits {
-    /// Allowed density ρ/ρ0 of the particle's material, `[low, high]`; a weakly compressible
-    /// fluid stays within a few per cent of 1.
+    /// Allowed density ρ/ρ0 of a fluid particle's material, `[low, high]`; a weakly
+    /// compressible fluid stays within a few per cent of 1. (Solids are checked for finite
+    /// state and positive density only.)
     #[serde(default = "default_density_ratio")]
     pub density_ratio: Vec<f64>,
-    /// Largest speed as a multiple of the material's c0 (c0 is at least 10 × the expected
-    /// speed, so 1 means 10 × what the scene expects).
+    /// Largest speed of a fluid particle as a multiple of the material's c0 (c0 is at least
+    /// 10 × the expected speed, so 1 means 10 × what the scene expects).
     #[serde(default = "default_speed_over_c0")]
     pub speed_over_c0: f64,
 }
@@ -253,15 +259,49 @@ pub enum EosKind {
     Linear,
 }
 
-/// A fluid material.
+/// What a material is: a weakly compressible fluid or an elastic–plastic solid.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum MaterialKind {
+    /// Weakly compressible fluid (Tait or linear EOS).
+    #[default]
+    Fluid,
+    /// Elastic–plastic solid: Mie–Grüneisen EOS, shear modulus, optional Johnson–Cook
+    /// strength and failure (docs/solids.md).
+    Solid,
+}
+
+/// Strength model of a solid.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum StrengthKind {
+    /// Elastic: no yield.
+    Elastic,
+    /// Johnson–Cook flow stress with radial return.
+    JohnsonCook,
+}
+
+/// A material (`[[material]]`). Fluids give `rho0`, `c0`, `eos`, `gamma`; solids
+/// (`model = "solid"`) give their constants, or `library = "al6061-t6"` and only what they
+/// change (the validator fills the rest from the library, so the resolved scene is explicit).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Material {
     /// Name referred to by bodies.
     pub name: String,
+    /// `fluid` (default) or `solid`.
+    #[serde(default, skip_serializing_if = "is_fluid_kind")]
+    pub model: MaterialKind,
+    /// A solid from the material library (`hsph check` lists them): fills every solid constant
+    /// not given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub library: Option<String>,
     /// Reference density ρ0 (kg/m³).
+    #[serde(default)]
     pub rho0: f64,
-    /// Numerical sound speed c0 (m/s); must be ≥ 10 × the expected speed.
+    /// Fluids: numerical sound speed c0 (m/s), ≥ 10 × the expected speed. Solids: the bulk
+    /// sound speed, the intercept of the Hugoniot Us = c0 + s·up (m/s).
+    #[serde(default)]
     pub c0: f64,
     /// `tait` or `linear`.
     #[serde(default = "default_eos")]
@@ -269,6 +309,86 @@ pub struct Material {
     /// Tait exponent γ (ignored by `linear`).
     #[serde(default = "default_gamma")]
     pub gamma: f64,
+    /// Solid: slope s of the Hugoniot Us = c0 + s·up (–).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hugoniot_slope: Option<f64>,
+    /// Solid: Grüneisen coefficient Γ0 (–).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gruneisen: Option<f64>,
+    /// Solid: shear modulus G (Pa).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shear_modulus: Option<f64>,
+    /// Solid: `elastic` or `johnson_cook` (default with a library material).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strength: Option<StrengthKind>,
+    /// Johnson–Cook yield stress A (Pa).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jc_a: Option<f64>,
+    /// Johnson–Cook hardening modulus B (Pa).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jc_b: Option<f64>,
+    /// Johnson–Cook hardening exponent n (–).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jc_n: Option<f64>,
+    /// Johnson–Cook strain-rate coefficient C (–), ε̇0 = 1/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jc_c: Option<f64>,
+    /// Johnson–Cook thermal-softening exponent m (–).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jc_m: Option<f64>,
+    /// Room temperature (K).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub t_room: Option<f64>,
+    /// Melt temperature (K).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub t_melt: Option<f64>,
+    /// Specific heat c_v (J/(kg K)).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub specific_heat: Option<f64>,
+    /// Failure: equivalent plastic strain at which a particle fails (–); none by default.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failure_strain: Option<f64>,
+    /// Failure: spall strength, the tension at which a particle fails (Pa); none by default.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spall_pressure: Option<f64>,
+}
+
+fn is_fluid_kind(k: &MaterialKind) -> bool {
+    *k == MaterialKind::Fluid
+}
+
+impl Material {
+    /// A fluid material with a Tait (γ = 7) or linear EOS.
+    pub fn fluid(name: &str, rho0: f64, c0: f64, eos: EosKind) -> Self {
+        Material {
+            name: name.into(),
+            model: MaterialKind::Fluid,
+            library: None,
+            rho0,
+            c0,
+            eos,
+            gamma: default_gamma(),
+            hugoniot_slope: None,
+            gruneisen: None,
+            shear_modulus: None,
+            strength: None,
+            jc_a: None,
+            jc_b: None,
+            jc_n: None,
+            jc_c: None,
+            jc_m: None,
+            t_room: None,
+            t_melt: None,
+            specific_heat: None,
+            failure_strain: None,
+            spall_pressure: None,
+        }
+    }
+
+    /// True for a solid material.
+    pub fn is_solid(&self) -> bool {
+        self.model == MaterialKind::Solid
+    }
 }
 
 fn default_eos() -> EosKind {
@@ -310,6 +430,14 @@ pub struct Physics {
     /// Body force per unit mass (m/s²), e.g. gravity `[0, -9.81]`; default zero.
     #[serde(default)]
     pub body_force: Vec<f64>,
+    /// Solids: the quadratic artificial-viscosity coefficient β (Monaghan & Gingold 1983;
+    /// α is `artificial_viscosity`); 0 = off.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub artificial_viscosity_beta: f64,
+    /// Solids: the artificial-stress coefficient ε against the tensile instability (Gray,
+    /// Monaghan & Swift 2001; 0.3 is theirs), exponent n = 4; 0 = off.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub artificial_stress: f64,
 }
 
 fn default_delta() -> f64 {
@@ -324,6 +452,8 @@ impl Default for Physics {
             artificial_viscosity: 0.0,
             laminar_viscosity: 0.0,
             body_force: Vec::new(),
+            artificial_viscosity_beta: 0.0,
+            artificial_stress: 0.0,
         }
     }
 }
@@ -374,6 +504,9 @@ pub struct FluidBody {
     /// material's EOS. Instead of `hydrostatic`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pressure_field: Option<String>,
+    /// Solids only: the body is held in place (a clamp); its stress still evolves.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub clamped: bool,
 }
 
 /// Shape of a fluid body.
@@ -685,6 +818,21 @@ pub enum Probe {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         interval: Option<f64>,
     },
+    /// The hole a projectile punches through a plate and the debris cloud behind it
+    /// (`probes::hole` states the method): columns `perforated`, `major`, `minor` (m), `angle`
+    /// (degrees), `area` (m²), `centre_u`, `centre_v` (m), `debris` (particles),
+    /// `debris_length`, `debris_width` (m). `summary.json` reports the axes once settled.
+    Hole {
+        /// Probe name.
+        name: String,
+        /// The `[[solid]]` plate.
+        plate: String,
+        /// The `[[solid]]` projectile (its initial velocity is the impact direction).
+        projectile: String,
+        /// Seconds between rows (default: the output interval; 0 = every step).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        interval: Option<f64>,
+    },
 }
 
 /// Which way a front probe looks along its axis.
@@ -711,7 +859,8 @@ impl Probe {
             | Probe::VelocityLine { name, .. }
             | Probe::Gauge { name, .. }
             | Probe::Front { name, .. }
-            | Probe::Force { name, .. } => name,
+            | Probe::Force { name, .. }
+            | Probe::Hole { name, .. } => name,
         }
     }
 
@@ -722,7 +871,8 @@ impl Probe {
             | Probe::VelocityLine { interval, .. }
             | Probe::Gauge { interval, .. }
             | Probe::Front { interval, .. }
-            | Probe::Force { interval, .. } => *interval,
+            | Probe::Force { interval, .. }
+            | Probe::Hole { interval, .. } => *interval,
         }
     }
 
@@ -762,6 +912,17 @@ pub enum Reference {
         surface: f64,
         /// Bottom height (m) of the fluid.
         bottom: f64,
+    },
+    /// A measured hole (an impact experiment): the hole probe's settled axes are compared
+    /// with `major` and `minor` (m) in `summary.json`.
+    Hole {
+        /// Major axis of the experiment's hole (m).
+        major: f64,
+        /// Minor axis (m).
+        minor: f64,
+        /// Where the figures come from.
+        #[serde(default)]
+        source: String,
     },
     /// Koshizuka & Oka (1996) surge front Z = z/L vs T = t·sqrt(2g/L), experiment.
     DamBreakFront {

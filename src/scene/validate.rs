@@ -378,12 +378,19 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
     if s.materials.is_empty() {
         return err("material", "at least one [[material]] is needed");
     }
-    for (i, m) in s.materials.iter().enumerate() {
+    for i in 0..s.materials.len() {
+        let (before, rest) = s.materials.split_at_mut(i);
+        let m = &mut rest[0];
         let k = format!("material[{i}]");
-        positive(m.rho0, &format!("{k}.rho0"), "rho0 = 1000.0")?;
-        positive(m.c0, &format!("{k}.c0"), "c0 = 20.0")?;
-        positive(m.gamma, &format!("{k}.gamma"), "gamma = 7.0")?;
-        if s.materials[..i].iter().any(|o| o.name == m.name) {
+        if m.is_solid() {
+            super::validate_solid::solid_material(m, &k)?;
+        } else {
+            super::validate_solid::fluid_material(m, &k)?;
+            positive(m.rho0, &format!("{k}.rho0"), "rho0 = 1000.0")?;
+            positive(m.c0, &format!("{k}.c0"), "c0 = 20.0")?;
+            positive(m.gamma, &format!("{k}.gamma"), "gamma = 7.0")?;
+        }
+        if before.iter().any(|o| o.name == m.name) {
             return err(
                 format!("{k}.name"),
                 format!("material `{}` is defined twice", m.name),
@@ -394,6 +401,8 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
     non_negative(ph.delta, "physics.delta")?;
     non_negative(ph.artificial_viscosity, "physics.artificial_viscosity")?;
     non_negative(ph.laminar_viscosity, "physics.laminar_viscosity")?;
+    non_negative(ph.artificial_viscosity_beta, "physics.artificial_viscosity_beta")?;
+    non_negative(ph.artificial_stress, "physics.artificial_stress")?;
     check_vec(&mut ph.body_force, d, "physics.body_force", true)?;
 
     Ok(())
@@ -430,11 +439,21 @@ fn in_domain(min: &[f64], max: &[f64], body: &str, dom: &Domain) -> Result<()> {
 /// Fluid bodies: material, shape and box, velocity and initial-field expressions, in the domain.
 fn validate_fluids(s: &mut Scene, mat_names: &[String]) -> Result<()> {
     let d = s.dimension;
-    if s.fluids.is_empty() {
-        return err("fluid", "at least one [[fluid]] block is needed");
+    if s.fluids.is_empty() && s.solids.is_empty() {
+        return err("fluid", "at least one [[fluid]] or [[solid]] body is needed");
     }
-    for (i, f) in s.fluids.iter_mut().enumerate() {
-        let k = format!("fluid[{i}]");
+    let bodies = (s
+        .fluids
+        .iter_mut()
+        .enumerate()
+        .map(|(i, f)| (format!("fluid[{i}]"), f)))
+    .chain(
+        s.solids
+            .iter_mut()
+            .enumerate()
+            .map(|(i, f)| (format!("solid[{i}]"), f)),
+    );
+    for (k, f) in bodies {
         if !mat_names.contains(&f.material) {
             return unknown_material(&k, &f.material, mat_names);
         }
@@ -446,7 +465,7 @@ fn validate_fluids(s: &mut Scene, mat_names: &[String]) -> Result<()> {
         validate_fields(f, &k, d, &s.constants)?;
         in_domain(&f.min, &f.max, &k, &s.domain)?;
     }
-    Ok(())
+    super::validate_solid::body_kinds(s)
 }
 
 /// Walls: box, material, open faces, container layers, motion.
@@ -584,11 +603,26 @@ fn validate_time_output(s: &mut Scene) -> Result<()> {
     }
     // the particle table names what snapshots can hold (the same in 2D and 3D)
     let valid = crate::particles::Particles::<3>::snapshot_names();
+    let solid_only: Vec<&str> = crate::particles::Particles::<3>::field_table()
+        .iter()
+        .filter(|m| m.flag.has(crate::particles::Fields::SOLID))
+        .filter_map(|m| m.snapshot)
+        .collect();
     for (j, f) in s.output.fields.iter().enumerate() {
         if !valid.contains(&f.as_str()) {
             return err(
                 format!("output.fields[{j}]"),
                 format!("unknown field `{f}`; valid: {}", valid.join(", ")),
+            );
+        }
+        if s.solids.is_empty() && solid_only.contains(&f.as_str()) {
+            return err(
+                format!("output.fields[{j}]"),
+                format!(
+                    "`{f}` is a field of solids and this scene has no [[solid]] body; fields of \
+                     solids: {}",
+                    solid_only.join(", ")
+                ),
             );
         }
     }
@@ -613,7 +647,7 @@ fn check_particle_count(s: &Scene) -> Result<()> {
     let dx = s.discretisation.dx;
     let mut n = 0.0;
     let mut key = "fluid";
-    for f in &s.fluids {
+    for f in s.fluids.iter().chain(&s.solids) {
         n += sites_in(&f.min, &f.max, dx);
     }
     for w in &s.walls {
@@ -687,6 +721,7 @@ fn validate_checkpoint(c: &CheckpointSpec) -> Result<()> {
 fn validate_probe_kind(k: &str, i: usize, s: &mut Scene) -> Result<()> {
     let d = s.dimension;
     let (domain, walls) = (s.domain.clone(), s.walls.clone());
+    let s_solids = s.solids.clone();
     match &mut s.probes[i] {
         Probe::Pressure {
             point,
@@ -721,6 +756,26 @@ fn validate_probe_kind(k: &str, i: usize, s: &mut Scene) -> Result<()> {
         Probe::Gauge { point, .. } => {
             check_vec(point, d, &format!("{k}.point"), false)?;
             point_in_domain(point, &format!("{k}.point"), &domain)?;
+        }
+        Probe::Hole {
+            plate, projectile, ..
+        } => {
+            let names: Vec<&str> = s_solids.iter().map(|b| b.name.as_str()).collect();
+            for (key, name) in [("plate", &*plate), ("projectile", &*projectile)] {
+                if !names.contains(&name.as_str()) {
+                    return err(
+                        format!("{k}.{key}"),
+                        format!("no [[solid]] body named `{name}`; solids: {}", names.join(", ")),
+                    );
+                }
+            }
+            let pr = s_solids.iter().find(|b| b.name == *projectile);
+            if pr.is_some_and(|b| b.velocity.iter().all(|c| *c == 0.0)) {
+                return err(
+                    format!("{k}.projectile"),
+                    format!("`{projectile}` does not move: its velocity is the impact direction"),
+                );
+            }
         }
         Probe::VelocityLine { from, to, points, .. } => {
             check_vec(from, d, &format!("{k}.from"), false)?;
@@ -822,6 +877,17 @@ fn validate_reference(s: &Scene) -> Result<()> {
         }
         Reference::DamBreakFront { column_width, .. } => {
             positive(*column_width, "reference.column_width", "column_width = 0.146")?;
+            &[]
+        }
+        Reference::Hole { major, minor, .. } => {
+            positive(*major, "reference.major", "major = 0.0106")?;
+            positive(*minor, "reference.minor", "minor = 0.0085")?;
+            if !s.probes.iter().any(|p| matches!(p, Probe::Hole { .. })) {
+                return err(
+                    "reference",
+                    "a hole reference needs a [[probe]] of kind = \"hole\"",
+                );
+            }
             &[]
         }
     };

@@ -83,6 +83,8 @@ pub struct Simulation<const D: usize> {
     /// Particles removed by the outflow rule and not yet reported (the driver drains it).
     pub removed: Vec<outflow::Removal>,
     fresh: Freshness,
+    /// Scratch of the solid passes (empty without solids).
+    solid: crate::physics::solid::dynamics::SolidScratch<D>,
     kinematics: Vec<WallKinematics>,
 }
 
@@ -144,6 +146,7 @@ impl<const D: usize> Simulation<D> {
     fn assemble(scene: &Scene, comm: &dyn Comm, layout: &RunLayout, all: Particles<D>) -> Result<Self> {
         let (rank, ranks) = (comm.rank(), comm.size());
         debug_assert_eq!(ranks, layout.ranks, "layout resolved for this communicator");
+        let all = all.dropping(crate::setup::dropped_fields(scene));
         let model = Model::<D>::new(scene);
         let space = image_space::<D>(scene);
         let grid = CellGrid::new(&space.min, &space.max, model.kernel.support);
@@ -172,6 +175,7 @@ impl<const D: usize> Simulation<D> {
             timers: PhaseTimers::default(),
             pair_count: 0,
             fresh: Freshness::default(),
+            solid: Default::default(),
             removed: Vec::new(),
             kinematics: WallKinematics::of(scene),
         };
@@ -254,6 +258,11 @@ impl<const D: usize> Simulation<D> {
             let m = &mats[p.mat[i] as usize];
             let ratio = rho / m.rho0();
             let speed = v.norm();
+            // solids: finiteness and positive density only (their EOS bounds them, fragments
+            // expand freely, and they move at the impact's speeds)
+            if p.kind[i].is_solid() {
+                return None;
+            }
             if !(lo..=hi).contains(&ratio) {
                 return Some(format!(
                     "has density {rho:.6e} kg/m³ = {ratio:.4} ρ0 (speed {speed:.4e} m/s), outside \

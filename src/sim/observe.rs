@@ -80,14 +80,20 @@ impl<const D: usize> Simulation<D> {
         let mut sums: Vec<ExactSum> = (0..SCALARS + D).map(|_| ExactSum::new()).collect();
         let mut vmax = 0.0f64;
         for i in 0..p.n_owned {
-            if !p.kind[i].is_integrated() {
+            // clamped solids are not integrated but store elastic energy
+            if !(p.kind[i].is_integrated() || p.kind[i].is_solid()) {
                 continue;
             }
             let m = p.mass[i];
             let v2 = p.v[i].norm_squared();
             sums[0].add(0.5 * m * v2);
             sums[1].add(-m * g.dot(&p.x[i]));
-            sums[2].add(m * mats[p.mat[i] as usize].internal_energy(p.rho[i]));
+            let e = if p.kind[i].is_solid() {
+                p.energy[i]
+            } else {
+                mats[p.mat[i] as usize].internal_energy(p.rho[i])
+            };
+            sums[2].add(m * e);
             sums[3].add(m);
             for (a, sum) in sums[SCALARS..].iter_mut().enumerate() {
                 sum.add(m * p.v[i][a]);
@@ -125,7 +131,7 @@ impl<const D: usize> Simulation<D> {
         comm: &dyn Comm,
         keep: &dyn Fn(&Particles<D>, usize) -> bool,
     ) -> Result<Option<View<'_, D>>> {
-        let mut all = Particles::<D>::default();
+        let mut all = Particles::<D>::without(self.p.dropped);
         if self.ranks == 1 {
             for i in 0..self.p.n_owned {
                 if keep(&self.p, i) {

@@ -82,6 +82,11 @@ impl<const D: usize> Simulation<D> {
                 return false;
             }
             if density {
+                // the band is a weakly compressible fluid's; solids are bounded by their EOS
+                // and fragments may expand freely
+                if p.kind[i].is_solid() {
+                    return false;
+                }
                 let r = p.rho[i] / self.model.materials[p.mat[i] as usize].rho0();
                 !(lo..=hi).contains(&r)
             } else {

@@ -15,6 +15,7 @@ use crate::comm::Comm;
 use crate::error::Result;
 use crate::particles::Fields;
 use crate::physics::passes::Pass;
+use crate::physics::solid::dynamics;
 use crate::physics::{delta, fluid};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -91,6 +92,10 @@ impl<const D: usize> Simulation<D> {
             Pass::DensityUpdate => self.update_density(dt),
             Pass::WallExtrapolation => dummy::extrapolate(&mut self.p, &self.nl, &self.model),
             Pass::Momentum => fluid::momentum(&mut self.p, &self.nl, &self.model),
+            Pass::SolidCorrection => dynamics::correction(&mut self.p, &self.nl, &self.model),
+            Pass::SolidRates => dynamics::rates(&mut self.p, &self.nl, &self.model, dt, &mut self.solid),
+            Pass::SolidUpdate => dynamics::update(&mut self.p, &self.model, dt, &self.solid),
+            Pass::SolidMomentum => dynamics::momentum(&mut self.p, &self.nl, &self.model, &mut self.solid),
         }
         if pass.pairs() {
             self.pair_count += self.nl.pairs() as u64;
@@ -108,7 +113,7 @@ impl<const D: usize> Simulation<D> {
             let n = self.p.n_owned;
             let (kind, drho) = (&self.p.kind, &self.p.drho);
             self.p.rho[..n].par_iter_mut().enumerate().for_each(|(i, rho)| {
-                if kind[i].is_integrated() {
+                if kind[i].is_fluid() {
                     *rho += drho[i] * dt;
                 }
             });
@@ -116,13 +121,14 @@ impl<const D: usize> Simulation<D> {
         self.update_pressure();
     }
 
-    /// p = p(ρ, e) of the particle's material for owned integrated particles.
+    /// p = p(ρ) of the particle's material for owned fluid particles (solids: the solid
+    /// update).
     pub(super) fn update_pressure(&mut self) {
         let n = self.p.n_owned;
         let (kind, mat, rho) = (&self.p.kind, &self.p.mat, &self.p.rho);
         let materials = &self.model.materials;
         self.p.p[..n].par_iter_mut().enumerate().for_each(|(i, pi)| {
-            if kind[i].is_integrated() {
+            if kind[i].is_fluid() {
                 *pi = materials[mat[i] as usize].pressure(rho[i], 0.0);
             }
         });
@@ -195,7 +201,24 @@ impl<const D: usize> Simulation<D> {
         });
     }
 
-    /// The time step for the next step (s): min of CFL·h/(c0 + |v|max), 0.25 sqrt(h/|a|max)
+    /// Signal speed of owned solid particle `i` for the time step (m/s): the longitudinal wave
+    /// speed √((K + 4G/3)/ρ) at its state (K = ρc², c the EOS sound speed; no shear once
+    /// failed) plus its speed; 0 for other particles.
+    fn solid_signal_speed(&self, i: usize) -> f64 {
+        let p = &self.p;
+        if !p.kind[i].is_solid() {
+            return 0.0;
+        }
+        let Some(s) = self.model.materials[p.mat[i] as usize].solid() else {
+            return 0.0;
+        };
+        let g = if p.failed[i] != 0 { 0.0 } else { s.shear };
+        let k = s.eos.bulk_modulus(p.rho[i], p.energy[i]);
+        crate::physics::solid::strength::longitudinal_speed(k, g, p.rho[i]) + p.v[i].norm()
+    }
+
+    /// The time step for the next step (s): min of CFL·h/max(c0 + |v|max, solid signal
+    /// speeds), 0.25 sqrt(h/|a|max)
     /// and 0.125 h²/ν, or the scene's fixed dt; never past t_end.
     pub fn next_dt(&self, comm: &dyn Comm) -> Result<f64> {
         let n = self.p.n_owned;
@@ -204,16 +227,25 @@ impl<const D: usize> Simulation<D> {
             self.scene.time.dt
         } else {
             let (kind, v, a) = (&self.p.kind, &self.p.v, &self.p.acc);
-            let (vmax, amax) = (0..n)
+            let signal = |i: usize| self.solid_signal_speed(i);
+            let (vmax, amax, smax) = (0..n)
                 .into_par_iter()
                 .filter(|&i| kind[i].is_integrated())
-                .map(|i| (v[i].norm(), a[i].norm()))
-                .reduce(|| (0.0f64, 0.0f64), |x, y| (x.0.max(y.0), x.1.max(y.1)));
+                .map(|i| (v[i].norm(), a[i].norm(), signal(i)))
+                .reduce(
+                    || (0.0f64, 0.0f64, 0.0f64),
+                    |x, y| (x.0.max(y.0), x.1.max(y.1), x.2.max(y.2)),
+                );
             // max is exact, so the all-reduce gives the same bits on any number of ranks
-            let mut m = [vmax, amax];
+            let mut m = [vmax, amax, smax];
             comm.all_reduce_max_f64(&mut m)?;
-            let (vmax, amax) = (m[0], m[1]);
-            let mut dt = self.scene.time.cfl * h / (self.model.c_max + vmax);
+            let (vmax, amax, smax) = (m[0], m[1], m[2]);
+            let fluid_signal = if self.model.has_fluid {
+                self.model.c_max + vmax
+            } else {
+                0.0
+            };
+            let mut dt = self.scene.time.cfl * h / fluid_signal.max(smax);
             if amax > 0.0 {
                 dt = dt.min(0.25 * (h / amax).sqrt());
             }

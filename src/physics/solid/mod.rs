@@ -9,6 +9,10 @@
 //!   failure, the longitudinal wave speed of the time step.
 //! - [`library`]: the material constants hsph ships, each with its source.
 
+pub mod dynamics;
 pub mod eos;
 pub mod library;
+pub mod model;
 pub mod strength;
+
+pub use model::SolidModel;

@@ -3,10 +3,7 @@
 //! from internal energy and the failure criteria. Units: stresses Pa, strains –, rates 1/s,
 //! temperatures K, specific energies J/kg.
 
-use nalgebra::SMatrix;
-
-/// A D×D tensor (stress, velocity gradient).
-pub type Tensor<const D: usize> = SMatrix<f64, D, D>;
+pub use crate::Tensor;
 
 /// Johnson–Cook flow stress (Johnson & Cook 1983):
 ///
@@ -83,10 +80,12 @@ pub fn jaumann_rate<const D: usize>(s: &Tensor<D>, grad_v: &Tensor<D>, g: f64) -
     dev * (2.0 * g) + spin * s - s * spin
 }
 
-/// Von Mises equivalent stress √(3 J2), J2 = ½ S:S (Pa).
+/// Von Mises equivalent stress √(3 J2), J2 = ½ S:S (Pa). In 2D (plane strain) S holds the
+/// in-plane block of a traceless deviator, so S_zz = −tr S counts too.
 #[inline]
 pub fn von_mises<const D: usize>(s: &Tensor<D>) -> f64 {
-    (1.5 * s.component_mul(s).sum()).sqrt()
+    let zz = if D == 2 { s.trace() } else { 0.0 };
+    (1.5 * (s.component_mul(s).sum() + zz * zz)).sqrt()
 }
 
 /// Radial return (Wilkins 1964): if the trial deviator `s` lies outside the yield surface

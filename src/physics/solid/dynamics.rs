@@ -1,0 +1,448 @@
+//! The passes of elastic–plastic solids (Libersky et al. 1993; Gray, Monaghan & Swift 2001),
+//! gather loops over owned solid particles like the fluid passes. Solid particles interact with
+//! solid neighbours only (fluids and solids are not coupled yet).
+//!
+//! With x_ij = x_i − x_j, v_ij = v_i − v_j, ∇_i W_ij = (1/r)(dW/dr) x_ij, the total stress
+//! σ = −p I + S (S the deviator), and sums over solid neighbours j:
+//!
+//! - velocity gradient  L_i = −(1/ρ_i) Σ_j m_j v_ij ⊗ ∇_i W_ij                           (S1)
+//! - continuity         dρ_i/dt = −ρ_i tr L_i = Σ_j m_j v_ij·∇_i W_ij                    (S2)
+//! - deviatoric stress  dS_i/dt = 2G(ε̇ − ⅓tr ε̇ I) + Ω S − S Ω  (Jaumann, [`jaumann_rate`]) (S3)
+//! - energy             de_i/dt = (p_i/ρ_i²) Σ_j m_j v_ij·∇_i W_ij + (1/ρ_i) S_i:ε̇_i
+//!   + ½ Σ_j m_j [Π_ij v_ij·∇_i W_ij − v_ij·(R_i + R_j) f_ijⁿ ∇_i W_ij]                 (S4)
+//! - momentum           dv_i/dt = Σ_j m_j [σ_i/ρ_i² + σ_j/ρ_j² − Π_ij I + (R_i + R_j) f_ijⁿ] ∇_i W_ij + g   (S5)
+//!
+//! (S4) is the work of (S5)'s stress, viscosity and artificial-stress terms, so kinetic plus
+//! internal energy Σ m (½v² + e) is conserved by the semi-discrete equations: the elastic
+//! shear energy is part of e. The velocity gradient and the stress terms are corrected with
+//! B_i = M_i⁻¹, M_i = −(1/ρ_i) Σ_j m_j x_ij ⊗ ∇_i W_ij ([`correction`]; exact for linear
+//! fields up to free surfaces): L_i uses B_i ∇_i W_ij and (S5) the duals σ_i B_i/ρ_i² +
+//! σ_j B_j/ρ_j², which keeps both conservation laws (the pair term stays antisymmetric). Artificial viscosity (Monaghan & Gingold 1983):
+//! Π_ij = (−α c̄ μ_ij + β μ_ij²)/ρ̄_ij for v_ij·x_ij < 0, μ_ij = h v_ij·x_ij/(r² + 0.01h²),
+//! c̄, ρ̄ the pair means, c the bulk sound speed of the EOS at the particle's (ρ, e).
+//! Artificial stress (Gray, Monaghan & Swift 2001, eqs. 4.5–4.8): in the principal frame of
+//! σ_i, R'_aa = −ε σ'_aa/ρ_i² where σ'_aa > 0 (tension) and 0 otherwise, rotated back;
+//! f_ij = W(r)/W(Δp) with Δp the lattice spacing, n = 4.
+//!
+//! As in the fluid continuity, (S1)–(S4) use the pair's separation at the middle of the drift
+//! (x_ij − ½dt v_ij), and the update ([`update`]) advances ρ, S and e by dt, returns S to the
+//! Johnson–Cook surface, computes p(ρ, e) and applies the failure criteria. Units: SI.
+
+use super::strength::{jaumann_rate, radial_return, rate_and_spin, temperature};
+use crate::cells::NeighbourList;
+use crate::particles::Particles;
+use crate::physics::Model;
+use crate::{Tensor, Vector};
+use rayon::prelude::*;
+
+/// Per-step scratch of the solid passes: owned-particle rates and per-particle (owned and
+/// ghost) terms computed once rather than per pair. Kept between steps so nothing is
+/// allocated in the step loop once the sizes have settled.
+#[derive(Debug, Clone, Default)]
+pub struct SolidScratch<const D: usize> {
+    /// dS/dt of owned particles (Pa/s).
+    pub ds: Vec<Tensor<D>>,
+    /// de/dt of owned particles (W/kg).
+    pub de: Vec<f64>,
+    /// Equivalent strain rate √(⅔ ε̇_dev:ε̇_dev) of owned particles (1/s), the Johnson–Cook
+    /// rate.
+    pub rate: Vec<f64>,
+    /// σ_j/ρ_j² of every particle (m⁵ kg⁻¹ s⁻² per unit tensor).
+    sig: Vec<Tensor<D>>,
+    /// Artificial stress R_j of every particle (same units as `sig`).
+    rs: Vec<Tensor<D>>,
+    /// Bulk sound speed c_j of every particle (m/s).
+    c: Vec<f64>,
+}
+
+/// The artificial-viscosity constants of a pass.
+#[derive(Clone, Copy)]
+struct Viscosity {
+    alpha: f64,
+    beta: f64,
+    h: f64,
+    eta2: f64,
+}
+
+impl Viscosity {
+    fn of<const D: usize>(model: &Model<D>) -> Self {
+        let h = model.kernel.h;
+        Viscosity {
+            alpha: model.alpha,
+            beta: model.beta,
+            h,
+            eta2: 0.01 * h * h,
+        }
+    }
+
+    /// Π_ij (m⁵ kg⁻¹ s⁻²) for a pair approaching (v_ij·x_ij < 0), else 0.
+    #[inline(always)]
+    fn pi(&self, vx: f64, r2: f64, ci: f64, cj: f64, rhoi: f64, rhoj: f64) -> f64 {
+        if vx >= 0.0 {
+            return 0.0;
+        }
+        let mu = self.h * vx / (r2 + self.eta2);
+        (-self.alpha * 0.5 * (ci + cj) * mu + self.beta * mu * mu) / (0.5 * (rhoi + rhoj))
+    }
+}
+
+/// ½(T + Tᵀ): exactly symmetric (float addition commutes, so both off-diagonal entries get
+/// the same bits).
+#[inline]
+fn symmetric<const D: usize>(t: &Tensor<D>) -> Tensor<D> {
+    Tensor::<D>::from_fn(|a, b| 0.5 * (t[(a, b)] + t[(b, a)]))
+}
+
+/// Bulk sound speed of every solid particle (owned and ghost) into `scratch.c`.
+fn sound_speeds<const D: usize>(p: &Particles<D>, model: &Model<D>, c: &mut Vec<f64>) {
+    c.resize(p.len(), 0.0);
+    c.par_iter_mut().enumerate().for_each(|(j, c)| {
+        *c = match model.materials[p.mat[j] as usize].solid() {
+            Some(s) if p.kind[j].is_solid() => s.eos.sound_speed(p.rho[j], p.energy[j]),
+            _ => 0.0,
+        }
+    });
+}
+
+/// Correction pass: B_i = M_i⁻¹, M_i = −(1/ρ_i) Σ_j m_j x_ij ⊗ ∇_i W_ij over solid neighbours,
+/// for every owned solid particle at the current positions (the identity where M is
+/// singular: an isolated particle or a line of them).
+pub fn correction<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, model: &Model<D>) {
+    let n = p.n_owned;
+    let mut out = std::mem::take(&mut p.correction);
+    {
+        let p = &*p;
+        let k = &model.kernel;
+        out[..n].par_iter_mut().enumerate().for_each(|(i, b)| {
+            if !p.kind[i].is_solid() {
+                return;
+            }
+            let xi = p.x[i];
+            let mut m = Tensor::<D>::zeros();
+            for &j in nl.of(i) {
+                let j = j as usize;
+                if !p.kind[j].is_solid() {
+                    continue;
+                }
+                let xij = xi - p.x[j];
+                let f = k.dw_dr_over_r(xij.norm());
+                m += (xij * xij.transpose()) * (p.mass[j] * f);
+            }
+            m *= -1.0 / p.rho[i];
+            // a well-conditioned M only: sparse neighbourhoods (a correction of more than 10×)
+            // keep the plain gradient
+            // symmetric to the last bit: ghosts receive the upper triangle only
+            b.0 = match m.try_inverse() {
+                Some(inv) if inv.amax() <= 10.0 => symmetric(&inv),
+                _ => Tensor::identity(),
+            };
+        });
+    }
+    p.correction = out;
+}
+
+/// Rates pass: dρ/dt into `p.drho`, dS/dt, de/dt and the equivalent strain rate into
+/// `scratch`, for every owned solid particle (zero for the others), eqs. (S1)–(S4), at the
+/// mid-drift separation for a step of `dt` (s; 0 at the set-up).
+pub fn rates<const D: usize>(
+    p: &mut Particles<D>,
+    nl: &NeighbourList,
+    model: &Model<D>,
+    dt: f64,
+    scratch: &mut SolidScratch<D>,
+) {
+    let n = p.n_owned;
+    sound_speeds(p, model, &mut scratch.c);
+    if model.artificial_stress > 0.0 {
+        stress_terms(p, model, scratch);
+    }
+    scratch.ds.resize(n, Tensor::zeros());
+    scratch.de.resize(n, 0.0);
+    scratch.rate.resize(n, 0.0);
+    let mut drho = std::mem::take(&mut p.drho);
+    {
+        let p = &*p;
+        let (c, rs) = (&scratch.c, &scratch.rs[..]);
+        let visc = Viscosity::of(model);
+        let half_dt = 0.5 * dt;
+        drho[..n]
+            .par_iter_mut()
+            .zip(scratch.ds.par_iter_mut())
+            .zip(scratch.de.par_iter_mut().zip(scratch.rate.par_iter_mut()))
+            .enumerate()
+            .for_each(|(i, ((dr, ds), (de, rate)))| {
+                (*dr, *ds, *de, *rate) = rates_of(p, nl, model, (c, rs), &visc, half_dt, i);
+            });
+    }
+    p.drho = drho;
+}
+
+/// (S1)–(S4) for owned particle `i`: (dρ/dt, dS/dt, de/dt, equivalent strain rate).
+#[inline]
+fn rates_of<const D: usize>(
+    p: &Particles<D>,
+    nl: &NeighbourList,
+    model: &Model<D>,
+    (c, rs): (&[f64], &[Tensor<D>]),
+    visc: &Viscosity,
+    half_dt: f64,
+    i: usize,
+) -> (f64, Tensor<D>, f64, f64) {
+    let zero = (0.0, Tensor::zeros(), 0.0, 0.0);
+    if !p.kind[i].is_solid() {
+        return zero;
+    }
+    let Some(solid) = model.materials[p.mat[i] as usize].solid() else {
+        return zero;
+    };
+    let k = &model.kernel;
+    let (xi, vi, rhoi) = (p.x[i], p.v[i], p.rho[i]);
+    let bi = p.correction[i].0;
+    let mut grad = Tensor::<D>::zeros(); // Σ m_j v_ij ⊗ ∇W
+    let mut visc_work = 0.0; // Σ m_j Π_ij v_ij·∇W
+    let mut stress_work = 0.0; // Σ m_j v_ij·(R_i + R_j) f_ijⁿ ∇W
+    let stress_art = model.artificial_stress > 0.0;
+    let w_dp = k.w(model.dx);
+    for &j in nl.of(i) {
+        let j = j as usize;
+        if !p.kind[j].is_solid() {
+            continue;
+        }
+        let xij = xi - p.x[j];
+        let vij = vi - p.v[j];
+        let mid = xij - vij * half_dt;
+        let r2 = mid.norm_squared();
+        let gw = mid * k.dw_dr_over_r(r2.sqrt());
+        let mj = p.mass[j];
+        grad += (vij * mj) * gw.transpose();
+        let pi = visc.pi(vij.dot(&mid), r2, c[i], c[j], rhoi, p.rho[j]);
+        visc_work += mj * pi * vij.dot(&gw);
+        if stress_art {
+            let f = k.w(r2.sqrt()) / w_dp;
+            let f2 = f * f;
+            stress_work += mj * (f2 * f2) * vij.dot(&((rs[i] + rs[j]) * gw));
+        }
+    }
+    let l = grad * bi * (-1.0 / rhoi);
+    let div = -rhoi * l.trace();
+    let (eps, _) = rate_and_spin(&l);
+    let s = p.stress[i].0;
+    let failed = p.failed[i] != 0;
+    let ds = if failed {
+        Tensor::zeros()
+    } else {
+        jaumann_rate(&s, &l, solid.shear)
+    };
+    let dev = eps - Tensor::<D>::identity() * (eps.trace() / 3.0);
+    // plane strain: ε̇_zz = 0, so the deviator has −tr/3 out of plane too
+    let out_of_plane = if D == 2 { eps.trace() / 3.0 } else { 0.0 };
+    let rate = ((2.0 / 3.0) * (dev.component_mul(&dev).sum() + out_of_plane * out_of_plane)).sqrt();
+    let de =
+        (p.p[i] / (rhoi * rhoi)) * div + s.component_mul(&eps).sum() / rhoi + 0.5 * (visc_work - stress_work);
+    (div, ds, de, rate)
+}
+
+/// Update pass (no neighbours) for every owned solid particle: ρ += dt dρ/dt, e += dt de/dt,
+/// S += dt dS/dt; radial return to the Johnson–Cook surface at the particle's plastic strain,
+/// strain rate and temperature (T = T_room + e/c_v), adding the plastic strain; p = p(ρ, e);
+/// then the failure criteria: a failed particle keeps S = 0 and p ≥ 0.
+pub fn update<const D: usize>(p: &mut Particles<D>, model: &Model<D>, dt: f64, scratch: &SolidScratch<D>) {
+    let n = p.n_owned;
+    let kind = &p.kind[..n];
+    let mat = &p.mat[..n];
+    let drho = &p.drho[..n];
+    let mut out = std::mem::take(&mut p.stress);
+    p.rho[..n]
+        .par_iter_mut()
+        .zip(p.p[..n].par_iter_mut())
+        .zip(out[..n].par_iter_mut())
+        .zip(
+            p.energy[..n]
+                .par_iter_mut()
+                .zip(p.plastic[..n].par_iter_mut())
+                .zip(p.failed[..n].par_iter_mut()),
+        )
+        .enumerate()
+        .for_each(|(i, (((rho, pr), s), ((e, eps_p), failed)))| {
+            if !kind[i].is_solid() {
+                return;
+            }
+            let Some(solid) = model.materials[mat[i] as usize].solid() else {
+                return;
+            };
+            if dt > 0.0 {
+                *rho += dt * drho[i];
+                *e += dt * scratch.de[i];
+                // the Jaumann rate is symmetric only up to rounding: keep S symmetric to the
+                // last bit, as ghosts receive its upper triangle
+                s.0 = symmetric(&(s.0 + scratch.ds[i] * dt));
+            }
+            if *failed != 0 {
+                s.0 = Tensor::zeros();
+            } else if let Some(jc) = &solid.strength {
+                let t = temperature(*e, solid.specific_heat, solid.t_room);
+                let y = jc.flow_stress(*eps_p, scratch.rate.get(i).copied().unwrap_or(0.0), t);
+                *eps_p += radial_return(&mut s.0, y, solid.shear);
+            }
+            *pr = solid.eos.pressure(*rho, *e);
+            if let Some(f) = &solid.failure {
+                if *failed == 0 && f.fails(*eps_p, *pr) {
+                    *failed = 1;
+                    s.0 = Tensor::zeros();
+                }
+            }
+            if *failed != 0 {
+                *pr = pr.max(0.0);
+            }
+        });
+    p.stress = out;
+}
+
+/// Momentum pass: `p.acc` of every owned solid particle, eq. (S5), from the current state.
+pub fn momentum<const D: usize>(
+    p: &mut Particles<D>,
+    nl: &NeighbourList,
+    model: &Model<D>,
+    scratch: &mut SolidScratch<D>,
+) {
+    let n = p.n_owned;
+    sound_speeds(p, model, &mut scratch.c);
+    stress_terms(p, model, scratch);
+    let w_dp = model.kernel.w(model.dx);
+    let mut acc = std::mem::take(&mut p.acc);
+    {
+        let p = &*p;
+        let visc = Viscosity::of(model);
+        let (sig, rs, c) = (&scratch.sig, &scratch.rs, &scratch.c);
+        acc[..n].par_iter_mut().enumerate().for_each(|(i, a)| {
+            if p.kind[i].is_solid() {
+                *a = momentum_of(p, nl, model, &visc, (sig, rs, c), w_dp, i);
+            }
+        });
+    }
+    p.acc = acc;
+}
+
+/// σ_j/ρ_j² and the artificial stress R_j of every solid particle (owned and ghost), once
+/// per particle rather than per pair.
+fn stress_terms<const D: usize>(p: &Particles<D>, model: &Model<D>, scratch: &mut SolidScratch<D>) {
+    let eps = model.artificial_stress;
+    scratch.sig.resize(p.len(), Tensor::zeros());
+    scratch.rs.resize(p.len(), Tensor::zeros());
+    scratch
+        .sig
+        .par_iter_mut()
+        .zip(scratch.rs.par_iter_mut())
+        .enumerate()
+        .for_each(|(j, (sig, rs))| {
+            if !p.kind[j].is_solid() {
+                return;
+            }
+            let rho2 = p.rho[j] * p.rho[j];
+            let sigma = p.stress[j].0 - Tensor::<D>::identity() * p.p[j];
+            *sig = sigma / rho2;
+            *rs = if eps > 0.0 {
+                artificial_stress(&sigma, eps / rho2)
+            } else {
+                Tensor::zeros()
+            };
+        });
+}
+
+/// Eq. (S5) for owned solid particle `i`.
+#[inline]
+fn momentum_of<const D: usize>(
+    p: &Particles<D>,
+    nl: &NeighbourList,
+    model: &Model<D>,
+    visc: &Viscosity,
+    (sig, rs, c): (&[Tensor<D>], &[Tensor<D>], &[f64]),
+    w_dp: f64,
+    i: usize,
+) -> Vector<D> {
+    let k = &model.kernel;
+    let (xi, vi, rhoi) = (p.x[i], p.v[i], p.rho[i]);
+    let stress_art = model.artificial_stress > 0.0;
+    let sig_bi = sig[i] * p.correction[i].0;
+    let mut a = Vector::<D>::zeros();
+    for &j in nl.of(i) {
+        let j = j as usize;
+        if !p.kind[j].is_solid() {
+            continue;
+        }
+        let xij = xi - p.x[j];
+        let r2 = xij.norm_squared();
+        let r = r2.sqrt();
+        let gw = xij * k.dw_dr_over_r(r);
+        let vij = vi - p.v[j];
+        let pi = visc.pi(vij.dot(&xij), r2, c[i], c[j], rhoi, p.rho[j]);
+        // corrected stress terms (the duals of the corrected velocity gradient), plain
+        // viscosity and artificial stress
+        let mut t = sig_bi + sig[j] * p.correction[j].0 - Tensor::<D>::identity() * pi;
+        if stress_art {
+            let f = k.w(r) / w_dp;
+            let f2 = f * f;
+            t += (rs[i] + rs[j]) * (f2 * f2);
+        }
+        a += (t * gw) * p.mass[j];
+    }
+    a + model.g
+}
+
+/// Artificial stress R (Gray, Monaghan & Swift 2001): in the principal frame of σ, each
+/// tensile principal stress σ'_aa > 0 gives R'_aa = −`eps_rho2` σ'_aa (`eps_rho2` = ε/ρ²),
+/// compressive ones 0; rotated back. nalgebra's symmetric eigen-decomposition of σ embedded
+/// in 3×3 (a 2D tensor gets a zero z row and column, whose eigenvalue 0 adds nothing);
+/// deterministic for a given tensor.
+pub fn artificial_stress<const D: usize>(sigma: &Tensor<D>, eps_rho2: f64) -> Tensor<D> {
+    let mut m = nalgebra::Matrix3::<f64>::zeros();
+    for a in 0..D {
+        for b in 0..D {
+            m[(a, b)] = sigma[(a, b)];
+        }
+    }
+    let eig = m.symmetric_eigen();
+    let mut r = nalgebra::Matrix3::<f64>::zeros();
+    for a in 0..3 {
+        let l = eig.eigenvalues[a];
+        if l > 0.0 {
+            let q = eig.eigenvectors.column(a);
+            r += (q * q.transpose()) * (-eps_rho2 * l);
+        }
+    }
+    Tensor::<D>::from_fn(|a, b| r[(a, b)])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn artificial_stress_acts_on_tension_only_and_in_its_principal_frame() {
+        // σ = diag(+2, −3) rotated by 30°: R = −ε/ρ² · 2 q qᵀ along the tensile axis
+        let th: f64 = 30f64.to_radians();
+        let q = nalgebra::Matrix2::new(th.cos(), -th.sin(), th.sin(), th.cos());
+        let s = q * nalgebra::Matrix2::new(2.0, 0.0, 0.0, -3.0) * q.transpose();
+        let r = artificial_stress::<2>(&s, 0.5);
+        let axis = q.column(0);
+        let want = (axis * axis.transpose()) * (-0.5 * 2.0);
+        assert!((r - want).abs().max() < 1e-12, "{r} vs {want}");
+        // pure compression: no artificial stress
+        let c = nalgebra::Matrix3::new(-1.0, 0.2, 0.0, 0.2, -2.0, 0.1, 0.0, 0.1, -0.5);
+        assert_eq!(artificial_stress::<3>(&c, 0.3), Tensor::<3>::zeros());
+    }
+
+    #[test]
+    fn viscosity_is_zero_for_receding_pairs_and_matches_the_formula_for_approaching() {
+        let v = Viscosity {
+            alpha: 1.0,
+            beta: 2.0,
+            h: 0.1,
+            eta2: 1e-4,
+        };
+        assert_eq!(v.pi(0.5, 0.01, 10.0, 10.0, 1.0, 1.0), 0.0);
+        let mu = 0.1 * -0.5 / (0.01 + 1e-4);
+        let want = -10.0 * mu + 2.0 * mu * mu;
+        assert!((v.pi(-0.5, 0.01, 8.0, 12.0, 0.5, 1.5) - want).abs() < 1e-12);
+    }
+}

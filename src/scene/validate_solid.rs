@@ -1,0 +1,193 @@
+//! Semantic checks of solid materials and `[[solid]]` bodies: every constant a solid needs is
+//! filled (from the library where named) and physically possible, and fluids and solids each
+//! get a material of their own kind.
+
+use super::*;
+use crate::error::{Error, Result};
+use crate::physics::solid::library;
+
+fn err<T>(key: impl Into<String>, msg: impl Into<String>) -> Result<T> {
+    Err(Error::input(key, msg))
+}
+
+/// `value` must be a finite number > 0 (or ≥ 0 with `allow_zero`).
+fn check(value: Option<f64>, key: &str, example: &str, allow_zero: bool) -> Result<()> {
+    match value {
+        None => err(key, format!("is needed for a solid; e.g. {example}")),
+        Some(x) if !x.is_finite() || x < 0.0 || (x == 0.0 && !allow_zero) => {
+            let bound = if allow_zero { "≥ 0" } else { "> 0" };
+            err(key, format!("must be a number {bound} (got {x}); e.g. {example}"))
+        }
+        Some(_) => Ok(()),
+    }
+}
+
+/// Fill a solid material's missing constants from its library entry, then check them all.
+pub(super) fn solid_material(m: &mut Material, k: &str) -> Result<()> {
+    if let Some(name) = &m.library {
+        let Some(c) = library::find(name) else {
+            let names: Vec<&str> = library::LIBRARY.iter().map(|c| c.name).collect();
+            return err(
+                format!("{k}.library"),
+                format!(
+                    "unknown library material `{name}`; the library holds: {}",
+                    names.join(", ")
+                ),
+            );
+        };
+        let fill = |v: &mut f64, x: f64| {
+            if *v == 0.0 {
+                *v = x
+            }
+        };
+        fill(&mut m.rho0, c.eos.rho0);
+        fill(&mut m.c0, c.eos.c0);
+        m.hugoniot_slope.get_or_insert(c.eos.s);
+        m.gruneisen.get_or_insert(c.eos.gamma0);
+        m.shear_modulus.get_or_insert(c.shear_modulus);
+        m.strength.get_or_insert(StrengthKind::JohnsonCook);
+        let jc = &c.strength;
+        m.jc_a.get_or_insert(jc.a);
+        m.jc_b.get_or_insert(jc.b);
+        m.jc_n.get_or_insert(jc.n);
+        m.jc_c.get_or_insert(jc.c);
+        m.jc_m.get_or_insert(jc.m);
+        m.t_room.get_or_insert(jc.t_room);
+        m.t_melt.get_or_insert(jc.t_melt);
+        m.specific_heat.get_or_insert(c.specific_heat);
+    }
+    check(Some(m.rho0), &format!("{k}.rho0"), "rho0 = 2703.0", false)?;
+    check(
+        Some(m.c0),
+        &format!("{k}.c0"),
+        "c0 = 5240.0 (the bulk sound speed)",
+        false,
+    )?;
+    m.hugoniot_slope.get_or_insert(0.0);
+    m.gruneisen.get_or_insert(0.0);
+    check(
+        m.hugoniot_slope,
+        &format!("{k}.hugoniot_slope"),
+        "hugoniot_slope = 1.4",
+        true,
+    )?;
+    check(m.gruneisen, &format!("{k}.gruneisen"), "gruneisen = 1.97", true)?;
+    check(
+        m.shear_modulus,
+        &format!("{k}.shear_modulus"),
+        "shear_modulus = 27.6e9",
+        false,
+    )?;
+    if m.strength.get_or_insert(StrengthKind::Elastic) == &StrengthKind::JohnsonCook {
+        check(m.jc_a, &format!("{k}.jc_a"), "jc_a = 324e6", false)?;
+        check(m.jc_b, &format!("{k}.jc_b"), "jc_b = 114e6", true)?;
+        check(m.jc_n, &format!("{k}.jc_n"), "jc_n = 0.42", false)?;
+        check(m.jc_c, &format!("{k}.jc_c"), "jc_c = 0.002", true)?;
+        check(m.jc_m, &format!("{k}.jc_m"), "jc_m = 1.34", false)?;
+        check(m.t_room, &format!("{k}.t_room"), "t_room = 294.0", false)?;
+        check(m.t_melt, &format!("{k}.t_melt"), "t_melt = 925.0", false)?;
+        check(
+            m.specific_heat,
+            &format!("{k}.specific_heat"),
+            "specific_heat = 896.0",
+            false,
+        )?;
+        let (room, melt) = (m.t_room.unwrap_or(0.0), m.t_melt.unwrap_or(0.0));
+        if melt <= room {
+            return err(
+                format!("{k}.t_melt"),
+                format!("the melt temperature {melt} K is not above the room temperature {room} K"),
+            );
+        }
+    }
+    if m.failure_strain.is_some() {
+        check(
+            m.failure_strain,
+            &format!("{k}.failure_strain"),
+            "failure_strain = 1.5",
+            false,
+        )?;
+    }
+    if m.spall_pressure.is_some() {
+        check(
+            m.spall_pressure,
+            &format!("{k}.spall_pressure"),
+            "spall_pressure = 1.2e9",
+            false,
+        )?;
+    }
+    Ok(())
+}
+
+/// A fluid material must not carry solid keys (a typo for `model = "solid"`, most likely).
+pub(super) fn fluid_material(m: &Material, k: &str) -> Result<()> {
+    let solid_keys = [
+        ("library", m.library.is_some()),
+        ("hugoniot_slope", m.hugoniot_slope.is_some()),
+        ("gruneisen", m.gruneisen.is_some()),
+        ("shear_modulus", m.shear_modulus.is_some()),
+        ("strength", m.strength.is_some()),
+        ("jc_a", m.jc_a.is_some()),
+        ("jc_b", m.jc_b.is_some()),
+        ("jc_n", m.jc_n.is_some()),
+        ("jc_c", m.jc_c.is_some()),
+        ("jc_m", m.jc_m.is_some()),
+        ("t_room", m.t_room.is_some()),
+        ("t_melt", m.t_melt.is_some()),
+        ("specific_heat", m.specific_heat.is_some()),
+        ("failure_strain", m.failure_strain.is_some()),
+        ("spall_pressure", m.spall_pressure.is_some()),
+    ];
+    if let Some((key, _)) = solid_keys.iter().find(|(_, set)| *set) {
+        return err(
+            format!("{k}.{key}"),
+            format!(
+                "`{key}` is a key of solid materials; add model = \"solid\" to this material or remove it"
+            ),
+        );
+    }
+    Ok(())
+}
+
+/// Each body's material is of the body's kind: `fluid[i]` with a fluid material, `solid[i]`
+/// with a solid one; `clamped` and `hydrostatic` where they mean something.
+pub(super) fn body_kinds(s: &Scene) -> Result<()> {
+    let solid = |name: &str| s.materials.iter().any(|m| m.name == name && m.is_solid());
+    for (i, f) in s.fluids.iter().enumerate() {
+        if solid(&f.material) {
+            return err(
+                format!("fluid[{i}].material"),
+                format!(
+                    "material `{}` is a solid (model = \"solid\"); put this body under [[solid]] or \
+                     give it a fluid material",
+                    f.material
+                ),
+            );
+        }
+        if f.clamped {
+            return err(
+                format!("fluid[{i}].clamped"),
+                "only a [[solid]] body can be clamped",
+            );
+        }
+    }
+    for (i, f) in s.solids.iter().enumerate() {
+        if !solid(&f.material) {
+            return err(
+                format!("solid[{i}].material"),
+                format!(
+                    "material `{}` is a fluid; a [[solid]] body needs a material with model = \"solid\" \
+                     (e.g. library = \"al6061-t6\")",
+                    f.material
+                ),
+            );
+        }
+        if f.hydrostatic {
+            return err(
+                format!("solid[{i}].hydrostatic"),
+                "a solid starts unstressed: hydrostatic applies to fluid bodies only",
+            );
+        }
+    }
+    Ok(())
+}
