@@ -141,6 +141,15 @@ fn mpi_runs_give_the_local_back_ends_bits() {
             "tests/data/dam_break_3d_small.toml",
             vec!["time.t_end=0.05", "balance.check_every=5"],
         ),
+        // the oblique impact (issue 12), coarse: halos carry the solid fields under MPI too
+        (
+            "inputs/impact_oblique_45.toml",
+            vec![
+                "discretisation.dx=6.0e-4",
+                "time.t_end=1.0e-6",
+                "output.interval=5.0e-7",
+            ],
+        ),
     ] {
         let path = common::repo_path(scene);
         let path = path.to_str().unwrap();

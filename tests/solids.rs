@@ -280,35 +280,4 @@ fn impact_same_bits_on_any_rank_count_and_across_a_restart() {
     assert_same(&one, &b, "4 -> 3 restart");
 }
 
-#[test]
-#[ignore]
-fn explore_plate() {
-    let sets: Vec<String> = std::env::var("PLATE_SETS")
-        .unwrap_or_default()
-        .split_whitespace()
-        .map(String::from)
-        .collect();
-    let sets: Vec<&str> = sets.iter().map(|s| s.as_str()).collect();
-    let t_end: f64 = std::env::var("PLATE_T")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(0.3);
-    let h = plate_history(&sets, t_end);
-    let crossings: Vec<f64> = h
-        .windows(2)
-        .filter(|w| w[0].1 > 0.0 && w[1].1 <= 0.0 || w[0].1 < 0.0 && w[1].1 >= 0.0)
-        .map(|w| w[0].0 - w[0].1 * (w[1].0 - w[0].0) / (w[1].1 - w[0].1))
-        .collect();
-    let e0 = h[0].2;
-    let emax = h.iter().map(|x| ((x.2 - e0) / e0).abs()).fold(0.0, f64::max);
-    let ymax = h.iter().map(|x| x.1.abs()).fold(0.0, f64::max);
-    println!("crossings {crossings:?} ymax {ymax} energy drift max {emax}");
-    for k in (0..h.len()).step_by(h.len() / 10) {
-        println!(
-            "t {:.4} y {:.5} E/E0 - 1 = {:.4e}",
-            h[k].0,
-            h[k].1,
-            h[k].2 / e0 - 1.0
-        );
-    }
-}
+

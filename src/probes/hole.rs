@@ -183,9 +183,8 @@ pub fn settled(text: &str, reference: Option<(f64, f64, &str)>) -> serde_json::V
             .iter()
             .take_while(|s| s[0] <= r[0] + SETTLE_WINDOW * (1.0 + 1e-9))
             .collect();
-        let spans = window
-            .last()
-            .is_some_and(|s| s[0] >= r[0] + SETTLE_WINDOW * (1.0 - 1e-9));
+        // rows come at the first step past each sampling time: allow 5 % of the window of jitter
+        let spans = window.last().is_some_and(|s| s[0] >= r[0] + 0.95 * SETTLE_WINDOW);
         if spans
             && window
                 .iter()

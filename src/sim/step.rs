@@ -228,18 +228,27 @@ impl<const D: usize> Simulation<D> {
         } else {
             let (kind, v, a) = (&self.p.kind, &self.p.v, &self.p.acc);
             let signal = |i: usize| self.solid_signal_speed(i);
-            let (vmax, amax, smax) = (0..n)
+            // a solid's volumetric strain rate |dρ/dt|/ρ = |tr L| (1/s)
+            let (kind_all, rho, drho) = (&self.p.kind, &self.p.rho, &self.p.drho);
+            let strain = |i: usize| {
+                if kind_all[i].is_solid() {
+                    (drho[i] / rho[i]).abs()
+                } else {
+                    0.0
+                }
+            };
+            let (vmax, amax, smax, dmax) = (0..n)
                 .into_par_iter()
                 .filter(|&i| kind[i].is_integrated())
-                .map(|i| (v[i].norm(), a[i].norm(), signal(i)))
+                .map(|i| (v[i].norm(), a[i].norm(), signal(i), strain(i)))
                 .reduce(
-                    || (0.0f64, 0.0f64, 0.0f64),
-                    |x, y| (x.0.max(y.0), x.1.max(y.1), x.2.max(y.2)),
+                    || (0.0f64, 0.0f64, 0.0f64, 0.0f64),
+                    |x, y| (x.0.max(y.0), x.1.max(y.1), x.2.max(y.2), x.3.max(y.3)),
                 );
             // max is exact, so the all-reduce gives the same bits on any number of ranks
-            let mut m = [vmax, amax, smax];
+            let mut m = [vmax, amax, smax, dmax];
             comm.all_reduce_max_f64(&mut m)?;
-            let (vmax, amax, smax) = (m[0], m[1], m[2]);
+            let (vmax, amax, smax, dmax) = (m[0], m[1], m[2], m[3]);
             let fluid_signal = if self.model.has_fluid {
                 self.model.c_max + vmax
             } else {
@@ -251,6 +260,10 @@ impl<const D: usize> Simulation<D> {
             }
             if self.model.nu > 0.0 {
                 dt = dt.min(0.125 * h * h / self.model.nu);
+            }
+            if dmax > 0.0 {
+                // a solid's volume changes by at most 10 % per step (colliding debris)
+                dt = dt.min(0.1 / dmax);
             }
             dt
         };

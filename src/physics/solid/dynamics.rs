@@ -47,7 +47,7 @@ pub struct SolidScratch<const D: usize> {
     /// Equivalent strain rate √(⅔ ε̇_dev:ε̇_dev) of owned particles (1/s), the Johnson–Cook
     /// rate.
     pub rate: Vec<f64>,
-    /// σ_j/ρ_j² of every particle (m⁵ kg⁻¹ s⁻² per unit tensor).
+    /// σ_j B_j/ρ_j² of every particle (the corrected stress term of the momentum equation).
     sig: Vec<Tensor<D>>,
     /// Artificial stress R_j of every particle (same units as `sig`).
     rs: Vec<Tensor<D>>,
@@ -154,7 +154,7 @@ pub fn rates<const D: usize>(
     let n = p.n_owned;
     sound_speeds(p, model, &mut scratch.c);
     if model.artificial_stress > 0.0 {
-        stress_terms(p, model, scratch);
+        stress_terms(p, model, scratch, false);
     }
     scratch.ds.resize(n, Tensor::zeros());
     scratch.de.resize(n, 0.0);
@@ -242,7 +242,7 @@ fn rates_of<const D: usize>(
     (div, ds, de, rate)
 }
 
-/// Update pass (no neighbours) for every owned solid particle: ρ += dt dρ/dt, e += dt de/dt,
+/// Update pass (no neighbours) for every owned solid particle: ρ ← ρ exp(dt (dρ/dt)/ρ), e += dt de/dt,
 /// S += dt dS/dt; radial return to the Johnson–Cook surface at the particle's plastic strain,
 /// strain rate and temperature (T = T_room + e/c_v), adding the plastic strain; p = p(ρ, e);
 /// then the failure criteria: a failed particle keeps S = 0 and p ≥ 0.
@@ -251,6 +251,8 @@ pub fn update<const D: usize>(p: &mut Particles<D>, model: &Model<D>, dt: f64, s
     let kind = &p.kind[..n];
     let mat = &p.mat[..n];
     let drho = &p.drho[..n];
+    let mass = &p.mass[..n];
+    let w0 = model.kernel.w(0.0);
     let mut out = std::mem::take(&mut p.stress);
     p.rho[..n]
         .par_iter_mut()
@@ -271,7 +273,14 @@ pub fn update<const D: usize>(p: &mut Particles<D>, model: &Model<D>, dt: f64, s
                 return;
             };
             if dt > 0.0 {
-                *rho += dt * drho[i];
+                // d ln ρ/dt = −tr L integrated exactly over the step: the same to first order
+                // as ρ += dt dρ/dt, and positive however fast a fragment expands (an explicit
+                // update took a debris particle to ρ < 0 in the oblique impact)
+                *rho *= (dt * drho[i] / *rho).exp();
+                // never below the particle's own kernel contribution m W(0), the density an
+                // isolated particle has by summation: a receding pair of debris particles
+                // otherwise drives its continuity density to 0 (L ∝ 1/ρ) and the run to NaN
+                *rho = rho.max(mass[i] * w0);
                 *e += dt * scratch.de[i];
                 // the Jaumann rate is symmetric only up to rounding: keep S symmetric to the
                 // last bit, as ghosts receive its upper triangle
@@ -307,7 +316,7 @@ pub fn momentum<const D: usize>(
 ) {
     let n = p.n_owned;
     sound_speeds(p, model, &mut scratch.c);
-    stress_terms(p, model, scratch);
+    stress_terms(p, model, scratch, true);
     let w_dp = model.kernel.w(model.dx);
     let mut acc = std::mem::take(&mut p.acc);
     {
@@ -323,9 +332,14 @@ pub fn momentum<const D: usize>(
     p.acc = acc;
 }
 
-/// σ_j/ρ_j² and the artificial stress R_j of every solid particle (owned and ghost), once
-/// per particle rather than per pair.
-fn stress_terms<const D: usize>(p: &Particles<D>, model: &Model<D>, scratch: &mut SolidScratch<D>) {
+/// σ_j B_j/ρ_j² (with `with_sig`) and the artificial stress R_j of every solid particle (owned
+/// and ghost), once per particle rather than per pair.
+fn stress_terms<const D: usize>(
+    p: &Particles<D>,
+    model: &Model<D>,
+    scratch: &mut SolidScratch<D>,
+    with_sig: bool,
+) {
     let eps = model.artificial_stress;
     scratch.sig.resize(p.len(), Tensor::zeros());
     scratch.rs.resize(p.len(), Tensor::zeros());
@@ -340,7 +354,10 @@ fn stress_terms<const D: usize>(p: &Particles<D>, model: &Model<D>, scratch: &mu
             }
             let rho2 = p.rho[j] * p.rho[j];
             let sigma = p.stress[j].0 - Tensor::<D>::identity() * p.p[j];
-            *sig = sigma / rho2;
+            if with_sig {
+                // σ_j B_j/ρ_j² once per particle, not a matrix product per pair
+                *sig = (sigma / rho2) * p.correction[j].0;
+            }
             *rs = if eps > 0.0 {
                 artificial_stress(&sigma, eps / rho2)
             } else {
@@ -363,7 +380,7 @@ fn momentum_of<const D: usize>(
     let k = &model.kernel;
     let (xi, vi, rhoi) = (p.x[i], p.v[i], p.rho[i]);
     let stress_art = model.artificial_stress > 0.0;
-    let sig_bi = sig[i] * p.correction[i].0;
+    let sig_bi = sig[i];
     let mut a = Vector::<D>::zeros();
     for &j in nl.of(i) {
         let j = j as usize;
@@ -378,7 +395,7 @@ fn momentum_of<const D: usize>(
         let pi = visc.pi(vij.dot(&xij), r2, c[i], c[j], rhoi, p.rho[j]);
         // corrected stress terms (the duals of the corrected velocity gradient), plain
         // viscosity and artificial stress
-        let mut t = sig_bi + sig[j] * p.correction[j].0 - Tensor::<D>::identity() * pi;
+        let mut t = sig_bi + sig[j] - Tensor::<D>::identity() * pi;
         if stress_art {
             let f = k.w(r) / w_dp;
             let f2 = f * f;
@@ -395,6 +412,15 @@ fn momentum_of<const D: usize>(
 /// in 3×3 (a 2D tensor gets a zero z row and column, whose eigenvalue 0 adds nothing);
 /// deterministic for a given tensor.
 pub fn artificial_stress<const D: usize>(sigma: &Tensor<D>, eps_rho2: f64) -> Tensor<D> {
+    // Gershgorin: every eigenvalue lies within a disc σ_aa ± Σ_b≠a |σ_ab|; with all discs at
+    // or below zero no principal stress is tensile and the decomposition is skipped
+    let tensile = (0..D).any(|a| {
+        let off: f64 = (0..D).filter(|&b| b != a).map(|b| sigma[(a, b)].abs()).sum();
+        sigma[(a, a)] + off > 0.0
+    });
+    if !tensile {
+        return Tensor::zeros();
+    }
     let mut m = nalgebra::Matrix3::<f64>::zeros();
     for a in 0..D {
         for b in 0..D {
