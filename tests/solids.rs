@@ -279,5 +279,3 @@ fn impact_same_bits_on_any_rank_count_and_across_a_restart() {
     assert_eq!(code, 0, "{err}");
     assert_same(&one, &b, "4 -> 3 restart");
 }
-
-
