@@ -252,113 +252,180 @@ pub fn measure_with_cells<const D: usize>(
     ids: &[usize],
     s: &HoleSetup<D>,
 ) -> (Hole, Vec<[f64; 2]>) {
-    let (u, v) = plane_axes(D, s.normal);
-    let cell = cell_size(s.dx);
-    let band = 0.5 * s.thickness + 3.0 * s.thickness;
-    let margin = 4.0 * cell;
-    let (u0, v0) = (s.lo[u] - margin, v.map_or(0.0, |v| s.lo[v] - margin));
-    let nu = (((s.hi[u] - s.lo[u]) + 2.0 * margin) / cell).ceil() as usize + 1;
-    let nv = v.map_or(1, |v| {
-        (((s.hi[v] - s.lo[v]) + 2.0 * margin) / cell).ceil() as usize + 1
-    });
-    let mut full = vec![false; nu * nv];
-    let cell_of = |x: &Vector<D>| -> Option<usize> {
-        let a = ((x[u] - u0) / cell).floor();
-        let b = v.map_or(0.0, |v| ((x[v] - v0) / cell).floor());
-        (a >= 0.0 && b >= 0.0 && (a as usize) < nu && (b as usize) < nv).then(|| b as usize * nu + a as usize)
+    let grid = Grid::over(s, D);
+    let mut hole = debris_cloud(p, ids, s);
+    let full = occupancy(p, ids, s, &grid);
+    let Some(mut cells) = flood(&grid, &full, s) else {
+        return (hole, Vec::new());
     };
-    // the rear face: where the projectile leaves the plate
-    let sign = if s.direction[s.normal] < 0.0 { -1.0 } else { 1.0 };
-    let rear = s.mid + 0.5 * s.thickness * sign;
-    let behind = |x: &Vector<D>| (x[s.normal] - rear) * sign;
-    let mut hole = Hole::default();
-    let mut debris = Vec::new();
-    for &i in ids {
-        if !p.kind[i].is_solid() {
-            continue;
-        }
-        let x = &p.x[i];
-        if p.body[i] == s.plate && (x[s.normal] - s.mid).abs() <= band {
-            if let Some(c) = cell_of(x) {
-                full[c] = true;
-            }
-        }
-        if behind(x) > s.thickness {
-            debris.push(i);
+    cells.sort_unstable();
+    fit_ellipse(&grid, &cells, &mut hole);
+    let centres = cells
+        .iter()
+        .map(|&c| {
+            let (x, y) = grid.centre(c);
+            [x, y]
+        })
+        .collect();
+    (hole, centres)
+}
+
+/// The cells of the plate plane: `nu` × `nv` squares of side `cell` from (`u0`, `v0`) along the
+/// in-plane axes `u`, `v` (a single row in 2D).
+struct Grid {
+    u: usize,
+    v: Option<usize>,
+    u0: f64,
+    v0: f64,
+    cell: f64,
+    nu: usize,
+    nv: usize,
+}
+
+impl Grid {
+    /// The plate's in-plane extent with a margin of 4 cells.
+    fn over<const D: usize>(s: &HoleSetup<D>, d: usize) -> Self {
+        let (u, v) = plane_axes(d, s.normal);
+        let cell = cell_size(s.dx);
+        let margin = 4.0 * cell;
+        let (u0, v0) = (s.lo[u] - margin, v.map_or(0.0, |v| s.lo[v] - margin));
+        let nu = (((s.hi[u] - s.lo[u]) + 2.0 * margin) / cell).ceil() as usize + 1;
+        let nv = v.map_or(1, |v| {
+            (((s.hi[v] - s.lo[v]) + 2.0 * margin) / cell).ceil() as usize + 1
+        });
+        Grid {
+            u,
+            v,
+            u0,
+            v0,
+            cell,
+            nu,
+            nv,
         }
     }
-    // the debris cloud
-    hole.debris = debris.len() as f64;
-    for &i in &debris {
+
+    /// The cell holding position `x`, if on the grid.
+    fn cell_of<const D: usize>(&self, x: &Vector<D>) -> Option<usize> {
+        let a = ((x[self.u] - self.u0) / self.cell).floor();
+        let b = self.v.map_or(0.0, |v| ((x[v] - self.v0) / self.cell).floor());
+        (a >= 0.0 && b >= 0.0 && (a as usize) < self.nu && (b as usize) < self.nv)
+            .then(|| b as usize * self.nu + a as usize)
+    }
+
+    /// In-plane centre of cell `c` (m).
+    fn centre(&self, c: usize) -> (f64, f64) {
+        let (a, b) = (c % self.nu, c / self.nu);
+        (
+            self.u0 + (a as f64 + 0.5) * self.cell,
+            self.v0 + (b as f64 + 0.5) * self.cell,
+        )
+    }
+}
+
+/// Distance of `x` behind the plate's rear face, the face the projectile leaves by (m).
+fn behind<const D: usize>(x: &Vector<D>, s: &HoleSetup<D>) -> f64 {
+    let sign = if s.direction[s.normal] < 0.0 { -1.0 } else { 1.0 };
+    let rear = s.mid + 0.5 * s.thickness * sign;
+    (x[s.normal] - rear) * sign
+}
+
+/// A measurement holding only the debris cloud: every solid particle more than a thickness
+/// behind the rear face, its length along the impact direction and its width across.
+fn debris_cloud<const D: usize>(p: &Particles<D>, ids: &[usize], s: &HoleSetup<D>) -> Hole {
+    let mut hole = Hole::default();
+    for &i in ids {
+        if !p.kind[i].is_solid() || behind(&p.x[i], s) <= s.thickness {
+            continue;
+        }
+        hole.debris += 1.0;
         let r = p.x[i] - s.aim;
         let along = r.dot(&s.direction);
         let across = (r - s.direction * along).norm();
-        hole.debris_length = hole.debris_length.max(behind(&p.x[i]));
+        hole.debris_length = hole.debris_length.max(behind(&p.x[i], s));
         hole.debris_width = hole.debris_width.max(2.0 * across);
     }
-    // seed: the empty cells within the projectile radius of the aim point
-    let centre = |c: usize| -> (f64, f64) {
-        let (a, b) = (c % nu, c / nu);
-        (u0 + (a as f64 + 0.5) * cell, v0 + (b as f64 + 0.5) * cell)
-    };
-    let aim = (s.aim[u], v.map_or(0.0, |v| s.aim[v]));
+    hole
+}
+
+/// Cells covered by a plate particle within the band (half a thickness plus 3 H) of the
+/// mid-plane.
+fn occupancy<const D: usize>(p: &Particles<D>, ids: &[usize], s: &HoleSetup<D>, grid: &Grid) -> Vec<bool> {
+    let band = 0.5 * s.thickness + 3.0 * s.thickness;
+    let mut full = vec![false; grid.nu * grid.nv];
+    for &i in ids {
+        let x = &p.x[i];
+        if p.kind[i].is_solid() && p.body[i] == s.plate && (x[s.normal] - s.mid).abs() <= band {
+            if let Some(c) = grid.cell_of(x) {
+                full[c] = true;
+            }
+        }
+    }
+    full
+}
+
+/// The 4-connected empty cells reached from those within the projectile's radius of the aim
+/// point; `None` when there are none or they reach the grid's edge (no hole, open ground).
+fn flood<const D: usize>(grid: &Grid, full: &[bool], s: &HoleSetup<D>) -> Option<Vec<usize>> {
+    let (nu, nv) = (grid.nu, grid.nv);
+    let aim = (s.aim[grid.u], grid.v.map_or(0.0, |v| s.aim[v]));
     let mut label = vec![false; nu * nv];
     let mut stack: Vec<usize> = (0..nu * nv)
         .filter(|&c| {
-            let (x, y) = centre(c);
+            let (x, y) = grid.centre(c);
             !full[c] && (x - aim.0).hypot(y - aim.1) <= s.radius
         })
         .collect();
     stack.iter().for_each(|&c| label[c] = true);
     let mut cells = Vec::new();
-    let mut open = false; // the empty region reaches the grid's edge: not a hole
+    let mut open = false;
     while let Some(c) = stack.pop() {
         cells.push(c);
         let (a, b) = (c % nu, c / nu);
         if a == 0 || a + 1 == nu || (nv > 1 && (b == 0 || b + 1 == nv)) {
             open = true;
         }
-        let mut visit = |n: usize| {
+        let neighbours = [
+            (a > 0).then(|| c - 1),
+            (a + 1 < nu).then(|| c + 1),
+            (b > 0).then(|| c - nu),
+            (b + 1 < nv).then(|| c + nu),
+        ];
+        for n in neighbours.into_iter().flatten() {
             if !full[n] && !label[n] {
                 label[n] = true;
                 stack.push(n);
             }
-        };
-        if a > 0 {
-            visit(c - 1);
-        }
-        if a + 1 < nu {
-            visit(c + 1);
-        }
-        if b > 0 {
-            visit(c - nu);
-        }
-        if b + 1 < nv {
-            visit(c + nu);
         }
     }
-    if cells.is_empty() || open {
-        return (hole, Vec::new());
-    }
-    cells.sort_unstable();
+    (!cells.is_empty() && !open).then_some(cells)
+}
+
+/// Axes, orientation, area and centre of the hole's cells (sorted) from their second moments,
+/// each cell a uniform square (variance cell²/12 per axis): a uniform ellipse with semi-axes
+/// a ≥ b has eigenvalues a²/4 and b²/4.
+fn fit_ellipse(grid: &Grid, cells: &[usize], hole: &mut Hole) {
+    let cell = grid.cell;
     let n = cells.len() as f64;
     let (mut mx, mut my) = (0.0, 0.0);
-    for &c in &cells {
-        let (x, y) = centre(c);
+    for &c in cells {
+        let (x, y) = grid.centre(c);
         mx += x;
         my += y;
     }
     let (mx, my) = (mx / n, my / n);
-    // second moments, each cell a uniform square (variance cell²/12 per axis)
     let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
-    for &c in &cells {
-        let (x, y) = centre(c);
+    for &c in cells {
+        let (x, y) = grid.centre(c);
         sxx += (x - mx) * (x - mx);
         syy += (y - my) * (y - my);
         sxy += (x - mx) * (y - my);
     }
     let add = cell * cell / 12.0;
-    let (sxx, syy, sxy) = (sxx / n + add, if nv > 1 { syy / n + add } else { 0.0 }, sxy / n);
+    let (sxx, syy, sxy) = (
+        sxx / n + add,
+        if grid.nv > 1 { syy / n + add } else { 0.0 },
+        sxy / n,
+    );
     let tr = 0.5 * (sxx + syy);
     let det = (0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy).sqrt();
     let (l1, l2) = (tr + det, (tr - det).max(0.0));
@@ -372,14 +439,6 @@ pub fn measure_with_cells<const D: usize>(
     hole.angle = angle;
     hole.area = n * cell * cell;
     hole.centre = [mx, my];
-    let centres = cells
-        .iter()
-        .map(|&c| {
-            let (x, y) = centre(c);
-            [x, y]
-        })
-        .collect();
-    (hole, centres)
 }
 
 /// Side of the cells the plate is projected on (m): 1.5 dx, so that a plate stretched to 1.5×

@@ -100,13 +100,47 @@ pub fn charts(run: &Path, out: &Path, field: &str) -> Result<Vec<PathBuf>> {
     let setup = HoleSetup::<3>::of(&scene, &plate, &projectile);
     let ids: Vec<usize> = (0..fin.p.n_owned).filter(|&i| fin.p.kind[i].is_solid()).collect();
     let (hole, cells) = measure_with_cells(&fin.p, &ids, &setup);
+    let range = scale(&ids.iter().map(|&i| fin.values[i]).collect::<Vec<_>>());
+    let view = View {
+        fin: &fin,
+        ids: &ids,
+        setup: &setup,
+        hole: &hole,
+        range,
+        field,
+    };
+    let mut files = top_view(out, &view, &cells, scene.discretisation.dx)?;
+    files.extend(side_view(out, &view)?);
+    Ok(files)
+}
+
+/// What both pictures draw.
+struct View<'a> {
+    fin: &'a Final,
+    ids: &'a [usize],
+    setup: &'a HoleSetup<3>,
+    hole: &'a crate::probes::hole::Hole,
+    range: (f64, f64),
+    field: &'a str,
+}
+
+impl View<'_> {
+    fn colour(&self, x: f64) -> RGBColor {
+        viridis((x - self.range.0) / (self.range.1 - self.range.0))
+    }
+}
+
+const NAMES: [&str; 3] = ["x", "y", "z"];
+
+/// `impact_top`: the plate's particles near its mid-plane seen along its normal, the hole's
+/// cells and the fitted ellipse.
+fn top_view(out: &Path, view: &View, cells: &[[f64; 2]], dx: f64) -> Result<Vec<PathBuf>> {
+    let (fin, setup, hole, field) = (view.fin, view.setup, view.hole, view.field);
+    let ids = view.ids;
+    let colour = |x: f64| view.colour(x);
+    let names = NAMES;
     let (u, v) = in_plane_axes(3, setup.normal);
     let v = v.unwrap_or(1);
-    let range = scale(&ids.iter().map(|&i| fin.values[i]).collect::<Vec<_>>());
-    let colour = |x: f64| viridis((x - range.0) / (range.1 - range.0));
-    let names = ["x", "y", "z"];
-    let mut files = Vec::new();
-    // top view: the plate's particles near its mid-plane
     let band = 3.5 * setup.thickness;
     let plate_ids: Vec<usize> = ids
         .iter()
@@ -114,7 +148,7 @@ pub fn charts(run: &Path, out: &Path, field: &str) -> Result<Vec<PathBuf>> {
         .filter(|&i| fin.p.body[i] == setup.plate && (fin.p.x[i][setup.normal] - setup.mid).abs() <= band)
         .collect();
     let (lo, hi) = (setup.lo, setup.hi);
-    let half = cell_size(scene.discretisation.dx) / 2.0;
+    let half = cell_size(dx) / 2.0;
     let title = if hole.perforated {
         format!(
             "Plate seen along {}: hole {:.2} x {:.2} mm at {:.0} deg (ellipse), coloured by {field}",
@@ -129,7 +163,7 @@ pub fn charts(run: &Path, out: &Path, field: &str) -> Result<Vec<PathBuf>> {
             names[setup.normal]
         )
     };
-    files.extend(both!(out, "impact_top", (900, 820), |root| {
+    both!(out, "impact_top", (900, 820), |root| {
         root.fill(&WHITE)?;
         let mut ch = ChartBuilder::on(root)
             .caption(&title, font(16))
@@ -170,15 +204,25 @@ pub fn charts(run: &Path, out: &Path, field: &str) -> Result<Vec<PathBuf>> {
             ch.draw_series(LineSeries::new(pts, RED.stroke_width(2)))?;
         }
         Ok(())
-    })?);
-    // side view: every solid particle, across the plane of the impact direction and the normal
+    })
+}
+
+/// `impact_side`: every solid particle seen across the plane of the impact direction and the
+/// plate normal (the debris cloud).
+fn side_view(out: &Path, view: &View) -> Result<Vec<PathBuf>> {
+    let (fin, setup, hole, field) = (view.fin, view.setup, view.hole, view.field);
+    let ids = view.ids;
+    let colour = |x: f64| view.colour(x);
+    let names = NAMES;
+    let (u, v) = in_plane_axes(3, setup.normal);
+    let v = v.unwrap_or(1);
     let side = if setup.direction[u].abs() >= setup.direction[v].abs() {
         u
     } else {
         v
     };
     let (mut a0, mut a1, mut b0, mut b1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for &i in &ids {
+    for &i in ids {
         let x = fin.p.x[i];
         a0 = a0.min(x[side]);
         a1 = a1.max(x[side]);
@@ -193,7 +237,7 @@ pub fn charts(run: &Path, out: &Path, field: &str) -> Result<Vec<PathBuf>> {
         hole.debris_length * 1e3,
         hole.debris_width * 1e3
     );
-    files.extend(both!(out, "impact_side", (1000, 800), |root| {
+    both!(out, "impact_side", (1000, 800), |root| {
         root.fill(&WHITE)?;
         let mut ch = ChartBuilder::on(root)
             .caption(&caption, font(14))
@@ -216,6 +260,5 @@ pub fn charts(run: &Path, out: &Path, field: &str) -> Result<Vec<PathBuf>> {
             )
         }))?;
         Ok(())
-    })?);
-    Ok(files)
+    })
 }
