@@ -628,6 +628,9 @@ struct RankRun<'a, const D: usize> {
     n_fluid: u64,
     /// Particles removed by the outflow rule so far, over all ranks.
     removed: u64,
+    /// Energy (J, or J/m in 2D) and mass (kg, or kg/m in 2D) they carried out, summed in id
+    /// order step by step (the same bits on any number of ranks).
+    removed_out: [f64; 2],
     /// Simulated time of the next output step (s).
     next_out: f64,
     /// Simulated time of the next scheduled checkpoint (s; with `[checkpoint] every`).
@@ -710,6 +713,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             stopped_by: None,
             n_fluid: n_total[1],
             removed: 0,
+            removed_out: [0.0; 2],
             next_out: scene.output.interval,
             next_checkpoint: scene.checkpoint.every,
             checkpointed: u64::MAX,
@@ -821,7 +825,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
     /// piece; the state is gathered only for a reference that measures the whole flow.
     fn output(&mut self) -> Result<()> {
         let t0 = Instant::now();
-        let obs = self.sim.observables(self.comm)?;
+        let mut obs = self.sim.observables(self.comm)?;
+        [obs.removed_energy, obs.removed_mass] = self.removed_out;
         let r = reduce(&self.sim, self.comm)?;
         if Tracker::measures_at_output(self.scene) {
             if let Some(v) = self.sim.gather(self.comm)? {
@@ -954,6 +959,10 @@ impl<'a, const D: usize> RankRun<'a, D> {
             .flat_map(|b| crate::sim::outflow::Removal::from_bytes(b, D))
             .collect();
         rows.sort_by_key(|r| r.id);
+        for r in &rows {
+            self.removed_out[0] += r.energy;
+            self.removed_out[1] += r.mass;
+        }
         if let Some(w) = self.writer.as_mut() {
             w.removed_rows(&rows)?;
             if self.removed == 0 {
@@ -1090,6 +1099,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "next_out": self.next_out,
             "next_checkpoint": self.next_checkpoint,
             "removed": self.removed,
+            "removed_out": self.removed_out,
             "n_fluid": self.n_fluid,
             "tracker": self.tracker,
             "probes": self.probes.state(),
@@ -1108,6 +1118,12 @@ impl<'a, const D: usize> RankRun<'a, D> {
             .as_f64()
             .ok_or_else(|| bad("next_checkpoint"))?;
         self.removed = s["removed"].as_u64().ok_or_else(|| bad("removed"))?;
+        // absent in checkpoints of older builds, which did not count it
+        if let Some(out) = s["removed_out"].as_array() {
+            for (k, v) in out.iter().enumerate().take(2) {
+                self.removed_out[k] = v.as_f64().ok_or_else(|| bad("removed_out"))?;
+            }
+        }
         self.n_fluid = s["n_fluid"].as_u64().ok_or_else(|| bad("n_fluid"))?;
         self.tracker = serde_json::from_value(s["tracker"].clone()).map_err(|_| bad("tracker"))?;
         self.probes.restore(&s["probes"])?;
@@ -1303,6 +1319,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "timers": timers,
             "errors": errors,
         });
+        summary["removed_energy"] = json!(self.removed_out[0]);
+        summary["removed_mass"] = json!(self.removed_out[1]);
         summary["hole"] = self.hole_summary();
         summary
     }

@@ -154,14 +154,39 @@ pub fn coupling_warnings(s: &Scene) -> Vec<String> {
 /// Build the owned particles of a scene (sorted by id).
 pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
     let lat = Lattice::<D>::new(s);
-    let dx = s.discretisation.dx;
-    let vol = dx.powi(D as i32);
+    // every site claimed by a body, with the index of the body's name in `keys` (to report
+    // overlaps)
+    let mut keys: Vec<String> = Vec::new();
+    let mut protos: Vec<(Record<D>, u32)> = Vec::new();
+    body_sites(s, &lat, &mut keys, &mut protos)?;
+    wall_sites(s, &lat, &mut keys, &mut protos);
+    protos.sort_by_key(|p| p.0.id);
+    reject_overlaps(&protos, &keys)?;
+    let mut p = Particles::<D>::without(dropped_fields(s));
+    for (r, _) in protos {
+        p.push_owned(r);
+    }
+    Ok(p)
+}
+
+/// Index of material `name` in the scene (validated earlier; 0 if absent).
+fn mat_index(s: &Scene, name: &str) -> u16 {
+    s.materials.iter().position(|m| m.name == name).unwrap_or(0) as u16
+}
+
+/// The sites of the fluid and solid bodies, with their initial fields (hydrostatic density
+/// along −ĝ, velocity, expression fields), appended to `protos` with their body's name in
+/// `keys`.
+fn body_sites<const D: usize>(
+    s: &Scene,
+    lat: &Lattice<D>,
+    keys: &mut Vec<String>,
+    protos: &mut Vec<(Record<D>, u32)>,
+) -> Result<()> {
+    let vol = s.discretisation.dx.powi(D as i32);
     let materials: Vec<MaterialModel> = s.materials.iter().map(MaterialModel::new).collect();
-    let mat_index = |name: &str| s.materials.iter().position(|m| m.name == name).unwrap_or(0) as u16;
     let g = Vector::<D>::from_fn(|a, _| s.physics.body_force[a]);
     let gmag = g.norm();
-    // every site claimed by a body, with the body's name (to report overlaps)
-    let mut protos: Vec<(Record<D>, String)> = Vec::new();
     let solid_kind = |f: &crate::scene::FluidBody| if f.clamped { Kind::Clamped } else { Kind::Solid };
     let bodies = (s
         .fluids
@@ -176,7 +201,7 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
     );
     for (b, f, kind, label) in bodies {
         let key = format!("{label}[{b}]");
-        let mat = mat_index(&f.material);
+        let mat = mat_index(s, &f.material);
         let e = materials[mat as usize];
         let v = Vector::<D>::from_fn(|a, _| f.velocity[a]);
         // top of the block along -ĝ, for the hydrostatic profile
@@ -189,6 +214,8 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
             0.0
         };
         let fields = BodyFields::<D>::new(f, &key, s)?;
+        let label = keys.len() as u32;
+        keys.push(key);
         let mut bad = None;
         lat.for_each_in(&f.min, &f.max, |id, x| {
             if !f.contains(x.as_slice()) {
@@ -205,28 +232,44 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
                 bad.get_or_insert(err);
             }
             let r = Record::new(id, kind, b as u16, mat, x, v, rho * vol, rho);
-            protos.push((r, key.clone()));
+            protos.push((r, label));
         });
         if let Some(err) = bad {
             return Err(err);
         }
     }
+    Ok(())
+}
+
+/// The sites of the dummy and repulsive walls (blocks, and containers as the shell round
+/// their inner box), appended to `protos` with their wall's name in `keys`. Mirror walls are
+/// images of the fluid, not particles.
+fn wall_sites<const D: usize>(
+    s: &Scene,
+    lat: &Lattice<D>,
+    keys: &mut Vec<String>,
+    protos: &mut Vec<(Record<D>, u32)>,
+) {
+    let dx = s.discretisation.dx;
+    let vol = dx.powi(D as i32);
     for (b, w) in s.walls.iter().enumerate() {
         let Some(kind) = wall_kind(w.method) else {
-            continue; // mirror walls are images of the fluid, not particles
+            continue;
         };
-        let mat = mat_index(&w.material);
-        let rho0 = materials[mat as usize].rho0();
+        let mat = mat_index(s, &w.material);
+        let rho0 = MaterialModel::new(&s.materials[mat as usize]).rho0();
         let v = Vector::<D>::from_fn(|a, _| w.velocity[a]);
+        let label = keys.len() as u32;
+        keys.push(format!("wall[{b}]"));
         let mut push = |id, x| {
             let r = Record::new(id, kind, b as u16, mat, x, v, rho0 * vol, rho0);
-            protos.push((r, format!("wall[{b}]")))
+            protos.push((r, label))
         };
         match w.shape {
             WallShape::Block => lat.for_each_in(&w.min, &w.max, &mut push),
             WallShape::Container => {
                 let (lo, hi) = container_outer(w, s.dimension, dx);
-                let inner = lat_box_ids(&lat, &w.min, &w.max);
+                let inner = lat_box_ids(lat, &w.min, &w.max);
                 lat.for_each_in(&lo, &hi, |id, x| {
                     if inner.binary_search(&id).is_err() {
                         push(id, x)
@@ -235,25 +278,25 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
             }
         }
     }
-    protos.sort_by_key(|p| p.0.id);
+}
+
+/// Exit-2 error naming the second of two bodies that claim one lattice site (`protos` sorted
+/// by id; `keys` names the bodies).
+fn reject_overlaps<const D: usize>(protos: &[(Record<D>, u32)], keys: &[String]) -> Result<()> {
     for pair in protos.windows(2) {
         if pair[0].0.id == pair[1].0.id {
             return Err(Error::input(
-                pair[1].1.clone(),
+                keys[pair[1].1 as usize].clone(),
                 format!(
                     "overlaps {} at the lattice site {:?}: bodies must not share particles; \
                      shrink one of them",
-                    pair[0].1,
+                    keys[pair[0].1 as usize],
                     pair[0].0.x.as_slice()
                 ),
             ));
         }
     }
-    let mut p = Particles::<D>::without(dropped_fields(s));
-    for (r, _) in protos {
-        p.push_owned(r);
-    }
-    Ok(p)
+    Ok(())
 }
 
 /// Number of particles the scene's bodies hold, counted from the lattice ranges without

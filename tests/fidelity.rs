@@ -171,9 +171,22 @@ fn a_particle_leaving_the_domain_is_removed_and_counted() {
         !fin.lines().any(|l| l.split(',').next() == Some(id)),
         "particle {id} still in final.csv"
     );
-    // the mass in timeseries.csv drops by the drop's
-    let m = &series(&one)["mass"];
+    // the mass in timeseries.csv drops by the drop's, and removed_mass holds what left: their
+    // sum is the initial mass to round-off, and the energy carried out is counted
+    let c = series(&one);
+    let (m, out) = (&c["mass"], &c["removed_mass"]);
     assert!(m.last().unwrap() < &m[0]);
+    assert_eq!(out[0], 0.0);
+    let balance = m.last().unwrap() + out.last().unwrap();
+    assert!(
+        (balance - m[0]).abs() <= 1e-12 * m[0],
+        "mass {} + removed {} != initial {}",
+        m.last().unwrap(),
+        out.last().unwrap(),
+        m[0]
+    );
+    assert_eq!(s["removed_mass"].as_f64().unwrap(), *out.last().unwrap());
+    assert!(c["removed_energy"].last().unwrap() != &0.0);
     // same bits on 3 ranks
     let (code, err, three) = run("r3", &["--ranks", "3"]);
     assert_eq!(code, 0, "{err}");

@@ -233,7 +233,8 @@ impl<const D: usize> RunWriter<D> {
         let timeseries = series(
             &dir.join("timeseries.csv"),
             &format!(
-                "step,t,dt,kinetic_energy,{},max_speed,potential_energy,internal_energy,total_energy,mass",
+                "step,t,dt,kinetic_energy,{},max_speed,potential_energy,internal_energy,total_energy,mass,\
+                 removed_energy,removed_mass",
                 mom.join(",")
             ),
             append,
@@ -289,7 +290,7 @@ impl<const D: usize> RunWriter<D> {
         let mom: Vec<String> = o.momentum.iter().map(|m| format!("{m}")).collect();
         writeln!(
             self.timeseries,
-            "{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{}",
             sim.step,
             sim.t,
             sim.dt,
@@ -299,7 +300,9 @@ impl<const D: usize> RunWriter<D> {
             o.potential_energy,
             o.internal_energy,
             o.total_energy(),
-            o.mass
+            o.mass,
+            o.removed_energy,
+            o.removed_mass
         )
         .map_err(io)?;
         writeln!(self.diagnostics, "{diag_row}").map_err(|e| Error::io(&self.dir, e))?;

@@ -384,6 +384,8 @@ fn series_meta(col: &str, d: usize) -> (String, String) {
         "internal_energy" => (format!("J{depth}"), "internal (compression) energy"),
         "total_energy" => (format!("J{depth}"), "total energy"),
         "mass" => (format!("kg{depth}"), "total mass"),
+        "removed_energy" => (format!("J{depth}"), "energy carried out by removed particles"),
+        "removed_mass" => (format!("kg{depth}"), "mass carried out by removed particles"),
         "max_speed" => ("m s-1".into(), "largest particle speed"),
         "p" => ("Pa".into(), "pressure at the sensor"),
         "eta" => ("m".into(), "water level at the gauge"),

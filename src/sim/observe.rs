@@ -29,6 +29,12 @@ pub struct Observables<const D: usize> {
     pub internal_energy: f64,
     /// Mass Σ m of the integrated particles (kg, or kg/m in 2D).
     pub mass: f64,
+    /// Energy (kinetic + potential + internal) carried out of the run so far by particles the
+    /// outflow rule removed (J, or J/m in 2D): `total_energy + removed_energy` is what a
+    /// conservative scheme keeps. Filled in by the driver, which counts the removals.
+    pub removed_energy: f64,
+    /// Mass carried out of the run so far by removed particles (kg, or kg/m in 2D).
+    pub removed_mass: f64,
 }
 
 impl<const D: usize> Observables<D> {
@@ -72,11 +78,28 @@ impl<const D: usize> View<'_, D> {
 }
 
 impl<const D: usize> Simulation<D> {
+    /// Kinetic ½ m |v|², potential −m g·x and internal m e energy of owned particle `i`
+    /// (J, or J/m in 2D); e is the solid's specific internal energy or the fluid's
+    /// compression energy e(ρ).
+    pub(super) fn energies(&self, i: usize) -> [f64; 3] {
+        let p = &self.p;
+        let m = p.mass[i];
+        let e = if p.kind[i].is_solid() {
+            p.energy[i]
+        } else {
+            self.model.materials[p.mat[i] as usize].internal_energy(p.rho[i])
+        };
+        [
+            0.5 * m * p.v[i].norm_squared(),
+            -m * self.model.g.dot(&p.x[i]),
+            m * e,
+        ]
+    }
+
     /// Kinetic energy, momentum and max speed of the integrated particles over all ranks,
     /// summed exactly (independent of order, threads and ranks: integer limbs all-reduced).
     pub fn observables(&self, comm: &dyn Comm) -> Result<Observables<D>> {
         let p = &self.p;
-        let (g, mats) = (&self.model.g, &self.model.materials);
         let mut sums: Vec<ExactSum> = (0..SCALARS + D).map(|_| ExactSum::new()).collect();
         let mut vmax = 0.0f64;
         for i in 0..p.n_owned {
@@ -86,14 +109,9 @@ impl<const D: usize> Simulation<D> {
             }
             let m = p.mass[i];
             let v2 = p.v[i].norm_squared();
-            sums[0].add(0.5 * m * v2);
-            sums[1].add(-m * g.dot(&p.x[i]));
-            let e = if p.kind[i].is_solid() {
-                p.energy[i]
-            } else {
-                mats[p.mat[i] as usize].internal_energy(p.rho[i])
-            };
-            sums[2].add(m * e);
+            for (sum, e) in sums.iter_mut().zip(self.energies(i)) {
+                sum.add(e);
+            }
             sums[3].add(m);
             for (a, sum) in sums[SCALARS..].iter_mut().enumerate() {
                 sum.add(m * p.v[i][a]);
@@ -115,6 +133,8 @@ impl<const D: usize> Simulation<D> {
             potential_energy: value(1),
             internal_energy: value(2),
             mass: value(3),
+            removed_energy: 0.0,
+            removed_mass: 0.0,
         })
     }
 

@@ -24,18 +24,28 @@ pub struct Removal {
     pub rho: f64,
     /// Why: `left the domain` or `density out of band`.
     pub reason: &'static str,
+    /// Mass it took out of the run (kg, or kg/m in 2D).
+    pub mass: f64,
+    /// Kinetic + potential + internal energy it took out of the run (J, or J/m in 2D), as
+    /// [`Simulation::observables`] counts it.
+    pub energy: f64,
 }
 
+/// Words of one encoded [`Removal`]: id, step, reason, t, ρ, x (3), mass, energy.
+const WORDS: usize = 10;
+
 impl Removal {
-    /// Fixed-size encoding for the gather on rank 0: id, step, reason, t, ρ, x (3 words).
+    /// Fixed-size encoding for the gather on rank 0: id, step, reason, t, ρ, x (3 words),
+    /// mass, energy.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut b = Vec::with_capacity(8 * 8);
+        let mut b = Vec::with_capacity(8 * WORDS);
         b.extend_from_slice(&self.id.to_le_bytes());
         b.extend_from_slice(&self.step.to_le_bytes());
         b.extend_from_slice(&u64::from(self.reason == REASONS[1]).to_le_bytes());
         for v in [self.t, self.rho]
             .into_iter()
             .chain((0..3).map(|a| self.x.get(a).copied().unwrap_or(0.0)))
+            .chain([self.mass, self.energy])
         {
             b.extend_from_slice(&v.to_bits().to_le_bytes());
         }
@@ -44,7 +54,7 @@ impl Removal {
 
     /// Decode the records of [`Removal::to_bytes`] in `b`, for a `d`-dimensional run.
     pub fn from_bytes(b: &[u8], d: usize) -> Vec<Removal> {
-        b.chunks_exact(64)
+        b.chunks_exact(8 * WORDS)
             .map(|c| {
                 let w = |k: usize| u64::from_le_bytes(c[8 * k..8 * k + 8].try_into().expect("8 bytes"));
                 Removal {
@@ -54,6 +64,8 @@ impl Removal {
                     t: f64::from_bits(w(3)),
                     rho: f64::from_bits(w(4)),
                     x: (0..d).map(|a| f64::from_bits(w(5 + a))).collect(),
+                    mass: f64::from_bits(w(8)),
+                    energy: f64::from_bits(w(9)),
                 }
             })
             .collect()
@@ -98,6 +110,7 @@ impl<const D: usize> Simulation<D> {
             return;
         }
         for &i in &leaving {
+            let [kinetic, potential, internal] = self.energies(i);
             self.removed.push(Removal {
                 id: p.id[i],
                 step: self.step,
@@ -105,6 +118,8 @@ impl<const D: usize> Simulation<D> {
                 x: p.x[i].iter().copied().collect(),
                 rho: p.rho[i],
                 reason: REASONS[usize::from(density)],
+                mass: p.mass[i],
+                energy: kinetic + potential + internal,
             });
         }
         let mut keep = vec![true; self.p.n_owned];
