@@ -159,6 +159,60 @@ Examples:
         #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
         set: Vec<String>,
     },
+    /// Speed against accuracy: run validation cases at several resolutions and method
+    /// variants, each run's error against its reference and its cost in one CSV row, charts
+    /// with the Pareto front and the convergence order, and the cheapest configuration that
+    /// meets a target error.
+    #[command(after_help = "\
+Cases: poiseuille, couette (Morris et al. 1997 start-ups; velocity error at t = 2 s in units of
+the peak speed), hydrostatic (still tank; pressure error below mid-depth in units of rho g H).
+Writes into --out: sweep.csv (one row per run: error, wall time, particle-steps/s, peak RSS,
+status), runs/<case>-n<N>-<variant>/ (each an ordinary run directory), <case>_cost_error and
+<case>_convergence (.png, .svg) and validate.md. Running again skips the configurations
+already in sweep.csv. Timed runs run one at a time; --jobs N runs N at once and marks their
+costs untimed.
+
+Examples:
+  hsph validate poiseuille                        the shipped method at n = 10, 20, 25, 40
+  hsph validate poiseuille couette --sweep        every kernel and h/dx variant as well
+  hsph validate poiseuille --resolutions 10,20 --variants cubic_spline-h1.2-dummy-none \
+       --set time.t_end=0.6 --set reference.times=[0.6] --out validate-short
+  hsph validate poiseuille --sweep --target 0.005 --write cheapest.toml")]
+    Validate {
+        /// Cases to run (default: all).
+        cases: Vec<String>,
+        /// Sweep the method variants (kernels, h/dx, walls, density diffusion), not only the
+        /// shipped scene's method.
+        #[arg(long)]
+        sweep: bool,
+        /// Resolutions (cells across the case's length scale), comma separated (default: the
+        /// case's own).
+        #[arg(long, value_delimiter = ',')]
+        resolutions: Vec<u32>,
+        /// Variants by name, comma separated (the names are in sweep.csv and the error message
+        /// of an unknown one).
+        #[arg(long, value_delimiter = ',')]
+        variants: Vec<String>,
+        /// Output directory.
+        #[arg(long, default_value = "validate")]
+        out: PathBuf,
+        /// Runs at once; above 1 their costs are marked untimed.
+        #[arg(long, default_value_t = 1)]
+        jobs: usize,
+        /// Rayon threads per run.
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+        /// Override a scene key in every run (repeatable).
+        #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
+        set: Vec<String>,
+        /// Name the cheapest configuration with an error at most this (a fraction: 0.005 is
+        /// 0.5 %); exit 1 if none met it.
+        #[arg(long)]
+        target: Option<f64>,
+        /// With --target: write that configuration's resolved scene here.
+        #[arg(long, value_name = "SCENE")]
+        write: Option<PathBuf>,
+    },
     /// Charts (PNG, SVG) and a markdown summary of a finished run, or several runs compared.
     #[command(after_help = "\
 Writes into RUNDIR/report/ (or --out): traffic_heatmap, traffic_time, ghosts_imbalance and
@@ -236,6 +290,29 @@ fn dispatch(cmd: Command) -> Result<i32> {
                 out.as_deref(),
             )
         }
+        Command::Validate {
+            cases,
+            sweep,
+            resolutions,
+            variants,
+            out,
+            jobs,
+            threads,
+            set,
+            target,
+            write,
+        } => crate::validate::command(&crate::validate::Options {
+            cases,
+            sweep,
+            resolutions,
+            variants,
+            out,
+            jobs,
+            threads,
+            set,
+            target,
+            write,
+        }),
         Command::Check {
             scene,
             set,
@@ -640,6 +717,27 @@ fn estimate_report(est: &crate::memory::Estimate, ranks: usize, max_memory: Opti
     )
 }
 
+/// The `hsph check` line on solid bodies: the fastest body's speed against the longitudinal
+/// wave speed √((K + 4G/3)/ρ0) of its material (the speeds that set dt), or `None` without
+/// solids.
+fn solid_speeds(scene: &Scene) -> Option<String> {
+    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let (mut v, mut c) = (0.0f64, 0.0f64);
+    for b in &scene.solids {
+        v = v.max(norm(&b.velocity));
+        let m = scene.materials.iter().find(|m| m.name == b.material)?;
+        if let Some(sm) = crate::physics::material::MaterialModel::new(m).solid() {
+            c = c.max(sm.c_long0());
+        }
+    }
+    (!scene.solids.is_empty()).then(|| {
+        format!(
+            "expected    solid speed {v:.4e} m/s; longitudinal wave speed {c:.4e} m/s \
+             (dt follows c_L + |v|)"
+        )
+    })
+}
+
 /// The text `hsph check` prints: counts, physics, dt and memory estimates.
 pub fn check_report(scene: &Scene) -> Result<String> {
     crate::with_dim!(scene.dimension, D => check_dim::<D>(scene))
@@ -691,11 +789,16 @@ fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
     for line in sim.model.describe() {
         let _ = writeln!(w, "  - {line}");
     }
-    let _ = writeln!(
-        w,
-        "expected    speed {:.4e} m/s (c0 must be ≥ 10×)",
-        crate::scene::expected_speed(scene)
-    );
+    if !scene.fluids.is_empty() {
+        let _ = writeln!(
+            w,
+            "expected    fluid speed {:.4e} m/s (c0 must be ≥ 10×)",
+            crate::scene::expected_speed(scene)
+        );
+    }
+    if let Some(line) = solid_speeds(scene) {
+        let _ = writeln!(w, "{line}");
+    }
     let steps = (scene.time.t_end / sim.dt).ceil();
     let _ = writeln!(
         w,
@@ -711,7 +814,8 @@ fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
         + sim.cells.order.len() * 8;
     let _ = writeln!(
         w,
-        "memory      about {:.1} MiB ({:.0} B per particle incl. neighbour lists)",
+        "memory      particle table and neighbour lists about {:.1} MiB ({:.0} B per particle; \
+         the whole process: `estimate` above)",
         bytes as f64 / (1024.0 * 1024.0),
         bytes as f64 / n.max(1) as f64
     );

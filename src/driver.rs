@@ -1319,6 +1319,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "timers": timers,
             "errors": errors,
         });
+        // machine dependent, like wall_s: summary.json is not compared across runs
+        summary["peak_rss_bytes"] = json!(crate::memory::peak_rss());
         summary["removed_energy"] = json!(self.removed_out[0]);
         summary["removed_mass"] = json!(self.removed_out[1]);
         summary["hole"] = self.hole_summary();

@@ -39,6 +39,7 @@ pub mod setup;
 pub mod signals;
 pub mod sim;
 pub mod topology;
+pub mod validate;
 
 /// Fixed-size position/velocity vector in `D` dimensions (m, m/s, ...).
 pub type Vector<const D: usize> = nalgebra::SVector<f64, D>;

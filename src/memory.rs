@@ -160,6 +160,15 @@ pub fn available() -> Option<(f64, &'static str)> {
     best
 }
 
+/// This process's peak resident set size so far (bytes), from `VmHWM` in `/proc/self/status`
+/// (Linux); `None` where that is unavailable. Local ranks share one process: it is their sum.
+pub fn peak_rss() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -2,7 +2,7 @@
 //! and SVG. Text uses DejaVu Sans compiled into the binary (see [`FONT`]).
 
 use super::{human_bytes, CompareRow, Diagnostics, TrafficRow};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::sim::PHASES;
 use plotters::prelude::*;
 use std::collections::BTreeMap;
@@ -11,9 +11,9 @@ use std::path::{Path, PathBuf};
 /// Font family name the charts use; registered from the embedded DejaVu Sans.
 pub const FONT: &str = "sans-serif";
 
-pub(super) type Res = std::result::Result<(), Box<dyn std::error::Error>>;
+pub(crate) type Res = std::result::Result<(), Box<dyn std::error::Error>>;
 
-pub(super) fn register_font() {
+pub(crate) fn register_font() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
         // DejaVu Sans is a valid TrueType font; failure here would be a broken build.
@@ -34,7 +34,7 @@ macro_rules! both {
                 $body
             })()
             .and_then(|_| area.present().map_err(Into::into));
-            r.map_err(|e| Error::run(format!("{}: {e}", png.display())))?;
+            r.map_err(|e| $crate::error::Error::run(format!("{}: {e}", png.display())))?;
         }
         {
             let area = SVGBackend::new(&svg, $size).into_drawing_area();
@@ -43,15 +43,15 @@ macro_rules! both {
                 $body
             })()
             .and_then(|_| area.present().map_err(Into::into));
-            r.map_err(|e| Error::run(format!("{}: {e}", svg.display())))?;
+            r.map_err(|e| $crate::error::Error::run(format!("{}: {e}", svg.display())))?;
         }
         Ok(vec![png, svg])
     }};
 }
-pub(super) use both;
+pub(crate) use both;
 
 /// Eight distinguishable colours (Okabe–Ito, then grey).
-const PALETTE: [RGBColor; 8] = [
+pub(crate) const PALETTE: [RGBColor; 8] = [
     RGBColor(0, 114, 178),
     RGBColor(230, 159, 0),
     RGBColor(0, 158, 115),
@@ -83,7 +83,7 @@ pub(super) fn viridis(x: f64) -> RGBColor {
 /// Largest heat-map side in cells; more ranks are binned into groups.
 const MAX_CELLS: usize = 256;
 
-pub(super) fn font(size: u32) -> TextStyle<'static> {
+pub(crate) fn font(size: u32) -> TextStyle<'static> {
     (FONT, size).into_font().into()
 }
 

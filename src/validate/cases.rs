@@ -1,0 +1,224 @@
+//! The validation cases `hsph validate` knows: each a shipped scene, the error it reports
+//! (a key of `summary.json`'s `errors` and the norm behind it), the resolutions it runs at and
+//! the method variants it sweeps. A configuration becomes `--set` overrides of the scene, so
+//! every run is an ordinary `hsph run` whose resolved `scene.toml` can be run again.
+
+use crate::kernel::KernelKind;
+
+/// A method variant: kernel, smoothing length, wall method, density diffusion.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Variant {
+    /// Kernel.
+    pub kernel: KernelKind,
+    /// h / dx.
+    pub h_over_dx: f64,
+    /// Wall method of every wall (`dummy`, `mirror`, `repulsive`).
+    pub walls: &'static str,
+    /// `physics.density_diffusion` (`none`, `molteni`, `antuono`).
+    pub diffusion: &'static str,
+}
+
+impl Variant {
+    /// Short name used in the CSV and the charts, e.g. `quintic_spline-h1.0-dummy-none`.
+    pub fn name(&self) -> String {
+        format!(
+            "{}-h{:.1}-{}-{}",
+            self.kernel.name(),
+            self.h_over_dx,
+            self.walls,
+            self.diffusion
+        )
+    }
+
+    /// Support radius over dx.
+    fn support_cells(&self) -> f64 {
+        self.kernel.support_factor() * self.h_over_dx
+    }
+}
+
+/// One validation case.
+#[derive(Debug, Clone)]
+pub struct Case {
+    /// Name on the command line.
+    pub name: &'static str,
+    /// The shipped scene it starts from (for messages).
+    pub file: &'static str,
+    /// That scene's text, compiled in so that `hsph validate` runs from any directory.
+    pub scene: &'static str,
+    /// Key of `summary.json`'s `errors` that is the case's error.
+    pub error_key: &'static str,
+    /// What that error measures.
+    pub norm: &'static str,
+    /// Resolutions (cells across the case's length scale), coarse to fine.
+    pub resolutions: &'static [u32],
+    /// The variant of the shipped scene.
+    pub default: Variant,
+    /// The variants of `--sweep` (the default first).
+    pub sweep: fn() -> Vec<Variant>,
+    /// `--set` overrides that give resolution `n` and variant `v`.
+    pub overrides: fn(n: u32, v: &Variant) -> Vec<String>,
+    /// Length scale that `n` divides (m): dx = length / n.
+    pub length: f64,
+}
+
+/// Every known case, in the order `hsph validate` runs them.
+pub fn all() -> Vec<Case> {
+    vec![poiseuille(), couette(), hydrostatic()]
+}
+
+/// The case called `name`, or an error listing the known ones.
+pub fn find(name: &str) -> std::result::Result<Case, String> {
+    let cases = all();
+    let names: Vec<&str> = cases.iter().map(|c| c.name).collect();
+    cases
+        .into_iter()
+        .find(|c| c.name == name)
+        .ok_or_else(|| format!("unknown case `{name}`; known cases: {}", names.join(", ")))
+}
+
+/// The channel of the Poiseuille and Couette start-ups (gap L = 1 mm, periodic along x): at
+/// dx = L/n the plates are whole rows thick enough to cover the support, the periodic length
+/// is a whole number of rows of at least 0.6 mm and three supports, and rows sit half a
+/// spacing from each plate.
+fn channel_overrides(n: u32, v: &Variant) -> Vec<String> {
+    let gap = 1.0e-3;
+    let dx = gap / n as f64;
+    let rows = |len: f64| (len / dx - 1e-9).ceil();
+    let t = dx * rows(v.support_cells() * dx).max(rows(0.2e-3));
+    let x = dx * rows(0.6e-3).max(rows(3.0 * v.support_cells() * dx));
+    let mut o = vec![
+        format!("discretisation.dx={dx:e}"),
+        format!("discretisation.h_over_dx={}", v.h_over_dx),
+        format!("discretisation.kernel=\"{}\"", v.kernel.name()),
+        format!("physics.density_diffusion=\"{}\"", v.diffusion),
+        format!("domain.min=[0.0,{:e}]", -t),
+        format!("domain.max=[{x:e},{:e}]", gap + t),
+        format!("fluid[0].max=[{x:e},{gap:e}]"),
+        format!("wall[0].min=[0.0,{:e}]", -t),
+        format!("wall[0].max=[{x:e},0.0]"),
+        format!("wall[1].min=[0.0,{gap:e}]"),
+        format!("wall[1].max=[{x:e},{:e}]", gap + t),
+    ];
+    for w in 0..2 {
+        o.push(format!("wall[{w}].method=\"{}\"", v.walls));
+    }
+    o
+}
+
+/// Kernel and h/dx pairs the channel sweeps: each kernel at its usual h/dx and at the ends of
+/// the 1.2–2.0 range.
+fn channel_sweep() -> Vec<Variant> {
+    let mut out = vec![channel_default()];
+    for (kernel, h) in [
+        (KernelKind::QuinticSpline, 1.5),
+        (KernelKind::CubicSpline, 1.2),
+        (KernelKind::CubicSpline, 2.0),
+        (KernelKind::WendlandC2, 1.2),
+        (KernelKind::WendlandC2, 2.0),
+    ] {
+        out.push(Variant {
+            kernel,
+            h_over_dx: h,
+            ..channel_default()
+        });
+    }
+    // mirror walls reflect across the inner faces of a container only; the channel's plates
+    // are blocks, so its wall variants wait for a periodic container
+    out
+}
+
+fn channel_default() -> Variant {
+    Variant {
+        kernel: KernelKind::QuinticSpline,
+        h_over_dx: 1.0,
+        walls: "dummy",
+        diffusion: "none",
+    }
+}
+
+fn poiseuille() -> Case {
+    Case {
+        name: "poiseuille",
+        file: "inputs/poiseuille_2d.toml",
+        scene: include_str!("../../inputs/poiseuille_2d.toml"),
+        error_key: "velocity_linf_t*",
+        norm: "max over the gap of |u − u_exact| / u_max at the last reference time (t = 2 s; Morris et al. 1997)",
+        resolutions: &[10, 20, 25, 40],
+        default: channel_default(),
+        sweep: channel_sweep,
+        overrides: channel_overrides,
+        length: 1.0e-3,
+    }
+}
+
+fn couette() -> Case {
+    Case {
+        name: "couette",
+        file: "inputs/couette_2d.toml",
+        scene: include_str!("../../inputs/couette_2d.toml"),
+        error_key: "velocity_linf_t*",
+        norm: "max over the gap of |u − u_exact| / v0 at t = 2 s (Morris et al. 1997)",
+        ..poiseuille()
+    }
+}
+
+/// The still tank (H = 0.5 m): at dx = H/n the domain keeps a margin of a support round
+/// the container.
+fn hydrostatic_overrides(n: u32, v: &Variant) -> Vec<String> {
+    let dx = 0.5 / n as f64;
+    let m = (0.1f64).max(dx * (v.support_cells() + 2.0));
+    vec![
+        format!("discretisation.dx={dx:e}"),
+        format!("discretisation.h_over_dx={}", v.h_over_dx),
+        format!("discretisation.kernel=\"{}\"", v.kernel.name()),
+        format!("physics.density_diffusion=\"{}\"", v.diffusion),
+        format!("domain.min=[{:e},{:e}]", -m, -m),
+        format!("domain.max=[{:e},{:e}]", 1.0 + m, 0.8 + m),
+        format!("wall[0].method=\"{}\"", v.walls),
+    ]
+}
+
+fn hydrostatic_default() -> Variant {
+    Variant {
+        kernel: KernelKind::WendlandC2,
+        h_over_dx: 2.0,
+        walls: "dummy",
+        diffusion: "antuono",
+    }
+}
+
+fn hydrostatic() -> Case {
+    Case {
+        name: "hydrostatic",
+        file: "inputs/hydrostatic_2d.toml",
+        scene: include_str!("../../inputs/hydrostatic_2d.toml"),
+        error_key: "pressure_linf_below_mid_depth",
+        norm: "max below mid-depth of |p − ρ g d| / (ρ g H) at t_end",
+        resolutions: &[10, 20, 25, 40],
+        default: hydrostatic_default(),
+        sweep: || {
+            let mut out = vec![hydrostatic_default()];
+            for (kernel, h) in [
+                (KernelKind::WendlandC2, 1.3),
+                (KernelKind::WendlandC2, 1.5),
+                (KernelKind::CubicSpline, 1.3),
+                (KernelKind::CubicSpline, 2.0),
+            ] {
+                out.push(Variant {
+                    kernel,
+                    h_over_dx: h,
+                    ..hydrostatic_default()
+                });
+            }
+            for diffusion in ["none", "molteni"] {
+                out.push(Variant {
+                    diffusion,
+                    ..hydrostatic_default()
+                });
+            }
+            out
+        },
+        overrides: hydrostatic_overrides,
+        length: 0.5,
+    }
+}

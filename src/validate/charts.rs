@@ -1,0 +1,163 @@
+//! The charts of `hsph validate`, PNG and SVG per case: error against cost with the Pareto
+//! front, and error against particle spacing with each variant's fitted convergence order.
+
+use super::front::{convergence_order, pareto};
+use super::sweep::Row;
+use crate::error::Result;
+use crate::report::charts::{both, font, register_font, Res, PALETTE};
+use plotters::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// Log-axis range round the positive finite values, widened by a fifth of a decade.
+fn log_range(v: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+    let (lo, hi) = v
+        .filter(|x| x.is_finite() && *x > 0.0)
+        .fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
+    if !lo.is_finite() {
+        return 1e-3..1.0;
+    }
+    let f = 10f64.powf(0.2);
+    lo / f..(hi * f).max(lo * f * f)
+}
+
+/// A log-axis tick: two significant figures, without float noise (0.01, not 0.0100000001).
+fn tick(v: &f64) -> String {
+    if !(v.is_finite() && *v > 0.0) {
+        return String::new();
+    }
+    let e = v.log10().floor() as i32;
+    let r = (v / 10f64.powi(e - 1)).round() * 10f64.powi(e - 1);
+    if (-3..4).contains(&e) {
+        format!("{}", (r * 1e6).round() / 1e6)
+    } else {
+        format!("{r:.1e}")
+    }
+}
+
+/// Variants of `rows` in first-seen order.
+fn variants(rows: &[&Row]) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for r in rows {
+        if !out.contains(&r.variant) {
+            out.push(r.variant.clone());
+        }
+    }
+    out
+}
+
+/// `<case>_cost_error.{png,svg}`: the error of every successful run against its wall time
+/// (log–log), one colour per variant, the Pareto front joined in black.
+pub fn cost_error(dir: &Path, case: &str, rows: &[&Row]) -> Result<Vec<PathBuf>> {
+    let ok: Vec<&Row> = rows.iter().copied().filter(|r| r.ok()).collect();
+    let xr = log_range(ok.iter().map(|r| r.wall_s));
+    let yr = log_range(ok.iter().map(|r| r.error));
+    let names = variants(&ok);
+    let pts: Vec<(f64, f64)> = ok.iter().map(|r| (r.wall_s, r.error)).collect();
+    let front: Vec<(f64, f64)> = pareto(&pts).into_iter().map(|i| pts[i]).collect();
+    let untimed = ok.iter().any(|r| !r.timed);
+    both!(dir, format!("{case}_cost_error"), (900, 560), |root| {
+        root.fill(&WHITE)?;
+        let title = if untimed {
+            format!("{case}: error against cost (some runs untimed: --jobs > 1)")
+        } else {
+            format!("{case}: error against cost")
+        };
+        let mut ch = ChartBuilder::on(root)
+            .caption(title, font(20))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(xr.clone().log_scale(), yr.clone().log_scale())?;
+        ch.configure_mesh()
+            .x_desc("wall time of the run (s)")
+            .y_desc("error (fraction)")
+            .x_label_formatter(&tick)
+            .y_label_formatter(&tick)
+            .light_line_style(RGBColor(238, 238, 238))
+            .label_style(font(13))
+            .axis_desc_style(font(15))
+            .draw()?;
+        ch.draw_series(LineSeries::new(front.clone(), BLACK.stroke_width(2)))?
+            .label("Pareto front")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+        for (k, name) in names.iter().enumerate() {
+            let c = PALETTE[k % PALETTE.len()];
+            let mine = ok
+                .iter()
+                .filter(|r| &r.variant == name)
+                .map(|r| Circle::new((r.wall_s, r.error), 5, c.filled()));
+            ch.draw_series(mine)?
+                .label(name.as_str())
+                .legend(move |(x, y)| Circle::new((x + 10, y), 5, c.filled()));
+        }
+        ch.configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .label_font(font(12))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()?;
+        Ok(())
+    })
+}
+
+/// `<case>_convergence.{png,svg}`: error against resolution n = L/dx (log–log) per variant,
+/// with the fitted order p of error ≈ c dxᵖ in the legend and the fit drawn dashed.
+pub fn convergence(dir: &Path, case: &str, rows: &[&Row]) -> Result<Vec<PathBuf>> {
+    let ok: Vec<&Row> = rows.iter().copied().filter(|r| r.ok()).collect();
+    let xr = log_range(ok.iter().map(|r| r.resolution as f64));
+    let yr = log_range(ok.iter().map(|r| r.error));
+    let names = variants(&ok);
+    both!(dir, format!("{case}_convergence"), (900, 560), |root| {
+        root.fill(&WHITE)?;
+        let mut ch = ChartBuilder::on(root)
+            .caption(format!("{case}: error against resolution"), font(20))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(xr.clone().log_scale(), yr.clone().log_scale())?;
+        ch.configure_mesh()
+            .x_desc("resolution n (particles across the length scale; dx = L/n)")
+            .y_desc("error (fraction)")
+            .x_label_formatter(&tick)
+            .y_label_formatter(&tick)
+            .light_line_style(RGBColor(238, 238, 238))
+            .label_style(font(13))
+            .axis_desc_style(font(15))
+            .draw()?;
+        for (k, name) in names.iter().enumerate() {
+            let c = PALETTE[k % PALETTE.len()];
+            let mine_dx: Vec<(f64, f64)> = ok
+                .iter()
+                .filter(|r| &r.variant == name)
+                .map(|r| (r.dx, r.error))
+                .collect();
+            // n = L/dx
+            let len = ok
+                .iter()
+                .find(|r| &r.variant == name)
+                .map_or(1.0, |r| r.dx * r.resolution as f64);
+            let mut mine: Vec<(f64, f64)> = mine_dx.iter().map(|&(d, e)| (len / d, e)).collect();
+            mine.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let label = match convergence_order(&mine_dx) {
+                Some((p, cst)) => {
+                    let (a, b) = (mine[0].0, mine[mine.len() - 1].0);
+                    let fit = [(a, cst * (len / a).powf(p)), (b, cst * (len / b).powf(p))];
+                    ch.draw_series(DashedLineSeries::new(fit, 6, 4, c.stroke_width(1)))?;
+                    format!("{name} (order {p:.2})")
+                }
+                None => name.clone(),
+            };
+            ch.draw_series(LineSeries::new(mine.clone(), c.stroke_width(2)))?
+                .label(label)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+            ch.draw_series(mine.into_iter().map(|p| Circle::new(p, 4, c.filled())))?;
+        }
+        ch.configure_series_labels()
+            .position(SeriesLabelPosition::LowerLeft)
+            .label_font(font(12))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()?;
+        Ok(())
+    })
+}

@@ -1,0 +1,165 @@
+//! `hsph validate` (issue 19): a 2 × 2 sweep of the Poiseuille start-up (n = 10, 20; the
+//! shipped quintic spline at h = dx and the cubic spline at h = 1.2 dx) to t = 0.6 s. Asserts
+//! the CSV, the chart files, that the Pareto front holds the cheapest run, that the error falls
+//! with resolution for each variant, that a second call reruns nothing, and that `--target`
+//! names a run that met it and `--write` gives a scene `hsph check` accepts.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+fn hsph(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_hsph"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+const VARIANTS: &str = "quintic_spline-h1.0-dummy-none,cubic_spline-h1.2-dummy-none";
+
+fn sweep(out: &Path, extra: &[&str]) -> std::process::Output {
+    let o = out.to_str().unwrap();
+    let mut args = vec![
+        "validate",
+        "poiseuille",
+        "--resolutions",
+        "10,20",
+        "--variants",
+        VARIANTS,
+        "--set",
+        "time.t_end=0.6",
+        "--set",
+        "reference.times=[0.6]",
+        "--out",
+        o,
+    ];
+    args.extend(extra);
+    hsph(&args)
+}
+
+#[test]
+fn a_small_poiseuille_sweep_charts_its_front_and_names_the_cheapest_run() {
+    let out = common::temp_dir("validate_sweep");
+    let r = sweep(&out, &[]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(0), "{err}");
+    let csv = std::fs::read_to_string(out.join("sweep.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 4, "{csv}");
+    let col = |name: &str| {
+        csv.lines()
+            .next()
+            .unwrap()
+            .split(',')
+            .position(|c| c == name)
+            .unwrap()
+    };
+    let (n, var, error, wall, status) = (
+        col("resolution"),
+        col("variant"),
+        col("error"),
+        col("wall_s"),
+        col("status"),
+    );
+    for row in &rows {
+        assert_eq!(row[status], "ok", "{csv}");
+        let e: f64 = row[error].parse().unwrap();
+        assert!(e > 0.0 && e < 0.5, "{csv}");
+    }
+    // the error falls with resolution for each variant
+    for v in VARIANTS.split(',') {
+        let e = |res: &str| -> f64 {
+            rows.iter().find(|r| r[var] == v && r[n] == res).unwrap()[error]
+                .parse()
+                .unwrap()
+        };
+        assert!(e("20") < e("10"), "{v}: n = 20 {} vs n = 10 {}", e("20"), e("10"));
+    }
+    // the charts, both formats
+    for stem in ["poiseuille_cost_error", "poiseuille_convergence"] {
+        for ext in ["png", "svg"] {
+            let f = out.join(format!("{stem}.{ext}"));
+            assert!(
+                std::fs::metadata(&f).map(|m| m.len() > 1000).unwrap_or(false),
+                "{}",
+                f.display()
+            );
+        }
+    }
+    // the front (marked ● in validate.md) holds the cheapest run
+    let md = std::fs::read_to_string(out.join("validate.md")).unwrap();
+    let cheapest = rows
+        .iter()
+        .min_by(|a, b| {
+            a[wall]
+                .parse::<f64>()
+                .unwrap()
+                .total_cmp(&b[wall].parse::<f64>().unwrap())
+        })
+        .unwrap();
+    let line = md
+        .lines()
+        .find(|l| l.starts_with(&format!("| {} | {} |", cheapest[var], cheapest[n])))
+        .unwrap_or_else(|| panic!("{md}"));
+    assert!(line.contains('●'), "{line}");
+    assert!(md.contains("order"), "{md}");
+    // run again: nothing is rerun, the rows stay
+    let again = sweep(&out, &[]);
+    assert_eq!(again.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&again.stderr).contains("4 configuration(s) already in"));
+    assert_eq!(std::fs::read_to_string(out.join("sweep.csv")).unwrap(), csv);
+    // --target: the cheapest run that met it, and its scene
+    let errors: Vec<f64> = rows.iter().map(|r| r[error].parse().unwrap()).collect();
+    let target = errors.iter().cloned().fold(f64::INFINITY, f64::min) * 1.0001;
+    let scene = out.join("cheapest.toml");
+    let t = sweep(
+        &out,
+        &[
+            "--target",
+            &target.to_string(),
+            "--write",
+            scene.to_str().unwrap(),
+        ],
+    );
+    let said = String::from_utf8_lossy(&t.stdout);
+    assert_eq!(
+        t.status.code(),
+        Some(0),
+        "{said}{}",
+        String::from_utf8_lossy(&t.stderr)
+    );
+    let best = rows
+        .iter()
+        .find(|r| r[error].parse::<f64>().unwrap() <= target)
+        .unwrap();
+    assert!(
+        said.contains(&format!("variant {} at n = {}", best[var], best[n])),
+        "{said}"
+    );
+    let check = hsph(&["check", scene.to_str().unwrap()]);
+    assert_eq!(
+        check.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+    // an unmet target is exit 1; bad requests are exit 2 naming the flag
+    let none = sweep(&out, &["--target", "1e-9"]);
+    assert_eq!(none.status.code(), Some(1));
+    let bad = sweep(&out, &["--variants", "nonsense"]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("quintic_spline-h1.0-dummy-none"));
+    let other = hsph(&[
+        "validate",
+        "poiseuille",
+        "--out",
+        out.to_str().unwrap(),
+        "--resolutions",
+        "10",
+    ]);
+    assert_eq!(other.status.code(), Some(2), "other overrides in the same --out");
+    let unknown = hsph(&["validate", "cavity", "--out", out.to_str().unwrap()]);
+    assert_eq!(unknown.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&unknown.stderr).contains("known cases: poiseuille"));
+}
