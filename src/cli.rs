@@ -177,7 +177,9 @@ Examples:
   hsph validate poiseuille couette --sweep        every kernel and h/dx variant as well
   hsph validate poiseuille --resolutions 10,20 --variants cubic_spline-h1.2-dummy-none \
        --set time.t_end=0.6 --set reference.times=[0.6] --out validate-short
-  hsph validate poiseuille --sweep --target 0.005 --write cheapest.toml")]
+  hsph validate poiseuille --sweep --target 0.005 --write cheapest.toml
+  hsph validate --map --out stability               every stability study (a few minutes)
+  hsph validate --map walls,lattice --out stability")]
     Validate {
         /// Cases to run (default: all).
         cases: Vec<String>,
@@ -212,6 +214,10 @@ Examples:
         /// With --target: write that configuration's resolved scene here.
         #[arg(long, value_name = "SCENE")]
         write: Option<PathBuf>,
+        /// Stability map: run these studies (diffusion, cfl, walls, lattice; none named: all)
+        /// until each run fails or ends, into map.csv, map_<study>.png/.svg and map.md.
+        #[arg(long, value_delimiter = ',', num_args = 0.., value_name = "STUDY")]
+        map: Option<Vec<String>>,
     },
     /// Charts (PNG, SVG) and a markdown summary of a finished run, or several runs compared.
     #[command(after_help = "\
@@ -301,6 +307,7 @@ fn dispatch(cmd: Command) -> Result<i32> {
             set,
             target,
             write,
+            map,
         } => crate::validate::command(&crate::validate::Options {
             cases,
             sweep,
@@ -312,6 +319,7 @@ fn dispatch(cmd: Command) -> Result<i32> {
             set,
             target,
             write,
+            map,
         }),
         Command::Check {
             scene,

@@ -163,3 +163,38 @@ fn a_small_poiseuille_sweep_charts_its_front_and_names_the_cheapest_run() {
     assert_eq!(unknown.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&unknown.stderr).contains("known cases: poiseuille"));
 }
+
+/// The stability map's wall study (9 runs, about 10 s): every run stable now that mirror walls
+/// bounce particles that a drift carries through them (before, the mirror row failed "through
+/// a wall" at every speed); `map.csv`, the chart and `map.md` are written, and an unknown study
+/// is exit 2 naming the known ones.
+#[test]
+fn the_wall_study_maps_every_method_and_speed() {
+    let out = common::temp_dir("validate_map");
+    let o = out.to_str().unwrap();
+    let r = hsph(&["validate", "--map", "walls", "--out", o]);
+    assert_eq!(r.status.code(), Some(0), "{}", String::from_utf8_lossy(&r.stderr));
+    let csv = std::fs::read_to_string(out.join("map.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(rows.len(), 9, "{csv}");
+    for method in ["dummy", "repulsive", "mirror"] {
+        assert_eq!(
+            rows.iter()
+                .filter(|l| l.split(',').nth(1) == Some(method))
+                .count(),
+            3
+        );
+    }
+    for l in &rows {
+        assert_eq!(l.split(',').nth(4), Some("stable"), "{l}");
+    }
+    for ext in ["png", "svg"] {
+        assert!(out.join(format!("map_walls.{ext}")).exists());
+    }
+    assert!(std::fs::read_to_string(out.join("map.md"))
+        .unwrap()
+        .contains("| mirror |"));
+    let bad = hsph(&["validate", "--map", "nonsense", "--out", o]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("known studies: diffusion"));
+}

@@ -21,6 +21,10 @@ pub struct MirrorPlane<const D: usize> {
     pub wall_velocity: Vector<D>,
     /// No-slip (reflect the whole velocity about the wall's) or free-slip (normal only).
     pub no_slip: bool,
+    /// The container's corners (m): the face spans them on the other axes.
+    pub lo: Vector<D>,
+    /// See `lo`.
+    pub hi: Vector<D>,
 }
 
 impl<const D: usize> MirrorPlane<D> {
@@ -28,6 +32,33 @@ impl<const D: usize> MirrorPlane<D> {
     #[inline]
     pub fn reflect(&self, c: f64) -> f64 {
         2.0 * self.at - c
+    }
+
+    /// True if coordinate `c` along the axis lies on the wall's side of the plane.
+    #[inline]
+    fn beyond(&self, c: f64) -> bool {
+        if self.fluid_above {
+            c < self.at
+        } else {
+            c > self.at
+        }
+    }
+
+    /// A fluid particle that this drift carried from `old` through the face to `x` bounces
+    /// back: its position is reflected across the plane and its normal velocity about the
+    /// wall's, v_n ← 2u_w,n − v_n (a specular bounce; the tangential velocity is kept). Without
+    /// it a jet running into a corner can leave through a mirror wall, which has no particles
+    /// to stop it. Returns true if it bounced.
+    #[inline]
+    pub fn bounce(&self, old: &Vector<D>, x: &mut Vector<D>, v: &mut Vector<D>) -> bool {
+        let a = self.axis;
+        let on_face = (0..D).all(|k| k == a || (self.lo[k]..=self.hi[k]).contains(&x[k]));
+        if self.beyond(old[a]) || !self.beyond(x[a]) || !on_face {
+            return false;
+        }
+        x[a] = self.reflect(x[a]);
+        v[a] = 2.0 * self.wall_velocity[a] - v[a];
+        true
     }
 
     /// Velocity of the image of a particle moving at `v` (m/s).
@@ -64,11 +95,26 @@ pub fn planes_of<const D: usize>(scene: &Scene) -> Vec<MirrorPlane<D>> {
                     fluid_above: !up,
                     wall_velocity: Vector::from_fn(|k, _| w.velocity[k]),
                     no_slip: w.slip == Slip::NoSlip,
+                    lo: Vector::from_fn(|k, _| w.min[k]),
+                    hi: Vector::from_fn(|k, _| w.max[k]),
                 });
             }
         }
     }
     planes
+}
+
+/// Bounce a fluid particle that drifted from `old` to `x` through any mirror face
+/// ([`MirrorPlane::bounce`]), at most once per plane.
+pub fn bounce_all<const D: usize>(
+    planes: &[MirrorPlane<D>],
+    old: &Vector<D>,
+    x: &mut Vector<D>,
+    v: &mut Vector<D>,
+) {
+    for pl in planes {
+        pl.bounce(old, x, v);
+    }
 }
 
 /// Reflections of `x` along axis `a`: every plane normal to `a` with `x` on its fluid side

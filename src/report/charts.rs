@@ -63,7 +63,7 @@ pub(crate) const PALETTE: [RGBColor; 8] = [
 ];
 
 /// Viridis at `x` in [0, 1] (linear between 6 stops).
-pub(super) fn viridis(x: f64) -> RGBColor {
+pub(crate) fn viridis(x: f64) -> RGBColor {
     const STOPS: [(f64, f64, f64); 6] = [
         (68.0, 1.0, 84.0),
         (65.0, 68.0, 135.0),

@@ -48,13 +48,23 @@ impl<const D: usize> Simulation<D> {
         {
             let n = self.p.n_owned;
             let space = &self.space;
-            let (kind, v) = (&self.p.kind, &self.p.v);
-            self.p.x[..n].par_iter_mut().enumerate().for_each(|(i, x)| {
-                if kind[i].is_integrated() {
-                    *x += v[i] * dt;
-                    space.wrap(x);
-                }
-            });
+            let p = &mut self.p;
+            let kind = &p.kind;
+            let planes = &space.planes;
+            p.x[..n]
+                .par_iter_mut()
+                .zip(p.v[..n].par_iter_mut())
+                .enumerate()
+                .for_each(|(i, (x, v))| {
+                    if kind[i].is_integrated() {
+                        let old = *x;
+                        *x += *v * dt;
+                        if kind[i].is_fluid() {
+                            crate::boundary::mirror::bounce_all(planes, &old, x, v);
+                        }
+                        space.wrap(x);
+                    }
+                });
         }
         let t_new = self.t + dt;
         self.apply_wall_motion(self.t, t_new);

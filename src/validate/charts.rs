@@ -161,3 +161,74 @@ pub fn convergence(dir: &Path, case: &str, rows: &[&Row]) -> Result<Vec<PathBuf>
         Ok(())
     })
 }
+
+/// Colour of a failure at fraction `f` of the run's end time: dark red early, light orange
+/// late.
+fn failure_colour(f: f64) -> RGBColor {
+    let f = if f.is_finite() { f.clamp(0.0, 1.0) } else { 0.0 };
+    let l = |a: f64, b: f64| (a + f * (b - a)).round() as u8;
+    RGBColor(l(140.0, 250.0), l(20.0, 190.0), l(20.0, 110.0))
+}
+
+/// `map_<study>.{png,svg}`: method (rows) × parameter value (columns); a stable run pale
+/// green, a failed one red to orange by its failure time over the run's end time (dark =
+/// early), labelled with the reason and time; the study's metric below.
+pub fn stability_map(
+    dir: &Path,
+    study: &super::map::Study,
+    cells: &[super::map::Cell],
+) -> Result<Vec<PathBuf>> {
+    let (nm, nv) = (study.methods.len(), study.values.len());
+    let (left, top, cw, chh) = (150i32, 50i32, 190i32, 64i32);
+    let w = (left + cw * nv as i32 + 20) as u32;
+    let h = (top + chh * nm as i32 + 70) as u32;
+    both!(dir, format!("map_{}", study.name), (w.max(620), h), |root| {
+        root.fill(&WHITE)?;
+        root.draw(&Text::new(study.title, (10, 12), font(15)))?;
+        for (vi, v) in study.values.iter().enumerate() {
+            let x = left + cw * vi as i32 + cw / 2 - 12;
+            root.draw(&Text::new(
+                format!("{v}"),
+                (x, top + chh * nm as i32 + 8),
+                font(13),
+            ))?;
+        }
+        root.draw(&Text::new(
+            study.parameter,
+            (left + cw * nv as i32 / 2 - 60, top + chh * nm as i32 + 32),
+            font(14),
+        ))?;
+        for (mi, (method, _)) in study.methods.iter().enumerate() {
+            let y = top + chh * mi as i32;
+            root.draw(&Text::new(method.to_string(), (8, y + chh / 2 - 7), font(13)))?;
+            for (vi, v) in study.values.iter().enumerate() {
+                let x = left + cw * vi as i32;
+                let cell = cells.iter().find(|c| c.method == *method && c.value == *v);
+                let (colour, text, ink) = match cell {
+                    None => (RGBColor(245, 245, 245), "not run".to_string(), BLACK),
+                    Some(c) => match &c.reason {
+                        None => (RGBColor(200, 235, 200), "stable".to_string(), BLACK),
+                        Some(r) => (
+                            failure_colour(c.t_fail / c.t_end),
+                            format!("{r} @ {:.3} s", c.t_fail),
+                            WHITE,
+                        ),
+                    },
+                };
+                root.draw(&Rectangle::new(
+                    [(x + 2, y + 2), (x + cw - 2, y + chh - 2)],
+                    colour.filled(),
+                ))?;
+                root.draw(&Text::new(text, (x + 8, y + 12), font(12).color(&ink)))?;
+                if let Some(m) = cell.map(|c| c.metric).filter(|m| m.is_finite()) {
+                    root.draw(&Text::new(
+                        format!("{}: {m:.4}", study.metric_name()),
+                        (x + 8, y + 36),
+                        font(11).color(&ink),
+                    ))?;
+                }
+            }
+        }
+        Ok(())
+    })
+}

@@ -10,6 +10,7 @@
 pub mod cases;
 pub mod charts;
 pub mod front;
+pub mod map;
 pub mod sweep;
 
 use crate::error::{Error, Result};
@@ -41,6 +42,8 @@ pub struct Options {
     pub target: Option<f64>,
     /// Where to write that configuration's scene.
     pub write: Option<PathBuf>,
+    /// Stability studies to map (`Some(empty)`: all of them).
+    pub map: Option<Vec<String>>,
 }
 
 /// The configurations `opts` asks of `case`: an exit-2 error names an unknown variant.
@@ -109,8 +112,85 @@ fn same_overrides(out: &Path, set: &[String]) -> Result<()> {
     }
 }
 
+/// Run the stability studies of `names` (all if empty) into `out`: `map.csv`, a chart per
+/// study and `map.md`.
+fn stability(names: &[String], out: &Path) -> Result<i32> {
+    let studies: Vec<map::Study> = if names.is_empty() {
+        map::all()
+    } else {
+        names
+            .iter()
+            .map(|n| map::find(n).map_err(|m| Error::input("--map", m)))
+            .collect::<Result<_>>()?
+    };
+    let exe =
+        std::env::current_exe().map_err(|e| Error::run(format!("validate: cannot find this hsph: {e}")))?;
+    let mut md = String::from("# hsph validate --map: where each method fails\n\n");
+    for st in &studies {
+        let cells = map::run(st, out, &exe)?;
+        let files = charts::stability_map(out, st, &cells)?;
+        let _ = writeln!(
+            md,
+            "## {}\n\nScene `{}`; rows: methods; columns: {}.\n",
+            st.title, st.file, st.parameter
+        );
+        md.push_str("| method | ");
+        md.push_str(
+            &st.values
+                .iter()
+                .map(|v| v.to_string())
+                .collect::<Vec<_>>()
+                .join(" | "),
+        );
+        md.push_str(" |\n|---|");
+        md.push_str(&"---|".repeat(st.values.len()));
+        md.push('\n');
+        for (m, _) in &st.methods {
+            let _ = write!(md, "| {m} |");
+            for v in &st.values {
+                let c = cells.iter().find(|c| c.method == *m && c.value == *v);
+                let text = match c {
+                    None => "not run".to_string(),
+                    Some(c) => {
+                        let metric = if c.metric.is_finite() {
+                            format!(" ({}: {:.4})", st.metric_name(), c.metric)
+                        } else {
+                            String::new()
+                        };
+                        match &c.reason {
+                            None => format!("stable{metric}"),
+                            Some(r) => format!("**{r}** at {:.4} s{metric}", c.t_fail),
+                        }
+                    }
+                };
+                let _ = write!(md, " {text} |");
+            }
+            md.push('\n');
+        }
+        for f in files.iter().filter(|f| f.extension().is_some_and(|e| e == "png")) {
+            let name = f
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let _ = writeln!(md, "\n![{name}]({name})");
+        }
+        md.push('\n');
+    }
+    let path = out.join("map.md");
+    std::fs::write(&path, &md).map_err(|e| Error::io(&path, e))?;
+    eprintln!("hsph validate: stability map in {}", path.display());
+    Ok(0)
+}
+
 /// Run `hsph validate`; returns the exit status (0, or 1 when `--target` is met by no run).
 pub fn command(opts: &Options) -> Result<i32> {
+    if let Some(names) = &opts.map {
+        std::fs::create_dir_all(&opts.out).map_err(|e| Error::io(&opts.out, e))?;
+        let code = stability(names, &opts.out)?;
+        if opts.cases.is_empty() {
+            return Ok(code);
+        }
+    }
     let cases: Vec<Case> = if opts.cases.is_empty() {
         cases::all()
     } else {

@@ -239,17 +239,11 @@ impl Runner {
             std::fs::write(&scene, job.case.scene).map_err(|e| Error::io(&scene, e))?;
         }
         let dir = self.out.join("runs").join(job.dir_name());
-        let mut cmd = Command::new(&self.exe);
-        cmd.arg("run").arg(&scene).arg("--out").arg(&dir).args([
-            "--force",
-            "--quiet",
-            "--threads",
-            &self.threads.to_string(),
-        ]);
-        for s in (job.case.overrides)(job.n, &job.variant).iter().chain(&self.set) {
-            cmd.args(["--set", s]);
-        }
-        let out = cmd.output().map_err(|e| Error::io(&self.exe, e))?;
+        let sets: Vec<String> = (job.case.overrides)(job.n, &job.variant)
+            .into_iter()
+            .chain(self.set.iter().cloned())
+            .collect();
+        let out = run_child(&self.exe, &scene, &dir, self.threads, &sets)?;
         let mut row = Row {
             case: job.case.name.to_string(),
             resolution: job.n,
@@ -294,6 +288,28 @@ impl Runner {
         }
         Ok(row)
     }
+}
+
+/// Run `exe run scene --out dir --force --quiet --threads T --set …` to its end and return
+/// its output (exit status, stdout, stderr).
+pub fn run_child(
+    exe: &Path,
+    scene: &Path,
+    dir: &Path,
+    threads: usize,
+    sets: &[String],
+) -> Result<std::process::Output> {
+    let mut cmd = Command::new(exe);
+    cmd.arg("run").arg(scene).arg("--out").arg(dir).args([
+        "--force",
+        "--quiet",
+        "--threads",
+        &threads.to_string(),
+    ]);
+    for s in sets {
+        cmd.args(["--set", s]);
+    }
+    cmd.output().map_err(|e| Error::io(exe, e))
 }
 
 /// The error named `key` in `summary.json`'s `errors`; a key ending in `*` takes the entry
