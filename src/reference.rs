@@ -10,6 +10,37 @@ use std::f64::consts::PI;
 /// (`inputs/reference/dambreak2d_koshizuka_oka1996_front.csv`, with its sources).
 const KO_FRONT: &str = include_str!("../inputs/reference/dambreak2d_koshizuka_oka1996_front.csv");
 
+/// Ghia, Ghia & Shin (1982) Table I, u on x = 0.5 (`inputs/reference/`, with its sources).
+const GHIA_U: &str = include_str!("../inputs/reference/ghia1982_cavity_u_vertical_centreline.csv");
+/// Table II, v on y = 0.5.
+const GHIA_V: &str = include_str!("../inputs/reference/ghia1982_cavity_v_horizontal_centreline.csv");
+
+/// Steady state of the cavity: kinetic energy changing by less than this fraction per unit
+/// time L/U (the slope of a least-squares line through the output steps of the last
+/// [`STEADY_WINDOW`], over their mean: SPH's particle noise, ±1 % between output steps, would
+/// swamp a two-point difference).
+pub const STEADY_RATE: f64 = 1e-3;
+
+/// Length of the window the kinetic energy's trend is fitted over, in units of L/U.
+pub const STEADY_WINDOW: f64 = 5.0;
+
+/// Ghia's interior points (the wall points, which the boundary condition fixes, left out) for
+/// `re`: (coordinate along the line, velocity / U), from `table` (u or v).
+pub fn ghia(table: &str, re: u32) -> Vec<(f64, f64)> {
+    let mut lines = table.lines().filter(|l| !l.starts_with('#'));
+    let head: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
+    let Some(col) = head.iter().position(|c| c.ends_with(&format!("_Re{re}"))) else {
+        return Vec::new();
+    };
+    lines
+        .filter_map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            Some((f.get(1)?.parse::<f64>().ok()?, f.get(col)?.parse::<f64>().ok()?))
+        })
+        .filter(|&(c, _)| c > 0.0 && c < 1.0)
+        .collect()
+}
+
 /// Transient plane Poiseuille flow (Morris et al. 1997; analytic.md §1a), u(y, t) (m/s) for
 /// body force `f` (m/s²), kinematic viscosity `nu` (m²/s), plates at y = 0 and y = `l`.
 pub fn poiseuille(y: f64, t: f64, f: f64, nu: f64, l: f64) -> f64 {
@@ -49,6 +80,10 @@ pub struct Tracker {
     pub errors: BTreeMap<String, f64>,
     next_time: usize,
     front: Vec<(f64, f64)>,
+    /// The cavity's output steps within the last [`STEADY_WINDOW`]: (t, kinetic energy of the
+    /// fluid).
+    #[serde(default)]
+    ke: Vec<(f64, f64)>,
 }
 
 impl Tracker {
@@ -82,19 +117,28 @@ impl Tracker {
                     self.next_time += 1;
                 }
             }
-            Reference::DamBreakFront { .. } | Reference::Hydrostatic { .. } | Reference::Hole { .. } => {}
+            Reference::DamBreakFront { .. }
+            | Reference::Hydrostatic { .. }
+            | Reference::Hole { .. }
+            | Reference::Cavity { .. } => {}
         }
     }
 
     /// True if `scene`'s reference measures the gathered flow at every output step.
     pub fn measures_at_output(scene: &crate::scene::Scene) -> bool {
-        matches!(scene.reference, Some(Reference::DamBreakFront { .. }))
+        matches!(
+            scene.reference,
+            Some(Reference::DamBreakFront { .. }) | Some(Reference::Cavity { .. })
+        )
     }
 
     /// Called at every output step (front history for the dam break): the leading particle of
     /// the main body along +x (the front probe's definition, detached spray ignored) plus dx/2,
     /// the edge of its cell.
     pub fn at_output<const D: usize>(&mut self, sim: &View<D>) {
+        if let Some(Reference::Cavity { .. }) = &sim.scene.reference {
+            self.cavity(sim);
+        }
         if let Some(Reference::DamBreakFront { .. }) = &sim.scene.reference {
             let dx = sim.scene.discretisation.dx;
             let front = crate::probes::sensors::front(sim, 0, crate::scene::Direction::Plus, 1.5 * dx);
@@ -183,6 +227,82 @@ impl Tracker {
     }
 }
 
+impl Tracker {
+    /// The cavity at an output step: u on the vertical and v on the horizontal centreline at
+    /// Ghia's interior points (Shepard interpolation of the fluid, W-weighted), each error
+    /// max |SPH − Ghia| / U; the kinetic energy's relative change per unit time L/U since the
+    /// last [`STEADY_WINDOW`] and whether it is below [`STEADY_RATE`].
+    fn cavity<const D: usize>(&mut self, sim: &View<D>) {
+        let Some(Reference::Cavity {
+            re,
+            lid_speed,
+            size,
+            origin,
+        }) = &sim.scene.reference
+        else {
+            return;
+        };
+        let (l, u) = (*size, *lid_speed);
+        let k = &sim.model.kernel;
+        let p = &sim.p;
+        let fluid: Vec<usize> = (0..p.n_owned).filter(|&i| p.kind[i].is_fluid()).collect();
+        // velocity component `c` at the point (x, y) (m), Shepard-weighted
+        let at = |x: f64, y: f64, c: usize| -> f64 {
+            let (mut num, mut den) = (0.0, 0.0);
+            for &i in &fluid {
+                let (dx, dy) = (p.x[i][0] - x, p.x[i][1] - y);
+                let r = (dx * dx + dy * dy).sqrt();
+                if r < k.support {
+                    let w = k.w(r) * p.mass[i] / p.rho[i];
+                    num += w * p.v[i][c];
+                    den += w;
+                }
+            }
+            if den > 0.0 {
+                num / den
+            } else {
+                f64::NAN
+            }
+        };
+        let (x0, y0) = (origin[0], origin[1]);
+        let eu = ghia(GHIA_U, *re)
+            .iter()
+            .map(|&(y, g)| (at(x0 + 0.5 * l, y0 + y * l, 0) / u - g).abs())
+            .fold(0.0, f64::max);
+        let ev = ghia(GHIA_V, *re)
+            .iter()
+            .map(|&(x, g)| (at(x0 + x * l, y0 + 0.5 * l, 1) / u - g).abs())
+            .fold(0.0, f64::max);
+        self.errors.insert("cavity_u_linf".into(), eu);
+        self.errors.insert("cavity_v_linf".into(), ev);
+        self.errors.insert("cavity_linf".into(), eu.max(ev));
+        let ke: f64 = fluid
+            .iter()
+            .map(|&i| 0.5 * p.mass[i] * p.v[i].norm_squared())
+            .sum();
+        let tu = l / u.abs();
+        self.ke.push((sim.t, ke));
+        self.ke
+            .retain(|&(t, _)| t >= sim.t - STEADY_WINDOW * tu * (1.0 + 1e-9));
+        let window = self.ke.first().map_or(0.0, |f| sim.t - f.0);
+        if self.ke.len() >= 3 && window >= 0.99 * STEADY_WINDOW * tu {
+            let n = self.ke.len() as f64;
+            let (mt, me) = (
+                self.ke.iter().map(|p| p.0).sum::<f64>() / n,
+                self.ke.iter().map(|p| p.1).sum::<f64>() / n,
+            );
+            let sxx: f64 = self.ke.iter().map(|p| (p.0 - mt).powi(2)).sum();
+            let sxy: f64 = self.ke.iter().map(|p| (p.0 - mt) * (p.1 - me)).sum();
+            if me > 0.0 && sxx > 0.0 {
+                let rate = (sxy / sxx).abs() * tu / me;
+                self.errors.insert("kinetic_energy_rate".into(), rate);
+                self.errors
+                    .insert("steady".into(), if rate < STEADY_RATE { 1.0 } else { 0.0 });
+            }
+        }
+    }
+}
+
 /// A fluid particle lies outside every wall particle's region: it is not closer to any wall
 /// body's box than half a spacing inside it (checked against wall bodies of the scene).
 fn inside_fluid_region<const D: usize>(sim: &View<D>, i: usize) -> bool {
@@ -247,6 +367,18 @@ fn channel_error<const D: usize>(sim: &View<D>, r: &Reference, gap: f64) -> f64 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ghia_tables_give_their_interior_points() {
+        let u = ghia(GHIA_U, 100);
+        let v = ghia(GHIA_V, 100);
+        assert_eq!((u.len(), v.len()), (15, 15));
+        // Table I, Re = 100, y = 0.5: u = −0.20581; Table II, x = 0.2344: v = 0.17527
+        assert!(u.iter().any(|&(y, g)| y == 0.5 && g == -0.20581), "{u:?}");
+        assert!(v.iter().any(|&(x, g)| x == 0.2344 && g == 0.17527), "{v:?}");
+        assert_eq!(ghia(GHIA_U, 1000).len(), 15);
+        assert!(ghia(GHIA_U, 50).is_empty());
+    }
 
     /// The series match the project's computed tables (analytic.md §1).
     #[test]

@@ -139,12 +139,19 @@ fn still_tank_sensors_read_hydrostatic_pressure_and_the_weight() {
         assert!(rel.abs() <= 0.02, "{name}: {} Pa against {exact} Pa", last[1]);
     }
     let ts = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
+    let col = ts
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .position(|c| c == "mass")
+        .unwrap();
     let mass: f64 = ts
         .lines()
         .nth(1)
         .unwrap()
-        .rsplit(',')
-        .next()
+        .split(',')
+        .nth(col)
         .unwrap()
         .parse()
         .unwrap();

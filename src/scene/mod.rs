@@ -924,6 +924,19 @@ pub enum Reference {
         #[serde(default)]
         source: String,
     },
+    /// Lid-driven square cavity (2D) against Ghia, Ghia & Shin (1982): u on the vertical and
+    /// v on the horizontal centreline at their interior tabulated points, in lid-speed units.
+    Cavity {
+        /// Reynolds number U L/ν of Ghia's table to compare with: 100, 400 or 1000.
+        re: u32,
+        /// Lid speed U (m/s), along +x.
+        lid_speed: f64,
+        /// Side L (m).
+        size: f64,
+        /// Lower-left corner of the cavity (m).
+        #[serde(default = "zero2")]
+        origin: Vec<f64>,
+    },
     /// Koshizuka & Oka (1996) surge front Z = z/L vs T = t·sqrt(2g/L), experiment.
     DamBreakFront {
         /// Column width L (m).
@@ -931,4 +944,9 @@ pub enum Reference {
         /// Left wall position (m) from which the front is measured.
         origin: f64,
     },
+}
+
+/// Default corner of a cavity reference.
+fn zero2() -> Vec<f64> {
+    vec![0.0, 0.0]
 }

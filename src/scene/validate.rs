@@ -879,6 +879,33 @@ fn validate_reference(s: &Scene) -> Result<()> {
             positive(*column_width, "reference.column_width", "column_width = 0.146")?;
             &[]
         }
+        Reference::Cavity {
+            re,
+            lid_speed,
+            size,
+            origin,
+        } => {
+            if ![100, 400, 1000].contains(re) {
+                return err(
+                    "reference.re",
+                    format!("Ghia, Ghia & Shin's tables shipped are for Re = 100, 400 and 1000, not {re}; use re = 100"),
+                );
+            }
+            positive(*size, "reference.size", "size = 1.0")?;
+            if !(lid_speed.is_finite() && *lid_speed != 0.0) {
+                return err(
+                    "reference.lid_speed",
+                    "must be a non-zero speed (m/s), e.g. lid_speed = 1.0",
+                );
+            }
+            if s.dimension != 2 || origin.len() != 2 {
+                return err(
+                    "reference",
+                    "the cavity reference is 2D: dimension = 2 and origin = [x, y]",
+                );
+            }
+            &[]
+        }
         Reference::Hole { major, minor, .. } => {
             positive(*major, "reference.major", "major = 0.0106")?;
             positive(*minor, "reference.minor", "minor = 0.0085")?;
