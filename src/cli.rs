@@ -165,7 +165,9 @@ Examples:
     /// meets a target error.
     #[command(after_help = "\
 Cases: poiseuille, couette (Morris et al. 1997 start-ups; velocity error at t = 2 s in units of
-the peak speed), hydrostatic (still tank; pressure error below mid-depth in units of rho g H).
+the peak speed), hydrostatic (still tank; pressure error below mid-depth in units of rho g H),
+cavity (lid-driven, Re = 100, against Ghia et al. 1982 at t = 30 L/U; variants include the
+wall methods dummy, repulsive and mixed: mirror box under a dummy lid).
 Writes into --out: sweep.csv (one row per run: error, wall time, particle-steps/s, peak RSS,
 status), runs/<case>-n<N>-<variant>/ (each an ordinary run directory), <case>_cost_error and
 <case>_convergence (.png, .svg) and validate.md. Running again skips the configurations

@@ -63,7 +63,7 @@ pub struct Case {
 
 /// Every known case, in the order `hsph validate` runs them.
 pub fn all() -> Vec<Case> {
-    vec![poiseuille(), couette(), hydrostatic()]
+    vec![poiseuille(), couette(), hydrostatic(), cavity()]
 }
 
 /// The case called `name`, or an error listing the known ones.
@@ -220,5 +220,72 @@ fn hydrostatic() -> Case {
         },
         overrides: hydrostatic_overrides,
         length: 0.5,
+    }
+}
+
+/// The lid-driven cavity (L = 1 m): at dx = L/n the lid block and the domain margin are whole
+/// rows covering the support. `walls`: `dummy` or `repulsive` for every wall, `mixed` for
+/// mirror side walls and floor under a dummy lid (seed 002's mixed method).
+fn cavity_overrides(n: u32, v: &Variant) -> Vec<String> {
+    let dx = 1.0 / n as f64;
+    let t = dx * (v.support_cells() - 1e-9).ceil();
+    let m = t + dx;
+    let (box_method, lid_method) = match v.walls {
+        "mixed" => ("mirror", "dummy"),
+        w => (w, w),
+    };
+    vec![
+        format!("discretisation.dx={dx:e}"),
+        format!("discretisation.h_over_dx={}", v.h_over_dx),
+        format!("discretisation.kernel=\"{}\"", v.kernel.name()),
+        format!("physics.density_diffusion=\"{}\"", v.diffusion),
+        format!("domain.min=[{:e},{:e}]", -m, -m),
+        format!("domain.max=[{:e},{:e}]", 1.0 + m, 1.0 + m),
+        format!("wall[1].min=[{:e},1.0]", -t),
+        format!("wall[1].max=[{:e},{:e}]", 1.0 + t, 1.0 + t),
+        format!("wall[0].method=\"{box_method}\""),
+        format!("wall[1].method=\"{lid_method}\""),
+    ]
+}
+
+fn cavity_default() -> Variant {
+    Variant {
+        kernel: KernelKind::WendlandC2,
+        h_over_dx: 1.3,
+        walls: "dummy",
+        diffusion: "antuono",
+    }
+}
+
+fn cavity() -> Case {
+    Case {
+        name: "cavity",
+        file: "inputs/cavity_re100.toml",
+        scene: include_str!("../../inputs/cavity_re100.toml"),
+        error_key: "cavity_linf",
+        norm: "max over Ghia et al.'s 15 + 15 interior centreline points of |u − u_Ghia| and |v − v_Ghia|, in lid-speed units, at t = 30 L/U (Re = 100)",
+        resolutions: &[20, 40, 60],
+        default: cavity_default(),
+        sweep: || {
+            let mut out = vec![cavity_default()];
+            for walls in ["repulsive", "mixed"] {
+                out.push(Variant {
+                    walls,
+                    ..cavity_default()
+                });
+            }
+            out.push(Variant {
+                kernel: KernelKind::QuinticSpline,
+                h_over_dx: 1.0,
+                ..cavity_default()
+            });
+            out.push(Variant {
+                diffusion: "none",
+                ..cavity_default()
+            });
+            out
+        },
+        overrides: cavity_overrides,
+        length: 1.0,
     }
 }
