@@ -108,22 +108,28 @@ fn channel_overrides(n: u32, v: &Variant) -> Vec<String> {
 /// Kernel and h/dx pairs the channel sweeps: each kernel at its usual h/dx and at the ends of
 /// the 1.2–2.0 range.
 fn channel_sweep() -> Vec<Variant> {
-    let mut out = vec![channel_default()];
-    for (kernel, h) in [
-        (KernelKind::QuinticSpline, 1.5),
-        (KernelKind::CubicSpline, 1.2),
-        (KernelKind::CubicSpline, 2.0),
-        (KernelKind::WendlandC2, 1.2),
-        (KernelKind::WendlandC2, 2.0),
-    ] {
-        out.push(Variant {
-            kernel,
-            h_over_dx: h,
-            ..channel_default()
-        });
-    }
     // mirror walls reflect across the inner faces of a container only; the channel's plates
-    // are blocks, so its wall variants wait for a periodic container
+    // are blocks of a periodic box, so its wall variants wait for a periodic container
+    with_kernels(
+        channel_default(),
+        &[
+            (KernelKind::QuinticSpline, 1.5),
+            (KernelKind::CubicSpline, 1.2),
+            (KernelKind::CubicSpline, 2.0),
+            (KernelKind::WendlandC2, 1.2),
+            (KernelKind::WendlandC2, 2.0),
+        ],
+    )
+}
+
+/// `base` first, then `base` with each (kernel, h/dx) of `pairs`.
+fn with_kernels(base: Variant, pairs: &[(KernelKind, f64)]) -> Vec<Variant> {
+    let mut out = vec![base.clone()];
+    out.extend(pairs.iter().map(|&(kernel, h_over_dx)| Variant {
+        kernel,
+        h_over_dx,
+        ..base.clone()
+    }));
     out
 }
 
@@ -197,25 +203,19 @@ fn hydrostatic() -> Case {
         resolutions: &[10, 20, 25, 40],
         default: hydrostatic_default(),
         sweep: || {
-            let mut out = vec![hydrostatic_default()];
-            for (kernel, h) in [
-                (KernelKind::WendlandC2, 1.3),
-                (KernelKind::WendlandC2, 1.5),
-                (KernelKind::CubicSpline, 1.3),
-                (KernelKind::CubicSpline, 2.0),
-            ] {
-                out.push(Variant {
-                    kernel,
-                    h_over_dx: h,
-                    ..hydrostatic_default()
-                });
-            }
-            for diffusion in ["none", "molteni"] {
-                out.push(Variant {
-                    diffusion,
-                    ..hydrostatic_default()
-                });
-            }
+            let mut out = with_kernels(
+                hydrostatic_default(),
+                &[
+                    (KernelKind::WendlandC2, 1.3),
+                    (KernelKind::WendlandC2, 1.5),
+                    (KernelKind::CubicSpline, 1.3),
+                    (KernelKind::CubicSpline, 2.0),
+                ],
+            );
+            out.extend(["none", "molteni"].map(|diffusion| Variant {
+                diffusion,
+                ..hydrostatic_default()
+            }));
             out
         },
         overrides: hydrostatic_overrides,
