@@ -38,6 +38,7 @@ pub mod scene;
 pub mod setup;
 pub mod signals;
 pub mod sim;
+pub mod stokes_cavity;
 pub mod topology;
 pub mod validate;
 

@@ -40,3 +40,30 @@ fn cavity_re100_at_40x40_matches_ghia_within_its_committed_bound() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("reference.re") && err.contains("re = 100"), "{err}");
 }
+
+/// The cavity at Re = 1 against the finite-difference Stokes solution (src/stokes_cavity.rs),
+/// 40 × 40 to t = 3 s (three viscous times L²/ν): measured max |u − u_Stokes| / U 2.58 %,
+/// |v − v_Stokes| / U 1.10 %; bound 1.5 × 2.58 %.
+#[test]
+fn cavity_re1_at_40x40_matches_the_stokes_solution_within_its_committed_bound() {
+    let out = common::temp_dir("cavity_re1");
+    let o = out.join("run");
+    let (code, _, err) = hsph(&[
+        "run",
+        "inputs/cavity_re1.toml",
+        "--out",
+        o.to_str().unwrap(),
+        "-q",
+        "--set",
+        "discretisation.dx=0.025",
+        "--set",
+        "time.t_end=3",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(o.join("summary.json")).unwrap()).unwrap();
+    let e = s["errors"]["cavity_linf"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{s}"));
+    assert!(e <= 1.5 * 0.0258, "{}", s["errors"]);
+}

@@ -927,7 +927,8 @@ pub enum Reference {
     /// Lid-driven square cavity (2D) against Ghia, Ghia & Shin (1982): u on the vertical and
     /// v on the horizontal centreline at their interior tabulated points, in lid-speed units.
     Cavity {
-        /// Reynolds number U L/ν of Ghia's table to compare with: 100, 400 or 1000.
+        /// Reynolds number U L/ν of the reference: 100, 400 or 1000 (Ghia's tables) or 1 (a
+        /// finite-difference Stokes solution, [`crate::stokes_cavity`]).
         re: u32,
         /// Lid speed U (m/s), along +x.
         lid_speed: f64,

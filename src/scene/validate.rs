@@ -885,10 +885,13 @@ fn validate_reference(s: &Scene) -> Result<()> {
             size,
             origin,
         } => {
-            if ![100, 400, 1000].contains(re) {
+            if ![1, 100, 400, 1000].contains(re) {
                 return err(
                     "reference.re",
-                    format!("Ghia, Ghia & Shin's tables shipped are for Re = 100, 400 and 1000, not {re}; use re = 100"),
+                    format!(
+                        "the cavity references are Ghia, Ghia & Shin's tables for Re = 100, 400 and 1000 \
+                         and a Stokes solution for Re = 1, not {re}; use re = 100"
+                    ),
                 );
             }
             positive(*size, "reference.size", "size = 1.0")?;
