@@ -41,10 +41,13 @@ pub fn ghia(table: &str, re: u32) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// Points of a centreline profile: (coordinate / L, velocity / U).
+pub type Profile = Vec<(f64, f64)>;
+
 /// The cavity's reference points for `re`: u on x = 1/2 and v on y = 1/2 as (coordinate,
 /// velocity / U). Re = 100, 400, 1000: Ghia et al.'s interior points; Re = 1: the
 /// finite-difference Stokes solution ([`crate::stokes_cavity`]) at the same coordinates.
-pub fn cavity_reference(re: u32) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+pub fn cavity_reference(re: u32) -> (Profile, Profile) {
     if re == 1 {
         let s = crate::stokes_cavity::shared();
         let u = ghia(GHIA_U, 100)
