@@ -216,7 +216,8 @@ Examples:
         /// With --target: write that configuration's resolved scene here.
         #[arg(long, value_name = "SCENE")]
         write: Option<PathBuf>,
-        /// Stability map: run these studies (diffusion, cfl, walls, lattice; none named: all)
+        /// Stability map: run these studies (diffusion, cfl, walls, lattice, tensile; none
+        /// named: all)
         /// until each run fails or ends, into map.csv, map_<study>.png/.svg and map.md.
         #[arg(long, value_delimiter = ',', num_args = 0.., value_name = "STUDY")]
         map: Option<Vec<String>>,
