@@ -225,7 +225,9 @@ fn a_gauge_reads_the_water_column_under_it() {
         )
         + "\n[[fluid]]\nname = \"spray\"\nmaterial = \"water\"\nmin = [0.24, 0.7]\nmax = [0.28, 0.72]\n"
         + "\n[[probe]]\nname = \"wet\"\nkind = \"gauge\"\npoint = [0.25, 0.0]\n"
-        + "\n[[probe]]\nname = \"dry\"\nkind = \"gauge\"\npoint = [0.8, 0.0]\n";
+        + "\n[[probe]]\nname = \"dry\"\nkind = \"gauge\"\npoint = [0.8, 0.0]\n"
+        // exactly between two lattice columns (0.25 and 0.27 m): read dry before the fix
+        + "\n[[probe]]\nname = \"between\"\nkind = \"gauge\"\npoint = [0.26, 0.0]\n";
     std::fs::write(&scene, text).unwrap();
     let out = dir.join("run");
     let (code, _, err) = hsph(&[
@@ -254,6 +256,11 @@ fn a_gauge_reads_the_water_column_under_it() {
     let wet = first("wet");
     assert!((wet - 0.5).abs() < 0.02, "wet gauge {wet}");
     assert_eq!(first("dry"), 0.0);
+    let between = first("between");
+    assert!(
+        (between - 0.5).abs() < 0.02,
+        "gauge between two columns {between}"
+    );
 }
 
 /// Deepest excursion (m) of a fluid particle past the inner face of the shipped dam break's

@@ -150,7 +150,10 @@ fn gauge<const D: usize>(v: &View<D>, point: &[f64]) -> f64 {
     let k = &v.model.kernel;
     let dx = v.scene.discretisation.dx;
     let up = D - 1;
-    let under = |i: usize| (0..up).all(|a| (p.x[i][a] - point[a]).abs() < 0.5 * dx);
+    // the columns within half a spacing, both of them when the gauge sits exactly between two
+    // (x = 0.3 m on a lattice offset by dx/2 from it); a strict `<` found none there, took
+    // the domain's floor for the bed and read a full column as dry
+    let under = |i: usize| (0..up).all(|a| (p.x[i][a] - point[a]).abs() <= 0.5 * dx * (1.0 + 1e-9));
     let bed = (0..p.n_owned)
         .filter(|&i| p.kind[i].is_wall() && under(i))
         .map(|i| p.x[i][up] + 0.5 * dx)
