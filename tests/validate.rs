@@ -159,7 +159,7 @@ fn a_small_poiseuille_sweep_charts_its_front_and_names_the_cheapest_run() {
         "10",
     ]);
     assert_eq!(other.status.code(), Some(2), "other overrides in the same --out");
-    let unknown = hsph(&["validate", "cavity", "--out", out.to_str().unwrap()]);
+    let unknown = hsph(&["validate", "nonsense", "--out", out.to_str().unwrap()]);
     assert_eq!(unknown.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&unknown.stderr).contains("known cases: poiseuille"));
 }
