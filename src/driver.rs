@@ -1185,6 +1185,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
         };
         writer.flush()?;
         writer.mirror_series(&self.probes.files())?;
+        self.tracker
+            .from_probe_files(self.scene, &self.dir.join("probes"));
         if let Some(view) = final_view {
             self.tracker.finish(&view);
             output::write_final(&self.dir.join("final.csv"), &view.p, &view.by_id())?;
@@ -1215,6 +1217,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 n * steps / wall.max(1e-12),
                 self.dir.display()
             );
+            for (k, v) in &self.tracker.measured {
+                eprintln!("hsph: measured {k} = {v:.6}");
+            }
             for (k, v) in &self.tracker.errors {
                 eprintln!("hsph: error {k} = {:.4} %", v * 100.0);
             }
@@ -1319,6 +1324,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "timers": timers,
             "errors": errors,
         });
+        if !self.tracker.measured.is_empty() {
+            summary["measured"] = json!(self.tracker.measured);
+        }
         // machine dependent, like wall_s: summary.json is not compared across runs
         summary["peak_rss_bytes"] = json!(crate::memory::peak_rss());
         summary["removed_energy"] = json!(self.removed_out[0]);

@@ -96,11 +96,24 @@ pub fn couette(y: f64, t: f64, v0: f64, nu: f64, l: f64) -> f64 {
     u
 }
 
+/// Maximum run-up R (m) of a solitary wave of height `a` (m) on depth `h` (m) at a vertical
+/// wall: the head-on collision of two equal waves, to third order in α = A/h (Su & Mirie
+/// 1980, J. Fluid Mech. 98, 509, as quoted by Cooker, Weidman & Bale 1997 and Chambarel,
+/// Kharif & Touboul 2009): R/h = 2α + α²/2 + 3α³/4.
+pub fn su_mirie_runup(a: f64, h: f64) -> f64 {
+    let al = a / h;
+    h * (2.0 * al + 0.5 * al * al + 0.75 * al * al * al)
+}
+
 /// Tracks a scene's reference during a run (its state goes into checkpoints).
 #[derive(Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Tracker {
     /// Named errors measured so far.
     pub errors: BTreeMap<String, f64>,
+    /// Named measured values beside the errors (with their units in the name), for
+    /// `summary.json`'s `measured`.
+    #[serde(default)]
+    pub measured: BTreeMap<String, f64>,
     next_time: usize,
     front: Vec<(f64, f64)>,
     /// The cavity's output steps within the last [`STEADY_WINDOW`]: (t, kinetic energy of the
@@ -114,7 +127,9 @@ impl Tracker {
     /// rank, so all ranks gather the state together).
     pub fn due(&self, scene: &crate::scene::Scene, t: f64) -> bool {
         match &scene.reference {
-            Some(Reference::Poiseuille { times, .. }) | Some(Reference::Couette { times, .. }) => {
+            Some(Reference::Poiseuille { times, .. })
+            | Some(Reference::Couette { times, .. })
+            | Some(Reference::TaylorGreen { times, .. }) => {
                 self.next_time < times.len() && t >= times[self.next_time] * (1.0 - 1e-12)
             }
             _ => false,
@@ -140,7 +155,19 @@ impl Tracker {
                     self.next_time += 1;
                 }
             }
+            Reference::TaylorGreen { speed, length, times } => {
+                while self.next_time < times.len() && sim.t >= times[self.next_time] * (1.0 - 1e-12) {
+                    let label = times[self.next_time];
+                    let (e, dmin, cv) = taylor_green_error(sim, *speed, *length);
+                    self.errors.insert(format!("velocity_linf_t{label}"), e);
+                    self.measured
+                        .insert(format!("min_pair_distance_over_dx_t{label}"), dmin);
+                    self.measured.insert(format!("nearest_distance_cv_t{label}"), cv);
+                    self.next_time += 1;
+                }
+            }
             Reference::DamBreakFront { .. }
+            | Reference::SolitaryWave { .. }
             | Reference::Hydrostatic { .. }
             | Reference::Hole { .. }
             | Reference::Cavity { .. } => {}
@@ -251,6 +278,95 @@ impl Tracker {
 }
 
 impl Tracker {
+    /// References measured on probe series, read back from the run's probe files in `dir`
+    /// on rank 0 at the end (the whole history, across restarts). The solitary wave: the
+    /// crest above the gauge's first reading (still water) against A; the arrival gauge's
+    /// crest time against [`crate::boundary::motion::Goring::crest_time`] at its distance
+    /// from the paddle's rest face; the run-up gauge's rise against [`su_mirie_runup`].
+    pub fn from_probe_files(&mut self, scene: &crate::scene::Scene, dir: &std::path::Path) {
+        let Some(Reference::SolitaryWave {
+            crest_gauge,
+            arrival_gauge,
+            runup_gauge,
+        }) = &scene.reference
+        else {
+            return;
+        };
+        let Some((wall, a, h, e)) = scene.walls.iter().find_map(|w| match &w.motion {
+            Some(crate::scene::Motion::Solitary {
+                amplitude,
+                depth,
+                direction,
+            }) => Some((w, *amplitude, *depth, direction.clone())),
+            _ => None,
+        }) else {
+            return;
+        };
+        let g = scene.physics.body_force.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let law = crate::boundary::motion::Goring::new(a, h, g);
+        // the paddle's rest face: its box's furthest extent along the push direction
+        let face: f64 = (0..e.len())
+            .map(|k| (e[k] * wall.min[k]).max(e[k] * wall.max[k]))
+            .sum();
+        // (still-water reading, crest reading, crest time) of a gauge
+        let crest = |name: &str| -> Option<(f64, f64, f64)> {
+            let text = std::fs::read_to_string(dir.join(format!("{name}.csv"))).ok()?;
+            let rows: Vec<(f64, f64)> = text
+                .lines()
+                .skip(1)
+                .filter_map(|l| {
+                    let (t, z) = l.split_once(',')?;
+                    Some((t.parse().ok()?, z.parse().ok()?))
+                })
+                .collect();
+            let z0 = rows.first()?.1;
+            let top = rows
+                .iter()
+                .copied()
+                .fold((0.0, f64::MIN), |m, r| if r.1 > m.1 { r } else { m });
+            Some((z0, top.1, top.0))
+        };
+        let distance = |name: &str| -> f64 {
+            scene
+                .probes
+                .iter()
+                .find_map(|p| match p {
+                    crate::scene::Probe::Gauge { name: n, point, .. } if n == name => {
+                        Some((0..e.len()).map(|k| e[k] * point[k]).sum::<f64>() - face)
+                    }
+                    _ => None,
+                })
+                .unwrap_or(f64::NAN)
+        };
+        self.measured.insert("wave_height_m".into(), a);
+        self.measured.insert("celerity_m_per_s".into(), law.c);
+        if let Some((z0, z1, _)) = crest(crest_gauge) {
+            self.measured.insert("crest_height_m".into(), z1 - z0);
+            self.errors
+                .insert("solitary_crest".into(), ((z1 - z0) / a - 1.0).abs());
+        }
+        if let Some((_, _, t)) = crest(arrival_gauge) {
+            let t_ref = law.crest_time(distance(arrival_gauge));
+            self.measured.insert("arrival_time_s".into(), t);
+            self.measured.insert("arrival_time_reference_s".into(), t_ref);
+            self.errors
+                .insert("solitary_arrival".into(), (t / t_ref - 1.0).abs());
+            if let Some((_, _, t0)) = crest(crest_gauge) {
+                let dx = distance(arrival_gauge) - distance(crest_gauge);
+                self.measured
+                    .insert("celerity_between_gauges_m_per_s".into(), dx / (t - t0));
+            }
+        }
+        if let Some((z0, z1, t)) = crest(runup_gauge) {
+            let r_ref = su_mirie_runup(a, h);
+            self.measured.insert("runup_m".into(), z1 - z0);
+            self.measured.insert("runup_time_s".into(), t);
+            self.measured.insert("runup_su_mirie_m".into(), r_ref);
+            self.errors
+                .insert("solitary_runup".into(), ((z1 - z0) / r_ref - 1.0).abs());
+        }
+    }
+
     /// The cavity at an output step: u on the vertical and v on the horizontal centreline at
     /// Ghia's interior points (Shepard interpolation of the fluid, W-weighted), each error
     /// max |SPH − Ghia| / U; the kinetic energy's relative change per unit time L/U since the
@@ -361,6 +477,44 @@ fn interpolate(series: &[(f64, f64)], t: f64) -> Option<f64> {
     Some(f0 + (f1 - f0) * (t - t0) / (t1 - t0).max(1e-300))
 }
 
+/// The Taylor–Green vortex at the view's time: (max over fluid particles of
+/// |v − v_exact| / (U e^{bt}), the smallest distance between two fluid particles over Δx, and
+/// the coefficient of variation of the nearest-neighbour distance — 0 on the initial lattice,
+/// a measure of disorder). Distances wrap across the periodic box.
+fn taylor_green_error<const D: usize>(sim: &View<D>, u: f64, l: f64) -> (f64, f64, f64) {
+    let p = &sim.p;
+    let (x0, y0) = (sim.scene.domain.min[0], sim.scene.domain.min[1]);
+    let decay = (-8.0 * PI * PI * sim.model.nu / (l * l) * sim.t).exp();
+    let k = 2.0 * PI / l;
+    let fluid: Vec<usize> = (0..p.n_owned).filter(|&i| p.kind[i].is_fluid()).collect();
+    let mut e: f64 = 0.0;
+    for &i in &fluid {
+        let (x, y) = (p.x[i][0] - x0, p.x[i][1] - y0);
+        let ue = -u * decay * (k * x).cos() * (k * y).sin();
+        let ve = u * decay * (k * x).sin() * (k * y).cos();
+        let d = ((p.v[i][0] - ue).powi(2) + (p.v[i][1] - ve).powi(2)).sqrt();
+        e = e.max(d / (u * decay));
+    }
+    let nearest = crate::probes::disorder::nearest_distances(p, &fluid, &periods(sim));
+    let dx = sim.scene.discretisation.dx;
+    let n = nearest.len().max(1) as f64;
+    let mean = nearest.iter().sum::<f64>() / n;
+    let var = nearest.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / n;
+    let dmin = nearest.iter().copied().fold(f64::INFINITY, f64::min);
+    (e, dmin / dx, var.sqrt() / mean.max(1e-300))
+}
+
+/// Box length along each periodic axis of the view's scene (m), infinity along the others.
+fn periods<const D: usize>(sim: &View<D>) -> Vec<f64> {
+    let d = &sim.scene.domain;
+    (0..D)
+        .map(|a| match d.periodic.get(a) {
+            Some(true) => d.max[a] - d.min[a],
+            _ => f64::INFINITY,
+        })
+        .collect()
+}
+
 /// max over fluid particles of |u − u_exact| / u_max for the channel references.
 fn channel_error<const D: usize>(sim: &View<D>, r: &Reference, gap: f64) -> f64 {
     let nu = sim.model.nu;
@@ -418,5 +572,13 @@ mod tests {
             assert!((couette(l / 2.0, t, v0, nu, l) - uc).abs() < 1e-4 * uc, "t={t}");
         }
         assert!(poiseuille(0.3e-3, 0.0, f, nu, l).abs() < 1e-12);
+    }
+
+    /// Linear theory doubles the wave at a wall; the second- and third-order terms add
+    /// α²/2 + 3α³/4 (A/h = 0.2: 0.02 + 0.006).
+    #[test]
+    fn su_mirie_runup_at_a_fifth_of_the_depth() {
+        assert!((su_mirie_runup(0.05, 0.25) - 0.25 * 0.426).abs() < 1e-15);
+        assert!((su_mirie_runup(1e-6, 1.0) - 2e-6).abs() < 1e-11);
     }
 }

@@ -12,6 +12,7 @@ pub mod delta;
 pub mod fluid;
 pub mod material;
 pub mod passes;
+pub mod shifting;
 pub mod solid;
 
 use crate::boundary::repulsive::Repulsion;
@@ -57,6 +58,8 @@ pub struct Model<const D: usize> {
     pub wall_acc: Vec<Vector<D>>,
     /// Largest c0 of all materials (m/s).
     pub c_max: f64,
+    /// Particle shifting of fluid particles, if the scene asks for it.
+    pub shifting: Option<shifting::Shifting>,
 }
 
 impl<const D: usize> Model<D> {
@@ -66,8 +69,15 @@ impl<const D: usize> Model<D> {
         let materials: Vec<MaterialModel> = s.materials.iter().map(MaterialModel::new).collect();
         let c_max = materials.iter().fold(0.0f64, |m, e| m.max(e.c0()));
         let has_solid = !s.solids.is_empty();
+        let kernel = Kernel::new(s.discretisation.kernel, h, D);
+        let dx = s.discretisation.dx;
+        let shifting =
+            (s.physics.shifting == crate::scene::ShiftingKind::DeltaPlus && c_max > 0.0).then(|| {
+                let u = crate::scene::expected_speed(s);
+                shifting::Shifting::new(h, dx, s.time.cfl, u, c_max, kernel.w(dx))
+            });
         Model {
-            kernel: Kernel::new(s.discretisation.kernel, h, D),
+            kernel,
             diffusion: s.physics.density_diffusion,
             delta: s.physics.delta,
             alpha: s.physics.artificial_viscosity,
@@ -88,6 +98,7 @@ impl<const D: usize> Model<D> {
             wall_acc: vec![Vector::zeros(); s.walls.len()],
             materials,
             c_max,
+            shifting,
         }
     }
 
@@ -134,6 +145,13 @@ impl<const D: usize> Model<D> {
         }
         if self.g.norm() > 0.0 {
             v.push(format!("body force {:?} m/s²", self.g.as_slice()));
+        }
+        if let Some(s) = &self.shifting {
+            v.push(format!(
+                "δ⁺-SPH particle shifting (Sun et al. 2017), β(2h)² = {:.3e} m², |δr| ≤ {:.2e} m, \
+                 fields Taylor-corrected",
+                s.coefficient, s.cap
+            ));
         }
         v
     }

@@ -30,6 +30,10 @@ pub enum Pass {
     SolidUpdate,
     /// dv/dt of solid particles: [`super::solid::dynamics::momentum`].
     SolidMomentum,
+    /// The closing half kick v += ½dt a of integrated particles (no neighbours).
+    Kick,
+    /// Particle shifting of fluid particles with their fields: [`super::shifting`].
+    Shift,
 }
 
 impl Pass {
@@ -70,6 +74,8 @@ impl Pass {
                 .or(Fields::CORRECTION)
                 .or(Fields::ENERGY)
                 .or(Fields::MAT),
+            Pass::Kick => Fields::NONE,
+            Pass::Shift => geometry.or(Fields::V).or(Fields::RHO),
         }
     }
 
@@ -87,12 +93,14 @@ impl Pass {
                 .or(Fields::FAILED),
             Pass::DensityUpdate => Fields::RHO.or(Fields::P),
             Pass::WallExtrapolation => Fields::P.or(Fields::RHO).or(Fields::VW),
+            Pass::Kick => Fields::V,
+            Pass::Shift => Fields::X.or(Fields::V).or(Fields::RHO).or(Fields::P),
         }
     }
 
     /// True if the pass walks the neighbour lists (counted as pair interactions).
     pub fn pairs(self) -> bool {
-        !matches!(self, Pass::DensityUpdate | Pass::SolidUpdate)
+        !matches!(self, Pass::DensityUpdate | Pass::SolidUpdate | Pass::Kick)
     }
 
     /// Name in logs and in `hsph plan`'s exchange list.
@@ -107,6 +115,8 @@ impl Pass {
             Pass::SolidRates => "solid_rates",
             Pass::SolidUpdate => "solid_update",
             Pass::SolidMomentum => "solid_momentum",
+            Pass::Kick => "kick",
+            Pass::Shift => "shift",
         }
     }
 }
@@ -115,7 +125,7 @@ impl Pass {
 /// and the density update come before the forces; see `Simulation::advance`).
 /// A scene without fluid runs no fluid pass, one without solids no solid pass.
 pub fn schedule<const D: usize>(model: &Model<D>) -> Vec<Pass> {
-    let mut s = Vec::with_capacity(8);
+    let mut s = Vec::with_capacity(11);
     let (fluid, solid) = (model.has_fluid, model.has_solid);
     if fluid && model.diffusion == DensityDiffusion::Antuono {
         s.push(Pass::DensityGradient);
@@ -141,6 +151,10 @@ pub fn schedule<const D: usize>(model: &Model<D>) -> Vec<Pass> {
     }
     if solid {
         s.push(Pass::SolidMomentum);
+    }
+    s.push(Pass::Kick);
+    if fluid && model.shifting.is_some() {
+        s.push(Pass::Shift);
     }
     s
 }

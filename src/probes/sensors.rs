@@ -141,8 +141,12 @@ fn pressure<const D: usize>(v: &View<D>, centre: &Vector<D>, diameter: f64, n: &
 /// A wave gauge: the elevation (m, along the last axis) of the free surface of the continuous
 /// water column under `point`. The column starts on the bed — the top of the wall particles
 /// under the gauge, or the domain's floor — and rises while the kernel-interpolated fraction of
-/// matter φ(z) = Σ_j W(x − x_j) V_j (fluid and wall particles) stays at or above ½; the
-/// surface is where φ crosses ½, interpolated linearly between samples dx/4 apart. Spray above
+/// matter φ(z) = Σ_j W(x − x_j) V_j stays at or above ½; the surface is where φ crosses ½,
+/// interpolated linearly between samples dx/4 apart. φ counts the fluid particles and the wall
+/// particles below z (half at z): a bed then stands in for water under the surface as it
+/// should, while a vertical wall beside the gauge counts only below the surface — where the
+/// fluid fills the rest of the support's lower half — so a gauge at a wall reads the run-up
+/// instead of a level raised by the dry wall above the water (1.4 cm at dx = 2.5 cm). Spray above
 /// the first crossing is not water under the gauge. A gauge whose first fluid row is not wet
 /// (φ < ½ at dx/2 above the bed) is dry and reads 0.
 fn gauge<const D: usize>(v: &View<D>, point: &[f64]) -> f64 {
@@ -164,7 +168,12 @@ fn gauge<const D: usize>(v: &View<D>, point: &[f64]) -> f64 {
         for i in 0..p.n_owned {
             let r = (at - p.x[i]).norm();
             if r < k.support {
-                s += k.w(r) * p.mass[i] / p.rho[i];
+                let share = match (p.kind[i].is_fluid(), p.x[i][up].partial_cmp(&z)) {
+                    (true, _) | (false, Some(std::cmp::Ordering::Less)) => 1.0,
+                    (false, Some(std::cmp::Ordering::Equal)) => 0.5,
+                    _ => 0.0,
+                };
+                s += share * k.w(r) * p.mass[i] / p.rho[i];
             }
         }
         s

@@ -438,6 +438,28 @@ pub struct Physics {
     /// Monaghan & Swift 2001; 0.3 is theirs), exponent n = 4; 0 = off.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub artificial_stress: f64,
+    /// Particle shifting of fluid particles after each step: `none` (default) or
+    /// `delta_plus` (Sun et al. 2017, [`crate::physics::shifting`]).
+    #[serde(default, skip_serializing_if = "ShiftingKind::is_none")]
+    pub shifting: ShiftingKind,
+}
+
+/// Particle shifting variants.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ShiftingKind {
+    /// Particles move with the flow only.
+    #[default]
+    None,
+    /// δ⁺-SPH shifting with its free-surface treatment and Taylor-corrected fields.
+    DeltaPlus,
+}
+
+impl ShiftingKind {
+    /// True for `none` (left out of a written scene).
+    pub fn is_none(&self) -> bool {
+        *self == ShiftingKind::None
+    }
 }
 
 fn default_delta() -> f64 {
@@ -454,6 +476,7 @@ impl Default for Physics {
             body_force: Vec::new(),
             artificial_viscosity_beta: 0.0,
             artificial_stress: 0.0,
+            shifting: ShiftingKind::None,
         }
     }
 }
@@ -599,6 +622,17 @@ pub enum Motion {
     ConstantVelocity {
         /// Velocity u (m/s).
         velocity: Vec<f64>,
+    },
+    /// A piston wave maker that generates one solitary wave of height `amplitude` on still
+    /// water of `depth` (Goring 1978): see [`crate::boundary::motion`].
+    Solitary {
+        /// Wave height A above still water (m).
+        amplitude: f64,
+        /// Still-water depth h in front of the paddle (m).
+        depth: f64,
+        /// Direction the paddle pushes (and the wave travels); default +x.
+        #[serde(default)]
+        direction: Vec<f64>,
     },
 }
 
@@ -937,6 +971,29 @@ pub enum Reference {
         /// Lower-left corner of the cavity (m).
         #[serde(default = "zero2")]
         origin: Vec<f64>,
+    },
+    /// A solitary wave made by the scene's `solitary` wave maker: the crest at one gauge
+    /// against the wave height A, the crest's arrival at another against the celerity
+    /// √(g (h + A)), and the maximum run-up at a wall gauge against Su & Mirie (1980),
+    /// R/h = 2α + α²/2 + 3α³/4 with α = A/h ([`crate::reference::su_mirie_runup`]).
+    SolitaryWave {
+        /// Gauge probe whose crest is compared with A (seed 002: 2 m from the paddle).
+        crest_gauge: String,
+        /// Gauge probe whose crest time is compared with the celerity's (seed 002: 8 m).
+        arrival_gauge: String,
+        /// Gauge probe at the wall the wave runs up.
+        runup_gauge: String,
+    },
+    /// The decaying Taylor–Green vortex in a periodic square of side L (analytic.md §2):
+    /// u = −U e^{bt} cos(2πx/L) sin(2πy/L), v = U e^{bt} sin(2πx/L) cos(2πy/L),
+    /// b = −8π²ν/L², with the domain's lower corner at the origin of x and y.
+    TaylorGreen {
+        /// U (m/s).
+        speed: f64,
+        /// L (m).
+        length: f64,
+        /// Times (s) at which the error and the particle disorder are measured.
+        times: Vec<f64>,
     },
     /// Koshizuka & Oka (1996) surge front Z = z/L vs T = t·sqrt(2g/L), experiment.
     DamBreakFront {

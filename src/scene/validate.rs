@@ -578,6 +578,38 @@ fn validate_motion(w: &mut crate::scene::WallBody, k: &str, d: usize) -> Result<
             Motion::ConstantVelocity { velocity } => {
                 check_vec(velocity, d, &format!("{k}.motion.velocity"), false)?;
             }
+            Motion::Solitary {
+                amplitude,
+                depth,
+                direction,
+            } => {
+                positive(*depth, &format!("{k}.motion.depth"), "depth = 0.25")?;
+                positive(*amplitude, &format!("{k}.motion.amplitude"), "amplitude = 0.05")?;
+                if *amplitude > 0.6 * *depth {
+                    return err(
+                        format!("{k}.motion.amplitude"),
+                        format!(
+                            "a solitary wave of A/h = {:.2} exceeds the highest one (A/h ≈ 0.8) \
+                             and Goring's first-order law is meant for A/h ≤ 0.6; for example \
+                             amplitude = {}",
+                            *amplitude / *depth,
+                            0.2 * *depth
+                        ),
+                    );
+                }
+                if direction.is_empty() {
+                    *direction = (0..d).map(|a| if a == 0 { 1.0 } else { 0.0 }).collect();
+                }
+                check_vec(direction, d, &format!("{k}.motion.direction"), false)?;
+                let n = direction.iter().map(|x| x * x).sum::<f64>().sqrt();
+                if n == 0.0 {
+                    return err(
+                        format!("{k}.motion.direction"),
+                        "the direction must not be zero; for example direction = [1.0, 0.0]",
+                    );
+                }
+                direction.iter_mut().for_each(|x| *x /= n);
+            }
         }
     }
     Ok(())
@@ -869,6 +901,18 @@ fn validate_reference(s: &Scene) -> Result<()> {
             }
             times.as_slice()
         }
+        Reference::TaylorGreen { speed, length, times } => {
+            positive(*speed, "reference.speed", "speed = 1.0")?;
+            positive(*length, "reference.length", "length = 1.0")?;
+            if s.dimension != 2 || s.domain.periodic.iter().take(2).any(|p| !p) {
+                return err(
+                    "reference",
+                    "the Taylor–Green reference is a 2D vortex in a box periodic in x and y: \
+                     dimension = 2 and domain.periodic = [true, true]",
+                );
+            }
+            times.as_slice()
+        }
         Reference::Hydrostatic { surface, bottom } => {
             if surface <= bottom {
                 return err("reference.surface", "must lie above reference.bottom");
@@ -906,6 +950,48 @@ fn validate_reference(s: &Scene) -> Result<()> {
                     "reference",
                     "the cavity reference is 2D: dimension = 2 and origin = [x, y]",
                 );
+            }
+            &[]
+        }
+        Reference::SolitaryWave {
+            crest_gauge,
+            arrival_gauge,
+            runup_gauge,
+        } => {
+            if !s
+                .walls
+                .iter()
+                .any(|w| matches!(w.motion, Some(Motion::Solitary { .. })))
+            {
+                return err(
+                    "reference",
+                    "a solitary_wave reference needs a wall with motion = { law = \"solitary\", \
+                     amplitude = …, depth = … } (the wave maker)",
+                );
+            }
+            for (key, name) in [
+                ("crest_gauge", crest_gauge),
+                ("arrival_gauge", arrival_gauge),
+                ("runup_gauge", runup_gauge),
+            ] {
+                if !s
+                    .probes
+                    .iter()
+                    .any(|p| matches!(p, Probe::Gauge { .. }) && p.name() == name)
+                {
+                    let gauges: Vec<&str> = s
+                        .probes
+                        .iter()
+                        .filter(|p| matches!(p, Probe::Gauge { .. }))
+                        .map(|p| p.name())
+                        .collect();
+                    return err(
+                        format!("reference.{key}"),
+                        format!(
+                            "no [[probe]] of kind = \"gauge\" is named {name:?}; the gauges are {gauges:?}"
+                        ),
+                    );
+                }
             }
             &[]
         }
@@ -976,6 +1062,11 @@ pub fn expected_speed(s: &Scene) -> f64 {
                 amplitude, period, ..
             }) => speed = speed.max(2.0 * std::f64::consts::PI * norm(amplitude) / period),
             Some(Motion::ConstantVelocity { velocity }) => speed = speed.max(norm(velocity)),
+            // the paddle's top speed c A/(h + A); the run-up at a wall moves about twice as fast
+            Some(Motion::Solitary { amplitude, depth, .. }) => {
+                let c = (gmag * (depth + amplitude)).sqrt();
+                speed = speed.max(2.0 * c * amplitude / (depth + amplitude));
+            }
             None => {}
         }
     }
@@ -985,6 +1076,7 @@ pub fn expected_speed(s: &Scene) -> f64 {
             speed = speed.max(f * gap * gap / (8.0 * s.physics.laminar_viscosity));
         }
         Some(Reference::Couette { v0, .. }) => speed = speed.max(v0.abs()),
+        Some(Reference::TaylorGreen { speed: u, .. }) => speed = speed.max(*u),
         _ => {}
     }
     speed

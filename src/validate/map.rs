@@ -228,17 +228,9 @@ fn clumping_index(dir: &Path) -> Option<f64> {
     };
     let (lo, hi) = (span("min")?, span("max")?);
     let x: Vec<(f64, f64)> = csv_columns(&dir.join("final.csv"), "x", "y")?;
-    let len = [hi[0] - lo[0], hi[1] - lo[1]];
-    let mut best = f64::INFINITY;
-    for i in 0..x.len() {
-        for j in i + 1..x.len() {
-            let mut d = [x[i].0 - x[j].0, x[i].1 - x[j].1];
-            for a in 0..2 {
-                d[a] -= len[a] * (d[a] / len[a]).round();
-            }
-            best = best.min((d[0] * d[0] + d[1] * d[1]).sqrt());
-        }
-    }
+    let pts: Vec<[f64; 2]> = x.iter().map(|&(a, b)| [a, b]).collect();
+    let near = crate::probes::disorder::nearest_of(&pts, &[hi[0] - lo[0], hi[1] - lo[1]]);
+    let best = near.into_iter().fold(f64::INFINITY, f64::min);
     Some(best / dx)
 }
 
