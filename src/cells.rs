@@ -163,8 +163,22 @@ impl CellList {
     }
 }
 
+/// Which neighbours a particle's list holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Wants {
+    /// No list (a particle no pass gathers for).
+    Nothing,
+    /// Every particle within the support.
+    All,
+    /// Fluid particles only: a dummy wall particle, whose only pass (the extrapolation of
+    /// `boundary::dummy`) reads fluid neighbours. Its list is a fraction of a full one, and
+    /// a wall particle with no fluid in its stencil cells tests no candidate at all.
+    Fluid,
+}
+
 /// Neighbour lists of the owned particles: for particle i, the indices j (owned or ghost) with
-/// `|x_i − x_j| < support`, j ≠ i, in the fixed order described in the module docs.
+/// `|x_i − x_j| < support`, j ≠ i (fluid j only where i [`Wants::Fluid`]), in the fixed order
+/// described in the module docs.
 #[derive(Debug, Clone, Default)]
 pub struct NeighbourList {
     /// `start[i]..start[i+1]` indexes `nbr` for owned particle i.
@@ -176,13 +190,18 @@ pub struct NeighbourList {
     /// Positions in cell order (`xs[k·D + a]` = axis a of particle `order[k]`): the candidates
     /// of one stencil row are contiguous here.
     xs: Vec<f64>,
+    /// 1 for a fluid particle, in cell order like `xs`.
+    fluid: Vec<u8>,
+    /// Fluid particles in cells before cell c (one entry per cell plus one): the fluid in a run
+    /// of cells without looking at it.
+    fluid_start: Vec<u32>,
 }
 
 /// Particles per block of the parallel neighbour-list build.
 const CHUNK: usize = 512;
 
 impl NeighbourList {
-    /// Build lists for owned particles for which `wanted(i)` holds (others get empty lists).
+    /// Build the list of each owned particle i with the neighbours `wants(i)` asks for.
     ///
     /// Cells are linear with the last axis fastest, so for each of the 3ᴰ⁻¹ offsets of the
     /// leading axes the three stencil cells along the last axis are one contiguous run of
@@ -193,21 +212,34 @@ impl NeighbourList {
         cells: &CellList,
         p: &Particles<D>,
         support: f64,
-        wanted: impl Fn(usize) -> bool + Sync,
+        wants: impl Fn(usize) -> Wants + Sync,
     ) {
         let n = p.n_owned;
         let r2max = support * support;
-        // positions in cell order
+        // positions and fluid flags in cell order
         self.xs.resize(cells.order.len() * D, 0.0);
+        self.fluid.resize(cells.order.len(), 0);
         self.xs
             .par_chunks_mut(D * CHUNK)
+            .zip(self.fluid.par_chunks_mut(CHUNK))
             .zip(cells.order.par_chunks(CHUNK))
-            .for_each(|(xs, ord)| {
-                for (x, &j) in xs.chunks_exact_mut(D).zip(ord) {
+            .for_each(|((xs, fl), ord)| {
+                for ((x, f), &j) in xs.chunks_exact_mut(D).zip(fl.iter_mut()).zip(ord) {
                     x.copy_from_slice(p.x[j as usize].as_slice());
+                    *f = p.kind[j as usize].is_fluid() as u8;
                 }
             });
-        let xs = &self.xs;
+        let nc = cells.start.len() - 1;
+        self.fluid_start.clear();
+        self.fluid_start.reserve(nc + 1);
+        self.fluid_start.push(0);
+        let mut acc = 0u32;
+        for c in 0..nc {
+            let (s, e) = (cells.start[c] as usize, cells.start[c + 1] as usize);
+            acc += self.fluid[s..e].iter().map(|&f| f as u32).sum::<u32>();
+            self.fluid_start.push(acc);
+        }
+        let (xs, fluid, fluid_start) = (&self.xs, &self.fluid, &self.fluid_start);
         // row offsets: 3^(D-1) offsets of the leading axes, lexicographic
         let rows = 3usize.pow(D as u32 - 1);
         let last = D - 1;
@@ -224,7 +256,10 @@ impl NeighbourList {
                 for (k, cnt) in counts.iter_mut().enumerate() {
                     let i = ci * CHUNK + k;
                     let before = list.len();
-                    if wanted(i) {
+                    let want = wants(i);
+                    if want != Wants::Nothing {
+                        // 1: every candidate counts; 0: fluid candidates only
+                        let any = (want == Wants::All) as u8;
                         let xi = p.x[i];
                         let mut xa = [0.0f64; D];
                         xa.copy_from_slice(xi.as_slice());
@@ -253,23 +288,29 @@ impl NeighbourList {
                                 base = base * da + ca;
                             }
                             base *= dl;
+                            if want == Wants::Fluid
+                                && fluid_start[base + hi_last + 1] == fluid_start[base + lo_last]
+                            {
+                                continue;
+                            }
                             let s = cells.start[base + lo_last] as usize;
                             let e = cells.start[base + hi_last + 1] as usize;
                             let ord = &cells.order[s..e];
                             let xr = &xs[s * D..e * D];
+                            let fr = &fluid[s..e];
                             // branch-free append: write every candidate, advance on a hit
                             let mut w = list.len();
                             list.resize(w + ord.len(), 0);
                             let out = &mut list[w..];
                             let mut m = 0usize;
-                            for (xj, &j) in xr.chunks_exact(D).zip(ord) {
+                            for ((xj, &j), &fj) in xr.chunks_exact(D).zip(ord).zip(fr) {
                                 let mut d2 = 0.0;
                                 for a in 0..D {
                                     let d = xa[a] - xj[a];
                                     d2 += d * d;
                                 }
                                 out[m] = j;
-                                m += ((d2 < r2max) & (j as usize != i)) as usize;
+                                m += ((d2 < r2max) & (j as usize != i) & ((fj | any) != 0)) as usize;
                             }
                             w += m;
                             list.truncate(w);

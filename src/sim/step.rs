@@ -11,6 +11,7 @@
 use super::timers::Timer;
 use super::Simulation;
 use crate::boundary::{dummy, motion};
+use crate::cells::Wants;
 use crate::comm::Comm;
 use crate::error::Result;
 use crate::particles::Fields;
@@ -206,7 +207,14 @@ impl<const D: usize> Simulation<D> {
         self.bin()?;
         let kind = &self.p.kind;
         self.nl.build(&self.grid, &self.cells, &self.p, support, |i| {
-            kind[i].is_smoothed()
+            let k = kind[i];
+            if !k.is_smoothed() {
+                Wants::Nothing
+            } else if k.is_wall() {
+                Wants::Fluid
+            } else {
+                Wants::All
+            }
         });
         self.timers.add(Timer::Neighbours, t0);
         Ok(())
