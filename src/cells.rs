@@ -170,6 +170,10 @@ pub enum Wants {
     Nothing,
     /// Every particle within the support.
     All,
+    /// A fluid particle in pair mode (`physics::pairs`): every neighbour but the owned fluid
+    /// particles of lower index, which list it themselves, so each owned fluid pair is listed
+    /// once.
+    Half,
     /// Fluid particles only: a dummy wall particle, whose only pass (the extrapolation of
     /// `boundary::dummy`) reads fluid neighbours. Its list is a fraction of a full one, and
     /// a wall particle with no fluid in its stencil cells tests no candidate at all.
@@ -259,7 +263,9 @@ impl NeighbourList {
                     let want = wants(i);
                     if want != Wants::Nothing {
                         // 1: every candidate counts; 0: fluid candidates only
-                        let any = (want == Wants::All) as u8;
+                        let any = (want != Wants::Fluid) as u8;
+                        // half list: drop owned fluid j ≤ i (j = i is dropped anyway)
+                        let full = want != Wants::Half;
                         let xi = p.x[i];
                         let mut xa = [0.0f64; D];
                         xa.copy_from_slice(xi.as_slice());
@@ -310,7 +316,9 @@ impl NeighbourList {
                                     d2 += d * d;
                                 }
                                 out[m] = j;
-                                m += ((d2 < r2max) & (j as usize != i) & ((fj | any) != 0)) as usize;
+                                let j_us = j as usize;
+                                let listed = full | (j_us >= n) | (fj == 0) | (j_us > i);
+                                m += ((d2 < r2max) & (j_us != i) & ((fj | any) != 0) & listed) as usize;
                             }
                             w += m;
                             list.truncate(w);

@@ -158,6 +158,10 @@ Examples:
         /// Override a scene key (repeatable).
         #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
         set: Vec<String>,
+        /// Pair loops: `gather` (each particle sums all its neighbours; the same bits on any
+        /// layout) or `pairs` (each pair once); default: the scene's `[performance]`.
+        #[arg(long, value_enum)]
+        interactions: Option<crate::scene::Interactions>,
     },
     /// Speed against accuracy: run validation cases at several resolutions and method
     /// variants, each run's error against its reference and its cost in one CSV row, charts
@@ -335,8 +339,10 @@ fn dispatch(cmd: Command) -> Result<i32> {
             threads,
             steps,
             repeat,
-            set,
+            mut set,
+            interactions,
         } => {
+            set.extend(interactions_override(interactions));
             let scenes = if scenes.is_empty() {
                 bench::default_scenes()
             } else {
@@ -402,6 +408,12 @@ pub struct RunArgs {
     /// Override a scene key by its dotted TOML path, e.g. --set time.t_end=0.5 (repeatable).
     #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
     set: Vec<String>,
+    /// Pair loops: `gather` (each particle sums all its neighbours in a fixed order: the same
+    /// bits on any number of ranks and threads) or `pairs` (each pair of fluid particles once,
+    /// about a third less work; deterministic for a fixed layout and thread count, equal to
+    /// gather to round-off). Default: the scene's `[performance] interactions`, else gather.
+    #[arg(long, value_enum)]
+    interactions: Option<crate::scene::Interactions>,
     /// Communication back end.
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
     backend: Backend,
@@ -433,6 +445,11 @@ pub struct RunArgs {
     min_particles_per_rank: usize,
 }
 
+/// The `--set` override of an `--interactions` flag.
+fn interactions_override(i: Option<crate::scene::Interactions>) -> Option<String> {
+    i.map(|i| format!("performance.interactions=\"{}\"", i.name()))
+}
+
 /// `hsph run`: a scene, or `--restart` of a checkpoint.
 fn cmd_run_args(a: RunArgs) -> Result<i32> {
     let RunArgs {
@@ -443,7 +460,8 @@ fn cmd_run_args(a: RunArgs) -> Result<i32> {
         out,
         force,
         threads,
-        set,
+        mut set,
+        interactions,
         backend,
         ranks,
         ranks_per_node,
@@ -454,6 +472,7 @@ fn cmd_run_args(a: RunArgs) -> Result<i32> {
         max_memory,
         min_particles_per_rank,
     } = a;
+    set.extend(interactions_override(interactions));
     check_run_flags(backend, bind, ranks, checkpoint_every_minutes)?;
     let opts = RunOptions {
         out,

@@ -111,7 +111,7 @@ pub fn diffusion_term<const D: usize>(
 /// ψ_ij = 2(ρ_j − ρ_i) x_ji/r² − (⟨∇ρ⟩_i + ⟨∇ρ⟩_j), and x_ji·x_ij/r² = −1, so
 /// ψ_ij·∇_i W_ij = f [−2(ρ_j − ρ_i) − (⟨∇ρ⟩_i + ⟨∇ρ⟩_j)·x_ij] (no gradients for Molteni).
 #[inline(always)]
-fn psi_dot_grad<const D: usize>(
+pub(crate) fn psi_dot_grad<const D: usize>(
     p: &Particles<D>,
     antuono: bool,
     i: usize,
@@ -203,17 +203,17 @@ fn momentum_of<const D: usize>(
 /// Fluid particle i as [`pair_acceleration`] needs it, loaded once per particle.
 pub struct PairTerms<const D: usize> {
     /// Position x_i (m).
-    x: Vector<D>,
+    pub(crate) x: Vector<D>,
     /// Velocity v_i (m/s).
-    v: Vector<D>,
+    pub(crate) v: Vector<D>,
     /// Density ρ_i (kg/m³).
-    rho: f64,
+    pub(crate) rho: f64,
     /// p_i/ρ_i² (m⁵ kg⁻¹ s⁻²).
-    p_rho2: f64,
+    pub(crate) p_rho2: f64,
     /// −2 α h c0 of particle i's material (m²/s): Π_ij = av_coef v_ij·x_ij / ((r² + η²)(ρ_i + ρ_j)).
-    av_coef: f64,
+    pub(crate) av_coef: f64,
     /// η² = 0.01 h² (m²), the artificial viscosity's regularisation.
-    eta2: f64,
+    pub(crate) eta2: f64,
 }
 
 impl<const D: usize> PairTerms<D> {

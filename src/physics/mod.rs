@@ -11,6 +11,7 @@
 pub mod delta;
 pub mod fluid;
 pub mod material;
+pub mod pairs;
 pub mod passes;
 pub mod shifting;
 pub mod solid;
@@ -60,6 +61,9 @@ pub struct Model<const D: usize> {
     pub c_max: f64,
     /// Particle shifting of fluid particles, if the scene asks for it.
     pub shifting: Option<shifting::Shifting>,
+    /// Fluid pair loops evaluate each pair of owned fluid particles once ([`pairs`]) over half
+    /// lists, instead of gathering over full ones.
+    pub pairs: bool,
 }
 
 impl<const D: usize> Model<D> {
@@ -99,6 +103,7 @@ impl<const D: usize> Model<D> {
             materials,
             c_max,
             shifting,
+            pairs: s.performance.interactions == crate::scene::Interactions::Pairs,
         }
     }
 

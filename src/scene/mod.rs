@@ -64,6 +64,9 @@ pub struct Scene {
     /// Bounds beyond which a run is stopped as blown up.
     #[serde(default)]
     pub limits: Limits,
+    /// How the run computes (never what it computes): `[performance]`.
+    #[serde(default, skip_serializing_if = "Performance::is_default")]
+    pub performance: Performance,
     /// Optional analytic or tabulated reference: errors land in `summary.json`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference: Option<Reference>,
@@ -141,6 +144,47 @@ impl Default for Limits {
         Limits {
             density_ratio: default_density_ratio(),
             speed_over_c0: default_speed_over_c0(),
+        }
+    }
+}
+
+/// How the run computes, not what: `[performance]` (issue 16).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Performance {
+    /// How the fluid pair loops visit pairs: `gather` (default) or `pairs`
+    /// ([`Interactions`]).
+    #[serde(default)]
+    pub interactions: Interactions,
+}
+
+impl Performance {
+    /// True for the defaults (left out of a written scene).
+    pub fn is_default(&self) -> bool {
+        *self == Performance::default()
+    }
+}
+
+/// How the fluid pair loops visit pairs.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum Interactions {
+    /// Each particle sums over all its neighbours, in an order fixed by global ids: the same
+    /// bits on any number of ranks and threads. Every pair is evaluated twice.
+    #[default]
+    Gather,
+    /// Each pair of owned fluid particles is evaluated once (half lists) and its equal and
+    /// opposite contributions go to both, accumulated per task and summed in task order:
+    /// deterministic for a fixed layout and thread count, equal to `gather` to round-off.
+    Pairs,
+}
+
+impl Interactions {
+    /// Scene-file name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Interactions::Gather => "gather",
+            Interactions::Pairs => "pairs",
         }
     }
 }

@@ -85,6 +85,8 @@ pub struct Simulation<const D: usize> {
     fresh: Freshness,
     /// Scratch of the solid passes (empty without solids).
     solid: crate::physics::solid::dynamics::SolidScratch<D>,
+    /// Accumulators of the pair-mode passes (empty in gather mode).
+    pair_scratch: crate::physics::pairs::PairScratch<D>,
     kinematics: Vec<WallKinematics>,
 }
 
@@ -176,6 +178,7 @@ impl<const D: usize> Simulation<D> {
             pair_count: 0,
             fresh: Freshness::default(),
             solid: Default::default(),
+            pair_scratch: Default::default(),
             removed: Vec::new(),
             kinematics: WallKinematics::of(scene),
         };

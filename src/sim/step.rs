@@ -17,7 +17,7 @@ use crate::error::Result;
 use crate::particles::Fields;
 use crate::physics::passes::Pass;
 use crate::physics::solid::dynamics;
-use crate::physics::{delta, fluid};
+use crate::physics::{delta, fluid, pairs};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -97,10 +97,19 @@ impl<const D: usize> Simulation<D> {
         }
         let t0 = Instant::now();
         match pass {
+            Pass::DensityGradient if self.model.pairs => {
+                pairs::renormalised_gradient(&mut self.p, &self.nl, &self.model, &mut self.pair_scratch)
+            }
             Pass::DensityGradient => delta::renormalised_gradient(&mut self.p, &self.nl, &self.model),
+            Pass::Continuity if self.model.pairs => {
+                pairs::continuity(&mut self.p, &self.nl, &self.model, dt, &mut self.pair_scratch)
+            }
             Pass::Continuity => fluid::continuity(&mut self.p, &self.nl, &self.model, dt),
             Pass::DensityUpdate => self.update_density(dt),
             Pass::WallExtrapolation => dummy::extrapolate(&mut self.p, &self.nl, &self.model),
+            Pass::Momentum if self.model.pairs => {
+                pairs::momentum(&mut self.p, &self.nl, &self.model, &mut self.pair_scratch)
+            }
             Pass::Momentum => fluid::momentum(&mut self.p, &self.nl, &self.model),
             Pass::SolidCorrection => dynamics::correction(&mut self.p, &self.nl, &self.model),
             Pass::SolidRates => dynamics::rates(&mut self.p, &self.nl, &self.model, dt, &mut self.solid),
@@ -206,12 +215,15 @@ impl<const D: usize> Simulation<D> {
         let t0 = Instant::now();
         self.bin()?;
         let kind = &self.p.kind;
+        let fluid_lists = if self.model.pairs { Wants::Half } else { Wants::All };
         self.nl.build(&self.grid, &self.cells, &self.p, support, |i| {
             let k = kind[i];
             if !k.is_smoothed() {
                 Wants::Nothing
             } else if k.is_wall() {
                 Wants::Fluid
+            } else if k.is_fluid() {
+                fluid_lists
             } else {
                 Wants::All
             }
