@@ -185,12 +185,15 @@ pub enum Wants {
 /// described in the module docs.
 #[derive(Debug, Clone, Default)]
 pub struct NeighbourList {
-    /// `start[i]..start[i+1]` indexes `nbr` for owned particle i.
-    pub start: Vec<usize>,
-    /// Neighbour indices.
-    pub nbr: Vec<u32>,
+    /// The lists of owned particles k·[`CHUNK`] .. (k+1)·[`CHUNK`], one after the other, as
+    /// the build task of that block wrote them (no copy into one array).
     chunks: Vec<Vec<u32>>,
-    counts: Vec<u32>,
+    /// Start of particle i's list within its block's chunk.
+    offset: Vec<u32>,
+    /// List entries in the blocks before block k (one entry per block plus one).
+    before: Vec<usize>,
+    /// Owned particles listed.
+    n: usize,
     /// Positions in cell order (`xs[k·D + a]` = axis a of particle `order[k]`): the candidates
     /// of one stencil row are contiguous here.
     xs: Vec<f64>,
@@ -203,6 +206,48 @@ pub struct NeighbourList {
 
 /// Particles per block of the parallel neighbour-list build.
 const CHUNK: usize = 512;
+
+/// [`Wants`] as a const parameter of the candidate scan, so that each kind of list gets a
+/// loop with only its own test.
+const ALL: u8 = 0;
+const FLUID: u8 = 1;
+const HALF: u8 = 2;
+
+/// Append to `list` the candidates of one stencil row (`ord`, positions `xr`, fluid flags
+/// `fr`) that are neighbours of particle `i` at `xa` for a list of kind `MODE`.
+#[inline(always)]
+fn scan_row<const D: usize, const MODE: u8>(
+    list: &mut Vec<u32>,
+    xa: &[f64; D],
+    i: usize,
+    r2max: f64,
+    ord: &[u32],
+    xr: &[f64],
+    fr: &[u8],
+) {
+    // branch-free append: write every candidate, advance on a hit
+    let w = list.len();
+    list.resize(w + ord.len(), 0);
+    let out = &mut list[w..];
+    let mut m = 0usize;
+    for (k, (xj, &j)) in xr.chunks_exact(D).zip(ord).enumerate() {
+        let mut d2 = 0.0;
+        for a in 0..D {
+            let d = xa[a] - xj[a];
+            d2 += d * d;
+        }
+        let ju = j as usize;
+        let keep = match MODE {
+            ALL => (d2 < r2max) & (ju != i),
+            FLUID => (d2 < r2max) & (ju != i) & (fr[k] != 0),
+            // an owned fluid j < i lists i itself (ghosts have indices ≥ n > i)
+            _ => (d2 < r2max) & ((ju > i) | (fr[k] == 0)),
+        };
+        out[m] = j;
+        m += keep as usize;
+    }
+    list.truncate(w + m);
+}
 
 impl NeighbourList {
     /// Build the list of each owned particle i with the neighbours `wants(i)` asks for.
@@ -250,107 +295,103 @@ impl NeighbourList {
         let dl = grid.dims[last];
         let nchunks = n.div_ceil(CHUNK);
         self.chunks.resize_with(nchunks, Vec::new);
-        self.counts.resize(n, 0);
+        self.offset.resize(n, 0);
+        self.n = n;
         self.chunks
             .par_iter_mut()
-            .zip(self.counts.par_chunks_mut(CHUNK))
+            .zip(self.offset.par_chunks_mut(CHUNK))
             .enumerate()
-            .for_each(|(ci, (list, counts))| {
+            .for_each(|(ci, (list, offsets))| {
                 list.clear();
-                for (k, cnt) in counts.iter_mut().enumerate() {
+                for (k, off) in offsets.iter_mut().enumerate() {
                     let i = ci * CHUNK + k;
-                    let before = list.len();
+                    *off = list.len() as u32;
                     let want = wants(i);
-                    if want != Wants::Nothing {
-                        // 1: every candidate counts; 0: fluid candidates only
-                        let any = (want != Wants::Fluid) as u8;
-                        // half list: drop owned fluid j ≤ i (j = i is dropped anyway)
-                        let full = want != Wants::Half;
-                        let xi = p.x[i];
-                        let mut xa = [0.0f64; D];
-                        xa.copy_from_slice(xi.as_slice());
-                        // cell coordinates from the linear index (axis 0 slowest)
-                        let mut c = [0usize; D];
-                        let mut l = cells.cell[i] as usize;
-                        for a in (0..D).rev() {
-                            c[a] = l % grid.dims[a];
-                            l /= grid.dims[a];
+                    if want == Wants::Nothing {
+                        continue;
+                    }
+                    let mut xa = [0.0f64; D];
+                    xa.copy_from_slice(p.x[i].as_slice());
+                    // cell coordinates from the linear index (axis 0 slowest)
+                    let mut c = [0usize; D];
+                    let mut l = cells.cell[i] as usize;
+                    for a in (0..D).rev() {
+                        c[a] = l % grid.dims[a];
+                        l /= grid.dims[a];
+                    }
+                    let lo_last = c[last].saturating_sub(1);
+                    let hi_last = (c[last] + 1).min(dl - 1);
+                    'rows: for row in 0..rows {
+                        let mut r = row;
+                        let mut base = 0usize;
+                        let mut cc = [0usize; D];
+                        for a in (0..last).rev() {
+                            let v = c[a] as isize + (r % 3) as isize - 1;
+                            r /= 3;
+                            if v < 0 || v as usize >= grid.dims[a] {
+                                continue 'rows;
+                            }
+                            cc[a] = v as usize;
                         }
-                        let lo_last = c[last].saturating_sub(1);
-                        let hi_last = (c[last] + 1).min(dl - 1);
-                        'rows: for row in 0..rows {
-                            let mut r = row;
-                            let mut base = 0usize;
-                            let mut cc = [0usize; D];
-                            for a in (0..last).rev() {
-                                let v = c[a] as isize + (r % 3) as isize - 1;
-                                r /= 3;
-                                if v < 0 || v as usize >= grid.dims[a] {
-                                    continue 'rows;
-                                }
-                                cc[a] = v as usize;
-                            }
-                            for (&ca, &da) in cc[..last].iter().zip(&grid.dims[..last]) {
-                                base = base * da + ca;
-                            }
-                            base *= dl;
-                            if want == Wants::Fluid
-                                && fluid_start[base + hi_last + 1] == fluid_start[base + lo_last]
-                            {
-                                continue;
-                            }
-                            let s = cells.start[base + lo_last] as usize;
-                            let e = cells.start[base + hi_last + 1] as usize;
-                            let ord = &cells.order[s..e];
-                            let xr = &xs[s * D..e * D];
-                            let fr = &fluid[s..e];
-                            // branch-free append: write every candidate, advance on a hit
-                            let mut w = list.len();
-                            list.resize(w + ord.len(), 0);
-                            let out = &mut list[w..];
-                            let mut m = 0usize;
-                            for ((xj, &j), &fj) in xr.chunks_exact(D).zip(ord).zip(fr) {
-                                let mut d2 = 0.0;
-                                for a in 0..D {
-                                    let d = xa[a] - xj[a];
-                                    d2 += d * d;
-                                }
-                                out[m] = j;
-                                let j_us = j as usize;
-                                let listed = full | (j_us >= n) | (fj == 0) | (j_us > i);
-                                m += ((d2 < r2max) & (j_us != i) & ((fj | any) != 0) & listed) as usize;
-                            }
-                            w += m;
-                            list.truncate(w);
+                        for (&ca, &da) in cc[..last].iter().zip(&grid.dims[..last]) {
+                            base = base * da + ca;
+                        }
+                        base *= dl;
+                        let (c0, c1) = (base + lo_last, base + hi_last + 1);
+                        if want == Wants::Fluid && fluid_start[c1] == fluid_start[c0] {
+                            continue;
+                        }
+                        let s = cells.start[c0] as usize;
+                        let e = cells.start[c1] as usize;
+                        let (ord, xr, fr) = (&cells.order[s..e], &xs[s * D..e * D], &fluid[s..e]);
+                        match want {
+                            Wants::All => scan_row::<D, ALL>(list, &xa, i, r2max, ord, xr, fr),
+                            Wants::Fluid => scan_row::<D, FLUID>(list, &xa, i, r2max, ord, xr, fr),
+                            Wants::Half => scan_row::<D, HALF>(list, &xa, i, r2max, ord, xr, fr),
+                            Wants::Nothing => {}
                         }
                     }
-                    *cnt = (list.len() - before) as u32;
                 }
             });
-        self.start.clear();
-        self.start.reserve(n + 1);
-        self.start.push(0);
-        let mut acc = 0usize;
-        for &c in &self.counts[..n] {
-            acc += c as usize;
-            self.start.push(acc);
-        }
-        self.nbr.clear();
-        self.nbr.reserve(acc);
+        self.before.clear();
+        self.before.push(0);
+        let mut total = 0usize;
         for list in &self.chunks {
-            self.nbr.extend_from_slice(list);
+            total += list.len();
+            self.before.push(total);
         }
     }
 
     /// Neighbours of owned particle `i`.
     #[inline]
     pub fn of(&self, i: usize) -> &[u32] {
-        &self.nbr[self.start[i]..self.start[i + 1]]
+        let (c, k) = (i / CHUNK, i % CHUNK);
+        let list = &self.chunks[c];
+        let s = self.offset[i] as usize;
+        let e = if k + 1 < CHUNK && i + 1 < self.n {
+            self.offset[i + 1] as usize
+        } else {
+            list.len()
+        };
+        &list[s..e]
+    }
+
+    /// List entries of the owned particles before `i` (`i` up to the owned count).
+    pub fn entries_before(&self, i: usize) -> usize {
+        if i >= self.n {
+            return self.pairs();
+        }
+        self.before[i / CHUNK] + self.offset[i] as usize
+    }
+
+    /// Owned particles the lists were built for.
+    pub fn listed(&self) -> usize {
+        self.n
     }
 
     /// Total number of (directed) pairs.
     pub fn pairs(&self) -> usize {
-        self.nbr.len()
+        self.before.last().copied().unwrap_or(0)
     }
 }
 

@@ -59,7 +59,7 @@ impl<const D: usize> PairScratch<D> {
     /// entries passes t/T of the total.
     fn split(&mut self, nl: &NeighbourList, n: usize) {
         let tasks = rayon::current_num_threads().max(1);
-        let total = nl.start[n];
+        let total = nl.entries_before(n);
         self.ranges.clear();
         let mut lo = 0;
         for t in 1..=tasks {
@@ -67,7 +67,7 @@ impl<const D: usize> PairScratch<D> {
                 n
             } else {
                 let target = total * t / tasks;
-                nl.start[..=n].partition_point(|&s| s < target).min(n).max(lo)
+                partition(nl, n, target).max(lo)
             };
             self.ranges.push(lo..hi);
             lo = hi;
@@ -82,6 +82,20 @@ impl<const D: usize> PairScratch<D> {
             .zip(p.mass.par_iter().zip(p.rho.par_iter()))
             .for_each(|(v, (&m, &r))| *v = m / r);
     }
+}
+
+/// The first owned particle whose list entries before it reach `target` (bisection).
+fn partition(nl: &NeighbourList, n: usize, target: usize) -> usize {
+    let (mut lo, mut hi) = (0, n);
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if nl.entries_before(mid) < target {
+            lo = mid + 1;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
 }
 
 /// Run `body(range, accumulator)` for every task's range, each accumulator `len` zeros.
@@ -178,7 +192,12 @@ fn continuity_of<const D: usize>(
         if fluid_j && j < n {
             acc[j] += p.mass[i] * vdot;
             if diffusion {
-                acc[j] += coef(p.mat[j]) * psi_dot_grad(p, antuono, j, i, &-mid, f) * vol[i];
+                let coef_j = if p.mat[j] == p.mat[i] {
+                    coef_i
+                } else {
+                    coef(p.mat[j])
+                };
+                acc[j] += coef_j * psi_dot_grad(p, antuono, j, i, &-mid, f) * vol[i];
             }
         }
     }

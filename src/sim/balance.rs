@@ -47,9 +47,9 @@ impl<const D: usize> Simulation<D> {
     fn particle_loads(&self) -> Vec<u64> {
         let n = self.p.n_owned;
         match self.scene.balance.load {
-            LoadKind::Pairs if self.nl.start.len() == n + 1 => (0..n)
-                .map(|i| 1 + (self.nl.start[i + 1] - self.nl.start[i]) as u64)
-                .collect(),
+            LoadKind::Pairs if self.nl.listed() == n => {
+                (0..n).map(|i| 1 + self.nl.of(i).len() as u64).collect()
+            }
             _ => vec![1; n],
         }
     }
