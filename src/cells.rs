@@ -102,6 +102,8 @@ pub struct CellList {
     pub order: Vec<u32>,
     /// Cell of each particle.
     pub cell: Vec<u32>,
+    /// Where each particle sits in `order`.
+    pub slot: Vec<u32>,
 }
 
 impl CellList {
@@ -159,6 +161,10 @@ impl CellList {
         slices
             .par_iter_mut()
             .for_each(|s| s.sort_unstable_by_key(|&i| keys[i as usize]));
+        self.slot.resize(n, 0);
+        for (k, &i) in self.order.iter().enumerate() {
+            self.slot[i as usize] = k as u32;
+        }
         Ok(())
     }
 }
@@ -202,6 +208,13 @@ pub struct NeighbourList {
     /// Fluid particles in cells before cell c (one entry per cell plus one): the fluid in a run
     /// of cells without looking at it.
     fluid_start: Vec<u32>,
+    /// Lean mode (`[performance] neighbours = "cells"`): no lists are stored; a pass scans
+    /// the stencil cells of each particle as it goes ([`CellScan`]), in the same order.
+    lean: bool,
+    /// What each owned particle wants (lean mode), as a scan mode.
+    wants: Vec<u8>,
+    /// Support radius squared (m²) of the last build.
+    r2max: f64,
 }
 
 /// Particles per block of the parallel neighbour-list build.
@@ -212,6 +225,45 @@ const CHUNK: usize = 512;
 const ALL: u8 = 0;
 const FLUID: u8 = 1;
 const HALF: u8 = 2;
+const NOTHING: u8 = 3;
+
+impl Wants {
+    /// The scan mode of this kind of list.
+    fn mode(self) -> u8 {
+        match self {
+            Wants::All => ALL,
+            Wants::Fluid => FLUID,
+            Wants::Half => HALF,
+            Wants::Nothing => NOTHING,
+        }
+    }
+}
+
+/// What a pass asks of the neighbour search: particle i's neighbours in the fixed order of
+/// the module docs, and a measure of the work before particle i (to split the particles
+/// into tasks of equal work). Stored lists ([`NeighbourList`]) and the list-free scan
+/// ([`CellScan`]) give the same neighbours in the same order, so the same bits.
+pub trait Neighbours: Sync {
+    /// The iterator over one particle's neighbours (indices, owned or ghost).
+    type Iter<'a>: Iterator<Item = u32>
+    where
+        Self: 'a;
+    /// Neighbours of owned particle `i`.
+    fn iter(&self, i: usize) -> Self::Iter<'_>;
+    /// Work of the owned particles before `i`: list entries, or particles without lists.
+    fn work_before(&self, i: usize) -> usize;
+}
+
+impl Neighbours for NeighbourList {
+    type Iter<'a> = std::iter::Copied<std::slice::Iter<'a, u32>>;
+    #[inline]
+    fn iter(&self, i: usize) -> Self::Iter<'_> {
+        self.of(i).iter().copied()
+    }
+    fn work_before(&self, i: usize) -> usize {
+        self.entries_before(i)
+    }
+}
 
 /// Append to `list` the candidates of one stencil row (`ord`, positions `xr`, fluid flags
 /// `fr`) that are neighbours of particle `i` at `xa` for a list of kind `MODE`.
@@ -288,6 +340,17 @@ impl NeighbourList {
             acc += self.fluid[s..e].iter().map(|&f| f as u32).sum::<u32>();
             self.fluid_start.push(acc);
         }
+        self.r2max = r2max;
+        if self.lean {
+            // no lists: remember what each particle wants; passes scan as they go
+            self.wants.clear();
+            self.wants.extend((0..n).map(|i| wants(i).mode()));
+            self.n = n;
+            self.chunks.clear();
+            self.offset.clear();
+            self.before.clear();
+            return;
+        }
         let (xs, fluid, fluid_start) = (&self.xs, &self.fluid, &self.fluid_start);
         // row offsets: 3^(D-1) offsets of the leading axes, lexicographic
         let rows = 3usize.pow(D as u32 - 1);
@@ -362,9 +425,36 @@ impl NeighbourList {
         }
     }
 
-    /// Neighbours of owned particle `i`.
+    /// An empty list set that stores no lists ([`NeighbourList::lean`]): passes reach the
+    /// neighbours through [`NeighbourList::scan`].
+    pub fn lean() -> Self {
+        NeighbourList {
+            lean: true,
+            ..Default::default()
+        }
+    }
+
+    /// True in lean mode (no stored lists).
+    pub fn is_lean(&self) -> bool {
+        self.lean
+    }
+
+    /// The list-free neighbours of the last build (lean mode), scanning `cells` of `grid`
+    /// (the ones the build used).
+    pub fn scan<'a, const D: usize>(&'a self, grid: &'a CellGrid<D>, cells: &'a CellList) -> CellScan<'a, D> {
+        CellScan {
+            nl: self,
+            grid,
+            cells,
+        }
+    }
+
+    /// Neighbours of owned particle `i` (empty in lean mode: use [`NeighbourList::scan`]).
     #[inline]
     pub fn of(&self, i: usize) -> &[u32] {
+        if self.lean {
+            return &[];
+        }
         let (c, k) = (i / CHUNK, i % CHUNK);
         let list = &self.chunks[c];
         let s = self.offset[i] as usize;
@@ -378,6 +468,9 @@ impl NeighbourList {
 
     /// List entries of the owned particles before `i` (`i` up to the owned count).
     pub fn entries_before(&self, i: usize) -> usize {
+        if self.lean {
+            return 0;
+        }
         if i >= self.n {
             return self.pairs();
         }
@@ -392,6 +485,145 @@ impl NeighbourList {
     /// Total number of (directed) pairs.
     pub fn pairs(&self) -> usize {
         self.before.last().copied().unwrap_or(0)
+    }
+}
+
+/// List-free neighbours (lean mode): each query scans the particle's stencil rows in the
+/// order the lists would hold them, testing distances again — less memory (no 4 B per pair),
+/// more work per pass.
+pub struct CellScan<'a, const D: usize> {
+    nl: &'a NeighbourList,
+    grid: &'a CellGrid<D>,
+    cells: &'a CellList,
+}
+
+impl<const D: usize> Neighbours for CellScan<'_, D> {
+    type Iter<'b>
+        = ScanIter<'b, D>
+    where
+        Self: 'b;
+
+    fn iter(&self, i: usize) -> ScanIter<'_, D> {
+        let nl = self.nl;
+        let mode = nl.wants[i];
+        let mut c = [0usize; D];
+        let mut l = self.cells.cell[i] as usize;
+        for a in (0..D).rev() {
+            c[a] = l % self.grid.dims[a];
+            l /= self.grid.dims[a];
+        }
+        // i's own position from the build's cell-order copy (positions do not change between
+        // the build and the passes)
+        let mut xa = [0.0f64; D];
+        let k = self.cells.slot[i] as usize;
+        xa.copy_from_slice(&nl.xs[k * D..k * D + D]);
+        let rows = if mode == NOTHING {
+            0
+        } else {
+            3usize.pow(D as u32 - 1)
+        };
+        ScanIter {
+            scan: self,
+            xa,
+            i,
+            mode,
+            c,
+            row: 0,
+            rows,
+            k: 0,
+            e: 0,
+        }
+    }
+
+    fn work_before(&self, i: usize) -> usize {
+        i
+    }
+}
+
+/// One particle's list-free neighbours ([`CellScan`]).
+pub struct ScanIter<'b, const D: usize> {
+    scan: &'b CellScan<'b, D>,
+    xa: [f64; D],
+    i: usize,
+    mode: u8,
+    c: [usize; D],
+    row: usize,
+    rows: usize,
+    k: usize,
+    e: usize,
+}
+
+impl<const D: usize> ScanIter<'_, D> {
+    /// Move to the next stencil row with candidates; false when there is none.
+    fn next_row(&mut self) -> bool {
+        let grid = self.scan.grid;
+        let cells = self.scan.cells;
+        let last = D - 1;
+        let dl = grid.dims[last];
+        let lo_last = self.c[last].saturating_sub(1);
+        let hi_last = (self.c[last] + 1).min(dl - 1);
+        'rows: while self.row < self.rows {
+            let mut r = self.row;
+            self.row += 1;
+            let mut base = 0usize;
+            let mut cc = [0usize; D];
+            for a in (0..last).rev() {
+                let v = self.c[a] as isize + (r % 3) as isize - 1;
+                r /= 3;
+                if v < 0 || v as usize >= grid.dims[a] {
+                    continue 'rows;
+                }
+                cc[a] = v as usize;
+            }
+            for (&ca, &da) in cc[..last].iter().zip(&grid.dims[..last]) {
+                base = base * da + ca;
+            }
+            base *= dl;
+            let (c0, c1) = (base + lo_last, base + hi_last + 1);
+            let fs = &self.scan.nl.fluid_start;
+            if self.mode == FLUID && fs[c1] == fs[c0] {
+                continue;
+            }
+            self.k = cells.start[c0] as usize;
+            self.e = cells.start[c1] as usize;
+            return true;
+        }
+        false
+    }
+}
+
+impl<const D: usize> Iterator for ScanIter<'_, D> {
+    type Item = u32;
+
+    #[inline]
+    fn next(&mut self) -> Option<u32> {
+        let nl = self.scan.nl;
+        let order = &self.scan.cells.order;
+        loop {
+            while self.k < self.e {
+                let k = self.k;
+                self.k += 1;
+                let xj = &nl.xs[k * D..k * D + D];
+                let mut d2 = 0.0;
+                for (xa, xb) in self.xa.iter().zip(xj) {
+                    let d = xa - xb;
+                    d2 += d * d;
+                }
+                let j = order[k];
+                let ju = j as usize;
+                let keep = match self.mode {
+                    ALL => (d2 < nl.r2max) & (ju != self.i),
+                    FLUID => (d2 < nl.r2max) & (ju != self.i) & (nl.fluid[k] != 0),
+                    _ => (d2 < nl.r2max) & ((ju > self.i) | (nl.fluid[k] == 0)),
+                };
+                if keep {
+                    return Some(j);
+                }
+            }
+            if !self.next_row() {
+                return None;
+            }
+        }
     }
 }
 

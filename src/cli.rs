@@ -162,6 +162,9 @@ Examples:
         /// layout) or `pairs` (each pair once); default: the scene's `[performance]`.
         #[arg(long, value_enum)]
         interactions: Option<crate::scene::Interactions>,
+        /// Neighbour search: `lists` or `cells` (no stored lists); default: the scene's.
+        #[arg(long, value_enum)]
+        neighbours: Option<crate::scene::NeighbourMode>,
     },
     /// Speed against accuracy: run validation cases at several resolutions and method
     /// variants, each run's error against its reference and its cost in one CSV row, charts
@@ -341,8 +344,10 @@ fn dispatch(cmd: Command) -> Result<i32> {
             repeat,
             mut set,
             interactions,
+            neighbours,
         } => {
             set.extend(interactions_override(interactions));
+            set.extend(neighbours.map(|m| format!("performance.neighbours=\"{}\"", m.name())));
             let scenes = if scenes.is_empty() {
                 bench::default_scenes()
             } else {
@@ -414,6 +419,11 @@ pub struct RunArgs {
     /// gather to round-off). Default: the scene's `[performance] interactions`, else gather.
     #[arg(long, value_enum)]
     interactions: Option<crate::scene::Interactions>,
+    /// Neighbour search: `lists` (stored once per step, 4 B per pair) or `cells` (no lists,
+    /// each pass scans the cells again: the lean-memory mode, same bits). Default: the scene's
+    /// `[performance] neighbours`, else lists.
+    #[arg(long, value_enum)]
+    neighbours: Option<crate::scene::NeighbourMode>,
     /// Communication back end.
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
     backend: Backend,
@@ -462,6 +472,7 @@ fn cmd_run_args(a: RunArgs) -> Result<i32> {
         threads,
         mut set,
         interactions,
+        neighbours,
         backend,
         ranks,
         ranks_per_node,
@@ -473,6 +484,7 @@ fn cmd_run_args(a: RunArgs) -> Result<i32> {
         min_particles_per_rank,
     } = a;
     set.extend(interactions_override(interactions));
+    set.extend(neighbours.map(|m| format!("performance.neighbours=\"{}\"", m.name())));
     check_run_flags(backend, bind, ranks, checkpoint_every_minutes)?;
     let opts = RunOptions {
         out,

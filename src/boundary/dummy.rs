@@ -6,14 +6,14 @@
 //!   ṽ_w = Σ_f v_f W_wf / Σ_f W_wf;  no-slip: v_w = 2 u_wall − ṽ_w;  free-slip: v_w = ṽ_w.
 //! A wall particle with no fluid neighbour keeps p = 0, ρ = ρ0, v_w = u_wall.
 
-use crate::cells::NeighbourList;
+use crate::cells::Neighbours;
 use crate::particles::{Kind, Particles};
 use crate::physics::Model;
 use crate::Vector;
 use rayon::prelude::*;
 
 /// Extrapolate p, ρ and v_w onto every owned dummy wall particle.
-pub fn extrapolate<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, model: &Model<D>) {
+pub fn extrapolate<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, model: &Model<D>) {
     let n = p.n_owned;
     let k = &model.kernel;
     let out: Vec<(f64, f64, Vector<D>)> = {
@@ -30,7 +30,7 @@ pub fn extrapolate<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, mod
                 let (mut sw, mut sp) = (0.0, 0.0);
                 let mut srx = Vector::<D>::zeros();
                 let mut sv = Vector::<D>::zeros();
-                for &f in nl.of(w) {
+                for f in nl.iter(w) {
                     let f = f as usize;
                     if !p.kind[f].is_fluid() {
                         continue;

@@ -6,7 +6,7 @@
 //! neighbourhoods) L_i falls back to the identity.
 
 use super::Model;
-use crate::cells::NeighbourList;
+use crate::cells::Neighbours;
 use crate::particles::Particles;
 use crate::{Matrix, Vector};
 use rayon::prelude::*;
@@ -53,9 +53,9 @@ fn determinant<const D: usize>(m: &Matrix<D>) -> f64 {
 }
 
 /// Renormalised gradient of the field `f` at owned fluid particles (zero for others).
-pub fn renormalised_gradient_of<const D: usize>(
+pub fn renormalised_gradient_of<const D: usize, N: Neighbours>(
     p: &Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     f: &[f64],
     out: &mut [Vector<D>],
@@ -71,7 +71,7 @@ pub fn renormalised_gradient_of<const D: usize>(
         let mut a = [[0.0f64; D]; D];
         let mut s = Vector::<D>::zeros();
         let (xi, fi) = (p.x[i], f[i]);
-        for &j in nl.of(i) {
+        for j in nl.iter(i) {
             let j = j as usize;
             if !p.kind[j].is_fluid() {
                 continue;
@@ -93,7 +93,7 @@ pub fn renormalised_gradient_of<const D: usize>(
 }
 
 /// ⟨∇ρ⟩^L of every owned fluid particle, written to `p.grad_rho`.
-pub fn renormalised_gradient<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, model: &Model<D>) {
+pub fn renormalised_gradient<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, model: &Model<D>) {
     let n = p.n_owned;
     let mut out = std::mem::take(&mut p.grad_rho);
     renormalised_gradient_of(p, nl, model, &p.rho, &mut out[..n]);

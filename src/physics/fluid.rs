@@ -28,7 +28,7 @@
 //! t = 0.3 s (tests/fidelity.rs).
 
 use super::Model;
-use crate::cells::NeighbourList;
+use crate::cells::Neighbours;
 use crate::particles::{Kind, Particles};
 
 use crate::scene::DensityDiffusion;
@@ -39,7 +39,7 @@ use rayon::prelude::*;
 /// velocities and densities (eq. in the module docs, with the δ-SPH term), at the pair's
 /// separation at the middle of the drift that just ended,
 /// x_ij − ½ dt v_ij (dt in s; 0 at the set-up): see [`continuity_of`].
-pub fn continuity<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, model: &Model<D>, dt: f64) {
+pub fn continuity<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, model: &Model<D>, dt: f64) {
     let n = p.n_owned;
     let mut drho = std::mem::take(&mut p.drho);
     {
@@ -55,7 +55,7 @@ pub fn continuity<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, mode
 
 /// Momentum pass: `p.acc` of every owned fluid particle (zero for walls), from the current
 /// positions, velocities, densities and pressures.
-pub fn momentum<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, model: &Model<D>) {
+pub fn momentum<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, model: &Model<D>) {
     let n = p.n_owned;
     let mut acc = std::mem::take(&mut p.acc);
     {
@@ -85,9 +85,9 @@ pub(crate) fn volumes<const D: usize>(p: &Particles<D>) -> Vec<f64> {
 
 /// δ-SPH diffusion term D_i alone (for the conservation test Σ V_i D_i = 0), evaluated like
 /// the continuity pass evaluates it.
-pub fn diffusion_term<const D: usize>(
+pub fn diffusion_term<const D: usize, N: Neighbours>(
     p: &Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     i: usize,
 ) -> f64 {
@@ -95,7 +95,7 @@ pub fn diffusion_term<const D: usize>(
     let coef = model.delta * k.h * model.materials[p.mat[i] as usize].c0();
     let antuono = model.diffusion == DensityDiffusion::Antuono;
     let mut s = 0.0;
-    for &j in nl.of(i) {
+    for j in nl.iter(i) {
         let j = j as usize;
         if !p.kind[j].is_fluid() {
             continue;
@@ -137,9 +137,9 @@ pub(crate) fn psi_dot_grad<const D: usize>(
 /// dt: +3.4 % in 0.14 s for a 2 m/s Taylor–Green vortex at CFL 0.2, +1.5 % at 0.1, +0.7 % at
 /// 0.05 (docs/equations.md §2.1). One kernel evaluation serves both terms.
 #[inline]
-fn continuity_of<const D: usize>(
+fn continuity_of<const D: usize, N: Neighbours>(
     p: &Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     vol: &[f64],
     half_dt: f64,
@@ -155,7 +155,7 @@ fn continuity_of<const D: usize>(
     let delta_coef = model.delta * k.h * c0;
     let (xi, vi) = (p.x[i], p.v[i]);
     let mut drho = 0.0;
-    for &j in nl.of(i) {
+    for j in nl.iter(i) {
         let j = j as usize;
         let kind_j = p.kind[j];
         if !kind_j.is_smoothed() || kind_j.is_solid() {
@@ -177,9 +177,9 @@ fn continuity_of<const D: usize>(
 /// dv_i/dt: pressure gradient, Monaghan artificial viscosity, Morris laminar viscosity,
 /// Monaghan repulsive wall force and the body force.
 #[inline]
-fn momentum_of<const D: usize>(
+fn momentum_of<const D: usize, N: Neighbours>(
     p: &Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     p_rho2: &[f64],
     i: usize,
@@ -189,7 +189,7 @@ fn momentum_of<const D: usize>(
     }
     let terms = PairTerms::of(p, model, i, p_rho2[i]);
     let mut acc = Vector::<D>::zeros();
-    for &j in nl.of(i) {
+    for j in nl.iter(i) {
         let j = j as usize;
         // fluids and solids are not coupled (yet)
         if p.kind[j].is_solid() {

@@ -24,7 +24,7 @@
 use super::delta::inverse_or_identity;
 use super::fluid::{pair_acceleration, psi_dot_grad, PairTerms};
 use super::Model;
-use crate::cells::NeighbourList;
+use crate::cells::Neighbours;
 use crate::particles::Particles;
 use crate::scene::DensityDiffusion;
 use crate::{Matrix, Vector};
@@ -56,10 +56,10 @@ impl<const D: usize> PairScratch<D> {
     }
 
     /// One range of owned particles per rayon thread, cut where the running count of list
-    /// entries passes t/T of the total.
-    fn split(&mut self, nl: &NeighbourList, n: usize) {
+    /// entries (particles, without stored lists) passes t/T of the total.
+    fn split<N: Neighbours>(&mut self, nl: &N, n: usize) {
         let tasks = rayon::current_num_threads().max(1);
-        let total = nl.entries_before(n);
+        let total = nl.work_before(n);
         self.ranges.clear();
         let mut lo = 0;
         for t in 1..=tasks {
@@ -85,11 +85,11 @@ impl<const D: usize> PairScratch<D> {
 }
 
 /// The first owned particle whose list entries before it reach `target` (bisection).
-fn partition(nl: &NeighbourList, n: usize, target: usize) -> usize {
+fn partition<N: Neighbours>(nl: &N, n: usize, target: usize) -> usize {
     let (mut lo, mut hi) = (0, n);
     while lo < hi {
         let mid = (lo + hi) / 2;
-        if nl.entries_before(mid) < target {
+        if nl.work_before(mid) < target {
             lo = mid + 1;
         } else {
             hi = mid;
@@ -126,9 +126,9 @@ fn total<A: Copy + std::ops::Add<Output = A>>(bufs: &[Vec<A>], k: usize) -> A {
 
 /// Continuity in pair mode: `p.drho` of every owned fluid particle (zero for the others);
 /// see [`super::fluid::continuity`] for the equation and the mid-drift separation.
-pub fn continuity<const D: usize>(
+pub fn continuity<const D: usize, N: Neighbours>(
     p: &mut Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     dt: f64,
     s: &mut PairScratch<D>,
@@ -153,9 +153,9 @@ pub fn continuity<const D: usize>(
 
 /// Particle i's pairs of the continuity pass: its own sum, and its share to each owned fluid
 /// neighbour of its half list.
-fn continuity_of<const D: usize>(
+fn continuity_of<const D: usize, N: Neighbours>(
     p: &Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     vol: &[f64],
     half_dt: f64,
@@ -173,7 +173,7 @@ fn continuity_of<const D: usize>(
     let coef_i = coef(p.mat[i]);
     let (xi, vi) = (p.x[i], p.v[i]);
     let mut di = 0.0;
-    for &j in nl.of(i) {
+    for j in nl.iter(i) {
         let j = j as usize;
         let kind_j = p.kind[j];
         if !kind_j.is_smoothed() || kind_j.is_solid() {
@@ -206,9 +206,9 @@ fn continuity_of<const D: usize>(
 
 /// Momentum in pair mode: `p.acc` of every owned fluid particle (zero for the others); see
 /// [`super::fluid::momentum`].
-pub fn momentum<const D: usize>(
+pub fn momentum<const D: usize, N: Neighbours>(
     p: &mut Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     s: &mut PairScratch<D>,
 ) {
@@ -238,9 +238,9 @@ pub fn momentum<const D: usize>(
 }
 
 /// Particle i's pairs of the momentum pass.
-fn momentum_of<const D: usize>(
+fn momentum_of<const D: usize, N: Neighbours>(
     p: &Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     p_rho2: &[f64],
     i: usize,
@@ -252,7 +252,7 @@ fn momentum_of<const D: usize>(
     let n = p.n_owned;
     let ti = PairTerms::of(p, model, i, p_rho2[i]);
     let mut ai = Vector::<D>::zeros();
-    for &j in nl.of(i) {
+    for j in nl.iter(i) {
         let j = j as usize;
         let kind_j = p.kind[j];
         if kind_j.is_solid() {
@@ -318,9 +318,9 @@ fn tri<const D: usize>(r: usize, c: usize) -> usize {
 
 /// Antuono's ⟨∇ρ⟩^L in pair mode, written to `p.grad_rho` (zero for all but owned fluid
 /// particles); see [`super::delta::renormalised_gradient_of`].
-pub fn renormalised_gradient<const D: usize>(
+pub fn renormalised_gradient<const D: usize, N: Neighbours>(
     p: &mut Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     s: &mut PairScratch<D>,
 ) {
@@ -358,9 +358,9 @@ pub fn renormalised_gradient<const D: usize>(
 }
 
 /// Particle i's pairs of the gradient pass (fluid neighbours only).
-fn gradient_of<const D: usize>(
+fn gradient_of<const D: usize, N: Neighbours>(
     p: &Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     vol: &[f64],
     i: usize,
@@ -376,7 +376,7 @@ fn gradient_of<const D: usize>(
     let (xi, rhoi) = (p.x[i], p.rho[i]);
     let mut a = [[0.0f64; D]; D];
     let mut si = Vector::<D>::zeros();
-    for &j in nl.of(i) {
+    for j in nl.iter(i) {
         let j = j as usize;
         if !p.kind[j].is_fluid() {
             continue;

@@ -25,7 +25,7 @@
 //! biases the pressure wherever the density varies (a hydrostatic column, a vortex core).
 
 use super::Model;
-use crate::cells::NeighbourList;
+use crate::cells::Neighbours;
 use crate::particles::Particles;
 use crate::Vector;
 use rayon::prelude::*;
@@ -89,9 +89,9 @@ impl<const D: usize> Default for Shift<D> {
 
 /// The shift of every owned particle into `out` (zero for all but fluid particles), from the
 /// current positions, densities and velocities of owned particles and ghosts.
-pub fn shifts<const D: usize>(
+pub fn shifts<const D: usize, N: Neighbours>(
     p: &Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     s: &Shifting,
     out: &mut [Shift<D>],
@@ -103,9 +103,9 @@ pub fn shifts<const D: usize>(
 }
 
 /// One particle's [`Shift`] (see the module docs).
-fn shift_of<const D: usize>(
+fn shift_of<const D: usize, N: Neighbours>(
     p: &Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     s: &Shifting,
     vol: &[f64],
@@ -121,7 +121,7 @@ fn shift_of<const D: usize>(
     let mut div_r = 0.0;
     let mut grad_rho = Vector::<D>::zeros();
     let mut grad_v = [[0.0f64; D]; D]; // grad_v[a][b] = ∂v_a/∂x_b
-    for &j in nl.of(i) {
+    for j in nl.iter(i) {
         let j = j as usize;
         let xij = xi - p.x[j];
         let r = xij.norm();

@@ -156,6 +156,31 @@ pub struct Performance {
     /// ([`Interactions`]).
     #[serde(default)]
     pub interactions: Interactions,
+    /// How passes find neighbours: `lists` (default) or `cells` ([`NeighbourMode`]).
+    #[serde(default)]
+    pub neighbours: NeighbourMode,
+}
+
+/// How passes find neighbours.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum NeighbourMode {
+    /// Lists built once per step and read by every pass (4 B per pair: fastest).
+    #[default]
+    Lists,
+    /// No stored lists: every pass scans the stencil cells again, in the same order, so the
+    /// bits are those of `lists` (the lean-memory mode).
+    Cells,
+}
+
+impl NeighbourMode {
+    /// Scene-file name.
+    pub fn name(self) -> &'static str {
+        match self {
+            NeighbourMode::Lists => "lists",
+            NeighbourMode::Cells => "cells",
+        }
+    }
 }
 
 impl Performance {

@@ -163,7 +163,11 @@ impl<const D: usize> Simulation<D> {
             space,
             grid,
             cells: CellList::default(),
-            nl: NeighbourList::default(),
+            nl: if scene.performance.neighbours == crate::scene::NeighbourMode::Cells {
+                NeighbourList::lean()
+            } else {
+                NeighbourList::default()
+            },
             halo: HaloPlan::default(),
             map,
             boxes,

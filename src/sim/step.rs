@@ -11,12 +11,16 @@
 use super::timers::Timer;
 use super::Simulation;
 use crate::boundary::{dummy, motion};
-use crate::cells::Wants;
+use crate::cells::{Neighbours, Wants};
 use crate::comm::Comm;
 use crate::error::Result;
 use crate::particles::Fields;
+use crate::particles::Particles;
+use crate::physics::pairs::PairScratch;
 use crate::physics::passes::Pass;
 use crate::physics::solid::dynamics;
+use crate::physics::solid::dynamics::SolidScratch;
+use crate::physics::Model;
 use crate::physics::{delta, fluid, pairs};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -96,29 +100,25 @@ impl<const D: usize> Simulation<D> {
             self.refresh(need, comm)?;
         }
         let t0 = Instant::now();
-        match pass {
-            Pass::DensityGradient if self.model.pairs => {
-                pairs::renormalised_gradient(&mut self.p, &self.nl, &self.model, &mut self.pair_scratch)
+        if pass == Pass::Shift {
+            self.shift(dt);
+        } else if pass.pairs() {
+            let (p, model, pair, solid) = (&mut self.p, &self.model, &mut self.pair_scratch, &mut self.solid);
+            if self.nl.is_lean() {
+                let nb = self.nl.scan(&self.grid, &self.cells);
+                neighbour_pass(pass, p, &nb, model, dt, pair, solid);
+            } else {
+                neighbour_pass(pass, p, &self.nl, model, dt, pair, solid);
             }
-            Pass::DensityGradient => delta::renormalised_gradient(&mut self.p, &self.nl, &self.model),
-            Pass::Continuity if self.model.pairs => {
-                pairs::continuity(&mut self.p, &self.nl, &self.model, dt, &mut self.pair_scratch)
+        } else {
+            match pass {
+                Pass::DensityUpdate => self.update_density(dt),
+                Pass::SolidUpdate => dynamics::update(&mut self.p, &self.model, dt, &self.solid),
+                // nothing to kick at the set-up (dt = 0); skipping keeps −0.0 velocities' bits
+                Pass::Kick if dt > 0.0 => self.half_kick(dt),
+                Pass::Kick => {}
+                _ => unreachable!("{} walks neighbours", pass.name()),
             }
-            Pass::Continuity => fluid::continuity(&mut self.p, &self.nl, &self.model, dt),
-            Pass::DensityUpdate => self.update_density(dt),
-            Pass::WallExtrapolation => dummy::extrapolate(&mut self.p, &self.nl, &self.model),
-            Pass::Momentum if self.model.pairs => {
-                pairs::momentum(&mut self.p, &self.nl, &self.model, &mut self.pair_scratch)
-            }
-            Pass::Momentum => fluid::momentum(&mut self.p, &self.nl, &self.model),
-            Pass::SolidCorrection => dynamics::correction(&mut self.p, &self.nl, &self.model),
-            Pass::SolidRates => dynamics::rates(&mut self.p, &self.nl, &self.model, dt, &mut self.solid),
-            Pass::SolidUpdate => dynamics::update(&mut self.p, &self.model, dt, &self.solid),
-            Pass::SolidMomentum => dynamics::momentum(&mut self.p, &self.nl, &self.model, &mut self.solid),
-            // nothing to kick at the set-up (dt = 0); skipping keeps −0.0 velocities' bits
-            Pass::Kick if dt > 0.0 => self.half_kick(dt),
-            Pass::Kick => {}
-            Pass::Shift => self.shift(dt),
         }
         if pass.pairs() {
             self.pair_count += self.nl.pairs() as u64;
@@ -154,7 +154,12 @@ impl<const D: usize> Simulation<D> {
         }
         let n = self.p.n_owned;
         let mut out = vec![crate::physics::shifting::Shift::<D>::default(); n];
-        crate::physics::shifting::shifts(&self.p, &self.nl, &self.model, &s, &mut out);
+        if self.nl.is_lean() {
+            let nb = self.nl.scan(&self.grid, &self.cells);
+            crate::physics::shifting::shifts(&self.p, &nb, &self.model, &s, &mut out);
+        } else {
+            crate::physics::shifting::shifts(&self.p, &self.nl, &self.model, &s, &mut out);
+        }
         let space = &self.space;
         let planes = &space.planes;
         let p = &mut self.p;
@@ -342,5 +347,31 @@ impl<const D: usize> Simulation<D> {
         } else {
             dt
         })
+    }
+}
+
+/// A pass that walks neighbours (`Pass::pairs`), over stored lists or the list-free scan, in
+/// gather or pair mode.
+fn neighbour_pass<const D: usize, N: Neighbours>(
+    pass: Pass,
+    p: &mut Particles<D>,
+    nb: &N,
+    model: &Model<D>,
+    dt: f64,
+    pair: &mut PairScratch<D>,
+    solid: &mut SolidScratch<D>,
+) {
+    match pass {
+        Pass::DensityGradient if model.pairs => pairs::renormalised_gradient(p, nb, model, pair),
+        Pass::DensityGradient => delta::renormalised_gradient(p, nb, model),
+        Pass::Continuity if model.pairs => pairs::continuity(p, nb, model, dt, pair),
+        Pass::Continuity => fluid::continuity(p, nb, model, dt),
+        Pass::WallExtrapolation => dummy::extrapolate(p, nb, model),
+        Pass::Momentum if model.pairs => pairs::momentum(p, nb, model, pair),
+        Pass::Momentum => fluid::momentum(p, nb, model),
+        Pass::SolidCorrection => dynamics::correction(p, nb, model),
+        Pass::SolidRates => dynamics::rates(p, nb, model, dt, solid),
+        Pass::SolidMomentum => dynamics::momentum(p, nb, model, solid),
+        _ => unreachable!("{} walks no neighbours", pass.name()),
     }
 }

@@ -29,7 +29,7 @@
 //! Johnson–Cook surface, computes p(ρ, e) and applies the failure criteria. Units: SI.
 
 use super::strength::{jaumann_rate, radial_return, rate_and_spin, temperature};
-use crate::cells::NeighbourList;
+use crate::cells::Neighbours;
 use crate::particles::Particles;
 use crate::physics::Model;
 use crate::{Tensor, Vector};
@@ -107,7 +107,7 @@ fn sound_speeds<const D: usize>(p: &Particles<D>, model: &Model<D>, c: &mut Vec<
 /// Correction pass: B_i = M_i⁻¹, M_i = −(1/ρ_i) Σ_j m_j x_ij ⊗ ∇_i W_ij over solid neighbours,
 /// for every owned solid particle at the current positions (the identity where M is
 /// singular: an isolated particle or a line of them).
-pub fn correction<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, model: &Model<D>) {
+pub fn correction<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, model: &Model<D>) {
     let n = p.n_owned;
     let mut out = std::mem::take(&mut p.correction);
     {
@@ -119,7 +119,7 @@ pub fn correction<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, mode
             }
             let xi = p.x[i];
             let mut m = Tensor::<D>::zeros();
-            for &j in nl.of(i) {
+            for j in nl.iter(i) {
                 let j = j as usize;
                 if !p.kind[j].is_solid() {
                     continue;
@@ -144,9 +144,9 @@ pub fn correction<const D: usize>(p: &mut Particles<D>, nl: &NeighbourList, mode
 /// Rates pass: dρ/dt into `p.drho`, dS/dt, de/dt and the equivalent strain rate into
 /// `scratch`, for every owned solid particle (zero for the others), eqs. (S1)–(S4), at the
 /// mid-drift separation for a step of `dt` (s; 0 at the set-up).
-pub fn rates<const D: usize>(
+pub fn rates<const D: usize, N: Neighbours>(
     p: &mut Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     dt: f64,
     scratch: &mut SolidScratch<D>,
@@ -179,9 +179,9 @@ pub fn rates<const D: usize>(
 
 /// (S1)–(S4) for owned particle `i`: (dρ/dt, dS/dt, de/dt, equivalent strain rate).
 #[inline]
-fn rates_of<const D: usize>(
+fn rates_of<const D: usize, N: Neighbours>(
     p: &Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     (c, rs): (&[f64], &[Tensor<D>]),
     visc: &Viscosity,
@@ -203,7 +203,7 @@ fn rates_of<const D: usize>(
     let mut stress_work = 0.0; // Σ m_j v_ij·(R_i + R_j) f_ijⁿ ∇W
     let stress_art = model.artificial_stress > 0.0;
     let w_dp = k.w(model.dx);
-    for &j in nl.of(i) {
+    for j in nl.iter(i) {
         let j = j as usize;
         if !p.kind[j].is_solid() {
             continue;
@@ -308,9 +308,9 @@ pub fn update<const D: usize>(p: &mut Particles<D>, model: &Model<D>, dt: f64, s
 }
 
 /// Momentum pass: `p.acc` of every owned solid particle, eq. (S5), from the current state.
-pub fn momentum<const D: usize>(
+pub fn momentum<const D: usize, N: Neighbours>(
     p: &mut Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     scratch: &mut SolidScratch<D>,
 ) {
@@ -368,9 +368,9 @@ fn stress_terms<const D: usize>(
 
 /// Eq. (S5) for owned solid particle `i`.
 #[inline]
-fn momentum_of<const D: usize>(
+fn momentum_of<const D: usize, N: Neighbours>(
     p: &Particles<D>,
-    nl: &NeighbourList,
+    nl: &N,
     model: &Model<D>,
     visc: &Viscosity,
     (sig, rs, c): (&[Tensor<D>], &[Tensor<D>], &[f64]),
@@ -382,7 +382,7 @@ fn momentum_of<const D: usize>(
     let stress_art = model.artificial_stress > 0.0;
     let sig_bi = sig[i];
     let mut a = Vector::<D>::zeros();
-    for &j in nl.of(i) {
+    for j in nl.iter(i) {
         let j = j as usize;
         if !p.kind[j].is_solid() {
             continue;

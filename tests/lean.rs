@@ -1,0 +1,104 @@
+//! The lean-memory mode (`[performance] neighbours = "cells"`, issue 16): no stored neighbour
+//! lists; each pass scans the stencil cells again in the order the lists hold. Gather mode
+//! must give the same bits as with lists, in 2D and 3D, on one rank and several, with walls
+//! (fluid-only wall lists), mirror walls and periodic images.
+
+mod common;
+
+use common::hsph;
+use hsph::driver::{run_scene, Backend, RunOptions};
+use hsph::scene::{load_scene, Scene};
+use std::fs;
+
+fn scene(rel: &str, overrides: &[&str]) -> Scene {
+    let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    load_scene(&common::repo_path(rel), &o).unwrap().0
+}
+
+fn run(scene: &Scene, ranks: usize, tag: &str) -> (String, String) {
+    let out = common::temp_dir(tag).join("run");
+    let opts = RunOptions {
+        out: Some(out.clone()),
+        threads: 2,
+        quiet: true,
+        ranks,
+        backend: if ranks == 1 {
+            Backend::Serial
+        } else {
+            Backend::Local
+        },
+        ..Default::default()
+    };
+    run_scene(scene, &opts).unwrap_or_else(|e| panic!("{tag}: {e}"));
+    let read = |f: &str| fs::read_to_string(out.join(f)).unwrap();
+    (read("final.csv"), read("timeseries.csv"))
+}
+
+#[test]
+fn cells_mode_gives_the_bits_of_stored_lists() {
+    for (file, over, ranks) in [
+        ("inputs/dam_break_2d.toml", vec!["time.t_end=0.05"], 1),
+        ("inputs/dam_break_2d.toml", vec!["time.t_end=0.05"], 3),
+        (
+            "inputs/dam_break_3d.toml",
+            vec!["time.max_steps=20", "output.format=\"none\""],
+            1,
+        ),
+        ("inputs/wall_impact_2d.toml", vec!["time.max_steps=100"], 2),
+        (
+            "inputs/wall_impact_2d.toml",
+            vec!["time.max_steps=100", "wall[0].method=\"mirror\""],
+            1,
+        ),
+        ("inputs/poiseuille_2d.toml", vec!["time.max_steps=200"], 1),
+    ] {
+        let tag = format!(
+            "{}-{}-r{ranks}",
+            file.trim_start_matches("inputs/").trim_end_matches(".toml"),
+            over.len()
+        );
+        let lists = scene(file, &over);
+        let mut over_cells = over.clone();
+        over_cells.push("performance.neighbours=\"cells\"");
+        let cells = scene(file, &over_cells);
+        let a = run(&lists, ranks, &format!("{tag}-lists"));
+        let b = run(&cells, ranks, &format!("{tag}-cells"));
+        assert!(a.0 == b.0, "{tag}: final.csv differs between lists and cells");
+        assert!(
+            a.1 == b.1,
+            "{tag}: timeseries.csv differs between lists and cells"
+        );
+    }
+}
+
+#[test]
+fn cells_mode_runs_pairs_and_names_it_in_the_cli() {
+    let out = common::temp_dir("lean-cli").join("run");
+    let (code, _, err) = hsph(&[
+        "run",
+        "inputs/dam_break_2d.toml",
+        "--neighbours",
+        "cells",
+        "--interactions",
+        "pairs",
+        "--set",
+        "time.max_steps=20",
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let scene = fs::read_to_string(out.join("scene.toml")).unwrap();
+    assert!(
+        scene.contains("neighbours = \"cells\"") && scene.contains("interactions = \"pairs\""),
+        "{scene}"
+    );
+    let (code, _, err) = hsph(&[
+        "check",
+        "inputs/dam_break_2d.toml",
+        "--set",
+        "performance.neighbours=\"none\"",
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("performance.neighbours"), "{err}");
+}
