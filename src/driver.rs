@@ -624,6 +624,10 @@ struct RankRun<'a, const D: usize> {
     quiet: bool,
     /// The signal all ranks agreed to stop on, if any.
     stopped_by: Option<&'static str>,
+    /// Peak resident set size of the process at the end of the set-up (bytes).
+    setup_peak: Option<u64>,
+    /// True if the peak was reset after the set-up: the final peak is then the step loop's.
+    peak_reset: bool,
     /// Fluid particles at the start, over all ranks.
     n_fluid: u64,
     /// Particles removed by the outflow rule so far, over all ranks.
@@ -667,6 +671,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
             }
         };
         layout.placed(sim.placement);
+        // the set-up's peak (the lattice is built whole, then trimmed), then the step loop's own
+        let setup_peak = crate::memory::peak_rss();
+        let peak_reset = root && crate::memory::reset_peak();
         if root {
             for w in layout
                 .warnings
@@ -711,6 +718,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
             steps_start: Instant::now(),
             quiet: opts.quiet || !root,
             stopped_by: None,
+            setup_peak,
+            peak_reset,
             n_fluid: n_total[1],
             removed: 0,
             removed_out: [0.0; 2],
@@ -1328,7 +1337,10 @@ impl<'a, const D: usize> RankRun<'a, D> {
             summary["measured"] = json!(self.tracker.measured);
         }
         // machine dependent, like wall_s: summary.json is not compared across runs
-        summary["peak_rss_bytes"] = json!(crate::memory::peak_rss());
+        let now = crate::memory::peak_rss();
+        summary["peak_rss_bytes"] = json!(now.max(self.setup_peak));
+        summary["setup_peak_rss_bytes"] = json!(self.setup_peak);
+        summary["step_peak_rss_bytes"] = json!(if self.peak_reset { now } else { None });
         summary["removed_energy"] = json!(self.removed_out[0]);
         summary["removed_mass"] = json!(self.removed_out[1]);
         summary["hole"] = self.hole_summary();

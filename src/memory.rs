@@ -163,10 +163,27 @@ pub fn available() -> Option<(f64, &'static str)> {
 /// This process's peak resident set size so far (bytes), from `VmHWM` in `/proc/self/status`
 /// (Linux); `None` where that is unavailable. Local ranks share one process: it is their sum.
 pub fn peak_rss() -> Option<u64> {
+    status_bytes("VmHWM:")
+}
+
+/// This process's resident set size now (bytes), from `/proc/self/status` (Linux).
+pub fn rss() -> Option<u64> {
+    status_bytes("VmRSS:")
+}
+
+/// A `kB` line of `/proc/self/status` in bytes.
+fn status_bytes(key: &str) -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let line = status.lines().find(|l| l.starts_with(key))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb * 1024)
+}
+
+/// Reset this process's peak resident set size to its current size (Linux ≥ 4.0: `5` to
+/// `/proc/self/clear_refs`), so that [`peak_rss`] afterwards measures what came after, e.g. the
+/// step loop without the set-up's transient peak. False where the kernel refuses.
+pub fn reset_peak() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
 }
 
 #[cfg(test)]
