@@ -628,6 +628,8 @@ struct RankRun<'a, const D: usize> {
     setup_peak: Option<u64>,
     /// True if the peak was reset after the set-up: the final peak is then the step loop's.
     peak_reset: bool,
+    /// Peak resident set size at the end of the step loop, before the final output (bytes).
+    loop_peak: Option<u64>,
     /// Fluid particles at the start, over all ranks.
     n_fluid: u64,
     /// Particles removed by the outflow rule so far, over all ranks.
@@ -720,6 +722,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             stopped_by: None,
             setup_peak,
             peak_reset,
+            loop_peak: None,
             n_fluid: n_total[1],
             removed: 0,
             removed_out: [0.0; 2],
@@ -1151,6 +1154,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
     /// Final gather, `final.csv` and `summary.json` (rank 0), the closing log lines.
     fn finish(mut self) -> Result<RunOutcome> {
         let wall = self.steps_start.elapsed().as_secs_f64();
+        // the step loop's peak, before the final gather adds its copy of the particles
+        self.loop_peak = crate::memory::peak_rss();
         if self.scene.checkpoint.scheduled() && self.checkpointed != self.sim.step {
             // a finished run can be continued to a later t_end
             self.checkpoint()?;
@@ -1340,7 +1345,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         let now = crate::memory::peak_rss();
         summary["peak_rss_bytes"] = json!(now.max(self.setup_peak));
         summary["setup_peak_rss_bytes"] = json!(self.setup_peak);
-        summary["step_peak_rss_bytes"] = json!(if self.peak_reset { now } else { None });
+        summary["step_peak_rss_bytes"] = json!(if self.peak_reset { self.loop_peak } else { None });
         summary["removed_energy"] = json!(self.removed_out[0]);
         summary["removed_mass"] = json!(self.removed_out[1]);
         summary["hole"] = self.hole_summary();
