@@ -76,6 +76,44 @@ impl<const D: usize> CellGrid<D> {
         self.dims.iter().zip(c).fold(0, |l, (n, ca)| l * n + ca)
     }
 
+    /// Cell coordinates of linear index `l` (the inverse of [`CellGrid::linear`]).
+    #[inline]
+    pub fn coords_of(&self, mut l: usize) -> [usize; D] {
+        let mut c = [0usize; D];
+        for a in (0..D).rev() {
+            c[a] = l % self.dims[a];
+            l /= self.dims[a];
+        }
+        c
+    }
+
+    /// Stencil row `row` (of the 3ᴰ⁻¹ offsets of the leading axes, lexicographic) around cell
+    /// `c`: the linear cells `[c0, c1)`, the up to three cells along the last axis, which are
+    /// contiguous; `None` where the row's leading offsets leave the grid.
+    #[inline]
+    pub fn stencil_run(&self, c: &[usize; D], row: usize) -> Option<(usize, usize)> {
+        let last = D - 1;
+        let dl = self.dims[last];
+        let mut r = row;
+        let mut cc = [0usize; D];
+        for a in (0..last).rev() {
+            let v = c[a] as isize + (r % 3) as isize - 1;
+            r /= 3;
+            if v < 0 || v as usize >= self.dims[a] {
+                return None;
+            }
+            cc[a] = v as usize;
+        }
+        let mut base = 0usize;
+        for (&ca, &da) in cc[..last].iter().zip(&self.dims[..last]) {
+            base = base * da + ca;
+        }
+        base *= dl;
+        let lo = c[last].saturating_sub(1);
+        let hi = (c[last] + 1).min(dl - 1);
+        Some((base + lo, base + hi + 1))
+    }
+
     /// The 3ᴰ relative offsets in their fixed visiting order (lexicographic).
     pub fn stencil() -> Vec<[isize; D]> {
         let mut out = Vec::with_capacity(3usize.pow(D as u32));
@@ -354,8 +392,6 @@ impl NeighbourList {
         let (xs, fluid, fluid_start) = (&self.xs, &self.fluid, &self.fluid_start);
         // row offsets: 3^(D-1) offsets of the leading axes, lexicographic
         let rows = 3usize.pow(D as u32 - 1);
-        let last = D - 1;
-        let dl = grid.dims[last];
         let nchunks = n.div_ceil(CHUNK);
         self.chunks.resize_with(nchunks, Vec::new);
         self.offset.resize(n, 0);
@@ -375,32 +411,11 @@ impl NeighbourList {
                     }
                     let mut xa = [0.0f64; D];
                     xa.copy_from_slice(p.x[i].as_slice());
-                    // cell coordinates from the linear index (axis 0 slowest)
-                    let mut c = [0usize; D];
-                    let mut l = cells.cell[i] as usize;
-                    for a in (0..D).rev() {
-                        c[a] = l % grid.dims[a];
-                        l /= grid.dims[a];
-                    }
-                    let lo_last = c[last].saturating_sub(1);
-                    let hi_last = (c[last] + 1).min(dl - 1);
-                    'rows: for row in 0..rows {
-                        let mut r = row;
-                        let mut base = 0usize;
-                        let mut cc = [0usize; D];
-                        for a in (0..last).rev() {
-                            let v = c[a] as isize + (r % 3) as isize - 1;
-                            r /= 3;
-                            if v < 0 || v as usize >= grid.dims[a] {
-                                continue 'rows;
-                            }
-                            cc[a] = v as usize;
-                        }
-                        for (&ca, &da) in cc[..last].iter().zip(&grid.dims[..last]) {
-                            base = base * da + ca;
-                        }
-                        base *= dl;
-                        let (c0, c1) = (base + lo_last, base + hi_last + 1);
+                    let c = grid.coords_of(cells.cell[i] as usize);
+                    for row in 0..rows {
+                        let Some((c0, c1)) = grid.stencil_run(&c, row) else {
+                            continue;
+                        };
                         if want == Wants::Fluid && fluid_start[c1] == fluid_start[c0] {
                             continue;
                         }
@@ -506,12 +521,7 @@ impl<const D: usize> Neighbours for CellScan<'_, D> {
     fn iter(&self, i: usize) -> ScanIter<'_, D> {
         let nl = self.nl;
         let mode = nl.wants[i];
-        let mut c = [0usize; D];
-        let mut l = self.cells.cell[i] as usize;
-        for a in (0..D).rev() {
-            c[a] = l % self.grid.dims[a];
-            l /= self.grid.dims[a];
-        }
+        let c = self.grid.coords_of(self.cells.cell[i] as usize);
         // i's own position from the build's cell-order copy (positions do not change between
         // the build and the passes)
         let mut xa = [0.0f64; D];
@@ -556,36 +566,18 @@ pub struct ScanIter<'b, const D: usize> {
 impl<const D: usize> ScanIter<'_, D> {
     /// Move to the next stencil row with candidates; false when there is none.
     fn next_row(&mut self) -> bool {
-        let grid = self.scan.grid;
-        let cells = self.scan.cells;
-        let last = D - 1;
-        let dl = grid.dims[last];
-        let lo_last = self.c[last].saturating_sub(1);
-        let hi_last = (self.c[last] + 1).min(dl - 1);
-        'rows: while self.row < self.rows {
-            let mut r = self.row;
+        while self.row < self.rows {
+            let row = self.row;
             self.row += 1;
-            let mut base = 0usize;
-            let mut cc = [0usize; D];
-            for a in (0..last).rev() {
-                let v = self.c[a] as isize + (r % 3) as isize - 1;
-                r /= 3;
-                if v < 0 || v as usize >= grid.dims[a] {
-                    continue 'rows;
-                }
-                cc[a] = v as usize;
-            }
-            for (&ca, &da) in cc[..last].iter().zip(&grid.dims[..last]) {
-                base = base * da + ca;
-            }
-            base *= dl;
-            let (c0, c1) = (base + lo_last, base + hi_last + 1);
+            let Some((c0, c1)) = self.scan.grid.stencil_run(&self.c, row) else {
+                continue;
+            };
             let fs = &self.scan.nl.fluid_start;
             if self.mode == FLUID && fs[c1] == fs[c0] {
                 continue;
             }
-            self.k = cells.start[c0] as usize;
-            self.e = cells.start[c1] as usize;
+            self.k = self.scan.cells.start[c0] as usize;
+            self.e = self.scan.cells.start[c1] as usize;
             return true;
         }
         false

@@ -601,6 +601,17 @@ fn truncate_series(dir: &Path, series: &serde_json::Value) -> Result<()> {
     Ok(())
 }
 
+/// The layout's and the scene's set-up warnings, on rank 0's standard error.
+fn print_warnings<const D: usize>(layout: &RunLayout, scene: &Scene) {
+    for w in layout
+        .warnings
+        .iter()
+        .chain(&crate::setup::extent_warnings::<D>(scene))
+    {
+        eprintln!("hsph: warning: {w}");
+    }
+}
+
 struct RankRun<'a, const D: usize> {
     scene: &'a Scene,
     dir: &'a Path,
@@ -677,13 +688,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         let setup_peak = crate::memory::peak_rss();
         let peak_reset = root && crate::memory::reset_peak();
         if root {
-            for w in layout
-                .warnings
-                .iter()
-                .chain(&crate::setup::extent_warnings::<D>(scene))
-            {
-                eprintln!("hsph: warning: {w}");
-            }
+            print_warnings::<D>(&layout, scene);
         }
         let writer = if root {
             Some(RunWriter::new(

@@ -6,7 +6,6 @@
 mod common;
 
 use common::hsph;
-use hsph::driver::{run_scene, Backend, RunOptions};
 use hsph::scene::{load_scene, Scene};
 use std::fs;
 
@@ -16,20 +15,7 @@ fn scene(rel: &str, overrides: &[&str]) -> Scene {
 }
 
 fn run(scene: &Scene, ranks: usize, tag: &str) -> (String, String) {
-    let out = common::temp_dir(tag).join("run");
-    let opts = RunOptions {
-        out: Some(out.clone()),
-        threads: 2,
-        quiet: true,
-        ranks,
-        backend: if ranks == 1 {
-            Backend::Serial
-        } else {
-            Backend::Local
-        },
-        ..Default::default()
-    };
-    run_scene(scene, &opts).unwrap_or_else(|e| panic!("{tag}: {e}"));
+    let out = common::run_layout(scene, ranks, 2, tag);
     let read = |f: &str| fs::read_to_string(out.join(f)).unwrap();
     (read("final.csv"), read("timeseries.csv"))
 }

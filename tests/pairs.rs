@@ -6,7 +6,6 @@ mod common;
 
 use common::hsph;
 use hsph::comm::serial::SerialComm;
-use hsph::driver::{run_scene, Backend, RunOptions};
 use hsph::scene::{load_scene, Scene};
 use hsph::sim::Simulation;
 use std::fs;
@@ -66,21 +65,7 @@ fn pairs_and_gather_agree_to_round_off_on_one_step_2d_and_3d() {
 }
 
 fn run(scene: &Scene, ranks: usize, threads: usize, tag: &str) -> String {
-    let out = common::temp_dir(tag).join("run");
-    let opts = RunOptions {
-        out: Some(out.clone()),
-        threads,
-        quiet: true,
-        ranks,
-        backend: if ranks == 1 {
-            Backend::Serial
-        } else {
-            Backend::Local
-        },
-        ..Default::default()
-    };
-    run_scene(scene, &opts).unwrap_or_else(|e| panic!("{tag}: {e}"));
-    fs::read_to_string(out.join("final.csv")).unwrap()
+    fs::read_to_string(common::run_layout(scene, ranks, threads, tag).join("final.csv")).unwrap()
 }
 
 /// Largest difference of any number in two `final.csv` texts of the same particles, relative

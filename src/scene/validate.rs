@@ -984,41 +984,7 @@ fn validate_reference(s: &Scene) -> Result<()> {
             arrival_gauge,
             runup_gauge,
         } => {
-            if !s
-                .walls
-                .iter()
-                .any(|w| matches!(w.motion, Some(Motion::Solitary { .. })))
-            {
-                return err(
-                    "reference",
-                    "a solitary_wave reference needs a wall with motion = { law = \"solitary\", \
-                     amplitude = …, depth = … } (the wave maker)",
-                );
-            }
-            for (key, name) in [
-                ("crest_gauge", crest_gauge),
-                ("arrival_gauge", arrival_gauge),
-                ("runup_gauge", runup_gauge),
-            ] {
-                if !s
-                    .probes
-                    .iter()
-                    .any(|p| matches!(p, Probe::Gauge { .. }) && p.name() == name)
-                {
-                    let gauges: Vec<&str> = s
-                        .probes
-                        .iter()
-                        .filter(|p| matches!(p, Probe::Gauge { .. }))
-                        .map(|p| p.name())
-                        .collect();
-                    return err(
-                        format!("reference.{key}"),
-                        format!(
-                            "no [[probe]] of kind = \"gauge\" is named {name:?}; the gauges are {gauges:?}"
-                        ),
-                    );
-                }
-            }
+            validate_solitary_reference(s, [crest_gauge, arrival_gauge, runup_gauge])?;
             &[]
         }
         Reference::Hole { major, minor, .. } => {
@@ -1038,6 +1004,44 @@ fn validate_reference(s: &Scene) -> Result<()> {
             return err(
                 format!("reference.times[{j}]"),
                 format!("must lie in (0, time.t_end = {}], got {t}", s.time.t_end),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// A solitary-wave reference needs the `solitary` wave maker and three gauge probes by name:
+/// the crest, arrival and run-up gauges, in that order.
+fn validate_solitary_reference(s: &Scene, gauges: [&String; 3]) -> Result<()> {
+    if !s
+        .walls
+        .iter()
+        .any(|w| matches!(w.motion, Some(Motion::Solitary { .. })))
+    {
+        return err(
+            "reference",
+            "a solitary_wave reference needs a wall with motion = { law = \"solitary\", \
+             amplitude = …, depth = … } (the wave maker)",
+        );
+    }
+    for (key, name) in ["crest_gauge", "arrival_gauge", "runup_gauge"]
+        .into_iter()
+        .zip(gauges)
+    {
+        if !s
+            .probes
+            .iter()
+            .any(|p| matches!(p, Probe::Gauge { .. }) && p.name() == name)
+        {
+            let gauges: Vec<&str> = s
+                .probes
+                .iter()
+                .filter(|p| matches!(p, Probe::Gauge { .. }))
+                .map(|p| p.name())
+                .collect();
+            return err(
+                format!("reference.{key}"),
+                format!("no [[probe]] of kind = \"gauge\" is named {name:?}; the gauges are {gauges:?}"),
             );
         }
     }

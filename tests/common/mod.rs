@@ -86,3 +86,24 @@ pub fn vtu_points(text: &str) -> Vec<String> {
     let end = body.find("</DataArray>").unwrap();
     body[start..end].split_whitespace().map(String::from).collect()
 }
+
+/// Run `scene` in a fresh temp dir on `ranks` ranks (serial back end for one, local above)
+/// with `threads` threads each, quietly; the run directory.
+pub fn run_layout(scene: &hsph::scene::Scene, ranks: usize, threads: usize, tag: &str) -> PathBuf {
+    use hsph::driver::{run_scene, Backend, RunOptions};
+    let out = temp_dir(tag).join("run");
+    let opts = RunOptions {
+        out: Some(out.clone()),
+        threads,
+        quiet: true,
+        ranks,
+        backend: if ranks == 1 {
+            Backend::Serial
+        } else {
+            Backend::Local
+        },
+        ..Default::default()
+    };
+    run_scene(scene, &opts).unwrap_or_else(|e| panic!("{tag}: {e}"));
+    out
+}
