@@ -537,6 +537,9 @@ struct Reduced {
     remote: u64,
     particles: u64,
     migrated: u64,
+    /// Per rank: most particles held at once, most ghosts held at once, the process's peak
+    /// RSS (bytes; 0 where unknown; local ranks share one process).
+    high_water: Vec<[u64; 3]>,
 }
 
 impl Reduced {
@@ -546,7 +549,7 @@ impl Reduced {
     }
 }
 
-fn reduce<const D: usize>(sim: &Simulation<D>, comm: &dyn Comm) -> Result<Reduced> {
+fn reduce<const D: usize>(sim: &Simulation<D>, comm: &dyn Comm, setup_peak: Option<u64>) -> Result<Reduced> {
     let prev = comm.set_phase(Phase::Output);
     let mut mine: Vec<u8> = Vec::new();
     for s in sim.timers.seconds {
@@ -560,6 +563,11 @@ fn reduce<const D: usize>(sim: &Simulation<D>, comm: &dyn Comm) -> Result<Reduce
         sim.balance.migrated,
     ];
     comm.all_reduce_sum_u64(&mut counts)?;
+    let mut high = vec![0u64; 3 * comm.size()];
+    high[3 * comm.rank()] = sim.balance.particle_high_water;
+    high[3 * comm.rank() + 1] = sim.balance.ghost_high_water;
+    high[3 * comm.rank() + 2] = crate::memory::peak_rss().max(setup_peak).unwrap_or(0);
+    comm.all_reduce_sum_u64(&mut high)?;
     comm.set_phase(prev);
     let timers = (0..PHASES.len())
         .map(|k| {
@@ -579,6 +587,7 @@ fn reduce<const D: usize>(sim: &Simulation<D>, comm: &dyn Comm) -> Result<Reduce
         remote: counts[1],
         particles: counts[2],
         migrated: counts[3],
+        high_water: high.chunks(3).map(|c| [c[0], c[1], c[2]]).collect(),
     })
 }
 
@@ -844,7 +853,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         let t0 = Instant::now();
         let mut obs = self.sim.observables(self.comm)?;
         [obs.removed_energy, obs.removed_mass] = self.removed_out;
-        let r = reduce(&self.sim, self.comm)?;
+        let r = reduce(&self.sim, self.comm, self.setup_peak)?;
         if Tracker::measures_at_output(self.scene) {
             if let Some(v) = self.sim.gather(self.comm)? {
                 self.tracker.at_output(&v);
@@ -1166,7 +1175,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             self.checkpoint()?;
         }
         self.probes.flush()?;
-        let r = reduce(&self.sim, self.comm)?;
+        let r = reduce(&self.sim, self.comm, self.setup_peak)?;
         let p = &self.sim.p;
         let kinds = &p.kind[..p.n_owned];
         let mut n_fluid = [
@@ -1352,6 +1361,11 @@ impl<'a, const D: usize> RankRun<'a, D> {
         if !self.tracker.measured.is_empty() {
             summary["measured"] = json!(self.tracker.measured);
         }
+        // per rank, from the set-up on: O(N/P) with the distributed set-up
+        summary["particle_high_water"] = json!(r.high_water.iter().map(|h| h[0]).collect::<Vec<_>>());
+        summary["ghost_high_water"] = json!(r.high_water.iter().map(|h| h[1]).collect::<Vec<_>>());
+        // each process's peak (under MPI each rank is one; local ranks share one process)
+        summary["peak_rss_bytes_per_rank"] = json!(r.high_water.iter().map(|h| h[2]).collect::<Vec<_>>());
         // machine dependent, like wall_s: summary.json is not compared across runs
         let now = crate::memory::peak_rss();
         summary["peak_rss_bytes"] = json!(now.max(self.setup_peak));

@@ -17,12 +17,11 @@
 
 use crate::boundary::images::{images_of, is_plain, AxisOp, ImageSpace};
 use crate::comm::{Comm, Phase, Tag};
-use crate::decomp::Decomposition;
+use crate::decomp::{fold_parts, Cloud, Decomposition};
 use crate::error::{Error, Result};
 use crate::particles::wire::{Reader, Words};
 use crate::particles::{Fields, Particles, Record};
 use crate::Vector;
-use rayon::prelude::*;
 
 /// Which rank owns which region: the decomposition's blocks and their placement on ranks.
 #[derive(Debug, Clone)]
@@ -63,9 +62,10 @@ impl<const D: usize> RankMap<Decomposition<D>> {
         out
     }
 
-    /// The rank that owns position `x` (total: see [`Decomposition::block_of`]).
-    pub fn owner(&self, x: &Vector<D>) -> usize {
-        self.block_to_rank[self.decomp.block_of(x)]
+    /// The rank that owns the particle `id` at position `x` (total: see
+    /// [`Decomposition::block_of`]).
+    pub fn owner(&self, x: &Vector<D>, id: u64) -> usize {
+        self.block_to_rank[self.decomp.block_of(x, id)]
     }
 
     /// Every rank whose box widened by `r` contains `x` (ascending), into `out`.
@@ -94,40 +94,35 @@ impl<const D: usize> RankMap<Decomposition<D>> {
 }
 
 /// Ghosts each rank sends each other rank (`counts[src * P + dst]`, self-sends included) for
-/// particles at `x` (`mirrored[i]`: has mirror images, i.e. fluid), owned by `map.owner`: the
+/// the particles of `cloud` (fluid ones have mirror images), owned by `map.owner`: the
 /// counting half of [`HaloPlan::build`] with no communication (the same [`Targets`] rule), so
 /// that `hsph plan` predicts a run's halo traffic exactly.
-pub fn ghost_counts<const D: usize>(
-    x: &[Vector<D>],
-    mirrored: &[bool],
+pub fn ghost_counts<const D: usize, C: Cloud<D>>(
+    cloud: &C,
     space: &ImageSpace<D>,
     map: &Ranks<D>,
     boxes: &[(Vector<D>, Vector<D>)],
     support: f64,
 ) -> Vec<u64> {
     let p = map.ranks();
-    // a few large chunks: each holds a dense P × P counter; integer sums, so any split agrees
-    let chunk = x.len().div_ceil(8).max(1);
-    x.par_chunks(chunk)
-        .zip(mirrored.par_chunks(chunk))
-        .map(|(xs, fl)| {
-            let mut counts = vec![0u64; p * p];
-            let mut targets = Targets::new();
-            for (xi, &f) in xs.iter().zip(fl) {
-                let me = map.owner(xi);
+    // each rayon task holds a dense P × P counter; integer sums, so any split agrees
+    fold_parts(
+        cloud,
+        || (vec![0u64; p * p], Targets::new()),
+        |(counts, targets), k| {
+            cloud.visit(k, |xi, id, f| {
+                let me = map.owner(xi, id);
                 targets.each(xi, f, me, space, map, boxes, support, |r, _| {
                     counts[me * p + r] += 1
                 });
-            }
-            counts
-        })
-        .reduce(
-            || vec![0u64; p * p],
-            |mut a, b| {
-                a.iter_mut().zip(b).for_each(|(u, v)| *u += v);
-                a
-            },
-        )
+            })
+        },
+        |mut a, b| {
+            a.0.iter_mut().zip(b.0).for_each(|(u, v)| *u += v);
+            a
+        },
+    )
+    .0
 }
 
 /// Payload bytes of one ghost in the whole-record build message of a store without the
@@ -408,10 +403,11 @@ pub fn migrate<const D: usize>(
     let mut per_dst: Vec<Vec<usize>> = vec![Vec::new(); size];
     for i in 0..p.n_owned {
         let x = &p.x[i];
-        if (0..D).all(|a| x[a] >= mine.0[a] && x[a] < mine.1[a]) {
+        // strictly inside: a particle on a face may belong to the neighbour (a plane's tie)
+        if (0..D).all(|a| x[a] > mine.0[a] && x[a] < mine.1[a]) {
             continue;
         }
-        let r = map.owner(x);
+        let r = map.owner(x, p.id[i]);
         if r != me {
             per_dst[r].push(i);
         }

@@ -3,9 +3,11 @@
 //! available; `hsph check` prints the estimate.
 //!
 //! The model follows what the code allocates today, per rank:
-//! - **set-up**: every rank fills the whole lattice ([`crate::setup::build_particles`]): the
-//!   body records (with their names) and the particle store for all N particles, then keeps
-//!   its block (the kept copy and the old one coexist for a moment);
+//! - **set-up** (distributed, issue 17): a rank streams its share of the lattice to count
+//!   loads, without storing it, then builds only the sites it owns
+//!   ([`crate::setup::SiteSource::build`]): its particle store in growing vectors, a label
+//!   (4 B) and a sort index (8 B) per particle, and the sorted copy beside the old one for a
+//!   moment; placement adds a P × P table of halo volumes;
 //! - **halo and migration counts**: a P × P table of u64 all-reduced (two copies) per rank;
 //! - **running**: the owned particles and their ghosts (a fraction of the owned ones), the
 //!   cell list and the neighbour lists (4 B per neighbour).
@@ -13,7 +15,7 @@
 //! Ranks of the local back end share one process, so their estimates add up; under MPI each
 //! process holds one rank. Limits apply per process.
 
-use crate::particles::{Particles, Record};
+use crate::particles::Particles;
 use crate::scene::Scene;
 
 /// Neighbours per particle in the estimate: a sphere (disc) of the support radius on the
@@ -54,16 +56,15 @@ pub fn estimate<const D: usize>(
 ) -> Estimate {
     let n = particles as f64;
     let p = ranks.max(1) as f64;
-    // body records with a heap-allocated name (~24 B) each, then the store, in growing vectors
-    let record = (std::mem::size_of::<(Record<D>, String)>() + 24) as f64;
     let dropped = crate::setup::dropped_fields(scene);
     let store = Particles::<D>::bytes_per_particle_carried(dropped) as f64;
     // vectors grown by doubling hold up to twice their length
     let growth = 2.0;
     let counts = 2.0 * 8.0 * p * p;
-    let rank_setup = n * (record + store) * growth + n / p * store + counts;
+    // a block holds up to (1 + 2η)^D of the mean (decomp docs): 1.05 in 3D
+    let owned = n / p * 1.05;
+    let rank_setup = owned * ((store + 4.0 + 8.0) * growth + store) + counts;
     // owned + ghosts (ghost layers of a block: generously half the owned count at small blocks)
-    let owned = n / p;
     let ghosts = owned.min(n) * 0.5 + 1000.0;
     let rank_run = owned * store
         + ghosts * Particles::<D>::bytes_per_ghost_carried(dropped) as f64

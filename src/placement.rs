@@ -37,7 +37,7 @@
 //! periodic images (a particle near a periodic face is not counted towards the block across the
 //! wrap) and mirror images (those stay on the rank).
 
-use crate::decomp::{r_diff, Decomposition};
+use crate::decomp::{fold_parts, r_diff, Cloud, Decomposition};
 use crate::error::{Error, Result};
 use crate::topology::Topology;
 use crate::Vector;
@@ -148,6 +148,11 @@ impl PairVolumes {
         }
     }
 
+    /// Every volume, row-major (`a * n + b`), to sum over ranks.
+    pub fn counts_mut(&mut self) -> &mut [u64] {
+        &mut self.v
+    }
+
     /// Sum of all volumes.
     pub fn total(&self) -> u64 {
         self.v.iter().sum()
@@ -161,8 +166,8 @@ impl PairVolumes {
 /// are ignored (module docs). Integer counts, so the result does not depend on thread count.
 ///
 /// Memory: one dense `P × P` counter per rayon work item (`P` = blocks).
-pub fn halo_volumes<const D: usize>(
-    positions: &[Vector<D>],
+pub fn halo_volumes<const D: usize, C: Cloud<D>>(
+    cloud: &C,
     decomp: &Decomposition<D>,
     support: f64,
 ) -> PairVolumes {
@@ -172,29 +177,24 @@ pub fn halo_volumes<const D: usize>(
     );
     let n = decomp.n_blocks();
     let w = Vector::<D>::repeat(support);
-    let v = positions
-        .par_chunks(8192)
-        .fold(
-            || vec![0u64; n * n],
-            |mut acc, chunk| {
-                for x in chunk {
-                    let a = decomp.block_of(x);
-                    for b in decomp.blocks_overlapping(&(x - w), &(x + w)) {
-                        if b != a {
-                            acc[a * n + b] += 1;
-                        }
+    let v = fold_parts(
+        cloud,
+        || vec![0u64; n * n],
+        |acc, k| {
+            cloud.visit(k, |x, id, _| {
+                let a = decomp.block_of(x, id);
+                for b in decomp.blocks_overlapping(&(x - w), &(x + w)) {
+                    if b != a {
+                        acc[a * n + b] += 1;
                     }
                 }
-                acc
-            },
-        )
-        .reduce(
-            || vec![0u64; n * n],
-            |mut a, b| {
-                a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
-                a
-            },
-        );
+            })
+        },
+        |mut a, b| {
+            a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+            a
+        },
+    );
     PairVolumes { n, v }
 }
 

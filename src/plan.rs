@@ -5,6 +5,8 @@
 //! the `halo` traffic of a real run's set-up step (`traffic.csv`, step 0) byte for byte.
 
 use crate::boundary::image_space;
+use crate::comm::serial::SerialComm;
+use crate::decomp::{fold_parts, Cloud};
 use crate::error::{Error, Result};
 use crate::halo::Ranks;
 use crate::halo::{field_bytes, ghost_counts, record_bytes};
@@ -13,7 +15,7 @@ use crate::physics::Model;
 use crate::placement::Placement;
 use crate::placement::{halo_volumes, place_reporting, PairVolumes};
 use crate::scene::Scene;
-use crate::setup::build_particles;
+use crate::setup::{LayerShare, SiteSource};
 use crate::sim::balanced_blocks;
 use crate::topology::Topology;
 use serde_json::json;
@@ -69,28 +71,37 @@ fn plan_dim<const D: usize>(
     topology: &Topology,
     methods: &[Placement],
 ) -> Result<Vec<PlanRow>> {
-    let all = build_particles::<D>(scene)?;
-    let n = all.n_owned;
+    // the sites are streamed, never stored: `plan` at 10 M particles needs no more memory
+    // than the P × P counters (issue 17)
+    let src = SiteSource::<D>::new(scene)?;
+    let cloud = LayerShare::of_rank(&src, 0, 1);
+    let serial = SerialComm::new();
     let support = Model::<D>::new(scene).kernel.support;
     let space = image_space::<D>(scene);
-    let mirrored: Vec<bool> = all.kind.iter().map(|k| k.is_fluid()).collect();
     let step = step_exchanges::<D>(scene);
     let per_ghost: u64 = step.iter().map(|e| e.1).sum();
     let exchanges = step.len() as u64;
     // the decomposition, the block-to-block ghost counts and the halo volumes do not depend
     // on the placement: compute them once, then only relabel blocks as ranks
-    let decomp = balanced_blocks(&all.x[..n], &space.min, &space.max, ranks);
+    let bounds = (&space.min, &space.max);
+    let decomp = balanced_blocks(&cloud, bounds, ranks, src.id_bound(), &serial)?;
     let blocks = Ranks::new(decomp.clone(), (0..ranks).collect());
-    let block_counts = ghost_counts(&all.x[..n], &mirrored, &space, &blocks, &blocks.boxes(), support);
+    let block_counts = ghost_counts(&cloud, &space, &blocks, &blocks.boxes(), support);
     let volumes = if methods.iter().any(|m| *m != Placement::RankOrder) {
-        halo_volumes(&all.x[..n], &decomp, support)
+        halo_volumes(&cloud, &decomp, support)
     } else {
         PairVolumes::zeros(ranks)
     };
-    let mut block_owned = vec![0u64; ranks];
-    for x in &all.x[..n] {
-        block_owned[decomp.block_of(x)] += 1;
-    }
+    let block_owned = fold_parts(
+        &cloud,
+        || vec![0u64; ranks],
+        |acc, k| cloud.visit(k, |x, id, _| acc[decomp.block_of(x, id)] += 1),
+        |mut a, b| {
+            a.iter_mut().zip(b).for_each(|(u, v)| *u += v);
+            a
+        },
+    );
+    let n: u64 = block_owned.iter().sum();
     let mut rows = Vec::new();
     for &method in methods {
         let (block_to_rank, ran) = place_reporting(&decomp, topology, method, &volumes);

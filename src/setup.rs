@@ -5,6 +5,7 @@
 //! and independent of anything but the scene. Two bodies claiming one site is an input error.
 
 use crate::boundary::wall_kind;
+use crate::decomp::Cloud;
 use crate::error::{Error, Result};
 use crate::particles::{Fields, Kind, Particles, Record};
 use crate::physics::material::MaterialModel;
@@ -45,8 +46,8 @@ impl<const D: usize> Lattice<D> {
         (lo.min(self.n[axis]), hi.min(self.n[axis]))
     }
 
-    /// Visit every site in the box `[min, max)`: `(id, centre)`.
-    pub fn for_each_in(&self, min: &[f64], max: &[f64], mut f: impl FnMut(u64, Vector<D>)) {
+    /// Visit every site in the box `[min, max)`: `(site index per axis, id, centre)`.
+    pub fn for_each_in(&self, min: &[f64], max: &[f64], mut f: impl FnMut(&[u64], u64, Vector<D>)) {
         let r: Vec<(u64, u64)> = (0..D).map(|a| self.range(a, min[a], max[a])).collect();
         if r.iter().any(|(lo, hi)| hi <= lo) {
             return;
@@ -58,7 +59,7 @@ impl<const D: usize> Lattice<D> {
                 id = id * na + ia;
             }
             let x = Vector::from_fn(|a, _| self.origin[a] + (idx[a] as f64 + 0.5) * self.dx);
-            f(id, x);
+            f(&idx, id, x);
             // odometer, last axis fastest
             let mut a = D;
             loop {
@@ -151,41 +152,329 @@ pub fn coupling_warnings(s: &Scene) -> Vec<String> {
     out
 }
 
-/// Build the owned particles of a scene (sorted by id).
+/// Build every particle of a scene (sorted by id): [`SiteSource::build`] over the whole
+/// lattice.
 pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
-    let lat = Lattice::<D>::new(s);
-    // every site claimed by a body, with the index of the body's name in `keys` (to report
-    // overlaps)
-    let mut keys: Vec<String> = Vec::new();
-    // each site goes straight into the table (a whole Record per site, solid fields and all,
-    // held beside the table until it was sorted made the set-up's memory peak: 494 B per 3D
-    // fluid particle), then the table is sorted by id in place
-    let mut protos = Sites {
-        p: Particles::<D>::without(dropped_fields(s)),
-        label: Vec::new(),
-    };
-    body_sites(s, &lat, &mut keys, &mut protos)?;
-    wall_sites(s, &lat, &mut keys, &mut protos);
-    let Sites { mut p, label } = protos;
-    let mut perm: Vec<usize> = (0..p.n_owned).collect();
-    // stable: of two bodies claiming one site, the one added later is named
-    perm.sort_by_key(|&i| p.id[i]);
-    reject_overlaps(&p, &perm, &label, &keys)?;
-    p.permute_owned(&perm);
-    Ok(p)
+    SiteSource::<D>::new(s)?.build(None, |_, _| true)
 }
 
-/// Sites as they are generated: the table in generation order and each site's body (an
-/// index into the names of the bodies).
-struct Sites<const D: usize> {
-    p: Particles<D>,
-    label: Vec<u32>,
+/// What a body does with the sites of its box.
+enum Claim<const D: usize> {
+    /// A fluid or solid body: the sites inside its shape, with hydrostatic density along −ĝ
+    /// below `top` (m), velocity and expression fields.
+    Body {
+        body: usize,
+        solid: bool,
+        e: MaterialModel,
+        v: Vector<D>,
+        /// Body force (m/s²) when the density is hydrostatic (non-zero), else `None`.
+        hydrostatic: Option<Vector<D>>,
+        top: f64,
+        fields: Box<BodyFields<D>>,
+    },
+    /// A dummy or repulsive wall: every site of its box, except those of `inner` (site index
+    /// ranges per axis: a container's inner box).
+    Wall {
+        rho0: f64,
+        v: Vector<D>,
+        inner: Option<Vec<(u64, u64)>>,
+    },
 }
 
-impl<const D: usize> Sites<D> {
-    fn push(&mut self, r: Record<D>, label: u32) {
-        self.p.push_owned(r);
-        self.label.push(label);
+/// One source of particles: a body of the scene, in the order bodies are added (fluids,
+/// solids, walls).
+struct Source<const D: usize> {
+    /// `fluid[i]`, `solid[i]` or `wall[i]`.
+    key: String,
+    kind: Kind,
+    /// Index of the body among its kind (the particle's `body` field).
+    index: u16,
+    mat: u16,
+    /// Box whose sites the body may claim (m).
+    min: Vec<f64>,
+    max: Vec<f64>,
+    claim: Claim<D>,
+}
+
+/// The particles of a scene, site by site, without storing them: every rank can count, bound
+/// or build exactly the sites it needs (issue 17: no rank materialises the whole lattice).
+/// A site is a lattice index; its particle's fields are a function of the scene alone, so a
+/// particle built on any rank is the same bits.
+pub struct SiteSource<'s, const D: usize> {
+    scene: &'s Scene,
+    lat: Lattice<D>,
+    sources: Vec<Source<D>>,
+}
+
+impl<'s, const D: usize> SiteSource<'s, D> {
+    /// The sources of `s` (parses the bodies' expression fields).
+    pub fn new(s: &'s Scene) -> Result<Self> {
+        let lat = Lattice::<D>::new(s);
+        let materials: Vec<MaterialModel> = s.materials.iter().map(MaterialModel::new).collect();
+        let g = Vector::<D>::from_fn(|a, _| s.physics.body_force[a]);
+        let gmag = g.norm();
+        let mut sources = Vec::new();
+        let bodies = s
+            .fluids
+            .iter()
+            .enumerate()
+            .map(|(b, f)| (b, f, false))
+            .chain(s.solids.iter().enumerate().map(|(b, f)| (b, f, true)));
+        for (b, f, solid) in bodies {
+            let key = format!("{}[{b}]", if solid { "solid" } else { "fluid" });
+            let mat = mat_index(s, &f.material);
+            // top of the block along -ĝ, for the hydrostatic profile
+            let top = if gmag > 0.0 {
+                (0..D)
+                    .map(|a| (f.min[a] * g[a]).min(f.max[a] * g[a]))
+                    .sum::<f64>()
+                    / gmag
+            } else {
+                0.0
+            };
+            let kind = match (solid, f.clamped) {
+                (false, _) => Kind::Fluid,
+                (true, true) => Kind::Clamped,
+                (true, false) => Kind::Solid,
+            };
+            let fields = Box::new(BodyFields::<D>::new(f, &key, s)?);
+            sources.push(Source {
+                key,
+                kind,
+                index: b as u16,
+                mat,
+                min: f.min.clone(),
+                max: f.max.clone(),
+                claim: Claim::Body {
+                    body: b,
+                    solid,
+                    e: materials[mat as usize],
+                    v: Vector::<D>::from_fn(|a, _| f.velocity[a]),
+                    hydrostatic: (f.hydrostatic && gmag > 0.0).then_some(g),
+                    top,
+                    fields,
+                },
+            });
+        }
+        let dx = s.discretisation.dx;
+        for (b, w) in s.walls.iter().enumerate() {
+            let Some(kind) = wall_kind(w.method) else {
+                continue;
+            };
+            let mat = mat_index(s, &w.material);
+            let (min, max, inner) = match w.shape {
+                WallShape::Block => (w.min.clone(), w.max.clone(), None),
+                WallShape::Container => {
+                    let (lo, hi) = container_outer(w, s.dimension, dx);
+                    let inner = (0..D).map(|a| lat.range(a, w.min[a], w.max[a])).collect();
+                    (lo, hi, Some(inner))
+                }
+            };
+            sources.push(Source {
+                key: format!("wall[{b}]"),
+                kind,
+                index: b as u16,
+                mat,
+                min,
+                max,
+                claim: Claim::Wall {
+                    rho0: materials[mat as usize].rho0(),
+                    v: Vector::<D>::from_fn(|a, _| w.velocity[a]),
+                    inner,
+                },
+            });
+        }
+        Ok(SiteSource {
+            scene: s,
+            lat,
+            sources,
+        })
+    }
+
+    /// Exclusive bound of the particles' ids: the number of lattice sites.
+    pub fn id_bound(&self) -> u64 {
+        self.lat.n.iter().product()
+    }
+
+    /// Lattice spacing dx (m).
+    pub fn dx(&self) -> f64 {
+        self.lat.dx
+    }
+
+    /// Lattice layers along x (axis 0): [`SiteSource::for_each`] splits work by them.
+    pub fn layers(&self) -> u64 {
+        self.lat.n[0]
+    }
+
+    /// Visit every site claimed by source `j` whose centre lies in the box `[min, max)`:
+    /// `(id, centre)`.
+    fn each_claimed(&self, j: usize, min: &[f64], max: &[f64], mut f: impl FnMut(u64, Vector<D>)) {
+        let src = &self.sources[j];
+        let lo: Vec<f64> = (0..D).map(|a| src.min[a].max(min[a])).collect();
+        let hi: Vec<f64> = (0..D).map(|a| src.max[a].min(max[a])).collect();
+        match &src.claim {
+            Claim::Body { body, solid, .. } => {
+                let b = if *solid {
+                    &self.scene.solids[*body]
+                } else {
+                    &self.scene.fluids[*body]
+                };
+                self.lat.for_each_in(&lo, &hi, |_, id, x| {
+                    if b.contains(x.as_slice()) {
+                        f(id, x)
+                    }
+                });
+            }
+            Claim::Wall { inner, .. } => self.lat.for_each_in(&lo, &hi, |idx, id, x| {
+                let inside = inner
+                    .as_ref()
+                    .is_some_and(|r| idx.iter().zip(r).all(|(i, (l, h))| i >= l && i < h));
+                if !inside {
+                    f(id, x)
+                }
+            }),
+        }
+    }
+
+    /// Visit every site of the layers `layers` along x: `(id, centre, kind)`, source by
+    /// source (the order matters only to sums that are order-independent).
+    pub fn for_each(&self, layers: std::ops::Range<u64>, mut f: impl FnMut(u64, &Vector<D>, Kind)) {
+        let (min, max) = self.layer_box(layers);
+        for (j, src) in self.sources.iter().enumerate() {
+            self.each_claimed(j, &min, &max, |id, x| f(id, &x, src.kind));
+        }
+    }
+
+    /// The box of the layers `layers` along x, unbounded along the other axes.
+    fn layer_box(&self, layers: std::ops::Range<u64>) -> (Vec<f64>, Vec<f64>) {
+        let edge = |i: u64| self.lat.origin[0] + i as f64 * self.lat.dx;
+        let mut min = vec![f64::NEG_INFINITY; D];
+        let mut max = vec![f64::INFINITY; D];
+        min[0] = if layers.start == 0 {
+            f64::NEG_INFINITY
+        } else {
+            edge(layers.start)
+        };
+        max[0] = if layers.end >= self.lat.n[0] {
+            f64::INFINITY
+        } else {
+            edge(layers.end)
+        };
+        (min, max)
+    }
+
+    /// The record of the site `id` at `x` claimed by source `j`.
+    fn record(&self, j: usize, id: u64, x: Vector<D>) -> Result<Record<D>> {
+        let src = &self.sources[j];
+        let vol = self.lat.dx.powi(D as i32);
+        Ok(match &src.claim {
+            Claim::Body {
+                e,
+                v,
+                hydrostatic,
+                top,
+                fields,
+                ..
+            } => {
+                let mut rho = match hydrostatic {
+                    Some(g) => {
+                        let gmag = g.norm();
+                        let depth = x.dot(g) / gmag - top;
+                        e.density(e.rho0() * gmag * depth.max(0.0))
+                    }
+                    None => e.rho0(),
+                };
+                let mut v = *v;
+                fields.apply(&x, e, &mut v, &mut rho)?;
+                Record::new(id, src.kind, src.index, src.mat, x, v, rho * vol, rho)
+            }
+            Claim::Wall { rho0, v, .. } => {
+                Record::new(id, src.kind, src.index, src.mat, x, *v, rho0 * vol, *rho0)
+            }
+        })
+    }
+
+    /// The particles of the sites in the box `region` (`None`: everywhere) for which
+    /// `keep(id, centre)` holds, sorted by id. Two bodies claiming one kept site is an input
+    /// error naming both.
+    pub fn build(
+        &self,
+        region: Option<(&[f64], &[f64])>,
+        keep: impl Fn(u64, &Vector<D>) -> bool,
+    ) -> Result<Particles<D>> {
+        let unbounded = vec![f64::NEG_INFINITY; D];
+        let above = vec![f64::INFINITY; D];
+        let (min, max) = region.unwrap_or((&unbounded, &above));
+        // each site goes straight into the table (a whole Record per site held beside the
+        // table until it was sorted made the set-up's memory peak), then the table is sorted
+        // by id in place; `label` is each particle's source, to name overlaps
+        let mut p = Particles::<D>::without(dropped_fields(self.scene));
+        let mut label: Vec<u32> = Vec::new();
+        let mut bad = None;
+        for j in 0..self.sources.len() {
+            self.each_claimed(j, min, max, |id, x| {
+                if !keep(id, &x) {
+                    return;
+                }
+                match self.record(j, id, x) {
+                    Ok(r) => {
+                        p.push_owned(r);
+                        label.push(j as u32);
+                    }
+                    Err(e) => {
+                        bad.get_or_insert(e);
+                    }
+                }
+            });
+            if let Some(e) = bad {
+                return Err(e);
+            }
+        }
+        let mut perm: Vec<usize> = (0..p.n_owned).collect();
+        // stable: of two bodies claiming one site, the one added later is named
+        perm.sort_by_key(|&i| p.id[i]);
+        let keys: Vec<&str> = self.sources.iter().map(|s| s.key.as_str()).collect();
+        reject_overlaps(&p, &perm, &label, &keys)?;
+        p.permute_owned(&perm);
+        Ok(p)
+    }
+}
+
+/// The lattice layers `layers` (along x) of a scene's sites as a [`Cloud`]: the share of the
+/// lattice one rank streams while the ranks choose their blocks.
+pub struct LayerShare<'a, 's, const D: usize> {
+    /// The scene's sites.
+    pub src: &'a SiteSource<'s, D>,
+    /// Layers along x, `[start, end)`.
+    pub layers: std::ops::Range<u64>,
+}
+
+impl<'a, 's, const D: usize> LayerShare<'a, 's, D> {
+    /// Rank `rank`'s equal share of the layers of `src` among `ranks`.
+    pub fn of_rank(src: &'a SiteSource<'s, D>, rank: usize, ranks: usize) -> Self {
+        let n = src.layers() as u128;
+        let at = |r: usize| (n * r as u128 / ranks as u128) as u64;
+        LayerShare {
+            src,
+            layers: at(rank)..at(rank + 1),
+        }
+    }
+
+    /// Layers per part: about 64 parts, for rayon.
+    fn step(&self) -> u64 {
+        (self.layers.end - self.layers.start).div_ceil(64).max(1)
+    }
+}
+
+impl<const D: usize> Cloud<D> for LayerShare<'_, '_, D> {
+    fn parts(&self) -> usize {
+        (self.layers.end - self.layers.start).div_ceil(self.step()) as usize
+    }
+
+    fn visit(&self, k: usize, mut f: impl FnMut(&Vector<D>, u64, bool)) {
+        let a = self.layers.start + k as u64 * self.step();
+        let b = (a + self.step()).min(self.layers.end);
+        self.src.for_each(a..b, |id, x, kind| f(x, id, kind.is_fluid()));
     }
 }
 
@@ -194,120 +483,19 @@ fn mat_index(s: &Scene, name: &str) -> u16 {
     s.materials.iter().position(|m| m.name == name).unwrap_or(0) as u16
 }
 
-/// The sites of the fluid and solid bodies, with their initial fields (hydrostatic density
-/// along −ĝ, velocity, expression fields), appended to `protos` with their body's name in
-/// `keys`.
-fn body_sites<const D: usize>(
-    s: &Scene,
-    lat: &Lattice<D>,
-    keys: &mut Vec<String>,
-    protos: &mut Sites<D>,
-) -> Result<()> {
-    let vol = s.discretisation.dx.powi(D as i32);
-    let materials: Vec<MaterialModel> = s.materials.iter().map(MaterialModel::new).collect();
-    let g = Vector::<D>::from_fn(|a, _| s.physics.body_force[a]);
-    let gmag = g.norm();
-    let solid_kind = |f: &crate::scene::FluidBody| if f.clamped { Kind::Clamped } else { Kind::Solid };
-    let bodies = (s
-        .fluids
-        .iter()
-        .enumerate()
-        .map(|(b, f)| (b, f, Kind::Fluid, "fluid")))
-    .chain(
-        s.solids
-            .iter()
-            .enumerate()
-            .map(|(b, f)| (b, f, solid_kind(f), "solid")),
-    );
-    for (b, f, kind, label) in bodies {
-        let key = format!("{label}[{b}]");
-        let mat = mat_index(s, &f.material);
-        let e = materials[mat as usize];
-        let v = Vector::<D>::from_fn(|a, _| f.velocity[a]);
-        // top of the block along -ĝ, for the hydrostatic profile
-        let top = if gmag > 0.0 {
-            (0..D)
-                .map(|a| (f.min[a] * g[a]).min(f.max[a] * g[a]))
-                .sum::<f64>()
-                / gmag
-        } else {
-            0.0
-        };
-        let fields = BodyFields::<D>::new(f, &key, s)?;
-        let label = keys.len() as u32;
-        keys.push(key);
-        let mut bad = None;
-        lat.for_each_in(&f.min, &f.max, |id, x| {
-            if !f.contains(x.as_slice()) {
-                return;
-            }
-            let mut rho = if f.hydrostatic && gmag > 0.0 {
-                let depth = x.dot(&g) / gmag - top;
-                e.density(e.rho0() * gmag * depth.max(0.0))
-            } else {
-                e.rho0()
-            };
-            let mut v = v;
-            if let Err(err) = fields.apply(&x, &e, &mut v, &mut rho) {
-                bad.get_or_insert(err);
-            }
-            let r = Record::new(id, kind, b as u16, mat, x, v, rho * vol, rho);
-            protos.push(r, label);
-        });
-        if let Some(err) = bad {
-            return Err(err);
-        }
-    }
-    Ok(())
-}
-
-/// The sites of the dummy and repulsive walls (blocks, and containers as the shell round
-/// their inner box), appended to `protos` with their wall's name in `keys`. Mirror walls are
-/// images of the fluid, not particles.
-fn wall_sites<const D: usize>(s: &Scene, lat: &Lattice<D>, keys: &mut Vec<String>, protos: &mut Sites<D>) {
-    let dx = s.discretisation.dx;
-    let vol = dx.powi(D as i32);
-    for (b, w) in s.walls.iter().enumerate() {
-        let Some(kind) = wall_kind(w.method) else {
-            continue;
-        };
-        let mat = mat_index(s, &w.material);
-        let rho0 = MaterialModel::new(&s.materials[mat as usize]).rho0();
-        let v = Vector::<D>::from_fn(|a, _| w.velocity[a]);
-        let label = keys.len() as u32;
-        keys.push(format!("wall[{b}]"));
-        let mut push = |id, x| {
-            let r = Record::new(id, kind, b as u16, mat, x, v, rho0 * vol, rho0);
-            protos.push(r, label)
-        };
-        match w.shape {
-            WallShape::Block => lat.for_each_in(&w.min, &w.max, &mut push),
-            WallShape::Container => {
-                let (lo, hi) = container_outer(w, s.dimension, dx);
-                let inner = lat_box_ids(lat, &w.min, &w.max);
-                lat.for_each_in(&lo, &hi, |id, x| {
-                    if inner.binary_search(&id).is_err() {
-                        push(id, x)
-                    }
-                });
-            }
-        }
-    }
-}
-
 /// Exit-2 error naming the second of two bodies that claim one lattice site (`by_id`: the
 /// particles of `p` in id order; `label[i]` indexes `keys`, the bodies' names).
 fn reject_overlaps<const D: usize>(
     p: &Particles<D>,
     by_id: &[usize],
     label: &[u32],
-    keys: &[String],
+    keys: &[&str],
 ) -> Result<()> {
     for pair in by_id.windows(2) {
         let (a, b) = (pair[0], pair[1]);
         if p.id[a] == p.id[b] {
             return Err(Error::input(
-                keys[label[b] as usize].clone(),
+                keys[label[b] as usize],
                 format!(
                     "overlaps {} at the lattice site {:?}: bodies must not share particles; \
                      shrink one of them",
@@ -318,6 +506,11 @@ fn reject_overlaps<const D: usize>(
         }
     }
     Ok(())
+}
+
+/// Exclusive bound of the particle ids of `s`: the number of sites of its lattice.
+pub fn id_bound<const D: usize>(s: &Scene) -> u64 {
+    Lattice::<D>::new(s).n.iter().product()
 }
 
 /// Number of particles the scene's bodies hold, counted from the lattice ranges without
@@ -545,7 +738,7 @@ fn sphere_warnings<const D: usize>(s: &Scene) -> Vec<String> {
             continue;
         }
         let mut n = 0u64;
-        lat.for_each_in(&f.min, &f.max, |_, x| n += f.contains(x.as_slice()) as u64);
+        lat.for_each_in(&f.min, &f.max, |_, _, x| n += f.contains(x.as_slice()) as u64);
         let pi = std::f64::consts::PI;
         let exact = match (f.shape, D) {
             (crate::scene::BodyShape::Cylinder, _) => pi * f.radius.powi(2) * f.length,
@@ -591,12 +784,4 @@ fn container_outer(w: &crate::scene::WallBody, d: usize, dx: f64) -> (Vec<f64>, 
         }
     }
     (lo, hi)
-}
-
-/// Sorted ids of the sites inside a box.
-fn lat_box_ids<const D: usize>(lat: &Lattice<D>, min: &[f64], max: &[f64]) -> Vec<u64> {
-    let mut ids = Vec::new();
-    lat.for_each_in(min, max, |id, _| ids.push(id));
-    ids.sort_unstable();
-    ids
 }

@@ -56,6 +56,10 @@ enum Envelope {
 /// The shared abort: first failure, a flag, and a channel closed to wake every waiter.
 struct Abort {
     failure: Mutex<Option<(usize, String)>>,
+    /// The first failure, when it was an input error (exit 2): every rank agreed on it (a
+    /// set-up error found by one rank is shared before any rank returns), so the run reports
+    /// it as itself rather than as a rank's failure.
+    input: Mutex<Option<(usize, Error)>>,
     raised: AtomicBool,
     signal: Mutex<Option<Sender<()>>>,
     wake: Receiver<()>,
@@ -66,6 +70,7 @@ impl Abort {
         let (tx, rx) = bounded(0);
         Abort {
             failure: Mutex::new(None),
+            input: Mutex::new(None),
             raised: AtomicBool::new(false),
             signal: Mutex::new(Some(tx)),
             wake: rx,
@@ -74,10 +79,18 @@ impl Abort {
 
     /// Record `rank`'s failure (only the first one counts) and wake every waiter.
     fn raise(&self, rank: usize, message: String) {
+        self.raise_error(rank, message, None);
+    }
+
+    /// [`Abort::raise`], keeping the error itself when it is an input error.
+    fn raise_error(&self, rank: usize, message: String, error: Option<&Error>) {
         {
             let mut f = lock(&self.failure);
             if f.is_none() {
                 *f = Some((rank, message));
+                if let Some(e @ Error::Input { .. }) = error {
+                    *lock(&self.input) = Some((rank, e.clone()));
+                }
             }
         }
         self.raised.store(true, Ordering::SeqCst);
@@ -444,6 +457,9 @@ where
             .collect()
     });
     if let Some((rank, message)) = shared.abort.failure() {
+        if let Some((_, e)) = lock(&shared.abort.input).take() {
+            return Err(e);
+        }
         return Err(Error::run(format!("rank {rank} failed: {message}")));
     }
     results
@@ -486,7 +502,7 @@ where
     let result = match outcome {
         Ok(Ok(v)) => Some(v),
         Ok(Err(e)) => {
-            shared.abort.raise(rank, error_text(&e));
+            shared.abort.raise_error(rank, error_text(&e), Some(&e));
             None
         }
         Err(p) => {

@@ -35,13 +35,15 @@
 //! (with pair loads: 63 times the largest single-particle load). The adjacent windows are
 //! disjoint (`2η < 1`), so satisfied planes come out ascending.
 //!
-//! # Fallback
-//! When many particles share a coordinate (lattice rows) the load left of a plane jumps by a
-//! whole row and eq. 6 may be unattainable. Bisection then converges onto the row (the bracket
-//! collapses to adjacent floats, or `max_iter` calls are spent) and the plane takes the best
-//! candidate seen (smallest eq. 6 residual; earliest on ties). Because the residual is
-//! unimodal in the load, the two sides of the row are the best achievable positions: the
-//! balance is then limited by the row granularity, not by the search.
+//! # Layers
+//! When many particles share a coordinate (lattice rows, walls) the load left of a position
+//! jumps by a whole layer. Bisection converges onto the layer (the bracket collapses to
+//! adjacent floats `[a, b)`; the layer is the particles at `a`); then, when the parameters
+//! give an id bound, the plane stays at `a` and bisects its id tie over `[0, id_bound]`: the
+//! layer is split by global id ([`super::Decomposition`] docs) and eq. 6 becomes attainable
+//! again, with unit loads to within one particle. Without an id bound, or when `max_iter`
+//! calls are spent, the plane takes the best candidate seen (smallest eq. 6 residual; earliest
+//! on ties): the balance is then limited by the layer granularity, not by the search.
 
 use super::Decomposition;
 use crate::Vector;
@@ -56,14 +58,20 @@ pub struct BalanceParams {
     pub max_iter: usize,
     /// Optional relative speed per block (= rank); target loads are proportional to them.
     pub weights: Option<Vec<f64>>,
+    /// Exclusive upper bound of the particles' global ids: planes may split a layer by id
+    /// (module docs). `None`: planes never split a layer (every tie 0).
+    pub id_bound: Option<u64>,
 }
 
 impl Default for BalanceParams {
     fn default() -> Self {
         Self {
             eta: 0.008,
-            max_iter: 60,
+            // ~55 calls bring a float bracket down to adjacent floats, and a layer's id
+            // bisection takes log2(id_bound) more
+            max_iter: 128,
             weights: None,
+            id_bound: None,
         }
     }
 }
@@ -123,16 +131,18 @@ pub fn imbalance_weighted(loads: &[u64], weights: &[f64]) -> f64 {
 }
 
 /// One round of the search: candidate planes along one axis, each in a parent region.
-/// The caller's `count` closure answers with the global load strictly left
-/// (`x[axis] < candidate`) of each candidate, among the particles of its region.
+/// The caller's `count` closure answers with the global load strictly left of each candidate
+/// (`(x[axis], id) < (candidate, tie)`, module docs of [`super`]), among the particles of its
+/// region.
 pub struct Stage<'a, const D: usize> {
     decomp: &'a Decomposition<D>,
     axis: usize,
     candidates: Vec<f64>,
+    ties: Vec<u64>,
     regions: Vec<usize>,
 }
 
-impl<const D: usize> Stage<'_, D> {
+impl<'a, const D: usize> Stage<'a, D> {
     /// Axis (= level) being cut: 0 = x, 1 = y, 2 = z.
     pub fn axis(&self) -> usize {
         self.axis
@@ -148,22 +158,39 @@ impl<const D: usize> Stage<'_, D> {
         &self.regions
     }
 
-    /// Parent region of position `x` at this level (planes of earlier levels are final).
-    pub fn region_of(&self, x: &Vector<D>) -> usize {
-        self.decomp.region_of(self.axis, x)
+    /// Id tie of each candidate (0 unless a layer is being split).
+    pub fn candidate_ties(&self) -> &[u64] {
+        &self.ties
     }
 
-    /// Load left of each candidate among the given `(position, load)` items — the local half
-    /// of `count`; sum the result over ranks (integer all-reduce) for the global answer.
+    /// Parent region of the particle `id` at `x` at this level (planes of earlier levels
+    /// are final).
+    pub fn region_of(&self, x: &Vector<D>, id: u64) -> usize {
+        self.decomp.region_of(self.axis, x, id)
+    }
+
+    /// Load left of each candidate among the given `(position, id, load)` items — the local
+    /// half of `count`; sum the result over ranks (integer all-reduce) for the global answer.
     /// `O((n + m)·log m)` for `n` items and `m` candidates; integer sums, order-independent.
-    pub fn count_local<I: IntoIterator<Item = (Vector<D>, u64)>>(&self, items: I) -> Vec<u64> {
+    pub fn count_local<I: IntoIterator<Item = (Vector<D>, u64, u64)>>(&self, items: I) -> Vec<u64> {
+        let mut counter = self.counter();
+        for (x, id, load) in items {
+            counter.add(&x, id, load);
+        }
+        counter.finish()
+    }
+
+    /// An accumulator of [`Stage::count_local`] to feed item by item (for sites streamed
+    /// without being stored), or to merge over threads with [`Counter::merge`].
+    pub fn counter(&self) -> Counter<'_, 'a, D> {
         let nreg = self.decomp.regions(self.axis);
-        // Candidates sorted by (region, position); `start[r]..start[r+1]` is region r.
+        // Candidates sorted by (region, position, tie); `start[r]..start[r+1]` is region r.
         let mut order: Vec<usize> = (0..self.candidates.len()).collect();
         order.sort_by(|&i, &j| {
             self.regions[i]
                 .cmp(&self.regions[j])
                 .then(self.candidates[i].total_cmp(&self.candidates[j]))
+                .then(self.ties[i].cmp(&self.ties[j]))
         });
         let mut start = vec![0usize; nreg + 1];
         for &r in &self.regions {
@@ -172,23 +199,59 @@ impl<const D: usize> Stage<'_, D> {
         for r in 0..nreg {
             start[r + 1] += start[r];
         }
-        let sorted: Vec<f64> = order.iter().map(|&i| self.candidates[i]).collect();
-        let mut hist = vec![0u64; sorted.len()];
-        for (x, load) in items {
-            let r = self.region_of(&x);
-            let s = &sorted[start[r]..start[r + 1]];
-            let v = x[self.axis];
-            let p = s.partition_point(|&c| c <= v);
-            if p < s.len() {
-                hist[start[r] + p] += load;
-            }
+        let sorted: Vec<(f64, u64)> = order
+            .iter()
+            .map(|&i| (self.candidates[i], self.ties[i]))
+            .collect();
+        let hist = vec![0u64; sorted.len()];
+        Counter {
+            stage: self,
+            order,
+            start,
+            sorted,
+            hist,
         }
-        let mut out = vec![0u64; sorted.len()];
+    }
+}
+
+/// Loads left of a stage's candidates, accumulated item by item ([`Stage::counter`]).
+#[derive(Clone)]
+pub struct Counter<'s, 'a, const D: usize> {
+    stage: &'s Stage<'a, D>,
+    order: Vec<usize>,
+    start: Vec<usize>,
+    sorted: Vec<(f64, u64)>,
+    hist: Vec<u64>,
+}
+
+impl<const D: usize> Counter<'_, '_, D> {
+    /// Count `load` for the particle `id` at `x`.
+    #[inline]
+    pub fn add(&mut self, x: &Vector<D>, id: u64, load: u64) {
+        let r = self.stage.region_of(x, id);
+        let s = &self.sorted[self.start[r]..self.start[r + 1]];
+        let v = x[self.stage.axis];
+        let p = s.partition_point(|&(c, t)| super::at_or_right(v, id, c, t));
+        if p < s.len() {
+            self.hist[self.start[r] + p] += load;
+        }
+    }
+
+    /// Add another counter's items (of the same stage).
+    pub fn merge(mut self, other: Self) -> Self {
+        self.hist.iter_mut().zip(other.hist).for_each(|(a, b)| *a += b);
+        self
+    }
+
+    /// Load left of each candidate, in the stage's candidate order.
+    pub fn finish(self) -> Vec<u64> {
+        let nreg = self.start.len() - 1;
+        let mut out = vec![0u64; self.sorted.len()];
         for r in 0..nreg {
             let mut acc = 0u64;
-            for q in start[r]..start[r + 1] {
-                acc += hist[q];
-                out[order[q]] = acc;
+            for q in self.start[r]..self.start[r + 1] {
+                acc += self.hist[q];
+                out[self.order[q]] = acc;
             }
         }
         out
@@ -206,6 +269,7 @@ impl<'a, const D: usize> Stage<'a, D> {
         Self {
             decomp,
             axis,
+            ties: vec![0; candidates.len()],
             candidates,
             regions,
         }
@@ -268,10 +332,20 @@ enum Phase {
     },
     /// Bisection of `[a, b]`.
     Bisect,
+    /// The bracket collapsed onto adjacent floats `a < b` whose ends both carry ties: is the
+    /// target in the layer at `a` or in the one at `b`? (evaluates `(b, 0)`)
+    TieProbe,
+    /// Bisection of the id tie of a plane at `row` over `(lo, hi)` (module docs: layers).
+    Tie {
+        row: f64,
+        lo: u64,
+        hi: u64,
+    },
     Done,
 }
 
-/// Search state of one plane.
+/// Search state of one plane. The bracket's ends are keys `(a, ta)` (load left below the
+/// target) and `(b, tb)` (above it).
 #[derive(Debug, Clone)]
 struct Plane {
     w_l: f64,
@@ -280,22 +354,27 @@ struct Plane {
     /// Initial half-width of a rebalance bracket (m).
     h: f64,
     a: f64,
+    ta: u64,
     b: f64,
+    tb: u64,
     cand: f64,
+    tie: u64,
     phase: Phase,
-    /// Best candidate seen: (residual, position, load left).
-    best: Option<(f64, f64, u64)>,
+    /// Exclusive bound of the ids, when layers may be split.
+    id_bound: Option<u64>,
+    /// Best candidate seen: (residual, position, tie, load left).
+    best: Option<(f64, f64, u64, u64)>,
 }
 
 impl Plane {
-    fn consider(&mut self, pos: f64, left: u64, total: u64) -> f64 {
+    fn consider(&mut self, pos: f64, tie: u64, left: u64, total: u64) -> f64 {
         let res = eq6_residual(left, total - left, self.w_l, self.w_r);
         let better = match self.best {
             None => true,
-            Some((r, _, _)) => res < r,
+            Some((r, ..)) => res < r,
         };
         if better {
-            self.best = Some((res, pos, left));
+            self.best = Some((res, pos, tie, left));
         }
         res
     }
@@ -307,12 +386,43 @@ impl Plane {
         self.phase == Phase::Done
     }
 
-    /// Next bisection candidate, or done when the bracket has collapsed to adjacent floats.
+    /// Next bisection candidate; once the bracket has collapsed to adjacent floats, split the
+    /// layer it holds (or stop).
     fn bisect_next(&mut self) {
         let m = self.a + 0.5 * (self.b - self.a);
         if self.a < m && m < self.b {
             self.cand = m;
+            self.tie = 0;
             self.phase = Phase::Bisect;
+        } else {
+            self.split_layer();
+        }
+    }
+
+    /// The target lies between `(a, ta)` and `(b, tb)` with no float strictly between `a` and
+    /// `b`: bisect the ties of the layer at `a` (whose last id is equivalent to `(b, 0)`), or
+    /// of the layer at `b` when `tb > 0` and `(b, 0)` is still light.
+    fn split_layer(&mut self) {
+        let Some(bound) = self.id_bound else {
+            self.phase = Phase::Done;
+            return;
+        };
+        if self.a == self.b {
+            self.tie_next(self.a, self.ta, self.tb);
+        } else if self.tb == 0 {
+            self.tie_next(self.a, self.ta, bound);
+        } else {
+            self.cand = self.b;
+            self.tie = 0;
+            self.phase = Phase::TieProbe;
+        }
+    }
+
+    fn tie_next(&mut self, row: f64, lo: u64, hi: u64) {
+        if hi > lo + 1 {
+            self.cand = row;
+            self.tie = lo + (hi - lo) / 2;
+            self.phase = Phase::Tie { row, lo, hi };
         } else {
             self.phase = Phase::Done;
         }
@@ -320,8 +430,8 @@ impl Plane {
 
     /// Record the global load `left` at the current candidate and choose the next one.
     fn observe(&mut self, left: u64, total: u64, lo: f64, hi: f64) {
-        let c = self.cand;
-        let res = self.consider(c, left, total);
+        let (c, t) = (self.cand, self.tie);
+        let res = self.consider(c, t, left, total);
         if self.settle_if_satisfied(res) {
             return;
         }
@@ -330,10 +440,10 @@ impl Plane {
             Phase::Probe => {
                 let (origin, step) = (c, self.h);
                 if left_heavy {
-                    self.b = c;
+                    (self.b, self.tb) = (c, t);
                     self.expand(origin, step, -1.0, total, lo, hi);
                 } else {
-                    self.a = c;
+                    (self.a, self.ta) = (c, t);
                     self.expand(origin, step, 1.0, total, lo, hi);
                 }
             }
@@ -341,27 +451,42 @@ impl Plane {
                 let away = (dir < 0.0) == left_heavy; // target still further out
                 if away {
                     if dir < 0.0 {
-                        self.b = c;
+                        (self.b, self.tb) = (c, t);
                     } else {
-                        self.a = c;
+                        (self.a, self.ta) = (c, t);
                     }
                     self.expand(origin, 2.0 * step, dir, total, lo, hi);
                 } else {
                     if dir < 0.0 {
-                        self.a = c;
+                        (self.a, self.ta) = (c, t);
                     } else {
-                        self.b = c;
+                        (self.b, self.tb) = (c, t);
                     }
                     self.bisect_next();
                 }
             }
             Phase::Bisect => {
                 if left_heavy {
-                    self.b = c;
+                    (self.b, self.tb) = (c, t);
                 } else {
-                    self.a = c;
+                    (self.a, self.ta) = (c, t);
                 }
                 self.bisect_next();
+            }
+            Phase::TieProbe => {
+                let bound = self.id_bound.expect("layers are split only with an id bound");
+                if left_heavy {
+                    self.tie_next(self.a, self.ta, bound);
+                } else {
+                    self.tie_next(self.b, 0, self.tb);
+                }
+            }
+            Phase::Tie { row, lo, hi } => {
+                if left_heavy {
+                    self.tie_next(row, lo, t);
+                } else {
+                    self.tie_next(row, t, hi);
+                }
             }
             Phase::Done => {}
         }
@@ -371,19 +496,20 @@ impl Plane {
     fn expand(&mut self, origin: f64, step: f64, dir: f64, total: u64, lo: f64, hi: f64) {
         let next = origin + dir * step;
         if dir < 0.0 && next <= lo {
-            self.a = lo;
-            let res = self.consider(lo, 0, total);
+            (self.a, self.ta) = (lo, 0);
+            let res = self.consider(lo, 0, 0, total);
             if !self.settle_if_satisfied(res) {
                 self.bisect_next();
             }
         } else if dir > 0.0 && next >= hi {
-            self.b = hi;
-            let res = self.consider(hi, total, total);
+            (self.b, self.tb) = (hi, 0);
+            let res = self.consider(hi, 0, total, total);
             if !self.settle_if_satisfied(res) {
                 self.bisect_next();
             }
         } else {
             self.cand = next;
+            self.tie = 0;
             self.phase = Phase::Expand { origin, step, dir };
         }
     }
@@ -484,6 +610,7 @@ where
         let nreg = decomp.regions(k);
         let (lo, hi) = (decomp.lo[k], decomp.hi[k]);
         let old: Vec<f64> = decomp.planes[k].clone();
+        let old_ties: Vec<u64> = decomp.ties[k].clone();
         // Plane states, region-major.
         let mut planes: Vec<Plane> = Vec::with_capacity(nreg * m);
         for r in 0..nreg {
@@ -494,9 +621,13 @@ where
                 w_l += w[i];
                 let w_r = wsum - w_l;
                 let d = tolerance(params.eta, w_l, w_r, w[i].min(w[i + 1]));
-                let (cand, phase) = match bracket {
-                    None => (lo + 0.5 * (hi - lo), Phase::Bisect),
-                    Some(_) => (old[r * m + i].clamp(lo, hi), Phase::Probe),
+                let (cand, tie, phase) = match bracket {
+                    None => (lo + 0.5 * (hi - lo), 0, Phase::Bisect),
+                    Some(_) => {
+                        let q = r * m + i;
+                        let c = old[q].clamp(lo, hi);
+                        (c, if c == old[q] { old_ties[q] } else { 0 }, Phase::Probe)
+                    }
                 };
                 let h = bracket.unwrap_or(0.0);
                 planes.push(Plane {
@@ -505,9 +636,13 @@ where
                     d,
                     h,
                     a: lo,
+                    ta: 0,
                     b: hi,
+                    tb: 0,
                     cand,
+                    tie,
                     phase,
+                    id_bound: params.id_bound,
                     best: None,
                 });
             }
@@ -518,7 +653,7 @@ where
             if let Some(t) = &totals {
                 if !initialised {
                     initialised = true;
-                    init_level(&mut planes, t, m, lo, hi, bracket.is_some(), &old);
+                    init_level(&mut planes, t, m, lo, hi, bracket.is_some(), (&old, &old_ties));
                 }
                 if planes.iter().all(|p| p.phase == Phase::Done) {
                     break;
@@ -528,24 +663,21 @@ where
                 }
             }
             let mut cands = Vec::new();
+            let mut ties = Vec::new();
             let mut regs = Vec::new();
             let mut idx = Vec::new();
-            if totals.is_some() {
-                for (q, p) in planes.iter().enumerate() {
-                    if p.phase != Phase::Done {
-                        cands.push(p.cand);
-                        regs.push(q / m);
-                        idx.push(q);
-                    }
-                }
-            } else {
-                // Level 0, first call: the current candidates plus the total.
-                for (q, p) in planes.iter().enumerate() {
+            for (q, p) in planes.iter().enumerate() {
+                // level 0's first call asks every plane, plus the total
+                if totals.is_none() || p.phase != Phase::Done {
                     cands.push(p.cand);
+                    ties.push(p.tie);
                     regs.push(q / m);
                     idx.push(q);
                 }
+            }
+            if totals.is_none() {
                 cands.push(f64::INFINITY);
+                ties.push(0);
                 regs.push(0);
             }
             let loads = {
@@ -553,6 +685,7 @@ where
                     decomp: &decomp,
                     axis: k,
                     candidates: cands,
+                    ties,
                     regions: regs,
                 };
                 let loads = count(&stage);
@@ -568,7 +701,7 @@ where
                 totals = Some(vec![*loads.last().expect("the total")]);
                 initialised = true;
                 let t = totals.as_ref().expect("just set");
-                init_level(&mut planes, t, m, lo, hi, bracket.is_some(), &old);
+                init_level(&mut planes, t, m, lo, hi, bracket.is_some(), (&old, &old_ties));
             }
             let t = totals.as_ref().expect("known after the first call");
             for (&q, &left) in idx.iter().zip(&loads) {
@@ -582,22 +715,24 @@ where
         let t = totals.take().expect("totals known");
         // Final planes: best seen, made ascending within each region.
         let mut level = Vec::with_capacity(nreg * m);
+        let mut level_ties = Vec::with_capacity(nreg * m);
         let mut left_load = Vec::with_capacity(nreg * m);
         let mut residual = Vec::with_capacity(nreg * m);
         let mut sub_loads = Vec::with_capacity(nreg * nk);
         for r in 0..nreg {
-            let mut prev: Option<(f64, u64)> = None;
+            let mut prev: Option<(f64, u64, u64)> = None;
             let mut last_left = 0u64;
             for i in 0..m {
                 let p = &planes[r * m + i];
-                let (_, mut pos, mut left) = p.best.expect("every plane has a candidate");
-                if let Some((pp, pl)) = prev {
-                    if pos < pp {
-                        (pos, left) = (pp, pl);
+                let (_, mut pos, mut tie, mut left) = p.best.expect("every plane has a candidate");
+                if let Some((pp, pt, pl)) = prev {
+                    if pos < pp || (pos == pp && tie < pt) {
+                        (pos, tie, left) = (pp, pt, pl);
                     }
                 }
-                prev = Some((pos, left));
+                prev = Some((pos, tie, left));
                 level.push(pos);
+                level_ties.push(tie);
                 left_load.push(left);
                 residual.push(eq6_residual(left, t[r] - left, p.w_l, p.w_r));
                 sub_loads.push(
@@ -617,7 +752,7 @@ where
                     .collect(),
             );
         }
-        decomp.set_level(k, level);
+        decomp.set_level(k, level, level_ties);
         report.calls.push(calls);
         report.left_load.push(left_load);
         report.residual.push(residual);
@@ -638,21 +773,21 @@ fn init_level(
     lo: f64,
     hi: f64,
     rebalance: bool,
-    old: &[f64],
+    (old, old_ties): (&[f64], &[u64]),
 ) {
     for (q, p) in planes.iter_mut().enumerate() {
         let tot = totals[q / m];
         if tot == 0 {
-            let pos = if rebalance {
-                old[q]
+            let (pos, tie) = if rebalance {
+                (old[q], old_ties[q])
             } else {
-                lo + (hi - lo) * p.w_l / (p.w_l + p.w_r)
+                (lo + (hi - lo) * p.w_l / (p.w_l + p.w_r), 0)
             };
-            p.best = Some((0.0, pos, 0));
+            p.best = Some((0.0, pos, tie, 0));
             p.phase = Phase::Done;
         } else if !rebalance {
             for (pos, left) in [(lo, 0), (hi, tot)] {
-                let res = p.consider(pos, left, tot);
+                let res = p.consider(pos, 0, left, tot);
                 p.settle_if_satisfied(res);
             }
         }

@@ -45,16 +45,26 @@ fn lattice<const D: usize>(m: usize, len: f64) -> Pts<D> {
         .collect()
 }
 
+/// `(position, id, load)` items with the index as id.
+fn with_ids<const D: usize>(pts: &Pts<D>) -> impl Iterator<Item = (Vector<D>, u64, u64)> + '_ {
+    pts.iter().enumerate().map(|(i, (x, l))| (*x, i as u64, *l))
+}
+
 /// The `count` closure written by brute force: every particle against every candidate.
 fn brute<const D: usize>(pts: &Pts<D>) -> impl FnMut(&Stage<'_, D>) -> Vec<u64> + '_ {
     move |s: &Stage<'_, D>| {
         s.candidates()
             .iter()
+            .zip(s.candidate_ties())
             .zip(s.candidate_regions())
-            .map(|(&c, &r)| {
+            .map(|((&c, &t), &r)| {
                 pts.iter()
-                    .filter(|(x, _)| s.region_of(x) == r && x[s.axis()] < c)
-                    .map(|(_, l)| *l)
+                    .enumerate()
+                    .filter(|(i, (x, _))| {
+                        let id = *i as u64;
+                        s.region_of(x, id) == r && !at_or_right(x[s.axis()], id, c, t)
+                    })
+                    .map(|(_, (_, l))| *l)
                     .sum()
             })
             .collect()
@@ -80,8 +90,9 @@ fn check<const D: usize>(
     let mut loads = vec![0u64; p];
     let coords: Vec<[usize; D]> = pts
         .iter()
-        .map(|(x, l)| {
-            let b = dec.block_of(x);
+        .enumerate()
+        .map(|(i, (x, l))| {
+            let b = dec.block_of(x, i as u64);
             loads[b] += l;
             dec.block_coords(b)
         })
@@ -235,12 +246,12 @@ fn decomp_block_of_agrees_with_boxes_and_overlap_queries() {
         let inside = |b: usize, x: &Vector<D>| (0..D).all(|k| boxes[b].0[k] <= x[k] && x[k] < boxes[b].1[k]);
         for (x, _) in random::<D>(5000, seed + 1) {
             let owners: Vec<usize> = (0..dec.n_blocks()).filter(|&b| inside(b, &x)).collect();
-            assert_eq!(owners, vec![dec.block_of(&x)], "x = {x:?}");
+            assert_eq!(owners, vec![dec.block_of(&x, 0)], "x = {x:?}");
         }
         // Outside the box: the outermost block on that side.
         let far = Vector::<D>::repeat(7.0);
-        assert_eq!(dec.block_coords(dec.block_of(&far))[0], n[0] - 1);
-        assert_eq!(dec.block_coords(dec.block_of(&-far))[0], 0);
+        assert_eq!(dec.block_coords(dec.block_of(&far, 0))[0], n[0] - 1);
+        assert_eq!(dec.block_coords(dec.block_of(&-far, 0))[0], 0);
         // Overlap queries: every point of the query box is in a returned block, and every
         // returned block owns a point of it (checked on its clipped box, widened to ±∞ outside).
         for _ in 0..200 {
@@ -269,7 +280,7 @@ fn decomp_block_of_agrees_with_boxes_and_overlap_queries() {
             assert_eq!(got, expect);
             for _ in 0..20 {
                 let x = Vector::<D>::from_fn(|k, _| qmin[k] + (qmax[k] - qmin[k]) * rng.next());
-                assert!(got.contains(&dec.block_of(&x)));
+                assert!(got.contains(&dec.block_of(&x, 0)));
             }
         }
         let near = dec.blocks_near(0, 0.05);
@@ -305,7 +316,7 @@ fn decomp_count_local_matches_brute_force() {
             .enumerate()
             .map(|(i, (x, _))| (*x, 1 + (i % 5) as u64))
             .collect();
-        assert_eq!(stage.count_local(loads.iter().copied()), brute(&loads)(&stage));
+        assert_eq!(stage.count_local(with_ids(&loads)), brute(&loads)(&stage));
     }
 }
 
@@ -407,7 +418,7 @@ fn decomp_corner_eighth_and_spreading_3d() {
     let n: [usize; 3] = factorise(8, &[1.0; 3]).try_into().unwrap();
     let local = |pts: &Pts<3>| {
         let pts = pts.clone();
-        move |s: &Stage<'_, 3>| s.count_local(pts.iter().copied())
+        move |s: &Stage<'_, 3>| s.count_local(with_ids(&pts))
     };
     let (mut dec, rep) = Decomposition::balance(lo, hi, n, &params, local(&base));
     assert!(rep.imbalance() <= 1.05, "initial imbalance {}", rep.imbalance());
@@ -473,4 +484,98 @@ fn decomp_imbalance_and_tolerance_facts() {
             }
         }
     }
+}
+
+/// Block loads by brute force, with the index as id.
+fn loads_by_brute<const D: usize>(dec: &Decomposition<D>, pts: &Pts<D>) -> Vec<u64> {
+    let mut loads = vec![0u64; dec.n_blocks()];
+    for (i, (x, l)) in pts.iter().enumerate() {
+        loads[dec.block_of(x, i as u64)] += l;
+    }
+    loads
+}
+
+#[test]
+fn decomp_layers_split_by_id_reach_the_bound() {
+    // the same 7 × 7 lattice that the fallback cannot balance (21 of 49 in one slab), and
+    // every particle on one point: with an id bound the planes split layers by id and eq. 6
+    // holds
+    let (lo, hi) = unit::<2>();
+    let params = BalanceParams {
+        id_bound: Some(1 << 20),
+        ..BalanceParams::default()
+    };
+    let pts = lattice::<2>(7, 1.0);
+    let (dec, rep) = Decomposition::balance(lo, hi, [3, 1], &params, brute(&pts));
+    assert!(dec.splits_layers());
+    assert_eq!(rep.block_loads, loads_by_brute(&dec, &pts));
+    assert!(
+        rep.block_loads.iter().all(|&l| (16..=17).contains(&l)),
+        "{:?}",
+        rep.block_loads
+    );
+    let same: Pts<2> = (0..1000).map(|_| (Vector::<2>::new(0.3, 0.6), 1)).collect();
+    let (dec, rep) = Decomposition::balance(lo, hi, [2, 2], &params, brute(&same));
+    assert_eq!(rep.block_loads, loads_by_brute(&dec, &same));
+    // eq. 6 stops each plane within its tolerance of the target, not at it
+    assert_eq!(rep.block_loads.iter().sum::<u64>(), 1000);
+    assert!(rep.satisfied(), "{rep:?}");
+    assert!(rep.imbalance() <= params.bound(2), "{:?}", rep.block_loads);
+    assert!(rep.calls.iter().all(|&c| c <= params.max_iter));
+}
+
+#[test]
+fn decomp_layer_splitting_balances_lattices_at_many_ranks() {
+    // lattices with ~150 particles per block, every row shared: the fallback is bounded by
+    // the row granularity, the id split by eq. 6's (1 + 2η)^D
+    let params = BalanceParams {
+        id_bound: Some(1 << 30),
+        ..BalanceParams::default()
+    };
+    for p in [5, 7, 24, 48, 96] {
+        let m = ((150 * p) as f64).cbrt().ceil() as usize;
+        let pts = lattice::<3>(m, 1.0);
+        let (lo, hi) = unit::<3>();
+        let n: [usize; 3] = factorise(p, &[1.0; 3]).try_into().unwrap();
+        let (dec, rep) = Decomposition::balance(lo, hi, n, &params, brute(&pts));
+        assert_eq!(rep.block_loads, loads_by_brute(&dec, &pts), "P = {p}");
+        assert!(
+            rep.calls.iter().all(|&c| c <= params.max_iter),
+            "P = {p}: {:?}",
+            rep.calls
+        );
+        assert!(
+            rep.imbalance() <= params.bound(3),
+            "P = {p}: imbalance {} (calls {:?})",
+            rep.imbalance(),
+            rep.calls
+        );
+    }
+}
+
+#[test]
+fn decomp_rebalance_keeps_and_moves_split_layers() {
+    // a wall-like layer (many particles at x = 0.25) plus a moving cloud: planes that split
+    // the layer survive a rebalance where nothing moved, and a rebalance after the cloud
+    // moved still balances within the bound
+    let params = BalanceParams {
+        id_bound: Some(1 << 20),
+        ..BalanceParams::default()
+    };
+    let mut rng = Rng(3);
+    let mut pts: Pts<2> = (0..3000)
+        .map(|_| (Vector::<2>::new(0.25, rng.next()), 1))
+        .collect();
+    pts.extend((0..2000).map(|_| (Vector::<2>::new(0.3 + 0.6 * rng.next(), rng.next()), 1)));
+    let (lo, hi) = unit::<2>();
+    let (dec, rep) = Decomposition::balance(lo, hi, [4, 2], &params, brute(&pts));
+    assert!(dec.splits_layers());
+    assert!(rep.imbalance() <= params.bound(2), "{}", rep.imbalance());
+    let (same, rep2) = dec.rebalance(&params, 0.01, brute(&pts));
+    assert_eq!(same, dec, "a satisfied decomposition stays");
+    assert_eq!(rep2.block_loads, rep.block_loads);
+    let moved = displace(&pts, 0.05);
+    let (next, rep3) = dec.rebalance(&params, 0.01, brute(&moved));
+    assert_eq!(rep3.block_loads, loads_by_brute(&next, &moved));
+    assert!(rep3.imbalance() <= params.bound(2), "{}", rep3.imbalance());
 }

@@ -50,7 +50,7 @@ fn a_field_added_in_the_table_travels_everywhere() {
         // every owned particle is in this rank's half and kept its tag through migration
         assert_eq!(p.n_owned, 32);
         for i in 0..p.n_owned {
-            assert_eq!(map.owner(&p.x[i]), comm.rank());
+            assert_eq!(map.owner(&p.x[i], p.id[i]), comm.rank());
             assert_eq!(p.tag[i], tag(p.id[i], 0), "migrated id {}", p.id[i]);
         }
         let mut halo = HaloPlan::default();

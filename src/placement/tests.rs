@@ -89,7 +89,7 @@ fn decompose(pts: &[V3], p: usize) -> Decomposition<3> {
     let f = factorise(p, &[ext[0], ext[1], ext[2]]);
     let hi = hi + ext * 1e-6; // every particle inside [lo, hi)
     let (d, rep) = Decomposition::balance(lo, hi, [f[0], f[1], f[2]], &BalanceParams::default(), |s| {
-        s.count_local(pts.iter().map(|x| (*x, 1u64)))
+        s.count_local(pts.iter().enumerate().map(|(i, x)| (*x, i as u64, 1u64)))
     });
     println!("  decomposition: max/mean load {:.3}", rep.imbalance());
     d
@@ -110,10 +110,21 @@ fn check_placement(b2r: &[usize], topo: &Topology) {
     }
 }
 
+/// [`halo_volumes`] of stored points (ids their indices).
+fn volumes_of(pts: &[V3], d: &Decomposition<3>, support: f64) -> PairVolumes {
+    let id: Vec<u64> = (0..pts.len() as u64).collect();
+    let cloud = crate::decomp::Points {
+        x: pts,
+        id: &id,
+        fluid: None,
+    };
+    halo_volumes(&cloud, d, support)
+}
+
 /// Place with every method; print a table; return the splits in [`Placement::ALL`] order.
 fn compare(label: &str, pts: &[V3], dp: f64, topo: &Topology) -> Vec<TrafficSplit> {
     let d = decompose(pts, topo.ranks());
-    let counts = halo_volumes(pts, &d, support(dp));
+    let counts = volumes_of(pts, &d, support(dp));
     let bytes = counts.scaled(BYTES_PER_GHOST);
     let f = d.factors();
     println!(
@@ -292,7 +303,7 @@ fn placement_halo_volumes_by_hand() {
         V3::new(1.05, 0.2, 0.2), // block 1, near block 0
         V3::new(1.5, 0.5, 0.5),
     ];
-    let v = halo_volumes(&pts, &d, 0.1);
+    let v = volumes_of(&pts, &d, 0.1);
     assert_eq!((v.get(0, 1), v.get(1, 0), v.get(0, 0), v.get(1, 1)), (2, 1, 0, 0));
     assert_eq!(v.scaled(80).both_ways(0, 1), 240);
     // Traffic split on 2 nodes of 1 rank vs 1 node of 2.

@@ -26,6 +26,19 @@ pub struct BalanceStats {
     pub max_plane_shift: f64,
     /// max/mean load after the initial decomposition and after each rebalance.
     pub imbalance_history: Vec<f64>,
+    /// Most particles this rank has held at once (owned + ghosts, and every particle the
+    /// set-up materialised, kept or not), from the set-up on (issue 17: O(N/P)).
+    pub particle_high_water: u64,
+    /// Most ghosts this rank has held at once.
+    pub ghost_high_water: u64,
+}
+
+impl BalanceStats {
+    /// Note that this rank holds `held` particles, `ghosts` of them ghosts.
+    pub fn note_held(&mut self, held: usize, ghosts: usize) {
+        self.particle_high_water = self.particle_high_water.max(held as u64);
+        self.ghost_high_water = self.ghost_high_water.max(ghosts as u64);
+    }
 }
 
 impl<const D: usize> Simulation<D> {
@@ -79,6 +92,7 @@ impl<const D: usize> Simulation<D> {
         let t0 = Instant::now();
         self.p.truncate_ghosts();
         self.balance.migrated += migrate(&mut self.p, &self.map, &self.boxes, comm)? as u64;
+        self.balance.note_held(self.p.n_owned, 0);
         self.timers.add(Timer::Migration, t0);
         Ok(())
     }
@@ -92,16 +106,19 @@ impl<const D: usize> Simulation<D> {
                     .map(|blk| w[self.map.block_to_rank[blk]])
                     .collect()
             }),
+            id_bound: Some(crate::setup::id_bound::<D>(&self.scene)),
             ..BalanceParams::default()
         };
         let prev = comm.set_phase(Phase::Balance);
         let x = &self.p.x[..self.p.n_owned];
+        let id = &self.p.id[..self.p.n_owned];
         let mut err = None;
         let (next, report) = self
             .map
             .decomp
             .rebalance(&params, self.scene.discretisation.dx, |stage| {
-                let mut counts = stage.count_local(x.iter().zip(&loads).map(|(x, w)| (*x, *w)));
+                let items = x.iter().zip(id).zip(&loads).map(|((x, i), w)| (*x, *i, *w));
+                let mut counts = stage.count_local(items);
                 if let Err(e) = comm.all_reduce_sum_u64(&mut counts) {
                     err.get_or_insert(e);
                 }

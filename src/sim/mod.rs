@@ -18,7 +18,7 @@ pub mod step;
 pub mod timers;
 
 pub use balance::BalanceStats;
-pub use decompose::{balanced_blocks, decompose, rank_map};
+pub use decompose::{balanced_blocks, decompose, decompose_sites, global_halo_volumes, rank_map};
 pub use observe::{Observables, View};
 pub use timers::{PhaseTimers, Timer, PHASES};
 
@@ -34,7 +34,7 @@ use crate::physics::passes::{schedule, Freshness, Pass};
 use crate::physics::Model;
 use crate::placement::Placement;
 use crate::scene::Scene;
-use crate::setup::build_particles;
+use crate::setup::SiteSource;
 use crate::Vector;
 use rayon::prelude::*;
 
@@ -102,7 +102,14 @@ impl<const D: usize> Simulation<D> {
     /// whole lattice and balances the cut planes on it (identical on every rank, no
     /// communication), then keeps its block.
     pub fn with_layout(scene: &Scene, comm: &dyn Comm, layout: &RunLayout) -> Result<Self> {
-        let mut sim = Self::assemble(scene, comm, layout, build_particles::<D>(scene)?)?;
+        let src = SiteSource::<D>::new(scene)?;
+        let space = image_space::<D>(scene);
+        let support = Model::<D>::new(scene).kernel.support;
+        let (map, p, placement) = decompose_sites(&src, (&space.min, &space.max), layout, support, comm)?;
+        drop(src);
+        let mut sim = Self::assemble(scene, comm, layout, (map, p, placement))?;
+        let built = sim.p.n_owned;
+        sim.balance.note_held(built, 0);
         sim.apply_wall_motion(0.0, 0.0);
         sim.check_state()?;
         sim.update_pressure();
@@ -129,7 +136,15 @@ impl<const D: usize> Simulation<D> {
         (step, t, dt): (u64, f64, f64),
     ) -> Result<Self> {
         let ids: Vec<u64> = all.id[..all.n_owned].to_vec();
-        let mut sim = Self::assemble(scene, comm, layout, all)?;
+        let all = all.dropping(crate::setup::dropped_fields(scene));
+        let space = image_space::<D>(scene);
+        let support = Model::<D>::new(scene).kernel.support;
+        let bound = crate::setup::id_bound::<D>(scene);
+        // every rank holds the whole checkpoint here (not O(N/P): a restart reads it whole)
+        let everything = all.n_owned;
+        let decomposed = decompose(all, (&space.min, &space.max), bound, comm.rank(), layout, support)?;
+        let mut sim = Self::assemble(scene, comm, layout, decomposed)?;
+        sim.balance.note_held(everything, 0);
         for i in 0..sim.p.n_owned {
             let k = ids
                 .binary_search(&sim.p.id[i])
@@ -143,17 +158,19 @@ impl<const D: usize> Simulation<D> {
         Ok(sim)
     }
 
-    /// Decompose `all` over the ranks of `comm` as `layout` places them and keep this rank's
-    /// block: the state before any physics (t = 0, no neighbours).
-    fn assemble(scene: &Scene, comm: &dyn Comm, layout: &RunLayout, all: Particles<D>) -> Result<Self> {
+    /// The state of this rank from its decomposition, particles and placement, before any
+    /// physics (t = 0, no neighbours).
+    fn assemble(
+        scene: &Scene,
+        comm: &dyn Comm,
+        layout: &RunLayout,
+        (map, p, placement): (Ranks<D>, Particles<D>, Placement),
+    ) -> Result<Self> {
         let (rank, ranks) = (comm.rank(), comm.size());
         debug_assert_eq!(ranks, layout.ranks, "layout resolved for this communicator");
-        let all = all.dropping(crate::setup::dropped_fields(scene));
         let model = Model::<D>::new(scene);
         let space = image_space::<D>(scene);
         let grid = CellGrid::new(&space.min, &space.max, model.kernel.support);
-        let support = model.kernel.support;
-        let (map, p, placement) = decompose(all, &space.min, &space.max, rank, layout, support)?;
         let boxes = map.boxes();
         let sim = Simulation {
             scene: scene.clone(),

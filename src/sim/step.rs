@@ -216,6 +216,8 @@ impl<const D: usize> Simulation<D> {
         self.halo
             .build(&mut self.p, &self.space, &self.map, &self.boxes, support, comm)?;
         self.fresh.built();
+        let held = self.p.len();
+        self.balance.note_held(held, held - self.p.n_owned);
         self.timers.add(Timer::Halo, t0);
         let t0 = Instant::now();
         self.bin()?;
