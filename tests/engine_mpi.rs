@@ -372,3 +372,56 @@ fn an_mpi_checkpoint_restarts_on_fewer_ranks_with_the_same_bits() {
         );
     }
 }
+
+/// Issue 17: with the distributed set-up each of 4 MPI processes holds its block, not the
+/// whole lattice: every process's peak RSS is at most 0.40 × that of one process running the
+/// whole 3D dam break (911 k particles; set-up and 2 steps; final.csv written per rank, so
+/// no rank gathers the state). Before, every process built all N particles (ratio ≈ 1).
+#[test]
+fn four_mpi_processes_each_peak_under_0_4_of_one() {
+    let scene = common::repo_path("inputs/dam_break_3d_bench.toml");
+    let scene = scene.to_str().unwrap();
+    let base = [
+        "run",
+        scene,
+        "-q",
+        "--threads",
+        "1",
+        "--set",
+        "time.max_steps=2",
+        "--set",
+        "discretisation.dx=0.0065",
+        "--set",
+        "output.gather_limit=0",
+    ];
+    let one = out_dir("mpi-mem-1");
+    let o1 = one.to_str().unwrap().to_string();
+    let mut a1 = base.to_vec();
+    a1.extend(["--out", &o1]);
+    hsph(&a1);
+    let four = out_dir("mpi-mem-4");
+    let o4 = four.to_str().unwrap().to_string();
+    let mut a4 = base.to_vec();
+    a4.extend(["--out", &o4]);
+    let out = mpirun(4, &[], &a4);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let peaks = |dir: &Path| -> Vec<u64> {
+        summary(dir)["peak_rss_bytes_per_rank"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_u64().unwrap())
+            .collect()
+    };
+    let (p1, p4) = (peaks(&one), peaks(&four));
+    assert_eq!(summary(&one)["particles"], 911_094);
+    assert_eq!(p4.len(), 4);
+    for (r, p) in p4.iter().enumerate() {
+        let ratio = *p as f64 / p1[0] as f64;
+        eprintln!("rank {r}: {p} B, {ratio:.3} of one process's {} B", p1[0]);
+        assert!(
+            ratio <= 0.40,
+            "rank {r}: peak {p} B is {ratio:.3} of one process's"
+        );
+    }
+}
