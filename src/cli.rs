@@ -123,6 +123,49 @@ Examples:
         #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
         set: Vec<String>,
     },
+    /// Predict the step time and parallel efficiency of a layout from measured runs: a
+    /// bulk-synchronous model calibrated on a 1-rank run (cost per particle-step) and a
+    /// multi-rank run on this machine (cost per ghost), with the network between nodes
+    /// assumed (docs/performance_model.md).
+    #[command(after_help = "\
+Examples:
+  hsph run inputs/dam_break_3d_bench.toml --threads 1 --out r1
+  hsph run inputs/dam_break_3d_bench.toml --threads 1 --ranks 2 --out r2
+  hsph model inputs/dam_break_3d.toml --one r1 --many r2 --ranks 96 --ranks-per-node 24 \\
+      --set discretisation.dx=0.0035
+  hsph model --one r1 --many r2 r4 --check r8     measured runs against the model")]
+    Model {
+        /// Scene file (TOML) to predict; optional with --check.
+        scene: Option<PathBuf>,
+        /// A finished run directory on 1 rank with 1 thread (cost per particle-step).
+        #[arg(long, value_name = "DIR")]
+        one: PathBuf,
+        /// Finished run directories on 2 or more ranks of 1 thread on this machine (contention
+        /// and cost per ghost, fitted).
+        #[arg(long, value_name = "DIR", num_args = 1.., required = true)]
+        many: Vec<PathBuf>,
+        /// Ranks to predict.
+        #[arg(long, default_value_t = 1)]
+        ranks: usize,
+        /// Ranks per node of the prediction (0: one node).
+        #[arg(long, value_name = "K", default_value_t = 0)]
+        ranks_per_node: usize,
+        /// Cores the predicted ranks share (0: one per rank); measured runs use this machine's.
+        #[arg(long, default_value_t = 0)]
+        cores: usize,
+        /// Network bandwidth of one node (GB/s).
+        #[arg(long, value_name = "GB_PER_S", default_value_t = 12.5)]
+        bandwidth: f64,
+        /// Network latency of one message (µs).
+        #[arg(long, value_name = "MICROSECONDS", default_value_t = 1.5)]
+        latency: f64,
+        /// Finished run directories to compare with the model's prediction.
+        #[arg(long, value_name = "DIR", num_args = 1..)]
+        check: Vec<PathBuf>,
+        /// Override a scene key of the predicted scene (repeatable).
+        #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
+        set: Vec<String>,
+    },
     /// Validate a scene and print what a run would do, without running it.
     #[command(after_help = "Example:\n  hsph check inputs/dam_break_3d.toml --set discretisation.dx=0.01")]
     Check {
@@ -306,6 +349,25 @@ fn dispatch(cmd: Command) -> Result<i32> {
                 out.as_deref(),
             )
         }
+        Command::Model {
+            scene,
+            one,
+            many,
+            ranks,
+            ranks_per_node,
+            cores,
+            bandwidth,
+            latency,
+            check,
+            set,
+        } => cmd_model(
+            scene.as_deref(),
+            (&one, &many),
+            (ranks, ranks_per_node, cores),
+            (bandwidth, latency),
+            &check,
+            &set,
+        ),
         Command::Validate {
             cases,
             sweep,
@@ -685,6 +747,105 @@ fn cmd_plan(
     if let Some(dir) = out {
         crate::plan::write(dir, &scene, ranks, &topo, &rows)?;
         say(&format!("wrote {}/plan.json and plan.csv\n", dir.display()));
+    }
+    Ok(0)
+}
+
+/// `hsph model`: calibrate on `one` and `many`, compare with the `check` runs, predict `scene`.
+fn cmd_model(
+    scene: Option<&std::path::Path>,
+    (one, many): (&std::path::Path, &[PathBuf]),
+    (ranks, ranks_per_node, cores): (usize, usize, usize),
+    (bandwidth, latency): (f64, f64),
+    check: &[PathBuf],
+    set: &[String],
+) -> Result<i32> {
+    use crate::model::{calibrate, calibration_text, predict, Measured, Network};
+    if !(bandwidth.is_finite() && bandwidth > 0.0) {
+        return Err(Error::input(
+            "--bandwidth",
+            "must be a positive number of GB/s, e.g. 12.5",
+        ));
+    }
+    if !(latency.is_finite() && latency >= 0.0) {
+        return Err(Error::input("--latency", "must be ≥ 0 µs, e.g. 1.5"));
+    }
+    if scene.is_none() && check.is_empty() {
+        return Err(Error::input(
+            "SCENE",
+            "give a scene to predict, or --check DIR… to compare runs with the model",
+        ));
+    }
+    let here = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let one = Measured::read(one)?;
+    let many = many
+        .iter()
+        .map(|d| Measured::read(d))
+        .collect::<Result<Vec<_>>>()?;
+    let cal = calibrate(&one, &many, here)?;
+    say(&calibration_text(&cal, &one, &many));
+    let net = Network {
+        bandwidth: bandwidth * 1e9,
+        latency: latency * 1e-6,
+    };
+    if !check.is_empty() {
+        say("| run | ranks | particles | measured s/step | predicted s/step | error |\n|---|---:|---:|---:|---:|---:|\n");
+        for dir in check {
+            let m = Measured::read(dir)?;
+            if m.threads != 1 {
+                return Err(Error::input(
+                    dir.display().to_string(),
+                    "the model predicts runs of 1 thread per rank; this run had more",
+                ));
+            }
+            let (row, topo) = m.plan()?;
+            let p = predict(&cal, &net, &[row], &topo, here).remove(0);
+            say(&format!(
+                "| {} | {} | {} | {:.5} | {:.5} | {:+.1} % |\n",
+                m.dir,
+                m.ranks,
+                m.particles,
+                m.per_step(),
+                p.step,
+                100.0 * (p.step / m.per_step() - 1.0)
+            ));
+        }
+    }
+    let Some(path) = scene else {
+        return Ok(0);
+    };
+    let (scene, _) = load_scene(path, set)?;
+    if ranks == 0 {
+        return Err(Error::input("--ranks", "must be at least 1, e.g. --ranks 96"));
+    }
+    let per_node = if ranks_per_node == 0 {
+        ranks
+    } else {
+        ranks_per_node
+    };
+    let topo = Topology::from_ranks_per_node(ranks, per_node)?;
+    let rows = crate::plan::plan(&scene, ranks, &topo, &PlanPlacement::All.methods())?;
+    let n: u64 = rows[0].owned.iter().sum();
+    let cores = if cores == 0 { ranks } else { cores };
+    say(&format!(
+        "{}: {n} particles on {ranks} ranks ({} node(s) of {per_node}), {cores} cores; network {bandwidth} GB/s, {latency} µs\n\
+         one rank: {:.4} s/step\n\
+         | placement | imbalance | s/step | compute s | network s | speed-up | efficiency |\n|---|---:|---:|---:|---:|---:|---:|\n",
+        scene.name,
+        topo.nodes(),
+        cal.per_particle * n as f64
+    ));
+    for p in predict(&cal, &net, &rows, &topo, cores) {
+        say(&format!(
+            "| {} | {:.4} | {:.5} | {:.5} | {:.5} | {:.1} | {:.3} |\n",
+            p.placement.name(),
+            p.imbalance,
+            p.step,
+            p.compute,
+            p.network,
+            p.speedup,
+            p.efficiency
+        ));
     }
     Ok(0)
 }

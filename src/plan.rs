@@ -45,6 +45,12 @@ pub struct PlanRow {
     pub max_node_inter_bytes: u64,
     /// Halo bytes per (src rank, dst rank), flat `P × P`.
     pub bytes: Vec<u64>,
+    /// Owned particles of each rank.
+    pub owned: Vec<u64>,
+    /// Ghosts each rank receives in one step's build (self images included).
+    pub ghosts: Vec<u64>,
+    /// Halo exchanges (messages per communicating rank pair) of one step.
+    pub exchanges: u64,
 }
 
 /// The exchanges of one step and their bytes per ghost, derived from the passes the scene's
@@ -155,6 +161,11 @@ fn plan_dim<const D: usize>(
             node_pairs: node_pair.iter().filter(|&&b| b > 0).count(),
             max_node_inter_bytes: node_inter.into_iter().max().unwrap_or(0),
             bytes,
+            ghosts: (0..ranks)
+                .map(|d| (0..ranks).map(|s| counts[s * ranks + d]).sum())
+                .collect(),
+            owned,
+            exchanges,
         });
     }
     Ok(rows)

@@ -109,3 +109,43 @@ fn an_overlap_found_by_one_rank_is_every_ranks_input_error() {
     );
     assert!(!err.contains("panicked"), "{err}");
 }
+
+#[test]
+fn the_model_reproduces_its_calibration_and_refuses_bad_runs() {
+    // three short runs of the 2D dam break: 1, 2 and 4 ranks of 1 thread
+    let dir = common::temp_dir("so-model");
+    let run = |ranks: &str| {
+        let out = dir.join(format!("r{ranks}"));
+        let path = common::repo_path("inputs/dam_break_2d.toml");
+        let (code, _, err) = common::hsph(&[
+            "run",
+            path.to_str().unwrap(),
+            "-q",
+            "--threads",
+            "1",
+            "--ranks",
+            ranks,
+            "--set",
+            "time.max_steps=20",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        out.to_str().unwrap().to_string()
+    };
+    let (r1, r2, r4) = (run("1"), run("2"), run("4"));
+    let (code, out, err) = common::hsph(&["model", "--one", &r1, "--many", &r2, &r4, "--check", &r1, &r4]);
+    assert_eq!(code, 0, "{err}");
+    // a = wall / particle-steps of the one-rank run: the model gives that run's step exactly
+    let line = out.lines().find(|l| l.starts_with(&format!("| {r1} "))).unwrap();
+    assert!(line.ends_with("| +0.0 % |"), "{out}");
+    let rows = out
+        .lines()
+        .filter(|l| l.starts_with("| ") && l.ends_with(" % |"))
+        .count();
+    assert_eq!(rows, 2, "{out}");
+    // the one-rank calibration must be a one-rank run
+    let (code, _, err) = common::hsph(&["model", "--one", &r2, "--many", &r4, "--check", &r1]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--one") && err.contains("1 rank"), "{err}");
+}
