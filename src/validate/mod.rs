@@ -10,6 +10,7 @@
 pub mod cases;
 pub mod charts;
 pub mod front;
+pub mod lattice;
 pub mod map;
 pub mod sweep;
 
