@@ -5,7 +5,7 @@
 
 use crate::kernel::KernelKind;
 
-/// A method variant: kernel, smoothing length, wall method, density diffusion.
+/// A method variant: kernel, smoothing length, wall method, density diffusion, interactions.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Variant {
     /// Kernel.
@@ -16,18 +16,34 @@ pub struct Variant {
     pub walls: &'static str,
     /// `physics.density_diffusion` (`none`, `molteni`, `antuono`).
     pub diffusion: &'static str,
+    /// `performance.interactions` (`gather`, the bitwise default, or `pairs`).
+    pub interactions: &'static str,
 }
 
 impl Variant {
-    /// Short name used in the CSV and the charts, e.g. `quintic_spline-h1.0-dummy-none`.
+    /// Short name used in the CSV and the charts, e.g. `quintic_spline-h1.0-dummy-none`, with
+    /// `-pairs` appended in pair mode.
     pub fn name(&self) -> String {
+        let pairs = if self.interactions == "pairs" {
+            "-pairs"
+        } else {
+            ""
+        };
         format!(
-            "{}-h{:.1}-{}-{}",
+            "{}-h{:.1}-{}-{}{pairs}",
             self.kernel.name(),
             self.h_over_dx,
             self.walls,
             self.diffusion
         )
+    }
+
+    /// This variant in pair mode.
+    fn in_pairs(&self) -> Self {
+        Variant {
+            interactions: "pairs",
+            ..self.clone()
+        }
     }
 
     /// Support radius over dx.
@@ -59,6 +75,16 @@ pub struct Case {
     pub overrides: fn(n: u32, v: &Variant) -> Vec<String>,
     /// Length scale that `n` divides (m): dx = length / n.
     pub length: f64,
+}
+
+impl Case {
+    /// Every `--set` override of resolution `n` and variant `v`: the case's own, then the
+    /// interactions.
+    pub fn sets(&self, n: u32, v: &Variant) -> Vec<String> {
+        let mut o = (self.overrides)(n, v);
+        o.push(format!("performance.interactions=\"{}\"", v.interactions));
+        o
+    }
 }
 
 /// Every known case, in the order `hsph validate` runs them.
@@ -110,7 +136,7 @@ fn channel_overrides(n: u32, v: &Variant) -> Vec<String> {
 fn channel_sweep() -> Vec<Variant> {
     // mirror walls reflect across the inner faces of a container only; the channel's plates
     // are blocks of a periodic box, so its wall variants wait for a periodic container
-    with_kernels(
+    let mut out = with_kernels(
         channel_default(),
         &[
             (KernelKind::QuinticSpline, 1.5),
@@ -119,7 +145,9 @@ fn channel_sweep() -> Vec<Variant> {
             (KernelKind::WendlandC2, 1.2),
             (KernelKind::WendlandC2, 2.0),
         ],
-    )
+    );
+    out.push(channel_default().in_pairs());
+    out
 }
 
 /// `base` first, then `base` with each (kernel, h/dx) of `pairs`.
@@ -139,6 +167,7 @@ fn channel_default() -> Variant {
         h_over_dx: 1.0,
         walls: "dummy",
         diffusion: "none",
+        interactions: "gather",
     }
 }
 
@@ -190,6 +219,7 @@ fn hydrostatic_default() -> Variant {
         h_over_dx: 2.0,
         walls: "dummy",
         diffusion: "antuono",
+        interactions: "gather",
     }
 }
 
@@ -216,6 +246,7 @@ fn hydrostatic() -> Case {
                 diffusion,
                 ..hydrostatic_default()
             }));
+            out.push(hydrostatic_default().in_pairs());
             out
         },
         overrides: hydrostatic_overrides,
@@ -254,6 +285,7 @@ fn cavity_default() -> Variant {
         h_over_dx: 1.3,
         walls: "dummy",
         diffusion: "antuono",
+        interactions: "gather",
     }
 }
 
@@ -283,9 +315,41 @@ fn cavity() -> Case {
                 diffusion: "none",
                 ..cavity_default()
             });
+            out.push(cavity_default().in_pairs());
             out
         },
         overrides: cavity_overrides,
         length: 1.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_case_sweeps_its_method_in_pair_mode_too() {
+        for case in all() {
+            let sweep = (case.sweep)();
+            assert_eq!(sweep[0], case.default, "{}: the default comes first", case.name);
+            let pairs: Vec<&Variant> = sweep.iter().filter(|v| v.interactions == "pairs").collect();
+            assert_eq!(pairs.len(), 1, "{}", case.name);
+            assert_eq!(pairs[0].name(), format!("{}-pairs", case.default.name()));
+            let sets = case.sets(case.resolutions[0], pairs[0]);
+            assert!(
+                sets.contains(&"performance.interactions=\"pairs\"".to_string()),
+                "{sets:?}"
+            );
+            let sets = case.sets(case.resolutions[0], &case.default);
+            assert!(
+                sets.contains(&"performance.interactions=\"gather\"".to_string()),
+                "{sets:?}"
+            );
+            // names are unique, so a resumed sweep never confuses two variants
+            let mut names: Vec<String> = sweep.iter().map(Variant::name).collect();
+            names.sort();
+            names.dedup();
+            assert_eq!(names.len(), sweep.len(), "{}", case.name);
+        }
     }
 }

@@ -239,7 +239,9 @@ impl Runner {
             std::fs::write(&scene, job.case.scene).map_err(|e| Error::io(&scene, e))?;
         }
         let dir = self.out.join("runs").join(job.dir_name());
-        let sets: Vec<String> = (job.case.overrides)(job.n, &job.variant)
+        let sets: Vec<String> = job
+            .case
+            .sets(job.n, &job.variant)
             .into_iter()
             .chain(self.set.iter().cloned())
             .collect();
