@@ -800,6 +800,9 @@ fn cmd_model(
             }
             let (row, topo) = m.plan()?;
             let p = predict(&cal, &net, &[row], &topo, here).remove(0);
+            // a calibration run is reproduced to round-off: print it as +0.0, not −0.0
+            let err = 100.0 * (p.step / m.per_step() - 1.0);
+            let err = if err.abs() < 0.05 { 0.0 } else { err };
             say(&format!(
                 "| {} | {} | {} | {:.5} | {:.5} | {:+.1} % |\n",
                 m.dir,
@@ -807,7 +810,7 @@ fn cmd_model(
                 m.particles,
                 m.per_step(),
                 p.step,
-                100.0 * (p.step / m.per_step() - 1.0)
+                err
             ));
         }
     }

@@ -685,7 +685,10 @@ impl<'a, const D: usize> RankRun<'a, D> {
         let sim = match resumed {
             None => Simulation::<D>::with_layout(scene, comm, &layout)?,
             Some((ck, m)) => {
-                let (all, acc) = crate::checkpoint::particles::<D>(ck, m)?;
+                // each rank reads its share of the parts; a bad part found by one rank is
+                // every rank's input error
+                let read = crate::checkpoint::share::<D>(ck, m, comm.rank(), comm.size());
+                let (all, acc) = crate::sim::decompose::agree(read, comm)?;
                 if root {
                     truncate_series(dir, &m.run["series"])?;
                 }

@@ -140,6 +140,7 @@ pub fn field_bytes<const D: usize>(fields: Fields) -> u64 {
 const TAG_GHOSTS: Tag = 102;
 const TAG_REFRESH: Tag = 103;
 const TAG_MIGRATE: Tag = 104;
+const TAG_ROUTE: Tag = 105;
 
 /// One planned ghost: owned source index and image operation.
 #[derive(Debug, Clone, Copy)]
@@ -384,6 +385,58 @@ fn incoming_counts(outgoing: impl Iterator<Item = usize>, comm: &dyn Comm) -> Re
     comm.all_reduce_sum_u64(&mut counts)?;
     comm.set_phase(prev);
     Ok(counts)
+}
+
+/// Send `value[i]` of each owned particle of `p` to the rank that owns it under `map`, and
+/// return the values this rank receives or keeps, as `(id, value)` sorted by id: what does not
+/// travel in the particle records (a restart's accelerations) follows its particles.
+pub fn route_to_owners<const D: usize>(
+    p: &Particles<D>,
+    value: &[Vector<D>],
+    map: &Ranks<D>,
+    comm: &dyn Comm,
+) -> Result<Vec<(u64, Vector<D>)>> {
+    let (me, size) = (comm.rank(), comm.size());
+    let prev = comm.set_phase(Phase::Migration);
+    let mut kept = Vec::new();
+    let mut out: Vec<Vec<u8>> = vec![Vec::new(); size];
+    let mut n_out = vec![0usize; size];
+    for (i, v) in value.iter().enumerate().take(p.n_owned) {
+        let r = map.owner(&p.x[i], p.id[i]);
+        if r == me {
+            kept.push((p.id[i], *v));
+            continue;
+        }
+        out[r].extend_from_slice(&p.id[i].to_le_bytes());
+        for c in v.iter() {
+            out[r].extend_from_slice(&c.to_le_bytes());
+        }
+        n_out[r] += 1;
+    }
+    let counts = incoming_counts(n_out.into_iter(), comm)?;
+    let from: Vec<usize> = (0..size)
+        .filter(|&s| s != me && counts[s * size + me] > 0)
+        .collect();
+    let sends: Vec<(usize, Vec<u8>)> = out
+        .into_iter()
+        .enumerate()
+        .filter(|(_, b)| !b.is_empty())
+        .collect();
+    let msgs = comm.exchange(sends, &from, TAG_ROUTE)?;
+    let width = 8 * (D + 1);
+    for m in &msgs {
+        if m.len() % width != 0 {
+            return Err(Error::run("routing to owners: a message of the wrong length"));
+        }
+        for c in m.chunks_exact(width) {
+            let word = |k: usize| c[8 * k..8 * k + 8].try_into().expect("8 bytes");
+            let v = Vector::<D>::from_fn(|a, _| f64::from_le_bytes(word(a + 1)));
+            kept.push((u64::from_le_bytes(word(0)), v));
+        }
+    }
+    comm.set_phase(prev);
+    kept.sort_unstable_by_key(|e| e.0);
+    Ok(kept)
 }
 
 /// Move every owned particle that left this rank's box to its owner (ghosts must have been

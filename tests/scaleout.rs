@@ -149,3 +149,69 @@ fn the_model_reproduces_its_calibration_and_refuses_bad_runs() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--one") && err.contains("1 rank"), "{err}");
 }
+
+#[test]
+fn a_restart_reads_its_share_of_the_checkpoint_not_the_whole() {
+    // checkpoint the 3D dam break at step 2 on 4 ranks, continue on 4: each rank reads one
+    // part and receives what it owns, so it never holds the whole checkpoint; the continued
+    // run ends with the bits of an uninterrupted one
+    let s = |steps: &str| {
+        vec![
+            "--set".to_string(),
+            "discretisation.dx=0.025".to_string(),
+            "--set".to_string(),
+            format!("time.max_steps={steps}"),
+            "--set".to_string(),
+            "checkpoint.every_steps=2".to_string(),
+        ]
+    };
+    let dir = common::temp_dir("so-restart");
+    let scene = common::repo_path("inputs/dam_break_3d.toml");
+    let run = |out: &std::path::Path, steps: &str, restart: bool| {
+        let out_s = out.to_str().unwrap().to_string();
+        let mut args: Vec<String> = if restart {
+            vec!["run".into(), "--restart".into(), out_s.clone()]
+        } else {
+            vec![
+                "run".into(),
+                scene.to_str().unwrap().into(),
+                "--out".into(),
+                out_s,
+            ]
+        };
+        args.extend([
+            "-q".into(),
+            "--ranks".into(),
+            "4".into(),
+            "--threads".into(),
+            "1".into(),
+        ]);
+        args.extend(s(steps));
+        let a: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (code, _, err) = common::hsph(&a);
+        assert_eq!(code, 0, "{err}");
+    };
+    let whole = dir.join("whole");
+    run(&whole, "4", false);
+    let cut = dir.join("cut");
+    run(&cut, "2", false);
+    run(&cut, "4", true);
+    assert!(
+        fs::read_to_string(whole.join("final.csv")).unwrap()
+            == fs::read_to_string(cut.join("final.csv")).unwrap(),
+        "the continued run's final.csv differs from the uninterrupted one's"
+    );
+    let sm = summary(&cut);
+    let n = sm["particles"].as_u64().unwrap();
+    for (r, (h, g)) in per_rank(&sm, "particle_high_water")
+        .iter()
+        .zip(per_rank(&sm, "ghost_high_water"))
+        .enumerate()
+    {
+        let bound = 1.25 * n as f64 / 4.0 + g as f64;
+        assert!(
+            (*h as f64) <= bound,
+            "rank {r} held {h} of {n} particles after the restart (bound {bound:.0})"
+        );
+    }
+}

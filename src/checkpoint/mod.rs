@@ -266,6 +266,29 @@ pub fn manifest(dir: &Path) -> Result<Manifest> {
 /// Every particle of a checkpoint, sorted by id, with the acceleration of each (m/s²), after
 /// checking every part against the manifest.
 pub fn particles<const D: usize>(dir: &Path, m: &Manifest) -> Result<(Particles<D>, Vec<Vector<D>>)> {
+    particles_of_parts(dir, m, |_| true)
+}
+
+/// Rank `rank`'s share of a checkpoint among `ranks`: the particles of the parts `k` with
+/// `k % ranks == rank` (sorted by id), each part checked against the manifest. A restart
+/// reads the checkpoint this way, so no rank holds the whole of it (issue 17); the particles
+/// then migrate to their owners.
+pub fn share<const D: usize>(
+    dir: &Path,
+    m: &Manifest,
+    rank: usize,
+    ranks: usize,
+) -> Result<(Particles<D>, Vec<Vector<D>>)> {
+    particles_of_parts(dir, m, |k| k % ranks.max(1) == rank)
+}
+
+/// The particles of the parts that `read` selects (by index in the manifest), sorted by id,
+/// with their accelerations.
+fn particles_of_parts<const D: usize>(
+    dir: &Path,
+    m: &Manifest,
+    read: impl Fn(usize) -> bool,
+) -> Result<(Particles<D>, Vec<Vector<D>>)> {
     if m.dimension != D {
         return Err(bad(
             &dir.join("manifest.json"),
@@ -274,7 +297,10 @@ pub fn particles<const D: usize>(dir: &Path, m: &Manifest) -> Result<(Particles<
     }
     let mut all = Particles::<D>::default();
     let mut acc = Vec::new();
-    for part in &m.parts {
+    for (k, part) in m.parts.iter().enumerate() {
+        if !read(k) {
+            continue;
+        }
         let path = dir.join(&part.file);
         let bytes =
             fs::read(&path).map_err(|e| bad(&path, format!("checkpoint part missing or unreadable: {e}")))?;

@@ -8,7 +8,7 @@
 //! the same whatever the number of ranks, since the counts are global sums.
 
 use crate::comm::Comm;
-use crate::decomp::{factorise, fold_parts, BalanceParams, Cloud, Decomposition, Points};
+use crate::decomp::{factorise, fold_parts, BalanceParams, Cloud, Decomposition};
 use crate::error::Result;
 use crate::halo::Ranks;
 use crate::layout::RunLayout;
@@ -16,35 +16,6 @@ use crate::particles::Particles;
 use crate::placement::{halo_volumes, place_reporting, PairVolumes, Placement};
 use crate::setup::{LayerShare, SiteSource};
 use crate::Vector;
-
-/// Split stored particles `all` (every particle of the run, on every rank: a checkpoint)
-/// over `layout.ranks` blocks, place the blocks on ranks and keep rank `rank`'s particles.
-/// Every rank computes the same result from the same particles. Returns the rank map, this
-/// rank's particles and the placement that ran.
-pub fn decompose<const D: usize>(
-    mut all: Particles<D>,
-    (min, max): (&Vector<D>, &Vector<D>),
-    id_bound: u64,
-    rank: usize,
-    layout: &RunLayout,
-    support: f64,
-) -> Result<(Ranks<D>, Particles<D>, Placement)> {
-    let n = all.n_owned;
-    let cloud = Points {
-        x: &all.x[..n],
-        id: &all.id[..n],
-        fluid: None,
-    };
-    let serial = crate::comm::serial::SerialComm::new();
-    let (map, used) = rank_map(&cloud, (min, max), id_bound, layout, support, &serial)?;
-    if layout.ranks > 1 {
-        let keep: Vec<usize> = (0..n)
-            .filter(|&i| map.owner(&all.x[i], all.id[i]) == rank)
-            .collect();
-        all.permute_owned(&keep);
-    }
-    Ok((map, all, used))
-}
 
 /// The distributed set-up: every rank of `comm` streams its share of the scene's sites to
 /// balance the blocks (counts all-reduced), places them, and builds the particles of the
@@ -74,27 +45,49 @@ pub fn decompose_sites<const D: usize>(
 /// One outcome for every rank: a set-up error on any rank (an overlap or an expression that
 /// fails on its sites) becomes the error of the lowest failing rank everywhere, so that no
 /// rank goes on to wait for the others.
-fn agree<T>(local: Result<T>, comm: &dyn Comm) -> Result<T> {
-    use crate::error::Error;
+pub(crate) fn agree<T>(local: Result<T>, comm: &dyn Comm) -> Result<T> {
+    use crate::error::{Error, Location};
+    const SEP: char = '\u{0}';
     let mine = match &local {
         Ok(_) => Vec::new(),
-        Err(Error::Input { key, message, .. }) => format!("I{key}\u{0}{message}").into_bytes(),
+        Err(Error::Input { at, key, message }) => {
+            let (file, line) = match at {
+                Some(l) => (
+                    l.file.display().to_string(),
+                    l.line.map_or(String::new(), |n| n.to_string()),
+                ),
+                None => (String::new(), String::new()),
+            };
+            format!(
+                "I{}{SEP}{file}{SEP}{line}{SEP}{key}{SEP}{message}",
+                at.is_some() as u8
+            )
+            .into_bytes()
+        }
         Err(e) => format!("R{}", crate::comm::error_text(e)).into_bytes(),
     };
     let all = comm.all_gather_bytes(mine)?;
-    match all.iter().find(|m| !m.is_empty()) {
-        None => local,
-        Some(m) => {
-            let text = String::from_utf8_lossy(m);
-            Err(match text.split_at(1) {
-                ("I", rest) => {
-                    let (key, message) = rest.split_once('\u{0}').unwrap_or(("", rest));
-                    Error::input(key, message)
-                }
-                (_, rest) => Error::run(rest),
-            })
-        }
+    let Some(m) = all.iter().find(|m| !m.is_empty()) else {
+        return local;
+    };
+    let text = String::from_utf8_lossy(m);
+    let (kind, rest) = text.split_at(1);
+    if kind != "I" {
+        return Err(Error::run(rest));
     }
+    let f: Vec<&str> = rest.splitn(5, SEP).collect();
+    if f.len() < 5 {
+        return Err(Error::run(rest));
+    }
+    let at = (f[0] == "1").then(|| Location {
+        file: f[1].into(),
+        line: f[2].parse().ok(),
+    });
+    Err(Error::Input {
+        at,
+        key: f[3].to_string(),
+        message: f[4].to_string(),
+    })
 }
 
 /// The decomposition of the particles of `cloud` (each rank's share; loads summed over the

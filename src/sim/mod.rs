@@ -18,7 +18,7 @@ pub mod step;
 pub mod timers;
 
 pub use balance::BalanceStats;
-pub use decompose::{balanced_blocks, decompose, decompose_sites, global_halo_volumes, rank_map};
+pub use decompose::{balanced_blocks, decompose_sites, global_halo_volumes, rank_map};
 pub use observe::{Observables, View};
 pub use timers::{PhaseTimers, Timer, PHASES};
 
@@ -131,25 +131,38 @@ impl<const D: usize> Simulation<D> {
         scene: &Scene,
         comm: &dyn Comm,
         layout: &RunLayout,
-        all: Particles<D>,
+        share: Particles<D>,
         acc: &[Vector<D>],
         (step, t, dt): (u64, f64, f64),
     ) -> Result<Self> {
-        let ids: Vec<u64> = all.id[..all.n_owned].to_vec();
-        let all = all.dropping(crate::setup::dropped_fields(scene));
+        // `share`: the particles of the checkpoint parts this rank read (any subset; all of
+        // them on one rank). The blocks are balanced on counts summed over ranks, then every
+        // particle migrates to its owner with its acceleration: no rank holds the whole
+        // checkpoint (issue 17).
+        let mut p = share.dropping(crate::setup::dropped_fields(scene));
+        let loaded = p.n_owned;
         let space = image_space::<D>(scene);
         let support = Model::<D>::new(scene).kernel.support;
         let bound = crate::setup::id_bound::<D>(scene);
-        // every rank holds the whole checkpoint here (not O(N/P): a restart reads it whole)
-        let everything = all.n_owned;
-        let decomposed = decompose(all, (&space.min, &space.max), bound, comm.rank(), layout, support)?;
-        let mut sim = Self::assemble(scene, comm, layout, decomposed)?;
-        sim.balance.note_held(everything, 0);
+        let n = p.n_owned;
+        let cloud = crate::decomp::Points {
+            x: &p.x[..n],
+            id: &p.id[..n],
+            fluid: None,
+        };
+        let (map, placement) = rank_map(&cloud, (&space.min, &space.max), bound, layout, support, comm)?;
+        let accs = crate::halo::route_to_owners(&p, acc, &map, comm)?;
+        crate::halo::migrate(&mut p, &map, &map.boxes(), comm)?;
+        let mut perm: Vec<usize> = (0..p.n_owned).collect();
+        perm.sort_unstable_by_key(|&i| p.id[i]);
+        p.permute_owned(&perm);
+        let mut sim = Self::assemble(scene, comm, layout, (map, p, placement))?;
+        sim.balance.note_held(loaded.max(sim.p.n_owned), 0);
         for i in 0..sim.p.n_owned {
-            let k = ids
-                .binary_search(&sim.p.id[i])
-                .map_err(|_| Error::run("resume: a particle lost its id"))?;
-            sim.p.acc[i] = acc[k];
+            let k = accs
+                .binary_search_by_key(&sim.p.id[i], |e| e.0)
+                .map_err(|_| Error::run("resume: a particle lost its acceleration"))?;
+            sim.p.acc[i] = accs[k].1;
         }
         (sim.step, sim.t, sim.dt) = (step, t, dt);
         sim.check_state()?;
