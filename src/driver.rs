@@ -685,18 +685,15 @@ impl<'a, const D: usize> RankRun<'a, D> {
         let sim = match resumed {
             None => Simulation::<D>::with_layout(scene, comm, &layout)?,
             Some((ck, m)) => {
-                // each rank reads its share of the parts; a bad part found by one rank is
-                // every rank's input error
-                let read = crate::checkpoint::share::<D>(ck, m, comm.rank(), comm.size());
-                let (all, acc) = crate::sim::decompose::agree(read, comm)?;
+                let sim = Simulation::<D>::from_checkpoint(scene, comm, &layout, ck, m)?;
                 if root {
                     truncate_series(dir, &m.run["series"])?;
                 }
-                Simulation::<D>::resume(scene, comm, &layout, all, &acc, (m.step, m.t, m.dt))?
+                sim
             }
         };
         layout.placed(sim.placement);
-        // the set-up's peak (the lattice is built whole, then trimmed), then the step loop's own
+        // the set-up's peak (each rank builds its own sites), then the step loop's own
         let setup_peak = crate::memory::peak_rss();
         let peak_reset = root && crate::memory::reset_peak();
         if root {

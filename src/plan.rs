@@ -1,4 +1,4 @@
-//! `hsph plan`: a dry run of the parallel layout. Builds the initial particles, decomposes,
+//! `hsph plan`: a dry run of the parallel layout. Streams the initial sites, decomposes,
 //! places the blocks on ranks and counts the halo of one step — every exchange the step makes
 //! (ghost build, then the refreshes its passes need) — without running physics or starting
 //! ranks. The count uses the engine's own rule ([`crate::halo::ghost_counts`]), so it equals

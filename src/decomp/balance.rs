@@ -713,54 +713,71 @@ where
             }
         }
         let t = totals.take().expect("totals known");
-        // Final planes: best seen, made ascending within each region.
-        let mut level = Vec::with_capacity(nreg * m);
-        let mut level_ties = Vec::with_capacity(nreg * m);
-        let mut left_load = Vec::with_capacity(nreg * m);
-        let mut residual = Vec::with_capacity(nreg * m);
-        let mut sub_loads = Vec::with_capacity(nreg * nk);
-        for r in 0..nreg {
-            let mut prev: Option<(f64, u64, u64)> = None;
-            let mut last_left = 0u64;
-            for i in 0..m {
-                let p = &planes[r * m + i];
-                let (_, mut pos, mut tie, mut left) = p.best.expect("every plane has a candidate");
-                if let Some((pp, pt, pl)) = prev {
-                    if pos < pp || (pos == pp && tie < pt) {
-                        (pos, tie, left) = (pp, pt, pl);
-                    }
-                }
-                prev = Some((pos, tie, left));
-                level.push(pos);
-                level_ties.push(tie);
-                left_load.push(left);
-                residual.push(eq6_residual(left, t[r] - left, p.w_l, p.w_r));
-                sub_loads.push(
-                    left.checked_sub(last_left)
-                        .expect("ascending planes have ascending loads"),
-                );
-                last_left = left;
-            }
-            sub_loads.push(t[r] - last_left);
-        }
+        let fin = finish_level(&planes, &t, m);
         if bracket.is_some() {
             report.displacement.push(
-                level
+                fin.positions
                     .iter()
                     .zip(previous.planes(k))
                     .map(|(a, b)| (a - b).abs())
                     .collect(),
             );
         }
-        decomp.set_level(k, level, level_ties);
+        decomp.set_level(k, fin.positions, fin.ties);
         report.calls.push(calls);
-        report.left_load.push(left_load);
-        report.residual.push(residual);
+        report.left_load.push(fin.left_load);
+        report.residual.push(fin.residual);
         report.tolerance.push(planes.iter().map(|p| p.d).collect());
-        totals = Some(sub_loads);
+        totals = Some(fin.sub_loads);
     }
     report.block_loads = totals.expect("loads of the last level");
     (decomp, report)
+}
+
+/// The planes of a finished level, region-major, with what the report keeps of them.
+struct LevelResult {
+    positions: Vec<f64>,
+    ties: Vec<u64>,
+    left_load: Vec<u64>,
+    residual: Vec<f64>,
+    /// Load of every sub-block: the next level's region totals.
+    sub_loads: Vec<u64>,
+}
+
+/// Each plane takes the best candidate it saw, made ascending in (position, tie) within its
+/// region; `t`: the regions' total loads, `m` planes per region.
+fn finish_level(planes: &[Plane], t: &[u64], m: usize) -> LevelResult {
+    let mut out = LevelResult {
+        positions: Vec::with_capacity(planes.len()),
+        ties: Vec::with_capacity(planes.len()),
+        left_load: Vec::with_capacity(planes.len()),
+        residual: Vec::with_capacity(planes.len()),
+        sub_loads: Vec::with_capacity(t.len() * (m + 1)),
+    };
+    for (r, &total) in t.iter().enumerate() {
+        let mut prev: Option<(f64, u64, u64)> = None;
+        let mut last_left = 0u64;
+        for p in &planes[r * m..(r + 1) * m] {
+            let (_, mut pos, mut tie, mut left) = p.best.expect("every plane has a candidate");
+            if let Some((pp, pt, pl)) = prev {
+                if pos < pp || (pos == pp && tie < pt) {
+                    (pos, tie, left) = (pp, pt, pl);
+                }
+            }
+            prev = Some((pos, tie, left));
+            out.positions.push(pos);
+            out.ties.push(tie);
+            out.left_load.push(left);
+            out.residual.push(eq6_residual(left, total - left, p.w_l, p.w_r));
+            out.sub_loads.push(
+                left.checked_sub(last_left)
+                    .expect("ascending planes have ascending loads"),
+            );
+            last_left = left;
+        }
+        out.sub_loads.push(total - last_left);
+    }
+    out
 }
 
 /// Once the region totals are known: empty regions are settled (uniform shares from

@@ -98,9 +98,9 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Build this rank's particles, decompose the domain over `comm.size()` ranks with blocks
-    /// placed by `layout`, and compute the initial rates and time step. Every rank builds the
-    /// whole lattice and balances the cut planes on it (identical on every rank, no
-    /// communication), then keeps its block.
+    /// placed by `layout`, and compute the initial rates and time step. The set-up is
+    /// distributed ([`decompose_sites`]): each rank streams its share of the lattice to balance
+    /// the cut planes on all-reduced counts, then builds only the sites it owns.
     pub fn with_layout(scene: &Scene, comm: &dyn Comm, layout: &RunLayout) -> Result<Self> {
         let src = SiteSource::<D>::new(scene)?;
         let space = image_space::<D>(scene);
@@ -123,8 +123,23 @@ impl<const D: usize> Simulation<D> {
         Ok(sim)
     }
 
-    /// Continue from a checkpoint's state: every particle `all` (sorted by id) with its
-    /// acceleration `acc` (m/s²), at step `step`, time `t` (s), next time step `dt` (s). The
+    /// Continue from the checkpoint in `dir` (manifest `m`): each rank reads its share of the
+    /// parts (a bad part found by one rank is every rank's input error), then [`Self::resume`].
+    pub fn from_checkpoint(
+        scene: &Scene,
+        comm: &dyn Comm,
+        layout: &RunLayout,
+        dir: &std::path::Path,
+        m: &crate::checkpoint::Manifest,
+    ) -> Result<Self> {
+        let read = crate::checkpoint::share::<D>(dir, m, comm.rank(), comm.size());
+        let (share, acc) = decompose::agree(read, comm)?;
+        Self::resume(scene, comm, layout, share, &acc, (m.step, m.t, m.dt))
+    }
+
+    /// Continue from a checkpoint's state: this rank's share of its particles (any subset of
+    /// them) with their accelerations `acc` (m/s²), at step `step`, time `t` (s), next time
+    /// step `dt` (s). The
     /// domain is decomposed afresh over `comm.size()` ranks; nothing is recomputed, so the next
     /// step is the step the checkpointed run would have taken.
     pub fn resume(
