@@ -15,6 +15,9 @@ use crate::particles::Particles;
 use crate::Vector;
 use rayon::prelude::*;
 
+mod half;
+pub use half::{HalfPairs, HalfView, Window};
+
 /// The global cell grid.
 #[derive(Debug, Clone)]
 pub struct CellGrid<const D: usize> {
@@ -214,9 +217,9 @@ pub enum Wants {
     Nothing,
     /// Every particle within the support.
     All,
-    /// A fluid particle in pair mode (`physics::pairs`): every neighbour but the owned fluid
-    /// particles of lower index, which list it themselves, so each owned fluid pair is listed
-    /// once.
+    /// A fluid particle in pair mode (`physics::pairs`): no list of its own; its pairs are in
+    /// the canonical half lists ([`HalfPairs`]), built over every particle held when any
+    /// owned particle wants them.
     Half,
     /// Fluid particles only: a dummy wall particle, whose only pass (the extrapolation of
     /// `boundary::dummy`) reads fluid neighbours. Its list is a fraction of a full one, and
@@ -253,6 +256,10 @@ pub struct NeighbourList {
     wants: Vec<u8>,
     /// Support radius squared (m²) of the last build.
     r2max: f64,
+    /// Pair mode's half lists (built when some owned particle wants [`Wants::Half`]).
+    half: HalfPairs,
+    /// True if the last build made half lists.
+    has_half: bool,
 }
 
 /// Particles per block of the parallel neighbour-list build.
@@ -262,7 +269,6 @@ const CHUNK: usize = 512;
 /// loop with only its own test.
 const ALL: u8 = 0;
 const FLUID: u8 = 1;
-const HALF: u8 = 2;
 const NOTHING: u8 = 3;
 
 impl Wants {
@@ -271,8 +277,7 @@ impl Wants {
         match self {
             Wants::All => ALL,
             Wants::Fluid => FLUID,
-            Wants::Half => HALF,
-            Wants::Nothing => NOTHING,
+            Wants::Half | Wants::Nothing => NOTHING,
         }
     }
 }
@@ -329,9 +334,7 @@ fn scan_row<const D: usize, const MODE: u8>(
         let ju = j as usize;
         let keep = match MODE {
             ALL => (d2 < r2max) & (ju != i),
-            FLUID => (d2 < r2max) & (ju != i) & (fr[k] != 0),
-            // an owned fluid j < i lists i itself (ghosts have indices ≥ n > i)
-            _ => (d2 < r2max) & ((ju > i) | (fr[k] == 0)),
+            _ => (d2 < r2max) & (ju != i) & (fr[k] != 0),
         };
         out[m] = j;
         m += keep as usize;
@@ -382,11 +385,17 @@ impl NeighbourList {
         if self.lean {
             // no lists: remember what each particle wants; passes scan as they go
             self.wants.clear();
-            self.wants.extend((0..n).map(|i| wants(i).mode()));
+            let mut any_half = false;
+            self.wants.extend((0..n).map(|i| {
+                let w = wants(i);
+                any_half |= w == Wants::Half;
+                w.mode()
+            }));
             self.n = n;
             self.chunks.clear();
             self.offset.clear();
             self.before.clear();
+            self.build_half(any_half, grid, cells, p);
             return;
         }
         let (xs, fluid, fluid_start) = (&self.xs, &self.fluid, &self.fluid_start);
@@ -396,16 +405,22 @@ impl NeighbourList {
         self.chunks.resize_with(nchunks, Vec::new);
         self.offset.resize(n, 0);
         self.n = n;
-        self.chunks
+        let any_half = self
+            .chunks
             .par_iter_mut()
             .zip(self.offset.par_chunks_mut(CHUNK))
             .enumerate()
-            .for_each(|(ci, (list, offsets))| {
+            .map(|(ci, (list, offsets))| {
                 list.clear();
+                let mut any_half = false;
                 for (k, off) in offsets.iter_mut().enumerate() {
                     let i = ci * CHUNK + k;
                     *off = list.len() as u32;
                     let want = wants(i);
+                    if want == Wants::Half {
+                        any_half = true;
+                        continue;
+                    }
                     if want == Wants::Nothing {
                         continue;
                     }
@@ -425,18 +440,62 @@ impl NeighbourList {
                         match want {
                             Wants::All => scan_row::<D, ALL>(list, &xa, i, r2max, ord, xr, fr),
                             Wants::Fluid => scan_row::<D, FLUID>(list, &xa, i, r2max, ord, xr, fr),
-                            Wants::Half => scan_row::<D, HALF>(list, &xa, i, r2max, ord, xr, fr),
-                            Wants::Nothing => {}
+                            Wants::Half | Wants::Nothing => {}
                         }
                     }
                 }
-            });
+                any_half
+            })
+            .reduce(|| false, |a, b| a | b);
         self.before.clear();
         self.before.push(0);
         let mut total = 0usize;
         for list in &self.chunks {
             total += list.len();
             self.before.push(total);
+        }
+        self.build_half(any_half, grid, cells, p);
+    }
+
+    /// Build (or drop) the half lists of pair mode.
+    fn build_half<const D: usize>(
+        &mut self,
+        any: bool,
+        grid: &CellGrid<D>,
+        cells: &CellList,
+        p: &Particles<D>,
+    ) {
+        self.has_half = any;
+        let mut half = std::mem::take(&mut self.half);
+        if any {
+            half.build(self, grid, cells, p, self.lean);
+        }
+        self.half = half;
+    }
+
+    /// Pair mode's half lists of the last build with the grid and cell list it used, if it
+    /// made them.
+    pub fn half<'a, const D: usize>(
+        &'a self,
+        grid: &'a CellGrid<D>,
+        cells: &'a CellList,
+    ) -> Option<HalfView<'a, D>> {
+        self.has_half.then_some(HalfView {
+            half: &self.half,
+            nl: self,
+            grid,
+            cells,
+        })
+    }
+
+    /// Load of owned particle `i` for the balance: its list entries, plus its half-list
+    /// partners in pair mode (`cells` the build's cell list).
+    pub fn load(&self, i: usize, cells: &CellList) -> usize {
+        let own = self.of(i).len();
+        if self.has_half && !self.lean {
+            own + self.half.stored(cells.slot[i] as usize).len()
+        } else {
+            own
         }
     }
 
@@ -487,7 +546,7 @@ impl NeighbourList {
             return 0;
         }
         if i >= self.n {
-            return self.pairs();
+            return self.before.last().copied().unwrap_or(0);
         }
         self.before[i / CHUNK] + self.offset[i] as usize
     }
@@ -497,9 +556,10 @@ impl NeighbourList {
         self.n
     }
 
-    /// Total number of (directed) pairs.
+    /// Total number of list entries: directed pairs of the gather lists plus, in pair mode,
+    /// the pairs of the half lists.
     pub fn pairs(&self) -> usize {
-        self.before.last().copied().unwrap_or(0)
+        self.before.last().copied().unwrap_or(0) + if self.has_half { self.half.pairs() } else { 0 }
     }
 }
 
@@ -605,8 +665,7 @@ impl<const D: usize> Iterator for ScanIter<'_, D> {
                 let ju = j as usize;
                 let keep = match self.mode {
                     ALL => (d2 < nl.r2max) & (ju != self.i),
-                    FLUID => (d2 < nl.r2max) & (ju != self.i) & (nl.fluid[k] != 0),
-                    _ => (d2 < nl.r2max) & ((ju > self.i) | (nl.fluid[k] == 0)),
+                    _ => (d2 < nl.r2max) & (ju != self.i) & (nl.fluid[k] != 0),
                 };
                 if keep {
                     return Some(j);

@@ -477,8 +477,8 @@ pub struct RunArgs {
     set: Vec<String>,
     /// Pair loops: `gather` (each particle sums all its neighbours in a fixed order: the same
     /// bits on any number of ranks and threads) or `pairs` (each pair of fluid particles once,
-    /// about a third less work; deterministic for a fixed layout and thread count, equal to
-    /// gather to round-off). Default: the scene's `[performance] interactions`, else gather.
+    /// fewer kernel evaluations; also the same bits on any number of ranks and threads — its
+    /// own, equal to gather's to round-off). Default: the scene's `[performance] interactions`, else gather.
     #[arg(long, value_enum)]
     interactions: Option<crate::scene::Interactions>,
     /// Neighbour search: `lists` (stored once per step, 4 B per pair) or `cells` (no lists,
@@ -986,11 +986,15 @@ fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
         let _ = writeln!(w, "  warning: {warning}");
     }
     let _ = writeln!(w, "ghosts      {} (periodic and mirror images)", sim.halo.len());
-    let _ = writeln!(
-        w,
-        "neighbours  {:.1} per particle on average",
-        sim.nl.pairs() as f64 / n.max(1) as f64
-    );
+    let per = sim.nl.pairs() as f64 / n.max(1) as f64;
+    let _ = if sim.model.pairs {
+        writeln!(
+            w,
+            "neighbours  {per:.1} list entries per particle (pair mode: each pair once)"
+        )
+    } else {
+        writeln!(w, "neighbours  {per:.1} per particle on average")
+    };
     let _ = writeln!(w, "physics");
     for line in sim.model.describe() {
         let _ = writeln!(w, "  - {line}");

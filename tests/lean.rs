@@ -1,7 +1,7 @@
 //! The lean-memory mode (`[performance] neighbours = "cells"`, issue 16): no stored neighbour
-//! lists; each pass scans the stencil cells again in the order the lists hold. Gather mode
-//! must give the same bits as with lists, in 2D and 3D, on one rank and several, with walls
-//! (fluid-only wall lists), mirror walls and periodic images.
+//! lists; each pass scans the stencil cells again in the order the lists hold. Gather and
+//! pair mode must give the same bits as with lists, in 2D and 3D, on one rank and several,
+//! with walls (fluid-only wall lists), mirror walls and periodic images.
 
 mod common;
 
@@ -37,6 +37,34 @@ fn cells_mode_gives_the_bits_of_stored_lists() {
             1,
         ),
         ("inputs/poiseuille_2d.toml", vec!["time.max_steps=200"], 1),
+        // pair mode's half lists against its list-free scan: periodic, mirror, repulsive
+        (
+            "inputs/poiseuille_2d.toml",
+            vec!["time.max_steps=200", "performance.interactions=\"pairs\""],
+            3,
+        ),
+        (
+            "inputs/wall_impact_2d.toml",
+            vec![
+                "time.max_steps=150",
+                "fluid[0].min=[0.79, 0.15]",
+                "fluid[0].max=[0.99, 0.35]",
+                "wall[0].method=\"mirror\"",
+                "performance.interactions=\"pairs\"",
+            ],
+            2,
+        ),
+        (
+            "inputs/wall_impact_2d.toml",
+            vec![
+                "time.max_steps=150",
+                "fluid[0].min=[0.79, 0.15]",
+                "fluid[0].max=[0.99, 0.35]",
+                "wall[0].method=\"repulsive\"",
+                "performance.interactions=\"pairs\"",
+            ],
+            1,
+        ),
     ] {
         let tag = format!(
             "{}-{}-r{ranks}",

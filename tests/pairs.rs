@@ -1,6 +1,6 @@
-//! Pair mode (`[performance] interactions = "pairs"`, issue 16): each owned fluid pair once,
-//! equal and opposite shares. It must agree with gather mode to round-off on one step, in 2D
-//! and 3D, and give the same bits run after run for a fixed layout and thread count.
+//! Pair mode (`[performance] interactions = "pairs"`, issue 16): each pair once, equal and
+//! opposite shares. It must agree with gather mode to round-off on one step, in 2D and 3D,
+//! and give the same bits on any number of ranks and threads (its own bits, not gather's).
 
 mod common;
 
@@ -83,23 +83,63 @@ fn max_difference(a: &str, b: &str) -> f64 {
 }
 
 #[test]
-fn pairs_mode_repeats_its_bits_for_a_fixed_layout_and_stays_near_gather() {
-    let pairs = scene(
-        "inputs/dam_break_2d.toml",
-        &["time.t_end=0.05", "performance.interactions=\"pairs\""],
-    );
-    let gather = scene("inputs/dam_break_2d.toml", &["time.t_end=0.05"]);
-    for (ranks, threads) in [(1, 2), (3, 1)] {
-        let tag = format!("pairs-r{ranks}t{threads}");
-        let first = run(&pairs, ranks, threads, &format!("{tag}-a"));
-        let again = run(&pairs, ranks, threads, &format!("{tag}-b"));
-        assert!(first == again, "{tag}: two runs differ");
-        // the same flow as gather mode after 0.05 s of a dam break (positions in m, speeds in
-        // m/s, densities, pressures): round-off grown over 80 steps, not a different flow
-        let g = run(&gather, ranks, threads, &format!("{tag}-gather"));
-        let d = max_difference(&first, &g);
-        eprintln!("{tag}: largest relative difference from gather {d:.2e}");
-        assert!(d < 1e-8, "{tag}: differs from gather by {d}");
+fn pairs_mode_gives_the_same_bits_on_any_ranks_and_threads_and_stays_near_gather() {
+    // 2D dam break (walls, free surface, δ-SPH) and 3D dam break, each long enough that the
+    // ranks rebalance and particles migrate
+    type Case<'a> = (&'a str, &'a [&'a str], &'a [(usize, usize)]);
+    let cases: [Case; 4] = [
+        (
+            "inputs/dam_break_2d.toml",
+            &["time.t_end=0.05"],
+            &[(1, 1), (1, 2), (3, 1), (3, 2), (4, 2)],
+        ),
+        (
+            "inputs/dam_break_3d.toml",
+            &["time.max_steps=40", "balance.check_every=5"],
+            &[(1, 2), (3, 1), (4, 2)],
+        ),
+        // periodic images and laminar viscosity; mirror images
+        (
+            "inputs/poiseuille_2d.toml",
+            &["time.max_steps=200"],
+            &[(1, 1), (3, 2)],
+        ),
+        (
+            "inputs/wall_impact_2d.toml",
+            // the block starts 1 cm from the mirror wall, so that it hits it
+            &[
+                "time.max_steps=150",
+                "fluid[0].min=[0.79, 0.15]",
+                "fluid[0].max=[0.99, 0.35]",
+                "wall[0].method=\"mirror\"",
+            ],
+            &[(1, 2), (2, 1)],
+        ),
+    ];
+    for (file, extra, layouts) in cases {
+        let mut with_pairs: Vec<&str> = extra.to_vec();
+        with_pairs.push("performance.interactions=\"pairs\"");
+        let pairs = scene(file, &with_pairs);
+        let gather = scene(file, extra);
+        let name = file.trim_start_matches("inputs/").trim_end_matches(".toml");
+        let reference = run(&pairs, layouts[0].0, layouts[0].1, &format!("pairs-{name}-ref"));
+        for &(ranks, threads) in &layouts[1..] {
+            let tag = format!("pairs-{name}-r{ranks}t{threads}");
+            let other = run(&pairs, ranks, threads, &tag);
+            assert!(
+                other == reference,
+                "{tag}: final.csv differs from {} rank(s) × {} thread(s)",
+                layouts[0].0,
+                layouts[0].1
+            );
+        }
+        // the same flow as gather mode (positions in m, speeds in m/s, densities, pressures):
+        // round-off grown over the run, not a different flow
+        let g = run(&gather, 1, 2, &format!("pairs-{name}-gather"));
+        let d = max_difference(&reference, &g);
+        eprintln!("{name}: largest relative difference from gather {d:.2e}");
+        assert!(d < 1e-8, "{name}: differs from gather by {d}");
+        assert!(reference != g, "{name}: pair mode ran as gather mode");
     }
 }
 

@@ -1,77 +1,55 @@
 //! Pair mode (`[performance] interactions = "pairs"`, `--interactions pairs`): the fluid pair
 //! passes — Antuono's renormalised density gradient, continuity and momentum — visit each
-//! pair of owned fluid particles once, over half lists (`cells::Wants::Half`), and give
-//! both particles their share. A pair with a ghost, a wall or another kind is visited from
-//! the owned fluid side only, as in gather mode (the ghost's owner computes its own side).
+//! pair once, over the canonical half lists of [`crate::cells::HalfPairs`], and give both
+//! particles their share (only fluid particles receive any).
 //!
 //! The equations are those of [`super::fluid`] and [`super::delta`]; each contribution is
 //! computed with the same operations as there, so that pair and gather mode differ only in
-//! the order of the sums (round-off). For the pair (i, j) with x_ji = −x_ij, the j side is:
-//! - continuity: m_i f v_ji·x̃_ji = m_i f v_ij·x̃_ij (x̃ the mid-drift separation), plus j's
-//!   δ-SPH term with ψ_ji;
-//! - momentum: −m_i (p_i/ρ_i² + p_j/ρ_j² + Π_ji) ∇_j W + the laminar term, equal and opposite to
-//!   i's times m_i/m_j when both have one material (Π_ji uses c0 of j's material);
-//! - gradient: the matrix term V_i f x_ij ⊗ x_ij and −x_ij V_i f (ρ_i − ρ_j).
+//! the order of the sums (round-off). For the pair (a, b) with x_ba = −x_ab, b's side is:
+//! - continuity: m_a f v_ba·x̃_ba = m_a f v_ab·x̃_ab (x̃ the mid-drift separation, whose
+//!   sign flips exactly), plus b's δ-SPH term with ψ_ba;
+//! - momentum: −m_a (p_a/ρ_a² + p_b/ρ_b² + Π_ba) ∇_b W + the laminar term, equal and opposite to
+//!   a's times m_a/m_b when both have one material (Π_ba uses c0 of b's material); a wall or
+//!   repulsive home gives its fluid partner [`pair_acceleration`] from the partner's side;
+//! - gradient: the matrix term V_a f x_ab ⊗ x_ab and −x_ab V_a f (ρ_a − ρ_b).
 //!
-//! **No locks, no atomics, deterministic.** The owned particles are cut into one contiguous
-//! range per rayon thread, with about equal list entries each; task t adds every
-//! contribution of its range's pairs — to i and to j, wherever j lies — into its own
-//! accumulator, and the accumulators are then summed per particle in task order. Which task
-//! handles which pair depends only on the lists and the thread count, so a run gives the
-//! same bits for a fixed layout (ranks, their blocks) and thread count; it does not across
-//! thread or rank counts (gather mode does).
+//! **No locks, no atomics, the same bits on any number of ranks and threads.** A pair's
+//! home is its particle of lower slot (a global order); the homes run in the two-phase
+//! schedule of [`HalfView::run`], so every particle's contributions arrive in an order fixed
+//! by the global cell grid and the particles' keys. A pair of an owned particle and a ghost
+//! is computed on each rank that owns one of them, from the same home and with the same
+//! operations. The bits differ from gather mode's (another order of the sums), not between
+//! layouts or thread counts.
 
 use super::delta::inverse_or_identity;
 use super::fluid::{pair_acceleration, psi_dot_grad, PairTerms};
 use super::Model;
-use crate::cells::Neighbours;
+use crate::cells::{HalfView, Window};
+use crate::particles::Kind;
 use crate::particles::Particles;
 use crate::scene::DensityDiffusion;
 use crate::{Matrix, Vector};
 use rayon::prelude::*;
-use std::ops::Range;
 
-/// Per-task accumulators and per-particle scratch, kept between steps (no allocation once
-/// the particle count has settled).
+/// Accumulators and per-particle scratch, kept between steps (no allocation once the
+/// particle count has settled).
 #[derive(Debug, Default)]
 pub struct PairScratch<const D: usize> {
-    /// Scalar accumulators (dρ/dt, or the gradient's matrix and vector, flattened).
-    flat: Vec<Vec<f64>>,
-    /// Vector accumulators (dv/dt).
-    vector: Vec<Vec<Vector<D>>>,
+    /// Scalar accumulators per slot (dρ/dt, or the gradient's matrix and vector, flattened).
+    flat: Vec<f64>,
+    /// Vector accumulators per slot (dv/dt).
+    vector: Vec<Vector<D>>,
     /// V_j = m_j/ρ_j of every particle.
     vol: Vec<f64>,
     /// p_j/ρ_j² of every particle.
     p_rho2: Vec<f64>,
-    /// The tasks' ranges of owned particles.
-    ranges: Vec<Range<usize>>,
 }
 
 impl<const D: usize> PairScratch<D> {
     /// Bytes held (for the memory report).
     pub fn bytes(&self) -> usize {
-        self.flat.iter().map(|b| b.capacity() * 8).sum::<usize>()
-            + self.vector.iter().map(|b| b.capacity() * 8 * D).sum::<usize>()
-            + (self.vol.capacity() + self.p_rho2.capacity()) * 8
-    }
-
-    /// One range of owned particles per rayon thread, cut where the running count of list
-    /// entries (particles, without stored lists) passes t/T of the total.
-    fn split<N: Neighbours>(&mut self, nl: &N, n: usize) {
-        let tasks = rayon::current_num_threads().max(1);
-        let total = nl.work_before(n);
-        self.ranges.clear();
-        let mut lo = 0;
-        for t in 1..=tasks {
-            let hi = if t == tasks {
-                n
-            } else {
-                let target = total * t / tasks;
-                partition(nl, n, target).max(lo)
-            };
-            self.ranges.push(lo..hi);
-            lo = hi;
-        }
+        (self.flat.capacity() + self.vol.capacity() + self.p_rho2.capacity()) * 8
+            + self.vector.capacity() * 8 * D
     }
 
     /// V_j of every particle into `vol`.
@@ -84,189 +62,197 @@ impl<const D: usize> PairScratch<D> {
     }
 }
 
-/// The first owned particle whose list entries before it reach `target` (bisection).
-fn partition<N: Neighbours>(nl: &N, n: usize, target: usize) -> usize {
-    let (mut lo, mut hi) = (0, n);
-    while lo < hi {
-        let mid = (lo + hi) / 2;
-        if nl.work_before(mid) < target {
-            lo = mid + 1;
-        } else {
-            hi = mid;
-        }
-    }
-    lo
+/// One pair pass's work at a home slot: its pairs with the partners `partners` (slots,
+/// ascending), written into the window.
+trait Home<A>: Sync {
+    fn home<I: Iterator<Item = u32>>(&self, k: usize, w: &mut Window<'_, A>, partners: I);
 }
 
-/// Run `body(range, accumulator)` for every task's range, each accumulator `len` zeros.
-fn accumulate<A: Copy + Send + Sync>(
-    bufs: &mut Vec<Vec<A>>,
-    ranges: &[Range<usize>],
-    len: usize,
+/// Run `pass` at every home in the schedule of [`HalfView::run`], over the stored lists or
+/// the list-free scan.
+fn run_homes<const D: usize, A: Copy + Send + Sync>(
+    half: &HalfView<'_, D>,
+    acc: &mut Vec<A>,
+    stride: usize,
     zero: A,
-    body: impl Fn(Range<usize>, &mut [A]) + Sync,
+    pass: &impl Home<A>,
 ) {
-    bufs.resize_with(ranges.len(), Vec::new);
-    bufs.par_iter_mut().zip(ranges.par_iter()).for_each(|(b, r)| {
-        b.clear();
-        b.resize(len, zero);
-        body(r.clone(), b);
+    half.run(acc, stride, zero, |k, w| match half.stored(k) {
+        Some(list) => pass.home(k, w, list.iter().copied()),
+        None => pass.home(k, w, half.scan(k)),
     });
-}
-
-/// Entry `k` of every accumulator summed in task order.
-#[inline]
-fn total<A: Copy + std::ops::Add<Output = A>>(bufs: &[Vec<A>], k: usize) -> A {
-    let mut s = bufs[0][k];
-    for b in &bufs[1..] {
-        s = s + b[k];
-    }
-    s
 }
 
 /// Continuity in pair mode: `p.drho` of every owned fluid particle (zero for the others);
 /// see [`super::fluid::continuity`] for the equation and the mid-drift separation.
-pub fn continuity<const D: usize, N: Neighbours>(
+pub fn continuity<const D: usize>(
     p: &mut Particles<D>,
-    nl: &N,
+    half: &HalfView<'_, D>,
     model: &Model<D>,
     dt: f64,
     s: &mut PairScratch<D>,
 ) {
-    let n = p.n_owned;
     s.volumes(p);
-    s.split(nl, n);
-    {
-        let (p, vol) = (&*p, &s.vol);
-        accumulate(&mut s.flat, &s.ranges, n, 0.0, |r, acc| {
-            for i in r {
-                continuity_of(p, nl, model, vol, 0.5 * dt, i, acc);
-            }
-        });
-    }
-    let bufs = &s.flat;
-    p.drho[..n]
-        .par_iter_mut()
-        .enumerate()
-        .for_each(|(i, d)| *d = total(bufs, i));
+    let pass = Continuity {
+        p: &*p,
+        half,
+        model,
+        vol: &s.vol,
+        half_dt: 0.5 * dt,
+    };
+    run_homes(half, &mut s.flat, 1, 0.0, &pass);
+    let n = p.n_owned;
+    let (acc, kind) = (&s.flat, &p.kind);
+    p.drho[..n].par_iter_mut().enumerate().for_each(|(i, d)| {
+        *d = if kind[i].is_fluid() {
+            acc[half.slot(i)]
+        } else {
+            0.0
+        };
+    });
 }
 
-/// Particle i's pairs of the continuity pass: its own sum, and its share to each owned fluid
-/// neighbour of its half list.
-fn continuity_of<const D: usize, N: Neighbours>(
-    p: &Particles<D>,
-    nl: &N,
-    model: &Model<D>,
-    vol: &[f64],
+/// The continuity pass's inputs.
+struct Continuity<'a, 'h, const D: usize> {
+    p: &'a Particles<D>,
+    half: &'a HalfView<'h, D>,
+    model: &'a Model<D>,
+    /// V_j of every particle (m³).
+    vol: &'a [f64],
+    /// Half the step (s), for the mid-drift separation.
     half_dt: f64,
-    i: usize,
-    acc: &mut [f64],
-) {
-    if !p.kind[i].is_fluid() {
-        return;
-    }
-    let n = p.n_owned;
-    let k = &model.kernel;
-    let diffusion = model.diffusion != DensityDiffusion::None;
-    let antuono = model.diffusion == DensityDiffusion::Antuono;
-    let coef = |m: u16| model.delta * k.h * model.materials[m as usize].c0();
-    let coef_i = coef(p.mat[i]);
-    let (xi, vi) = (p.x[i], p.v[i]);
-    let mut di = 0.0;
-    for j in nl.iter(i) {
-        let j = j as usize;
-        let kind_j = p.kind[j];
-        if !kind_j.is_smoothed() || kind_j.is_solid() {
-            continue;
+}
+
+impl<const D: usize> Home<f64> for Continuity<'_, '_, D> {
+    /// Home slot k's pairs (walls enter with their own velocity, solids and repulsive walls
+    /// not at all).
+    #[inline]
+    fn home<I: Iterator<Item = u32>>(&self, k: usize, w: &mut Window<'_, f64>, partners: I) {
+        let (p, model, vol) = (self.p, self.model, self.vol);
+        let order = self.half.order();
+        let a = order[k] as usize;
+        let kind_a = p.kind[a];
+        if !kind_a.is_smoothed() {
+            return;
         }
-        let xij = xi - p.x[j];
-        let vij = vi - p.v[j];
-        let mid = xij - vij * half_dt;
-        let f = k.dw_dr_over_r(mid.norm());
-        let vdot = f * vij.dot(&mid);
-        di += p.mass[j] * vdot;
-        let fluid_j = kind_j.is_fluid();
-        if diffusion && fluid_j {
-            di += coef_i * psi_dot_grad(p, antuono, i, j, &mid, f) * vol[j];
-        }
-        if fluid_j && j < n {
-            acc[j] += p.mass[i] * vdot;
-            if diffusion {
-                let coef_j = if p.mat[j] == p.mat[i] {
-                    coef_i
-                } else {
-                    coef(p.mat[j])
-                };
-                acc[j] += coef_j * psi_dot_grad(p, antuono, j, i, &-mid, f) * vol[i];
+        let fluid_a = kind_a.is_fluid();
+        let kern = &model.kernel;
+        let diffusion = model.diffusion != DensityDiffusion::None;
+        let antuono = model.diffusion == DensityDiffusion::Antuono;
+        let coef = |m: u16| model.delta * kern.h * model.materials[m as usize].c0();
+        let coef_a = coef(p.mat[a]);
+        let (xa, va, ma) = (p.x[a], p.v[a], p.mass[a]);
+        let mut da = 0.0;
+        for t in partners {
+            let t = t as usize;
+            let b = order[t] as usize;
+            let kind_b = p.kind[b];
+            if !kind_b.is_smoothed() {
+                continue;
+            }
+            let fluid_b = kind_b.is_fluid();
+            let xab = xa - p.x[b];
+            let vab = va - p.v[b];
+            let mid = xab - vab * self.half_dt;
+            let f = kern.dw_dr_over_r(mid.norm());
+            let vdot = f * vab.dot(&mid);
+            if fluid_a {
+                da += p.mass[b] * vdot;
+                if diffusion && fluid_b {
+                    da += coef_a * psi_dot_grad(p, antuono, a, b, &mid, f) * vol[b];
+                }
+            }
+            if fluid_b {
+                let r = w.one(t);
+                *r += ma * vdot;
+                if diffusion && fluid_a {
+                    let coef_b = if p.mat[b] == p.mat[a] {
+                        coef_a
+                    } else {
+                        coef(p.mat[b])
+                    };
+                    *r += coef_b * psi_dot_grad(p, antuono, b, a, &-mid, f) * vol[a];
+                }
             }
         }
+        if fluid_a {
+            *w.one(k) += da;
+        }
     }
-    acc[i] += di;
 }
 
 /// Momentum in pair mode: `p.acc` of every owned fluid particle (zero for the others); see
 /// [`super::fluid::momentum`].
-pub fn momentum<const D: usize, N: Neighbours>(
+pub fn momentum<const D: usize>(
     p: &mut Particles<D>,
-    nl: &N,
+    half: &HalfView<'_, D>,
     model: &Model<D>,
     s: &mut PairScratch<D>,
 ) {
-    let n = p.n_owned;
     s.p_rho2.resize(p.len(), 0.0);
     s.p_rho2
         .par_iter_mut()
         .zip(p.p.par_iter().zip(p.rho.par_iter()))
         .for_each(|(q, (&pj, &rj))| *q = pj / (rj * rj));
-    s.split(nl, n);
-    {
-        let (p, p_rho2) = (&*p, &s.p_rho2);
-        accumulate(&mut s.vector, &s.ranges, n, Vector::zeros(), |r, acc| {
-            for i in r {
-                momentum_of(p, nl, model, p_rho2, i, acc);
-            }
-        });
-    }
-    let (bufs, kind, g) = (&s.vector, &p.kind, model.g);
+    let pass = Momentum {
+        p: &*p,
+        half,
+        model,
+        p_rho2: &s.p_rho2,
+    };
+    run_homes(half, &mut s.vector, 1, Vector::zeros(), &pass);
+    let n = p.n_owned;
+    let (acc, kind, g) = (&s.vector, &p.kind, model.g);
     p.acc[..n].par_iter_mut().enumerate().for_each(|(i, a)| {
         *a = if kind[i].is_fluid() {
-            total(bufs, i) + g
+            acc[half.slot(i)] + g
         } else {
             Vector::zeros()
         };
     });
 }
 
-/// Particle i's pairs of the momentum pass.
-fn momentum_of<const D: usize, N: Neighbours>(
-    p: &Particles<D>,
-    nl: &N,
-    model: &Model<D>,
-    p_rho2: &[f64],
-    i: usize,
-    acc: &mut [Vector<D>],
-) {
-    if !p.kind[i].is_fluid() {
-        return;
-    }
-    let n = p.n_owned;
-    let ti = PairTerms::of(p, model, i, p_rho2[i]);
-    let mut ai = Vector::<D>::zeros();
-    for j in nl.iter(i) {
-        let j = j as usize;
-        let kind_j = p.kind[j];
-        if kind_j.is_solid() {
-            continue;
+/// The momentum pass's inputs.
+struct Momentum<'a, 'h, const D: usize> {
+    p: &'a Particles<D>,
+    half: &'a HalfView<'h, D>,
+    model: &'a Model<D>,
+    /// p_j/ρ_j² of every particle (m⁵ kg⁻¹ s⁻²).
+    p_rho2: &'a [f64],
+}
+
+impl<const D: usize> Home<Vector<D>> for Momentum<'_, '_, D> {
+    /// Home slot k's pairs.
+    #[inline]
+    fn home<I: Iterator<Item = u32>>(&self, k: usize, w: &mut Window<'_, Vector<D>>, partners: I) {
+        let (p, model, p_rho2) = (self.p, self.model, self.p_rho2);
+        let order = self.half.order();
+        let a = order[k] as usize;
+        if p.kind[a] != Kind::Fluid {
+            // a wall home: only its fluid partners receive (the lists hold no other pair)
+            for t in partners {
+                let t = t as usize;
+                let b = order[t] as usize;
+                let tb = PairTerms::of(p, model, b, p_rho2[b]);
+                *w.one(t) += pair_acceleration(p, model, &tb, p_rho2[a], a);
+            }
+            return;
         }
-        if kind_j.is_fluid() && j < n {
-            let (a_i, a_j) = fluid_pair(p, model, &ti, p_rho2, i, j);
-            ai += a_i;
-            acc[j] += a_j;
-        } else {
-            ai += pair_acceleration(p, model, &ti, p_rho2[j], j);
+        let ta = PairTerms::of(p, model, a, p_rho2[a]);
+        let mut sum = Vector::<D>::zeros();
+        for t in partners {
+            let t = t as usize;
+            let b = order[t] as usize;
+            if p.kind[b].is_fluid() {
+                let (d_a, d_b) = fluid_pair(p, model, &ta, p_rho2, a, b);
+                sum += d_a;
+                *w.one(t) += d_b;
+            } else {
+                sum += pair_acceleration(p, model, &ta, p_rho2[b], b);
+            }
         }
+        *w.one(k) += sum;
     }
-    acc[i] += ai;
 }
 
 /// Both sides of the momentum pair of fluid particles i (`ti`) and j: (dv_i, dv_j) without
@@ -318,101 +304,104 @@ fn tri<const D: usize>(r: usize, c: usize) -> usize {
 
 /// Antuono's ⟨∇ρ⟩^L in pair mode, written to `p.grad_rho` (zero for all but owned fluid
 /// particles); see [`super::delta::renormalised_gradient_of`].
-pub fn renormalised_gradient<const D: usize, N: Neighbours>(
+pub fn renormalised_gradient<const D: usize>(
     p: &mut Particles<D>,
-    nl: &N,
+    half: &HalfView<'_, D>,
     model: &Model<D>,
     s: &mut PairScratch<D>,
 ) {
-    let n = p.n_owned;
-    // per particle: the upper triangle of −Σ V_j ∇W ⊗ x_ij, then Σ V_j (ρ_j − ρ_i) ∇W
+    // per slot: the upper triangle of −Σ V_j ∇W ⊗ x_ij, then Σ V_j (ρ_j − ρ_i) ∇W
     let m = D * (D + 1) / 2;
     let stride = m + D;
     s.volumes(p);
-    s.split(nl, n);
-    {
-        let (p, vol) = (&*p, &s.vol);
-        accumulate(&mut s.flat, &s.ranges, n * stride, 0.0, |r, acc| {
-            for i in r {
-                gradient_of(p, nl, model, vol, i, stride, acc);
-            }
-        });
-    }
-    let (bufs, kind) = (&s.flat, &p.kind);
+    let pass = Gradient {
+        p: &*p,
+        half,
+        model,
+        vol: &s.vol,
+    };
+    run_homes(half, &mut s.flat, stride, 0.0, &pass);
+    let n = p.n_owned;
+    let (acc, kind) = (&s.flat, &p.kind);
     p.grad_rho[..n].par_iter_mut().enumerate().for_each(|(i, g)| {
         *g = Vector::zeros();
         if !kind[i].is_fluid() {
             return;
         }
-        let at = |k: usize| total(bufs, i * stride + k);
+        let at = &acc[half.slot(i) * stride..][..stride];
         let mat = Matrix::<D>::from_fn(|r, c| {
             if r <= c {
-                at(tri::<D>(r, c))
+                at[tri::<D>(r, c)]
             } else {
-                at(tri::<D>(c, r))
+                at[tri::<D>(c, r)]
             }
         });
-        let v = Vector::<D>::from_fn(|a, _| at(m + a));
+        let v = Vector::<D>::from_fn(|a, _| at[m + a]);
         *g = inverse_or_identity(&mat) * v;
     });
 }
 
-/// Particle i's pairs of the gradient pass (fluid neighbours only).
-fn gradient_of<const D: usize, N: Neighbours>(
-    p: &Particles<D>,
-    nl: &N,
-    model: &Model<D>,
-    vol: &[f64],
-    i: usize,
-    stride: usize,
-    acc: &mut [f64],
-) {
-    if !p.kind[i].is_fluid() {
-        return;
-    }
-    let n = p.n_owned;
-    let m = D * (D + 1) / 2;
-    let k = &model.kernel;
-    let (xi, rhoi) = (p.x[i], p.rho[i]);
-    let mut a = [[0.0f64; D]; D];
-    let mut si = Vector::<D>::zeros();
-    for j in nl.iter(i) {
-        let j = j as usize;
-        if !p.kind[j].is_fluid() {
-            continue;
+/// The gradient pass's inputs.
+struct Gradient<'a, 'h, const D: usize> {
+    p: &'a Particles<D>,
+    half: &'a HalfView<'h, D>,
+    model: &'a Model<D>,
+    /// V_j of every particle (m³).
+    vol: &'a [f64],
+}
+
+impl<const D: usize> Home<f64> for Gradient<'_, '_, D> {
+    /// Home slot k's pairs (fluid pairs only).
+    #[inline]
+    fn home<I: Iterator<Item = u32>>(&self, k: usize, w: &mut Window<'_, f64>, partners: I) {
+        let (p, vol) = (self.p, self.vol);
+        let order = self.half.order();
+        let a = order[k] as usize;
+        if !p.kind[a].is_fluid() {
+            return;
         }
-        let xij = xi - p.x[j];
-        let f = k.dw_dr_over_r(xij.norm());
-        let w = f * vol[j];
-        for r in 0..D {
-            let wr = xij[r] * w;
-            for c in r..D {
-                a[r][c] -= wr * xij[c];
+        let m = D * (D + 1) / 2;
+        let kern = &self.model.kernel;
+        let (xa, rhoa) = (p.x[a], p.rho[a]);
+        let mut mat = [[0.0f64; D]; D];
+        let mut sa = Vector::<D>::zeros();
+        for t in partners {
+            let t = t as usize;
+            let b = order[t] as usize;
+            if !p.kind[b].is_fluid() {
+                continue;
             }
-        }
-        si += xij * (w * (p.rho[j] - rhoi));
-        if j < n {
-            let wj = f * vol[i];
-            let base = j * stride;
+            let xab = xa - p.x[b];
+            let f = kern.dw_dr_over_r(xab.norm());
+            let wa = f * vol[b];
             for r in 0..D {
-                let wr = xij[r] * wj;
+                let wr = xab[r] * wa;
                 for c in r..D {
-                    acc[base + tri::<D>(r, c)] -= wr * xij[c];
+                    mat[r][c] -= wr * xab[c];
                 }
             }
-            let sj = -(xij * (wj * (rhoi - p.rho[j])));
+            sa += xab * (wa * (p.rho[b] - rhoa));
+            let wb = f * vol[a];
+            let out = w.at(t);
+            for r in 0..D {
+                let wr = xab[r] * wb;
+                for c in r..D {
+                    out[tri::<D>(r, c)] -= wr * xab[c];
+                }
+            }
+            let sb = -(xab * (wb * (rhoa - p.rho[b])));
             for c in 0..D {
-                acc[base + m + c] += sj[c];
+                out[m + c] += sb[c];
             }
         }
-    }
-    let base = i * stride;
-    for r in 0..D {
-        for c in r..D {
-            acc[base + tri::<D>(r, c)] += a[r][c];
+        let out = w.at(k);
+        for r in 0..D {
+            for c in r..D {
+                out[tri::<D>(r, c)] += mat[r][c];
+            }
         }
-    }
-    for c in 0..D {
-        acc[base + m + c] += si[c];
+        for c in 0..D {
+            out[m + c] += sa[c];
+        }
     }
 }

@@ -198,9 +198,9 @@ pub enum Interactions {
     /// bits on any number of ranks and threads. Every pair is evaluated twice.
     #[default]
     Gather,
-    /// Each pair of owned fluid particles is evaluated once (half lists) and its equal and
-    /// opposite contributions go to both, accumulated per task and summed in task order:
-    /// deterministic for a fixed layout and thread count, equal to `gather` to round-off.
+    /// Each pair is evaluated once (half lists) and its equal and opposite contributions go
+    /// to both, in an order fixed by the global cell grid and the ids: the same bits on any
+    /// number of ranks and threads (not gather's bits), equal to `gather` to round-off.
     Pairs,
 }
 

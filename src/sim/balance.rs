@@ -61,7 +61,7 @@ impl<const D: usize> Simulation<D> {
         let n = self.p.n_owned;
         match self.scene.balance.load {
             LoadKind::Pairs if self.nl.listed() == n => {
-                (0..n).map(|i| 1 + self.nl.of(i).len() as u64).collect()
+                (0..n).map(|i| 1 + self.nl.load(i, &self.cells) as u64).collect()
             }
             _ => vec![1; n],
         }

@@ -11,7 +11,7 @@
 use super::timers::Timer;
 use super::Simulation;
 use crate::boundary::{dummy, motion};
-use crate::cells::{Neighbours, Wants};
+use crate::cells::{HalfView, Neighbours, Wants};
 use crate::comm::Comm;
 use crate::error::Result;
 use crate::particles::Fields;
@@ -104,11 +104,13 @@ impl<const D: usize> Simulation<D> {
             self.shift(dt);
         } else if pass.pairs() {
             let (p, model, pair, solid) = (&mut self.p, &self.model, &mut self.pair_scratch, &mut self.solid);
+            let half = self.nl.half(&self.grid, &self.cells);
+            let half = half.as_ref().filter(|_| model.pairs);
             if self.nl.is_lean() {
                 let nb = self.nl.scan(&self.grid, &self.cells);
-                neighbour_pass(pass, p, &nb, model, dt, pair, solid);
+                neighbour_pass(pass, p, &nb, half, model, dt, pair, solid);
             } else {
-                neighbour_pass(pass, p, &self.nl, model, dt, pair, solid);
+                neighbour_pass(pass, p, &self.nl, half, model, dt, pair, solid);
             }
         } else {
             match pass {
@@ -353,23 +355,39 @@ impl<const D: usize> Simulation<D> {
 }
 
 /// A pass that walks neighbours (`Pass::pairs`), over stored lists or the list-free scan, in
-/// gather or pair mode.
+/// gather mode, or over the half lists (`half`) in pair mode.
+#[allow(clippy::too_many_arguments)]
 fn neighbour_pass<const D: usize, N: Neighbours>(
     pass: Pass,
     p: &mut Particles<D>,
     nb: &N,
+    half: Option<&HalfView<'_, D>>,
     model: &Model<D>,
     dt: f64,
     pair: &mut PairScratch<D>,
     solid: &mut SolidScratch<D>,
 ) {
+    match (pass, half) {
+        (Pass::DensityGradient, Some(h)) => pairs::renormalised_gradient(p, h, model, pair),
+        (Pass::Continuity, Some(h)) => pairs::continuity(p, h, model, dt, pair),
+        (Pass::Momentum, Some(h)) => pairs::momentum(p, h, model, pair),
+        _ => gather_pass(pass, p, nb, model, dt, solid),
+    }
+}
+
+/// A gather pass (each particle sums over its own list).
+fn gather_pass<const D: usize, N: Neighbours>(
+    pass: Pass,
+    p: &mut Particles<D>,
+    nb: &N,
+    model: &Model<D>,
+    dt: f64,
+    solid: &mut SolidScratch<D>,
+) {
     match pass {
-        Pass::DensityGradient if model.pairs => pairs::renormalised_gradient(p, nb, model, pair),
         Pass::DensityGradient => delta::renormalised_gradient(p, nb, model),
-        Pass::Continuity if model.pairs => pairs::continuity(p, nb, model, dt, pair),
         Pass::Continuity => fluid::continuity(p, nb, model, dt),
         Pass::WallExtrapolation => dummy::extrapolate(p, nb, model),
-        Pass::Momentum if model.pairs => pairs::momentum(p, nb, model, pair),
         Pass::Momentum => fluid::momentum(p, nb, model),
         Pass::SolidCorrection => dynamics::correction(p, nb, model),
         Pass::SolidRates => dynamics::rates(p, nb, model, dt, solid),
