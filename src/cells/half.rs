@@ -7,17 +7,24 @@
 //! under the particle of the lower slot (its **home**), when the pair is within the support,
 //! neither is a solid, at least one is fluid and at least one is owned.
 //!
-//! **Schedule.** A home in cell plane X (axis-0 coordinate X) lists partners in planes X
-//! and X + 1 only (higher slots). The pair passes therefore run in two phases, the even
-//! planes and then the odd ones; within a phase the planes' write windows (planes X, X + 1)
-//! are disjoint contiguous slot ranges, handed to rayon as disjoint `&mut` slices (no locks,
-//! no atomics, no `unsafe`), and each plane's homes run one after the other in slot order.
-//! A particle's contributions thus arrive in an order fixed by the global cell grid and the
-//! keys alone — the same bits on any number of ranks and threads.
+//! **Schedule.** Cells are linear as (x, y, rest), so a row of cells (fixed x and y) and
+//! any run of rows of one plane are contiguous slot ranges. A home in row (X, Y) lists
+//! partners (higher slots) in rows Y and Y + 1 of plane X and rows Y − 1 … Y + 1 of plane
+//! X + 1 only. Homes are grouped in blocks of [`BLOCK`] rows of one plane; block (X, b) writes
+//! rows bB … bB + B of plane X and bB − 1 … bB + B of plane X + 1, two contiguous ranges. The
+//! blocks run in four phases by the parities of X and b; within a phase the blocks' write
+//! ranges are disjoint (B ≥ 2), handed to rayon as disjoint `&mut` slices (no locks, no
+//! atomics, no `unsafe`), and each block's homes run one after the other in slot order. A
+//! particle's contributions thus arrive in an order fixed by the global cell grid and the keys
+//! alone — the same bits on any number of ranks and threads.
 
 use super::{CellGrid, CellList, NeighbourList, CHUNK};
 use crate::particles::Particles;
 use rayon::prelude::*;
+use std::ops::Range;
+
+/// Rows of cells (along axis 1) per block of homes in the schedule (≥ 2, module docs).
+const BLOCK: usize = 4;
 
 /// Flag bits of a slot.
 const ELIGIBLE: u8 = 1;
@@ -35,15 +42,15 @@ pub struct HalfPairs {
     slots: usize,
     /// Flag bits per slot ([`ELIGIBLE`], [`FLUID`], [`OWNED`]).
     flags: Vec<u8>,
-    /// First slot of each cell plane (axis-0 coordinate), one per plane plus one.
-    planes: Vec<usize>,
+    /// First slot of each row of cells (axis-0 and axis-1 coordinates), one per row plus one.
+    rows: Vec<usize>,
     /// Partners listed in all.
     pairs: usize,
 }
 
 impl HalfPairs {
     /// Build the half lists over the cell list (`nl` holds the cell-order positions of this
-    /// build); in lean mode only the flags and planes.
+    /// build); in lean mode only the flags and rows.
     pub(super) fn build<const D: usize>(
         &mut self,
         nl: &NeighbourList,
@@ -68,10 +75,10 @@ impl HalfPairs {
                     *f = eligible | fluid | owned;
                 }
             });
-        let plane = grid.dims[1..].iter().product::<usize>();
-        self.planes.clear();
-        self.planes
-            .extend((0..=grid.dims[0]).map(|x| cells.start[x * plane] as usize));
+        let row = grid.dims[2..].iter().product::<usize>();
+        self.rows.clear();
+        self.rows
+            .extend((0..=grid.dims[0] * grid.dims[1]).map(|r| cells.start[r * row] as usize));
         self.pairs = 0;
         if lean {
             self.chunks.clear();
@@ -117,7 +124,7 @@ impl HalfPairs {
         self.chunks.iter().map(|c| c.capacity() * 4).sum::<usize>()
             + self.offset.capacity() * 4
             + self.flags.capacity()
-            + self.planes.capacity() * 8
+            + self.rows.capacity() * 8
     }
 
     /// Partners of home slot `k` (stored lists).
@@ -144,26 +151,47 @@ pub struct HalfView<'a, const D: usize> {
     pub(super) cells: &'a CellList,
 }
 
-/// A run of accumulator entries: slots `base ..` of one write window, `stride` entries each.
+/// The accumulator entries one block of homes may write: slots `a_base ..` (its rows of
+/// plane X and the row above) and `b_base ..` (the rows of plane X + 1 beside them), `stride`
+/// entries each.
 pub struct Window<'w, A> {
-    base: usize,
+    a_base: usize,
+    a: &'w mut [A],
+    b_base: usize,
+    b: &'w mut [A],
     stride: usize,
-    acc: &'w mut [A],
+}
+
+/// The next `r` slots of `rest` (which starts at slot `at`), `stride` entries each.
+fn take<'s, A>(rest: &mut &'s mut [A], at: &mut usize, r: &Range<usize>, stride: usize) -> &'s mut [A] {
+    let (_, tail) = std::mem::take(rest).split_at_mut((r.start - *at) * stride);
+    let (mid, tail) = tail.split_at_mut((r.end - r.start) * stride);
+    *rest = tail;
+    *at = r.end;
+    mid
 }
 
 impl<A> Window<'_, A> {
-    /// The entry of slot `s` (within the window) of a one-entry-per-slot accumulator.
+    /// The entry of slot `s` of a one-entry-per-slot accumulator.
     #[inline(always)]
     pub fn one(&mut self, s: usize) -> &mut A {
         debug_assert_eq!(self.stride, 1);
-        &mut self.acc[s - self.base]
+        if s < self.b_base {
+            &mut self.a[s - self.a_base]
+        } else {
+            &mut self.b[s - self.b_base]
+        }
     }
 
-    /// The `stride` entries of slot `s` (within the window).
+    /// The `stride` entries of slot `s`.
     #[inline(always)]
     pub fn at(&mut self, s: usize) -> &mut [A] {
-        let o = (s - self.base) * self.stride;
-        &mut self.acc[o..o + self.stride]
+        let st = self.stride;
+        if s < self.b_base {
+            &mut self.a[(s - self.a_base) * st..][..st]
+        } else {
+            &mut self.b[(s - self.b_base) * st..][..st]
+        }
     }
 }
 
@@ -260,9 +288,9 @@ impl<'a, const D: usize> HalfView<'a, D> {
         }
     }
 
-    /// Run `home(k, window)` for every slot k, in two phases (even cell planes, then odd);
-    /// `acc` is reset to `stride` entries of `zero` per slot first. A home may write the
-    /// entries of its own slot and of its partners' (module docs).
+    /// Run `home(k, window)` for every slot k, in four phases (module docs); `acc` is reset
+    /// to `stride` entries of `zero` per slot first. A home may write the entries of its own
+    /// slot and of its partners'.
     pub fn run<A: Copy + Send + Sync>(
         &self,
         acc: &mut Vec<A>,
@@ -273,32 +301,57 @@ impl<'a, const D: usize> HalfView<'a, D> {
         let slots = self.half.slots;
         acc.clear();
         acc.resize(slots * stride, zero);
-        let planes = &self.half.planes;
-        let np = planes.len() - 1;
-        for phase in 0..2 {
-            let mut windows = Vec::with_capacity(np / 2 + 1);
+        let (nx, ny) = (self.grid.dims[0], self.grid.dims[1]);
+        // first slot of row (x, y); y = ny is the next plane's first row
+        let row = |x: usize, y: usize| self.half.rows[x * ny + y];
+        let blocks = ny.div_ceil(BLOCK);
+        let mut spans = Vec::new();
+        for phase in 0..4 {
+            let (px, py) = (phase & 1, phase >> 1);
+            let mut windows = Vec::new();
             let mut rest: &mut [A] = acc;
             let mut at = 0usize;
-            for x in (phase..np).step_by(2) {
-                let (lo, hi) = (planes[x], planes[x + 1]);
-                if lo == hi {
-                    continue;
+            for x in (px..nx).step_by(2) {
+                // (homes, rows written in plane x, rows written in plane x + 1)
+                spans.clear();
+                for b in (py..blocks).step_by(2) {
+                    let (y0, y1) = (b * BLOCK, ((b + 1) * BLOCK).min(ny));
+                    let homes = row(x, y0)..row(x, y1);
+                    if homes.is_empty() {
+                        continue;
+                    }
+                    let top = (y1 + 1).min(ny);
+                    let next = if x + 1 < nx {
+                        row(x + 1, y0.saturating_sub(1))..row(x + 1, top)
+                    } else {
+                        usize::MAX..usize::MAX
+                    };
+                    spans.push((homes.clone(), homes.start..row(x, top), next));
                 }
-                let end = planes[(x + 2).min(np)];
-                let (_, tail) = std::mem::take(&mut rest).split_at_mut((lo - at) * stride);
-                let (win, tail) = tail.split_at_mut((end - lo) * stride);
-                rest = tail;
-                at = end;
-                windows.push((
-                    lo..hi,
-                    Window {
-                        base: lo,
-                        stride,
-                        acc: win,
-                    },
-                ));
+                // the windows' pieces in memory order: plane x's, then plane x + 1's
+                let mut own = Vec::with_capacity(spans.len());
+                for (_, r, _) in &spans {
+                    own.push(take(&mut rest, &mut at, r, stride));
+                }
+                for ((homes, r, n), a) in spans.iter().zip(own) {
+                    let b = if n.start == usize::MAX {
+                        &mut [][..]
+                    } else {
+                        take(&mut rest, &mut at, n, stride)
+                    };
+                    windows.push((
+                        homes.clone(),
+                        Window {
+                            a_base: r.start,
+                            a,
+                            b_base: n.start,
+                            b,
+                            stride,
+                        },
+                    ));
+                }
             }
-            // one task per plane: the work sits in a few planes (the water), which rayon's
+            // one task per block: the work sits in a few blocks (the water), which rayon's
             // default split into halves would hand to one thread
             windows.par_iter_mut().with_max_len(1).for_each(|(homes, w)| {
                 for k in homes.clone() {
