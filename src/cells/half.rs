@@ -251,6 +251,13 @@ impl<'a, const D: usize> HalfView<'a, D> {
         it
     }
 
+    /// True if cells `c0 .. c1` can hold no partner of a home with flags `fa`: a home that is
+    /// not fluid pairs with fluid only (most wall particles lie far from the water).
+    #[inline]
+    fn no_partner_in(&self, fa: u8, c0: usize, c1: usize) -> bool {
+        fa & FLUID == 0 && self.nl.fluid_start[c1] == self.nl.fluid_start[c0]
+    }
+
     /// Append home slot `k`'s partners to `list` (the list build: what [`HalfView::scan`]
     /// finds, with a branch-free append per stencil row).
     fn append(&self, k: usize, list: &mut Vec<u32>) {
@@ -264,7 +271,7 @@ impl<'a, const D: usize> HalfView<'a, D> {
                 continue;
             };
             let e = cells.start[c1] as usize;
-            if e <= k + 1 {
+            if e <= k + 1 || self.no_partner_in(it.fa, c0, c1) {
                 continue;
             }
             let s = (cells.start[c0] as usize).max(k + 1);
@@ -392,7 +399,7 @@ impl<const D: usize> HalfScan<'_, D> {
                 continue;
             };
             let e = cells.start[c1] as usize;
-            if e <= self.k + 1 {
+            if e <= self.k + 1 || self.view.no_partner_in(self.fa, c0, c1) {
                 continue;
             }
             self.t = (cells.start[c0] as usize).max(self.k + 1);
