@@ -404,26 +404,10 @@ fn dispatch(cmd: Command) -> Result<i32> {
             threads,
             steps,
             repeat,
-            mut set,
+            set,
             interactions,
             neighbours,
-        } => {
-            set.extend(interactions_override(interactions));
-            set.extend(neighbours.map(|m| format!("performance.neighbours=\"{}\"", m.name())));
-            let scenes = if scenes.is_empty() {
-                bench::default_scenes()
-            } else {
-                scenes
-            };
-            let opts = BenchOptions {
-                threads,
-                steps,
-                repeat,
-                overrides: set,
-            };
-            say(&bench::table(&bench::run(&scenes, &opts)?));
-            Ok(0)
-        }
+        } => cmd_bench(scenes, threads, steps, repeat, set, interactions, neighbours),
         Command::Report {
             runs,
             compare,
@@ -431,6 +415,33 @@ fn dispatch(cmd: Command) -> Result<i32> {
             field,
         } => report::command(&runs, compare, out.as_deref(), &field).map(|_| 0),
     }
+}
+
+/// `hsph bench`: the default scenes unless named, the flags as `--set` overrides.
+fn cmd_bench(
+    scenes: Vec<PathBuf>,
+    threads: Vec<usize>,
+    steps: u64,
+    repeat: usize,
+    mut set: Vec<String>,
+    interactions: Option<crate::scene::Interactions>,
+    neighbours: Option<crate::scene::NeighbourMode>,
+) -> Result<i32> {
+    set.extend(interactions_override(interactions));
+    set.extend(neighbours.map(|m| format!("performance.neighbours=\"{}\"", m.name())));
+    let scenes = if scenes.is_empty() {
+        bench::default_scenes()
+    } else {
+        scenes
+    };
+    let opts = BenchOptions {
+        threads,
+        steps,
+        repeat,
+        overrides: set,
+    };
+    say(&bench::table(&bench::run(&scenes, &opts)?));
+    Ok(0)
 }
 
 /// `hsph run`: load the scene, install the signal handlers, run; 3 if a signal stopped it.
