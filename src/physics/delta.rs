@@ -60,8 +60,19 @@ pub fn renormalised_gradient_of<const D: usize, N: Neighbours>(
     f: &[f64],
     out: &mut [Vector<D>],
 ) {
+    renormalised_gradient_with(p, nl, model, f, &super::fluid::volumes(p), out);
+}
+
+/// [`renormalised_gradient_of`] with the volumes `vol` (m³) of every particle given.
+fn renormalised_gradient_with<const D: usize, N: Neighbours>(
+    p: &Particles<D>,
+    nl: &N,
+    model: &Model<D>,
+    f: &[f64],
+    vol: &[f64],
+    out: &mut [Vector<D>],
+) {
     let k = &model.kernel;
-    let vol = super::fluid::volumes(p);
     out.par_iter_mut().enumerate().for_each(|(i, g)| {
         *g = Vector::zeros();
         if !p.kind[i].is_fluid() {
@@ -92,10 +103,17 @@ pub fn renormalised_gradient_of<const D: usize, N: Neighbours>(
     });
 }
 
-/// ⟨∇ρ⟩^L of every owned fluid particle, written to `p.grad_rho`.
-pub fn renormalised_gradient<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, model: &Model<D>) {
+/// ⟨∇ρ⟩^L of every owned fluid particle, written to `p.grad_rho`; `vol` is scratch (kept by
+/// the caller).
+pub fn renormalised_gradient<const D: usize, N: Neighbours>(
+    p: &mut Particles<D>,
+    nl: &N,
+    model: &Model<D>,
+    vol: &mut Vec<f64>,
+) {
     let n = p.n_owned;
     let mut out = std::mem::take(&mut p.grad_rho);
-    renormalised_gradient_of(p, nl, model, &p.rho, &mut out[..n]);
+    super::fluid::volumes_into(p, vol);
+    renormalised_gradient_with(p, nl, model, &p.rho, vol, &mut out[..n]);
     p.grad_rho = out;
 }

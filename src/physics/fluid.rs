@@ -39,29 +39,42 @@ use rayon::prelude::*;
 /// velocities and densities (eq. in the module docs, with the δ-SPH term), at the pair's
 /// separation at the middle of the drift that just ended,
 /// x_ij − ½ dt v_ij (dt in s; 0 at the set-up): see [`continuity_of`].
-pub fn continuity<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, model: &Model<D>, dt: f64) {
+/// `vol` is scratch (kept by the caller, so the step loop does not allocate).
+pub fn continuity<const D: usize, N: Neighbours>(
+    p: &mut Particles<D>,
+    nl: &N,
+    model: &Model<D>,
+    dt: f64,
+    vol: &mut Vec<f64>,
+) {
     let n = p.n_owned;
     let mut drho = std::mem::take(&mut p.drho);
     {
         let p = &*p;
-        let vol = volumes(p);
+        volumes_into(p, vol);
+        let vol = &*vol;
         drho[..n]
             .par_iter_mut()
             .enumerate()
-            .for_each(|(i, dr)| *dr = continuity_of(p, nl, model, &vol, 0.5 * dt, i));
+            .for_each(|(i, dr)| *dr = continuity_of(p, nl, model, vol, 0.5 * dt, i));
     }
     p.drho = drho;
 }
 
 /// Momentum pass: `p.acc` of every owned fluid particle (zero for walls), from the current
-/// positions, velocities, densities and pressures.
-pub fn momentum<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, model: &Model<D>) {
+/// positions, velocities, densities and pressures; `p_rho2` is scratch (kept by the caller).
+pub fn momentum<const D: usize, N: Neighbours>(
+    p: &mut Particles<D>,
+    nl: &N,
+    model: &Model<D>,
+    p_rho2: &mut Vec<f64>,
+) {
     let n = p.n_owned;
     let mut acc = std::mem::take(&mut p.acc);
     {
         let p = &*p;
         // p_j/ρ_j² once per particle rather than once per pair
-        let mut p_rho2 = vec![0.0; p.len()];
+        p_rho2.resize(p.len(), 0.0);
         p_rho2
             .par_iter_mut()
             .zip(p.p.par_iter().zip(p.rho.par_iter()))
@@ -69,18 +82,24 @@ pub fn momentum<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, mod
         acc[..n]
             .par_iter_mut()
             .enumerate()
-            .for_each(|(i, a)| *a = momentum_of(p, nl, model, &p_rho2, i));
+            .for_each(|(i, a)| *a = momentum_of(p, nl, model, p_rho2, i));
     }
     p.acc = acc;
 }
 
 /// Volumes V_j = m_j/ρ_j of every particle (owned and ghost), computed once per pass.
 pub(crate) fn volumes<const D: usize>(p: &Particles<D>) -> Vec<f64> {
-    let mut vol = vec![0.0; p.len()];
+    let mut vol = Vec::new();
+    volumes_into(p, &mut vol);
+    vol
+}
+
+/// [`volumes`] into a kept buffer (m³).
+pub(crate) fn volumes_into<const D: usize>(p: &Particles<D>, vol: &mut Vec<f64>) {
+    vol.resize(p.len(), 0.0);
     vol.par_iter_mut()
         .zip(p.mass.par_iter().zip(p.rho.par_iter()))
         .for_each(|(v, (&m, &r))| *v = m / r);
-    vol
 }
 
 /// δ-SPH diffusion term D_i alone (for the conservation test Σ V_i D_i = 0), evaluated like

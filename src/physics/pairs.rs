@@ -52,6 +52,12 @@ impl<const D: usize> PairScratch<D> {
             + self.vector.capacity() * 8 * D
     }
 
+    /// A per-particle buffer for the gather passes (the pair passes' volumes; the two modes
+    /// never share a pass).
+    pub fn buffer(&mut self) -> &mut Vec<f64> {
+        &mut self.vol
+    }
+
     /// V_j of every particle into `vol`.
     fn volumes(&mut self, p: &Particles<D>) {
         self.vol.resize(p.len(), 0.0);

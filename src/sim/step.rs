@@ -371,24 +371,25 @@ fn neighbour_pass<const D: usize, N: Neighbours>(
         (Pass::DensityGradient, Some(h)) => pairs::renormalised_gradient(p, h, model, pair),
         (Pass::Continuity, Some(h)) => pairs::continuity(p, h, model, dt, pair),
         (Pass::Momentum, Some(h)) => pairs::momentum(p, h, model, pair),
-        _ => gather_pass(pass, p, nb, model, dt, solid),
+        _ => gather_pass(pass, p, nb, model, dt, pair.buffer(), solid),
     }
 }
 
-/// A gather pass (each particle sums over its own list).
+/// A gather pass (each particle sums over its own list); `buf` is per-particle scratch.
 fn gather_pass<const D: usize, N: Neighbours>(
     pass: Pass,
     p: &mut Particles<D>,
     nb: &N,
     model: &Model<D>,
     dt: f64,
+    buf: &mut Vec<f64>,
     solid: &mut SolidScratch<D>,
 ) {
     match pass {
-        Pass::DensityGradient => delta::renormalised_gradient(p, nb, model),
-        Pass::Continuity => fluid::continuity(p, nb, model, dt),
+        Pass::DensityGradient => delta::renormalised_gradient(p, nb, model, buf),
+        Pass::Continuity => fluid::continuity(p, nb, model, dt, buf),
         Pass::WallExtrapolation => dummy::extrapolate(p, nb, model),
-        Pass::Momentum => fluid::momentum(p, nb, model),
+        Pass::Momentum => fluid::momentum(p, nb, model, buf),
         Pass::SolidCorrection => dynamics::correction(p, nb, model),
         Pass::SolidRates => dynamics::rates(p, nb, model, dt, solid),
         Pass::SolidMomentum => dynamics::momentum(p, nb, model, solid),
