@@ -358,29 +358,7 @@ impl NeighbourList {
     ) {
         let n = p.n_owned;
         let r2max = support * support;
-        // positions and fluid flags in cell order
-        self.xs.resize(cells.order.len() * D, 0.0);
-        self.fluid.resize(cells.order.len(), 0);
-        self.xs
-            .par_chunks_mut(D * CHUNK)
-            .zip(self.fluid.par_chunks_mut(CHUNK))
-            .zip(cells.order.par_chunks(CHUNK))
-            .for_each(|((xs, fl), ord)| {
-                for ((x, f), &j) in xs.chunks_exact_mut(D).zip(fl.iter_mut()).zip(ord) {
-                    x.copy_from_slice(p.x[j as usize].as_slice());
-                    *f = p.kind[j as usize].is_fluid() as u8;
-                }
-            });
-        let nc = cells.start.len() - 1;
-        self.fluid_start.clear();
-        self.fluid_start.reserve(nc + 1);
-        self.fluid_start.push(0);
-        let mut acc = 0u32;
-        for c in 0..nc {
-            let (s, e) = (cells.start[c] as usize, cells.start[c + 1] as usize);
-            acc += self.fluid[s..e].iter().map(|&f| f as u32).sum::<u32>();
-            self.fluid_start.push(acc);
-        }
+        self.copy_cell_order(cells, p);
         self.r2max = r2max;
         if self.lean {
             // no lists: remember what each particle wants; passes scan as they go
@@ -455,6 +433,33 @@ impl NeighbourList {
             self.before.push(total);
         }
         self.build_half(any_half, grid, cells, p);
+    }
+
+    /// Positions and fluid flags in cell order, and the fluid before each cell.
+    fn copy_cell_order<const D: usize>(&mut self, cells: &CellList, p: &Particles<D>) {
+        // positions and fluid flags in cell order
+        self.xs.resize(cells.order.len() * D, 0.0);
+        self.fluid.resize(cells.order.len(), 0);
+        self.xs
+            .par_chunks_mut(D * CHUNK)
+            .zip(self.fluid.par_chunks_mut(CHUNK))
+            .zip(cells.order.par_chunks(CHUNK))
+            .for_each(|((xs, fl), ord)| {
+                for ((x, f), &j) in xs.chunks_exact_mut(D).zip(fl.iter_mut()).zip(ord) {
+                    x.copy_from_slice(p.x[j as usize].as_slice());
+                    *f = p.kind[j as usize].is_fluid() as u8;
+                }
+            });
+        let nc = cells.start.len() - 1;
+        self.fluid_start.clear();
+        self.fluid_start.reserve(nc + 1);
+        self.fluid_start.push(0);
+        let mut acc = 0u32;
+        for c in 0..nc {
+            let (s, e) = (cells.start[c] as usize, cells.start[c + 1] as usize);
+            acc += self.fluid[s..e].iter().map(|&f| f as u32).sum::<u32>();
+            self.fluid_start.push(acc);
+        }
     }
 
     /// Build (or drop) the half lists of pair mode.
