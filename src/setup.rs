@@ -123,13 +123,20 @@ impl<const D: usize> BodyFields<D> {
 }
 
 /// The shared particle fields a scene's run does not need: the solid fields when it has no
-/// solid body (no storage, no traffic; see [`Particles::dropped`]).
+/// solid body, the viscous lattice moment unless the operator is renormalised (no storage,
+/// no traffic; see [`Particles::dropped`]).
 pub fn dropped_fields(s: &Scene) -> Fields {
-    if s.solids.is_empty() {
+    let solid = if s.solids.is_empty() {
         Fields::SOLID
     } else {
         Fields::NONE
-    }
+    };
+    let lap = if s.physics.viscous_operator == crate::scene::ViscousOperator::Renormalised {
+        Fields::NONE
+    } else {
+        Fields::LAP
+    };
+    solid.or(lap)
 }
 
 /// A fluid body and a solid body whose boxes overlap or come within a kernel support of each

@@ -407,3 +407,34 @@ fn bad_solid_materials_name_their_key() {
         &["fluid bodies only"],
     );
 }
+
+#[test]
+fn morris_no_slip_needs_a_no_slip_dummy_wall() {
+    // the shipped dam break's tank is free-slip
+    let text = shipped().replace(
+        "slip = \"free_slip\"",
+        "slip = \"free_slip\"\nno_slip = \"morris\"",
+    );
+    run_bad_scene(
+        "morris-free-slip",
+        &text,
+        "wall[0].no_slip",
+        "no_slip = \"morris\"",
+        &["method = \"dummy\"", "slip = \"no_slip\"", "no_slip = \"adami\""],
+    );
+}
+
+#[test]
+fn renormalised_viscous_operator_needs_a_laminar_viscosity() {
+    let text = shipped().replace(
+        "artificial_viscosity = 0.02",
+        "artificial_viscosity = 0.02\nviscous_operator = \"renormalised\"",
+    );
+    run_bad_scene(
+        "renorm-no-nu",
+        &text,
+        "physics.viscous_operator",
+        "viscous_operator",
+        &["laminar_viscosity", "remove viscous_operator"],
+    );
+}

@@ -7,11 +7,13 @@
 //! | mirror walls | [`mirror`] | image particles reflected across a container's inner faces |
 //! | periodic axes | [`periodic`] | wrap and image particles shifted by the box length |
 //! | moving walls | [`motion`] | motion laws applied to wall bodies |
+//! | wall surfaces | [`geometry`] | distances to a wall's surface (Morris et al. 1997 no-slip) |
 //!
 //! Image particles (periodic and mirror) are ghosts: [`images`] holds their geometry and
 //! [`crate::halo`] makes and refreshes them with the other ranks' ghosts.
 
 pub mod dummy;
+pub mod geometry;
 pub mod images;
 pub mod mirror;
 pub mod motion;

@@ -140,13 +140,15 @@ impl WallKinematics {
 }
 
 /// Move the owned wall particles of every moving wall from time `t0` to `t1` (s) and record
-/// each wall's acceleration at `t1` in `wall_acc` (indexed by wall body).
+/// each wall's acceleration and displacement from rest at `t1` in `wall_acc` and
+/// `wall_shift` (indexed by wall body).
 pub fn move_walls<const D: usize>(
     walls: &[WallKinematics],
     p: &mut Particles<D>,
     t0: f64,
     t1: f64,
     wall_acc: &mut [Vector<D>],
+    wall_shift: &mut [Vector<D>],
 ) {
     for k in walls {
         let (d0, _, _) = k.at::<D>(t0);
@@ -159,6 +161,7 @@ pub fn move_walls<const D: usize>(
             }
         }
         wall_acc[k.body] = a1;
+        wall_shift[k.body] = d1;
     }
 }
 

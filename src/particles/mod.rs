@@ -223,6 +223,13 @@ particle_table! {
             image: Vector, csv: None, snapshot: None, unit: "kg m-4",
             long_name: "renormalised density gradient",
         }
+        /// Lattice moment L_i = −(1/D) Σ_j V_j r_ij W′(r_ij) of fluid particles (–; 1 for a full
+        /// continuous support), which the renormalised viscous operator divides by; held only
+        /// with `physics.viscous_operator = "renormalised"`.
+        lap / LAP: f64 {
+            image: Same, csv: None, snapshot: None, unit: "1",
+            long_name: "lattice moment of the viscous operator",
+        }
         /// Deviatoric stress S (Pa) of solid particles (symmetric; in 2D the in-plane block of
         /// a plane-strain deviator, S_zz = −S_xx − S_yy).
         stress / STRESS: Sym<D> {

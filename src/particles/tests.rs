@@ -139,20 +139,20 @@ fn written_to_output(all: Particles<2>) {
 
 #[test]
 fn record_layout_and_byte_counts_follow_the_table() {
-    // id, key, kind|body|mat packed in one word, x, v, mass, rho, p, vw, grad_rho, the solids'
+    // id, key, kind|body|mat packed in one word, x, v, mass, rho, p, vw, grad_rho, lap, the solids'
     // stress and correction (upper triangles), energy, plastic strain and the failure flag (a
     // word of its own), and the test-only tag
     let solid = |d: usize| d * (d + 1) + 3;
-    assert_eq!(Record::<2>::words(), 3 + 2 + 2 + 3 + 2 + 2 + solid(2) + 1);
-    assert_eq!(Record::<3>::words(), 3 + 3 + 3 + 3 + 3 + 3 + solid(3) + 1);
-    // a fluid-only run carries none of the solid fields
+    assert_eq!(Record::<2>::words(), 3 + 2 + 2 + 3 + 2 + 2 + 1 + solid(2) + 1);
+    assert_eq!(Record::<3>::words(), 3 + 3 + 3 + 3 + 3 + 3 + 1 + solid(3) + 1);
+    // a fluid-only run carries none of the solid fields, a run with Morris's viscous operator
+    // no lattice moment
+    let fluid_only = Fields::SOLID.or(Fields::LAP);
+    assert_eq!(Record::<2>::words_carried(fluid_only), 3 + 2 + 2 + 3 + 2 + 2 + 1);
+    assert_eq!(Record::<3>::words_carried(fluid_only), 3 + 3 + 3 + 3 + 3 + 3 + 1);
     assert_eq!(
         Record::<2>::words_carried(Fields::SOLID),
-        3 + 2 + 2 + 3 + 2 + 2 + 1
-    );
-    assert_eq!(
-        Record::<3>::words_carried(Fields::SOLID),
-        3 + 3 + 3 + 3 + 3 + 3 + 1
+        3 + 2 + 2 + 3 + 2 + 2 + 1 + 1
     );
     assert_eq!(Particles::<3>::field_words(Fields::RHO.or(Fields::P)), 2);
     assert_eq!(
@@ -160,9 +160,9 @@ fn record_layout_and_byte_counts_follow_the_table() {
         5
     );
     assert_eq!(Particles::<2>::field_words(Fields::GRAD_RHO), 2);
-    // shared: 8 + 8 + 1 + 2 + 2 + 4·8·D + 3·8 (+ 8 tag); owned-only: 8 + 8·D; solids add two
+    // shared: 8 + 8 + 1 + 2 + 2 + 4·8·D + 4·8 (+ 8 tag); owned-only: 8 + 8·D; solids add two
     // D×D tensors, two f64 and a u16
-    let shared = |d: usize| 8 + 8 + 1 + 2 + 2 + 4 * 8 * d + 3 * 8 + 8;
+    let shared = |d: usize| 8 + 8 + 1 + 2 + 2 + 4 * 8 * d + 4 * 8 + 8;
     let solid = |d: usize| 2 * 8 * d * d + 2 * 8 + 2;
     assert_eq!(Particles::<2>::bytes_per_ghost_carried(Fields::SOLID), shared(2));
     assert_eq!(Particles::<2>::bytes_per_ghost(), shared(2) + solid(2));

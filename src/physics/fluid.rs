@@ -233,6 +233,8 @@ pub struct PairTerms<const D: usize> {
     pub(crate) av_coef: f64,
     /// η² = 0.01 h² (m²), the artificial viscosity's regularisation.
     pub(crate) eta2: f64,
+    /// Lattice moment L_i (–) if the viscous operator is renormalised, else 1.
+    pub(crate) lap: f64,
 }
 
 impl<const D: usize> PairTerms<D> {
@@ -247,6 +249,7 @@ impl<const D: usize> PairTerms<D> {
             p_rho2,
             av_coef: -2.0 * model.alpha * c0 * h,
             eta2: 0.01 * h * h,
+            lap: if model.viscous.renormalised { p.lap[i] } else { 1.0 },
         }
     }
 }
@@ -292,6 +295,7 @@ pub fn pair_acceleration<const D: usize>(
     if model.nu > 0.0 {
         // μ_i + μ_j = ν (ρ_i + ρ_j); x_ij·∇_i W_ij / r² = (1/r) ∂W/∂r (m⁻ᴰ⁻²)
         let mu_sum = model.nu * (rhoi + rhoj);
+        let vij = model.viscous.difference(p, &model.wall_shift, terms, j, vij);
         acc += vij * (mj * mu_sum * f / (rhoi * rhoj));
     }
     acc

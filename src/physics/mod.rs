@@ -15,6 +15,7 @@ pub mod pairs;
 pub mod passes;
 pub mod shifting;
 pub mod solid;
+pub mod viscous;
 
 use crate::boundary::repulsive::Repulsion;
 use crate::kernel::Kernel;
@@ -57,6 +58,10 @@ pub struct Model<const D: usize> {
     pub wall_no_slip: Vec<bool>,
     /// Wall acceleration per wall body (m/s²), updated by the step loop for moving walls.
     pub wall_acc: Vec<Vector<D>>,
+    /// Wall displacement from rest per wall body (m), updated with `wall_acc`.
+    pub wall_shift: Vec<Vector<D>>,
+    /// The laminar term's operator and no-slip method ([`viscous`]).
+    pub viscous: viscous::Viscous<D>,
     /// Largest c0 of all materials (m/s).
     pub c_max: f64,
     /// Particle shifting of fluid particles, if the scene asks for it.
@@ -100,6 +105,8 @@ impl<const D: usize> Model<D> {
                 .map(|w| w.slip == crate::scene::Slip::NoSlip)
                 .collect(),
             wall_acc: vec![Vector::zeros(); s.walls.len()],
+            wall_shift: vec![Vector::zeros(); s.walls.len()],
+            viscous: viscous::Viscous::new(s),
             materials,
             c_max,
             shifting,
@@ -147,6 +154,12 @@ impl<const D: usize> Model<D> {
         }
         if self.nu > 0.0 {
             v.push(format!("Morris laminar viscosity ν = {:e} m²/s", self.nu));
+            if self.viscous.renormalised {
+                v.push("viscous operator renormalised by the lattice moment 2/(L_i + L_j)".into());
+            }
+            if self.viscous.any_morris {
+                v.push("no-slip by Morris et al.'s distance ratio on the walls that ask for it".into());
+            }
         }
         if self.g.norm() > 0.0 {
             v.push(format!("body force {:?} m/s²", self.g.as_slice()));

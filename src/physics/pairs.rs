@@ -294,7 +294,11 @@ fn fluid_pair<const D: usize>(
     let mut a_i = xij * (-f * mj * pi);
     let mut a_j = xij * (-f * mi * pj);
     if model.nu > 0.0 {
-        let mu_sum = model.nu * (rhoi + rhoj);
+        let mut mu_sum = model.nu * (rhoi + rhoj);
+        if model.viscous.renormalised {
+            // the same factor as super::viscous::Viscous::difference, both sides
+            mu_sum *= 2.0 / (ti.lap + p.lap[j]);
+        }
         let rr = rhoi * rhoj;
         a_i += vij * (mj * mu_sum * f / rr);
         a_j += vij * (mi * mu_sum * f / rr);
@@ -408,6 +412,77 @@ impl<const D: usize> Home<f64> for Gradient<'_, '_, D> {
         }
         for c in 0..D {
             out[m + c] += sa[c];
+        }
+    }
+}
+
+/// The viscous operator's lattice moment in pair mode, written to `p.lap` (1 for all but
+/// owned fluid particles); see [`super::viscous::lattice_moment`].
+pub fn lattice_moment<const D: usize>(
+    p: &mut Particles<D>,
+    half: &HalfView<'_, D>,
+    model: &Model<D>,
+    s: &mut PairScratch<D>,
+) {
+    s.volumes(p);
+    let pass = Moment {
+        p: &*p,
+        half,
+        model,
+        vol: &s.vol,
+    };
+    run_homes(half, &mut s.flat, 1, 0.0, &pass);
+    let n = p.n_owned;
+    let (acc, kind) = (&s.flat, &p.kind);
+    p.lap[..n].par_iter_mut().enumerate().for_each(|(i, l)| {
+        *l = if kind[i].is_fluid() {
+            super::viscous::moment_of::<D>(acc[half.slot(i)])
+        } else {
+            1.0
+        };
+    });
+}
+
+/// The lattice-moment pass's inputs.
+struct Moment<'a, 'h, const D: usize> {
+    p: &'a Particles<D>,
+    half: &'a HalfView<'h, D>,
+    model: &'a Model<D>,
+    /// V_j of every particle (m³).
+    vol: &'a [f64],
+}
+
+impl<const D: usize> Home<f64> for Moment<'_, '_, D> {
+    /// Home slot k's pairs: Σ V r² (1/r) W′ over smoothed partners, to each fluid side.
+    #[inline]
+    fn home<I: Iterator<Item = u32>>(&self, k: usize, w: &mut Window<'_, f64>, partners: I) {
+        let (p, vol) = (self.p, self.vol);
+        let order = self.half.order();
+        let a = order[k] as usize;
+        if !p.kind[a].is_smoothed() {
+            return;
+        }
+        let fluid_a = p.kind[a].is_fluid();
+        let kern = &self.model.kernel;
+        let xa = p.x[a];
+        let mut sa = 0.0;
+        for t in partners {
+            let t = t as usize;
+            let b = order[t] as usize;
+            if !p.kind[b].is_smoothed() {
+                continue;
+            }
+            let r2 = (xa - p.x[b]).norm_squared();
+            let g = r2 * kern.dw_dr_over_r(r2.sqrt());
+            if fluid_a {
+                sa += vol[b] * g;
+            }
+            if p.kind[b].is_fluid() {
+                *w.one(t) += vol[a] * g;
+            }
+        }
+        if fluid_a {
+            *w.one(k) += sa;
         }
     }
 }

@@ -15,6 +15,9 @@ pub enum Pass {
     DensityGradient,
     /// dρ/dt of fluid particles: [`super::fluid::continuity`].
     Continuity,
+    /// Lattice moment L of fluid particles for the renormalised viscous operator:
+    /// [`super::viscous::lattice_moment`].
+    ViscousMoment,
     /// ρ += dt dρ/dt, then p = EOS(ρ, e) (no neighbours).
     DensityUpdate,
     /// p, ρ and v_w of dummy wall particles: [`crate::boundary::dummy::extrapolate`].
@@ -47,6 +50,7 @@ impl Pass {
                 .or(Fields::RHO)
                 .or(Fields::GRAD_RHO)
                 .or(Fields::MAT),
+            Pass::ViscousMoment => geometry.or(Fields::RHO),
             Pass::DensityUpdate => Fields::NONE,
             Pass::WallExtrapolation => geometry.or(Fields::V).or(Fields::RHO).or(Fields::P),
             Pass::Momentum => geometry
@@ -54,6 +58,7 @@ impl Pass {
                 .or(Fields::RHO)
                 .or(Fields::P)
                 .or(Fields::VW)
+                .or(Fields::LAP)
                 .or(Fields::MAT),
             Pass::SolidCorrection => geometry.or(Fields::RHO),
             // the sound speed of the viscosity comes from (ρ, e)
@@ -83,6 +88,7 @@ impl Pass {
     pub fn writes(self) -> Fields {
         match self {
             Pass::DensityGradient => Fields::GRAD_RHO,
+            Pass::ViscousMoment => Fields::LAP,
             Pass::Continuity | Pass::Momentum | Pass::SolidRates | Pass::SolidMomentum => Fields::NONE,
             Pass::SolidCorrection => Fields::CORRECTION,
             Pass::SolidUpdate => Fields::RHO
@@ -108,6 +114,7 @@ impl Pass {
         match self {
             Pass::DensityGradient => "density_gradient",
             Pass::Continuity => "continuity",
+            Pass::ViscousMoment => "viscous_moment",
             Pass::DensityUpdate => "density_update",
             Pass::WallExtrapolation => "wall_extrapolation",
             Pass::Momentum => "momentum",
@@ -125,13 +132,17 @@ impl Pass {
 /// and the density update come before the forces; see `Simulation::advance`).
 /// A scene without fluid runs no fluid pass, one without solids no solid pass.
 pub fn schedule<const D: usize>(model: &Model<D>) -> Vec<Pass> {
-    let mut s = Vec::with_capacity(11);
+    let mut s = Vec::with_capacity(12);
     let (fluid, solid) = (model.has_fluid, model.has_solid);
     if fluid && model.diffusion == DensityDiffusion::Antuono {
         s.push(Pass::DensityGradient);
     }
     if fluid {
         s.push(Pass::Continuity);
+    }
+    if fluid && model.nu > 0.0 && model.viscous.renormalised {
+        // reads what continuity read: no exchange of its own
+        s.push(Pass::ViscousMoment);
     }
     if solid {
         s.push(Pass::SolidCorrection);

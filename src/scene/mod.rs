@@ -511,6 +511,29 @@ pub struct Physics {
     /// `delta_plus` (Sun et al. 2017, [`crate::physics::shifting`]).
     #[serde(default, skip_serializing_if = "ShiftingKind::is_none")]
     pub shifting: ShiftingKind,
+    /// The discrete laminar viscous operator: `morris` (default, Morris et al. 1997) or
+    /// `renormalised` (the same, divided by the pair's mean lattice moment, so that it is
+    /// exact for quadratic fields on any regular lattice: [`crate::physics::viscous`]).
+    #[serde(default, skip_serializing_if = "ViscousOperator::is_morris")]
+    pub viscous_operator: ViscousOperator,
+}
+
+/// The discrete laminar viscous operator.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ViscousOperator {
+    /// Morris, Fox & Zhu (1997), eq. (8).
+    #[default]
+    Morris,
+    /// Morris's operator times 2/(L_i + L_j), L the lattice moment −(1/D) Σ_j V_j r_ij W′_ij.
+    Renormalised,
+}
+
+impl ViscousOperator {
+    /// True for `morris` (left out of a written scene).
+    pub fn is_morris(&self) -> bool {
+        *self == ViscousOperator::Morris
+    }
 }
 
 /// Particle shifting variants.
@@ -546,6 +569,7 @@ impl Default for Physics {
             artificial_viscosity_beta: 0.0,
             artificial_stress: 0.0,
             shifting: ShiftingKind::None,
+            viscous_operator: ViscousOperator::Morris,
         }
     }
 }
@@ -673,6 +697,27 @@ pub enum Slip {
     FreeSlip,
 }
 
+/// How a no-slip dummy wall shows the fluid its velocity in the laminar viscous term.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum NoSlipMethod {
+    /// Adami et al. (2012): every wall particle carries v_w = 2 u_wall − ṽ_w, ṽ_w the
+    /// kernel-weighted mean of the fluid velocities round it.
+    #[default]
+    Adami,
+    /// Morris et al. (1997): per pair, v_i − v_w = β (v_i − u_wall) with β = 1 + d_w/d_i, the
+    /// depths of the wall particle and the fluid particle on either side of the wall's
+    /// surface: exact for a linear profile ([`crate::boundary::geometry`]).
+    Morris,
+}
+
+impl NoSlipMethod {
+    /// True for `adami` (left out of a written scene).
+    pub fn is_adami(&self) -> bool {
+        *self == NoSlipMethod::Adami
+    }
+}
+
 /// Prescribed motion law x(t) of a wall (a piston or wave maker).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, tag = "law", rename_all = "snake_case")]
@@ -729,6 +774,10 @@ pub struct WallBody {
     /// `no_slip` or `free_slip`.
     #[serde(default = "default_slip")]
     pub slip: Slip,
+    /// How a no-slip dummy wall shows the fluid its velocity in the laminar viscous term:
+    /// `adami` (default) or `morris` (Morris et al. 1997's distance ratio).
+    #[serde(default, skip_serializing_if = "NoSlipMethod::is_adami")]
+    pub no_slip: NoSlipMethod,
     /// Material whose EOS converts extrapolated pressure to density (default: the first).
     #[serde(default)]
     pub material: String,

@@ -430,6 +430,13 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
     non_negative(ph.artificial_viscosity_beta, "physics.artificial_viscosity_beta")?;
     non_negative(ph.artificial_stress, "physics.artificial_stress")?;
     check_vec(&mut ph.body_force, d, "physics.body_force", true)?;
+    if ph.viscous_operator != crate::scene::ViscousOperator::Morris && ph.laminar_viscosity == 0.0 {
+        return err(
+            "physics.viscous_operator",
+            "`renormalised` changes the laminar viscous term, and laminar_viscosity is 0: set \
+             physics.laminar_viscosity (m²/s), or remove viscous_operator",
+        );
+    }
 
     Ok(())
 }
@@ -574,6 +581,15 @@ fn validate_walls(s: &mut Scene, mat_names: &[String], support: f64) -> Result<(
             }
         }
         validate_motion(w, &k, d)?;
+        if w.no_slip == crate::scene::NoSlipMethod::Morris
+            && (w.method != WallMethod::Dummy || w.slip != crate::scene::Slip::NoSlip)
+        {
+            return err(
+                format!("{k}.no_slip"),
+                "`morris` sets the velocity a no-slip dummy wall shows the fluid: it needs \
+                 method = \"dummy\" and slip = \"no_slip\"; remove it, or use no_slip = \"adami\"",
+            );
+        }
     }
     Ok(())
 }

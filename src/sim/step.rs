@@ -21,7 +21,7 @@ use crate::physics::passes::Pass;
 use crate::physics::solid::dynamics;
 use crate::physics::solid::dynamics::SolidScratch;
 use crate::physics::Model;
-use crate::physics::{delta, fluid, pairs};
+use crate::physics::{delta, fluid, pairs, viscous};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -264,7 +264,15 @@ impl<const D: usize> Simulation<D> {
 
     /// Move walls with a motion law from time `t0` to `t1`.
     pub(super) fn apply_wall_motion(&mut self, t0: f64, t1: f64) {
-        motion::move_walls(&self.kinematics, &mut self.p, t0, t1, &mut self.model.wall_acc);
+        let m = &mut self.model;
+        motion::move_walls(
+            &self.kinematics,
+            &mut self.p,
+            t0,
+            t1,
+            &mut m.wall_acc,
+            &mut m.wall_shift,
+        );
     }
 
     /// Half kick of owned integrated particles: v += ½dt a.
@@ -370,6 +378,7 @@ fn neighbour_pass<const D: usize, N: Neighbours>(
     match (pass, half) {
         (Pass::DensityGradient, Some(h)) => pairs::renormalised_gradient(p, h, model, pair),
         (Pass::Continuity, Some(h)) => pairs::continuity(p, h, model, dt, pair),
+        (Pass::ViscousMoment, Some(h)) => pairs::lattice_moment(p, h, model, pair),
         (Pass::Momentum, Some(h)) => pairs::momentum(p, h, model, pair),
         _ => gather_pass(pass, p, nb, model, dt, pair.buffer(), solid),
     }
@@ -388,6 +397,7 @@ fn gather_pass<const D: usize, N: Neighbours>(
     match pass {
         Pass::DensityGradient => delta::renormalised_gradient(p, nb, model, buf),
         Pass::Continuity => fluid::continuity(p, nb, model, dt, buf),
+        Pass::ViscousMoment => viscous::lattice_moment(p, nb, model, buf),
         Pass::WallExtrapolation => dummy::extrapolate(p, nb, model),
         Pass::Momentum => fluid::momentum(p, nb, model, buf),
         Pass::SolidCorrection => dynamics::correction(p, nb, model),

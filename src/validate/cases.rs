@@ -18,24 +18,37 @@ pub struct Variant {
     pub diffusion: &'static str,
     /// `performance.interactions` (`gather`, the bitwise default, or `pairs`).
     pub interactions: &'static str,
+    /// `physics.viscous_operator` (`morris` or `renormalised`).
+    pub viscous: &'static str,
+    /// `wall[].no_slip` of every wall (`adami` or `morris`).
+    pub no_slip: &'static str,
 }
 
 impl Variant {
     /// Short name used in the CSV and the charts, e.g. `quintic_spline-h1.0-dummy-none`, with
-    /// `-pairs` appended in pair mode.
+    /// `-renorm` appended for the renormalised viscous operator, `-morriswall` for Morris's
+    /// no-slip and `-pairs` for pair mode.
     pub fn name(&self) -> String {
-        let pairs = if self.interactions == "pairs" {
-            "-pairs"
-        } else {
-            ""
-        };
+        let suffix = |on: bool, s: &'static str| if on { s } else { "" };
         format!(
-            "{}-h{:.1}-{}-{}{pairs}",
+            "{}-h{:.1}-{}-{}{}{}{}",
             self.kernel.name(),
             self.h_over_dx,
             self.walls,
-            self.diffusion
+            self.diffusion,
+            suffix(self.viscous == "renormalised", "-renorm"),
+            suffix(self.no_slip == "morris", "-morriswall"),
+            suffix(self.interactions == "pairs", "-pairs"),
         )
+    }
+
+    /// This variant with the renormalised viscous operator and Morris's no-slip walls.
+    fn corrected(&self) -> Self {
+        Variant {
+            viscous: "renormalised",
+            no_slip: "morris",
+            ..self.clone()
+        }
     }
 
     /// This variant in pair mode.
@@ -124,9 +137,11 @@ fn channel_overrides(n: u32, v: &Variant) -> Vec<String> {
         format!("wall[0].max=[{x:e},0.0]"),
         format!("wall[1].min=[0.0,{gap:e}]"),
         format!("wall[1].max=[{x:e},{:e}]", gap + t),
+        format!("physics.viscous_operator=\"{}\"", v.viscous),
     ];
     for w in 0..2 {
         o.push(format!("wall[{w}].method=\"{}\"", v.walls));
+        o.push(format!("wall[{w}].no_slip=\"{}\"", v.no_slip));
     }
     o
 }
@@ -136,7 +151,7 @@ fn channel_overrides(n: u32, v: &Variant) -> Vec<String> {
 fn channel_sweep() -> Vec<Variant> {
     // mirror walls reflect across the inner faces of a container only; the channel's plates
     // are blocks of a periodic box, so its wall variants wait for a periodic container
-    let mut out = with_kernels(
+    let plain = with_kernels(
         channel_default(),
         &[
             (KernelKind::QuinticSpline, 1.5),
@@ -146,6 +161,9 @@ fn channel_sweep() -> Vec<Variant> {
             (KernelKind::WendlandC2, 2.0),
         ],
     );
+    // each again with the renormalised operator and Morris's no-slip (physics::viscous)
+    let mut out = plain.clone();
+    out.extend(plain.iter().map(Variant::corrected));
     out.push(channel_default().in_pairs());
     out
 }
@@ -168,6 +186,8 @@ fn channel_default() -> Variant {
         walls: "dummy",
         diffusion: "none",
         interactions: "gather",
+        viscous: "morris",
+        no_slip: "adami",
     }
 }
 
@@ -220,6 +240,8 @@ fn hydrostatic_default() -> Variant {
         walls: "dummy",
         diffusion: "antuono",
         interactions: "gather",
+        viscous: "morris",
+        no_slip: "adami",
     }
 }
 
@@ -286,6 +308,8 @@ fn cavity_default() -> Variant {
         walls: "dummy",
         diffusion: "antuono",
         interactions: "gather",
+        viscous: "morris",
+        no_slip: "adami",
     }
 }
 
