@@ -63,12 +63,22 @@ fn couette_matches_morris_series_within_half_a_percent() {
     channel("couette_2d.toml", "couette");
 }
 
+/// The same start-ups between mirror walls (the plates are faces of containers open along
+/// the periodic axis; no wall particles): the shipped quintic spline at h = dx, n = 25.
+#[test]
+fn poiseuille_and_couette_between_mirror_walls_match_morris_within_half_a_percent() {
+    channel("poiseuille_2d_mirror.toml", "poiseuille-mirror");
+    channel("couette_2d_mirror.toml", "couette-mirror");
+}
+
 /// Issue 19: the channel at n = 25 with the renormalised viscous operator and Morris's
 /// no-slip walls stays within 0.5 % (t = 0.6 s and 2 s) for the two worst settings of the
 /// sweep's kernels and h/dx 1.2–2.0: Wendland C2 at h = 1.2 dx, whose lattice moment (0.964)
 /// held the plain operator at 3.7 %, and the cubic spline at h = 2 dx, whose Adami walls
-/// gave 1.1 %. The plain Wendland run is checked to fail, so the test sees the correction.
-/// The runs use the sweep's own overrides (`hsph validate`'s `cases`).
+/// gave 1.1 %. Between mirror walls (no dummy layer) the renormalised operator brings
+/// Wendland h = 1.2 dx within 0.5 % too. The plain Wendland run is checked to fail, so the
+/// test sees the correction. The runs use the sweep's own scenes and overrides (`hsph
+/// validate`'s `cases`).
 #[test]
 fn renormalised_operator_and_morris_walls_bring_the_channel_within_half_a_percent() {
     use hsph::kernel::KernelKind;
@@ -76,7 +86,7 @@ fn renormalised_operator_and_morris_walls_bring_the_channel_within_half_a_percen
     let errors = |case: &cases::Case, v: &cases::Variant| {
         let sets = case.sets(25, v);
         let sets: Vec<&str> = sets.iter().map(String::as_str).collect();
-        let s = scene(case.file.trim_start_matches("inputs/"), &sets);
+        let s = scene(case.scene_for(v).0.trim_start_matches("inputs/"), &sets);
         let out = run(&s, &format!("{}-{}", case.name, v.name()));
         ["velocity_linf_t0.6", "velocity_linf_t2"].map(|k| error(&out.errors, k))
     };
@@ -98,6 +108,18 @@ fn renormalised_operator_and_morris_walls_bring_the_channel_within_half_a_percen
             );
             assert!(e.iter().all(|&e| e <= 0.005), "{name} {}: {e:?}", v.name());
         }
+        // between mirror walls the renormalised operator alone lifts Wendland's floor
+        let v = sweep
+            .iter()
+            .find(|v| {
+                v.kernel == KernelKind::WendlandC2
+                    && v.h_over_dx == 1.2
+                    && v.walls == "mirror"
+                    && v.viscous == "renormalised"
+            })
+            .unwrap_or_else(|| panic!("{name}: no mirror Wendland h = 1.2 dx variant"));
+        let e = errors(&case, v);
+        assert!(e.iter().all(|&e| e <= 0.005), "{name} {}: {e:?}", v.name());
     }
     let case = cases::find("poiseuille").unwrap();
     let plain = (case.sweep)()

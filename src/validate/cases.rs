@@ -74,6 +74,8 @@ pub struct Case {
     pub file: &'static str,
     /// That scene's text, compiled in so that `hsph validate` runs from any directory.
     pub scene: &'static str,
+    /// The scene (file, text) the `mirror` wall variants start from, if the case has them.
+    pub mirror: Option<(&'static str, &'static str)>,
     /// Key of `summary.json`'s `errors` that is the case's error.
     pub error_key: &'static str,
     /// What that error measures.
@@ -91,6 +93,14 @@ pub struct Case {
 }
 
 impl Case {
+    /// The scene (file, text) variant `v` starts from.
+    pub fn scene_for(&self, v: &Variant) -> (&'static str, &'static str) {
+        match self.mirror {
+            Some(m) if v.walls == "mirror" => m,
+            _ => (self.file, self.scene),
+        }
+    }
+
     /// Every `--set` override of resolution `n` and variant `v`: the case's own, then the
     /// interactions.
     pub fn sets(&self, n: u32, v: &Variant) -> Vec<String> {
@@ -118,8 +128,9 @@ pub fn find(name: &str) -> std::result::Result<Case, String> {
 /// The channel of the Poiseuille and Couette start-ups (gap L = 1 mm, periodic along x): at
 /// dx = L/n the plates are whole rows thick enough to cover the support, the periodic length
 /// is a whole number of rows of at least 0.6 mm and three supports, and rows sit half a
-/// spacing from each plate.
-fn channel_overrides(n: u32, v: &Variant) -> Vec<String> {
+/// spacing from each plate. Dummy plates are the blocks wall[0] and wall[1]; mirror plates
+/// the faces of `mirrors` containers with the gap as inner box.
+fn channel_overrides(n: u32, v: &Variant, mirrors: usize) -> Vec<String> {
     let gap = 1.0e-3;
     let dx = gap / n as f64;
     let rows = |len: f64| (len / dx - 1e-9).ceil();
@@ -133,12 +144,20 @@ fn channel_overrides(n: u32, v: &Variant) -> Vec<String> {
         format!("domain.min=[0.0,{:e}]", -t),
         format!("domain.max=[{x:e},{:e}]", gap + t),
         format!("fluid[0].max=[{x:e},{gap:e}]"),
+        format!("physics.viscous_operator=\"{}\"", v.viscous),
+    ];
+    if v.walls == "mirror" {
+        for w in 0..mirrors {
+            o.push(format!("wall[{w}].max=[{x:e},{gap:e}]"));
+        }
+        return o;
+    }
+    o.extend([
         format!("wall[0].min=[0.0,{:e}]", -t),
         format!("wall[0].max=[{x:e},0.0]"),
         format!("wall[1].min=[0.0,{gap:e}]"),
         format!("wall[1].max=[{x:e},{:e}]", gap + t),
-        format!("physics.viscous_operator=\"{}\"", v.viscous),
-    ];
+    ]);
     for w in 0..2 {
         o.push(format!("wall[{w}].method=\"{}\"", v.walls));
         o.push(format!("wall[{w}].no_slip=\"{}\"", v.no_slip));
@@ -149,8 +168,6 @@ fn channel_overrides(n: u32, v: &Variant) -> Vec<String> {
 /// Kernel and h/dx pairs the channel sweeps: each kernel at its usual h/dx and at the ends of
 /// the 1.2–2.0 range.
 fn channel_sweep() -> Vec<Variant> {
-    // mirror walls reflect across the inner faces of a container only; the channel's plates
-    // are blocks of a periodic box, so its wall variants wait for a periodic container
     let plain = with_kernels(
         channel_default(),
         &[
@@ -161,9 +178,17 @@ fn channel_sweep() -> Vec<Variant> {
             (KernelKind::WendlandC2, 2.0),
         ],
     );
-    // each again with the renormalised operator and Morris's no-slip (physics::viscous)
+    // each again with the renormalised operator and Morris's no-slip (physics::viscous), and
+    // between mirror walls with the plain and the renormalised operator
     let mut out = plain.clone();
     out.extend(plain.iter().map(Variant::corrected));
+    for viscous in ["morris", "renormalised"] {
+        out.extend(plain.iter().map(|v| Variant {
+            walls: "mirror",
+            viscous,
+            ..v.clone()
+        }));
+    }
     out.push(channel_default().in_pairs());
     out
 }
@@ -196,12 +221,16 @@ fn poiseuille() -> Case {
         name: "poiseuille",
         file: "inputs/poiseuille_2d.toml",
         scene: include_str!("../../inputs/poiseuille_2d.toml"),
+        mirror: Some((
+            "inputs/poiseuille_2d_mirror.toml",
+            include_str!("../../inputs/poiseuille_2d_mirror.toml"),
+        )),
         error_key: "velocity_linf_t*",
         norm: "max over the gap of |u − u_exact| / u_max at the last reference time (t = 2 s; Morris et al. 1997)",
         resolutions: &[10, 20, 25, 40],
         default: channel_default(),
         sweep: channel_sweep,
-        overrides: channel_overrides,
+        overrides: |n, v| channel_overrides(n, v, 1),
         length: 1.0e-3,
     }
 }
@@ -211,6 +240,11 @@ fn couette() -> Case {
         name: "couette",
         file: "inputs/couette_2d.toml",
         scene: include_str!("../../inputs/couette_2d.toml"),
+        mirror: Some((
+            "inputs/couette_2d_mirror.toml",
+            include_str!("../../inputs/couette_2d_mirror.toml"),
+        )),
+        overrides: |n, v| channel_overrides(n, v, 2),
         error_key: "velocity_linf_t*",
         norm: "max over the gap of |u − u_exact| / v0 at t = 2 s (Morris et al. 1997)",
         ..poiseuille()
@@ -250,6 +284,7 @@ fn hydrostatic() -> Case {
         name: "hydrostatic",
         file: "inputs/hydrostatic_2d.toml",
         scene: include_str!("../../inputs/hydrostatic_2d.toml"),
+        mirror: None,
         error_key: "pressure_linf_below_mid_depth",
         norm: "max below mid-depth of |p − ρ g d| / (ρ g H) at t_end",
         resolutions: &[10, 20, 25, 40],
@@ -318,6 +353,7 @@ fn cavity() -> Case {
         name: "cavity",
         file: "inputs/cavity_re100.toml",
         scene: include_str!("../../inputs/cavity_re100.toml"),
+        mirror: None,
         error_key: "cavity_linf",
         norm: "max over Ghia et al.'s 15 + 15 interior centreline points of |u − u_Ghia| and |v − v_Ghia|, in lid-speed units, at t = 30 L/U (Re = 100)",
         resolutions: &[20, 40, 60],
@@ -350,6 +386,32 @@ fn cavity() -> Case {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mirror_variants_start_from_the_mirror_scenes_and_set_no_wall_particles() {
+        for (name, containers) in [("poiseuille", 1), ("couette", 2)] {
+            let case = find(name).unwrap();
+            let mirror: Vec<Variant> = (case.sweep)()
+                .into_iter()
+                .filter(|v| v.walls == "mirror")
+                .collect();
+            assert_eq!(mirror.len(), 12, "{name}: six kernels x two operators");
+            for v in &mirror {
+                let (file, text) = case.scene_for(v);
+                assert!(file.ends_with("_mirror.toml"), "{file}");
+                assert_eq!(text.matches("method = \"mirror\"").count(), containers);
+                let sets = case.sets(40, v);
+                // the containers' boxes follow the periodic length; no block plates
+                assert_eq!(
+                    sets.iter().filter(|s| s.contains("].max=[")).count(),
+                    1 + containers,
+                    "{sets:?}"
+                );
+                assert!(!sets.iter().any(|s| s.contains("no_slip")), "{sets:?}");
+            }
+            assert_eq!(case.scene_for(&case.default).0, case.file);
+        }
+    }
 
     #[test]
     fn every_case_sweeps_its_method_in_pair_mode_too() {

@@ -234,9 +234,13 @@ impl Runner {
 
     /// Run one configuration as a child `hsph run` and read its `summary.json`.
     fn run_one(&self, job: &Job) -> Result<Row> {
-        let scene = self.out.join("scenes").join(format!("{}.toml", job.case.name));
+        let (file, text) = job.case.scene_for(&job.variant);
+        let stem = std::path::Path::new(file)
+            .file_stem()
+            .map_or(job.case.name.into(), |s| s.to_string_lossy());
+        let scene = self.out.join("scenes").join(format!("{stem}.toml"));
         if !scene.exists() {
-            std::fs::write(&scene, job.case.scene).map_err(|e| Error::io(&scene, e))?;
+            std::fs::write(&scene, text).map_err(|e| Error::io(&scene, e))?;
         }
         let dir = self.out.join("runs").join(job.dir_name());
         let sets: Vec<String> = job
