@@ -164,10 +164,11 @@ fn a_small_poiseuille_sweep_charts_its_front_and_names_the_cheapest_run() {
     assert!(String::from_utf8_lossy(&unknown.stderr).contains("known cases: poiseuille"));
 }
 
-/// The stability map's wall study (9 runs, about 10 s): every run stable now that mirror walls
+/// The stability map's wall study (9 runs, about 15 s): every run stable now that mirror walls
 /// bounce particles that a drift carries through them (before, the mirror row failed "through
-/// a wall" at every speed); `map.csv`, the chart and `map.md` are written, and an unknown study
-/// is exit 2 naming the known ones.
+/// a wall" at every speed), and every run's closest approach to the wall measured;
+/// `map.csv`, the chart and `map.md` are written, and an unknown study is exit 2 naming the
+/// known ones.
 #[test]
 fn the_wall_study_maps_every_method_and_speed() {
     let out = common::temp_dir("validate_map");
@@ -187,6 +188,16 @@ fn the_wall_study_maps_every_method_and_speed() {
     }
     for l in &rows {
         assert_eq!(l.split(',').nth(4), Some("stable"), "{l}");
+        // penetration: the water's closest approach to the struck wall's face, in dx, over
+        // every step (the front probe of the scene); no method lets the main body past the
+        // face, and the repulsive force holds it a fifth of a spacing off (measured 0.21-0.32)
+        let f: Vec<&str> = l.split(',').collect();
+        assert_eq!(f[8], "closest approach (dx)", "{l}");
+        let approach: f64 = f[9].parse().unwrap();
+        assert!((0.0..0.5).contains(&approach), "{l}");
+        if f[1] == "repulsive" {
+            assert!(approach > 0.15, "{l}");
+        }
     }
     for ext in ["png", "svg"] {
         assert!(out.join(format!("map_walls.{ext}")).exists());

@@ -22,22 +22,25 @@ pub struct Variant {
     pub viscous: &'static str,
     /// `wall[].no_slip` of every wall (`adami` or `morris`).
     pub no_slip: &'static str,
+    /// `physics.shifting` (`none` or `delta_plus`).
+    pub shifting: &'static str,
 }
 
 impl Variant {
     /// Short name used in the CSV and the charts, e.g. `quintic_spline-h1.0-dummy-none`, with
     /// `-renorm` appended for the renormalised viscous operator, `-morriswall` for Morris's
-    /// no-slip and `-pairs` for pair mode.
+    /// no-slip, `-shift` for δ⁺ shifting and `-pairs` for pair mode.
     pub fn name(&self) -> String {
         let suffix = |on: bool, s: &'static str| if on { s } else { "" };
         format!(
-            "{}-h{:.1}-{}-{}{}{}{}",
+            "{}-h{:.1}-{}-{}{}{}{}{}",
             self.kernel.name(),
             self.h_over_dx,
             self.walls,
             self.diffusion,
             suffix(self.viscous == "renormalised", "-renorm"),
             suffix(self.no_slip == "morris", "-morriswall"),
+            suffix(self.shifting == "delta_plus", "-shift"),
             suffix(self.interactions == "pairs", "-pairs"),
         )
     }
@@ -102,10 +105,14 @@ impl Case {
     }
 
     /// Every `--set` override of resolution `n` and variant `v`: the case's own, then the
-    /// interactions.
+    /// interactions, then shifting where it is on (so that the overrides of a sweep written
+    /// before shifting was a variant stay the same, and it resumes).
     pub fn sets(&self, n: u32, v: &Variant) -> Vec<String> {
         let mut o = (self.overrides)(n, v);
         o.push(format!("performance.interactions=\"{}\"", v.interactions));
+        if v.shifting != "none" {
+            o.push(format!("physics.shifting=\"{}\"", v.shifting));
+        }
         o
     }
 }
@@ -213,6 +220,7 @@ fn channel_default() -> Variant {
         interactions: "gather",
         viscous: "morris",
         no_slip: "adami",
+        shifting: "none",
     }
 }
 
@@ -276,6 +284,7 @@ fn hydrostatic_default() -> Variant {
         interactions: "gather",
         viscous: "morris",
         no_slip: "adami",
+        shifting: "none",
     }
 }
 
@@ -303,6 +312,15 @@ fn hydrostatic() -> Case {
                 diffusion,
                 ..hydrostatic_default()
             }));
+            // δ⁺ shifting at the shipped h = 2 dx and at h = 1.3 dx, where the unshifted
+            // lattice rearranges (§5d of docs/validation.md)
+            for h_over_dx in [2.0, 1.3] {
+                out.push(Variant {
+                    h_over_dx,
+                    shifting: "delta_plus",
+                    ..hydrostatic_default()
+                });
+            }
             out.push(hydrostatic_default().in_pairs());
             out
         },
@@ -345,6 +363,7 @@ fn cavity_default() -> Variant {
         interactions: "gather",
         viscous: "morris",
         no_slip: "adami",
+        shifting: "none",
     }
 }
 

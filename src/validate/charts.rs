@@ -34,35 +34,72 @@ fn tick(v: &f64) -> String {
     }
 }
 
-/// Variants of `rows` in first-seen order.
-fn variants(rows: &[&Row]) -> Vec<String> {
+/// Distinct values of `key` over `rows`, in first-seen order.
+fn distinct(rows: &[&Row], key: impl Fn(&Row) -> String) -> Vec<String> {
     let mut out: Vec<String> = Vec::new();
     for r in rows {
-        if !out.contains(&r.variant) {
-            out.push(r.variant.clone());
+        let k = key(r);
+        if !out.contains(&k) {
+            out.push(k);
         }
     }
     out
 }
 
+/// A variant name `kernel-hX-method…` split into the discretisation (`kernel-hX`, one colour
+/// per value) and the method (walls, diffusion and the suffixes: one marker or panel per
+/// value). A name without two dashes is all discretisation.
+fn split_variant(name: &str) -> (String, String) {
+    match name.splitn(3, '-').collect::<Vec<_>>()[..] {
+        [k, h, m] => (format!("{k}-{h}"), m.to_string()),
+        _ => (name.to_string(), String::new()),
+    }
+}
+
+/// Marker `k` as a polygon of pixel offsets (radius `r`): circle, triangle, square, diamond,
+/// inverted triangle, hexagon, then again.
+fn marker_shape(k: usize, r: i32) -> Vec<(i32, i32)> {
+    let ring = |n: usize, phase: f64| -> Vec<(i32, i32)> {
+        (0..n)
+            .map(|j| {
+                let a = phase + std::f64::consts::TAU * j as f64 / n as f64;
+                let rr = f64::from(r);
+                ((rr * a.cos()).round() as i32, (-rr * a.sin()).round() as i32)
+            })
+            .collect()
+    };
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
+    match k % 6 {
+        0 => ring(16, 0.0),
+        1 => ring(3, FRAC_PI_2),
+        2 => ring(4, FRAC_PI_4),
+        3 => ring(4, 0.0),
+        4 => ring(3, -FRAC_PI_2),
+        _ => ring(6, 0.0),
+    }
+}
+
 /// `<case>_cost_error.{png,svg}`: the error of every successful run against its wall time
-/// (log–log), one colour per variant, the Pareto front joined in black.
+/// (log–log); colour = kernel and h/dx, marker = method; the Pareto front joined in black.
 pub fn cost_error(dir: &Path, case: &str, rows: &[&Row]) -> Result<Vec<PathBuf>> {
     let ok: Vec<&Row> = rows.iter().copied().filter(|r| r.ok()).collect();
     let xr = log_range(ok.iter().map(|r| r.wall_s));
     let yr = log_range(ok.iter().map(|r| r.error));
-    let names = variants(&ok);
+    let bases = distinct(&ok, |r| split_variant(&r.variant).0);
+    let methods = distinct(&ok, |r| split_variant(&r.variant).1);
     let pts: Vec<(f64, f64)> = ok.iter().map(|r| (r.wall_s, r.error)).collect();
     let front: Vec<(f64, f64)> = pareto(&pts).into_iter().map(|i| pts[i]).collect();
     let untimed = ok.iter().any(|r| !r.timed);
-    both!(dir, format!("{case}_cost_error"), (900, 560), |root| {
+    let no_points = Vec::<(f64, f64)>::new;
+    both!(dir, format!("{case}_cost_error"), (1000, 600), |root| {
         root.fill(&WHITE)?;
         let title = if untimed {
             format!("{case}: error against cost (some runs untimed: --jobs > 1)")
         } else {
             format!("{case}: error against cost")
         };
-        let mut ch = ChartBuilder::on(root)
+        let (plot, side) = root.split_horizontally(720);
+        let mut ch = ChartBuilder::on(&plot)
             .caption(title, font(20))
             .margin(12)
             .x_label_area_size(45)
@@ -77,87 +114,118 @@ pub fn cost_error(dir: &Path, case: &str, rows: &[&Row]) -> Result<Vec<PathBuf>>
             .label_style(font(13))
             .axis_desc_style(font(15))
             .draw()?;
-        ch.draw_series(LineSeries::new(front.clone(), BLACK.stroke_width(2)))?
+        ch.draw_series(LineSeries::new(front.clone(), BLACK.stroke_width(2)))?;
+        for r in &ok {
+            let (base, method) = split_variant(&r.variant);
+            let c = PALETTE[bases.iter().position(|b| *b == base).unwrap_or(0) % PALETTE.len()];
+            let m = methods.iter().position(|x| *x == method).unwrap_or(0);
+            ch.draw_series(std::iter::once(
+                EmptyElement::at((r.wall_s, r.error)) + Polygon::new(marker_shape(m, 5), c.filled()),
+            ))?;
+        }
+        // the legend beside the plot: the front, the colours, then the markers
+        let mut lg = ChartBuilder::on(&side)
+            .margin_top(40)
+            .build_cartesian_2d(0.0..1.0, 0.0..1.0)?;
+        lg.draw_series(LineSeries::new(no_points(), BLACK.stroke_width(2)))?
             .label("Pareto front")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
-        for (k, name) in names.iter().enumerate() {
+        for (k, b) in bases.iter().enumerate() {
             let c = PALETTE[k % PALETTE.len()];
-            let mine = ok
-                .iter()
-                .filter(|r| &r.variant == name)
-                .map(|r| Circle::new((r.wall_s, r.error), 5, c.filled()));
-            ch.draw_series(mine)?
-                .label(name.as_str())
-                .legend(move |(x, y)| Circle::new((x + 10, y), 5, c.filled()));
+            lg.draw_series(LineSeries::new(no_points(), c))?
+                .label(b.as_str())
+                .legend(move |(x, y)| {
+                    EmptyElement::at((x + 10, y)) + Polygon::new(marker_shape(0, 5), c.filled())
+                });
         }
-        ch.configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
+        for (k, m) in methods.iter().enumerate() {
+            let grey = RGBColor(90, 90, 90);
+            lg.draw_series(LineSeries::new(no_points(), grey))?
+                .label(m.as_str())
+                .legend(move |(x, y)| {
+                    EmptyElement::at((x + 10, y)) + Polygon::new(marker_shape(k, 5), grey.filled())
+                });
+        }
+        lg.configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
             .label_font(font(12))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
+            .background_style(WHITE)
+            .border_style(WHITE)
             .draw()?;
         Ok(())
     })
 }
 
-/// `<case>_convergence.{png,svg}`: error against resolution n = L/dx (log–log) per variant,
-/// with the fitted order p of error ≈ c dxᵖ in the legend and the fit drawn dashed.
+/// `<case>_convergence.{png,svg}`: error against resolution n = L/dx (log–log), one panel
+/// per method and one colour per kernel and h/dx, with the fitted order p of error ≈ c dxᵖ in
+/// the legend and the fit drawn dashed. Every panel has the same axes.
 pub fn convergence(dir: &Path, case: &str, rows: &[&Row]) -> Result<Vec<PathBuf>> {
     let ok: Vec<&Row> = rows.iter().copied().filter(|r| r.ok()).collect();
     let xr = log_range(ok.iter().map(|r| r.resolution as f64));
     let yr = log_range(ok.iter().map(|r| r.error));
-    let names = variants(&ok);
-    both!(dir, format!("{case}_convergence"), (900, 560), |root| {
+    let bases = distinct(&ok, |r| split_variant(&r.variant).0);
+    let methods = distinct(&ok, |r| split_variant(&r.variant).1);
+    let cols = methods.len().clamp(1, 3);
+    let grid = (methods.len().max(1).div_ceil(cols), cols);
+    let size = if methods.len() <= 1 {
+        (900, 560)
+    } else {
+        (480 * cols as u32, 430 * grid.0 as u32 + 40)
+    };
+    both!(dir, format!("{case}_convergence"), size, |root| {
         root.fill(&WHITE)?;
-        let mut ch = ChartBuilder::on(root)
-            .caption(format!("{case}: error against resolution"), font(20))
-            .margin(12)
-            .x_label_area_size(45)
-            .y_label_area_size(70)
-            .build_cartesian_2d(xr.clone().log_scale(), yr.clone().log_scale())?;
-        ch.configure_mesh()
-            .x_desc("resolution n (particles across the length scale; dx = L/n)")
-            .y_desc("error (fraction)")
-            .x_label_formatter(&tick)
-            .y_label_formatter(&tick)
-            .light_line_style(RGBColor(238, 238, 238))
-            .label_style(font(13))
-            .axis_desc_style(font(15))
-            .draw()?;
-        for (k, name) in names.iter().enumerate() {
-            let c = PALETTE[k % PALETTE.len()];
-            let mine_dx: Vec<(f64, f64)> = ok
-                .iter()
-                .filter(|r| &r.variant == name)
-                .map(|r| (r.dx, r.error))
-                .collect();
-            // n = L/dx
-            let len = ok
-                .iter()
-                .find(|r| &r.variant == name)
-                .map_or(1.0, |r| r.dx * r.resolution as f64);
-            let mut mine: Vec<(f64, f64)> = mine_dx.iter().map(|&(d, e)| (len / d, e)).collect();
-            mine.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let label = match convergence_order(&mine_dx) {
-                Some((p, cst)) => {
-                    let (a, b) = (mine[0].0, mine[mine.len() - 1].0);
-                    let fit = [(a, cst * (len / a).powf(p)), (b, cst * (len / b).powf(p))];
-                    ch.draw_series(DashedLineSeries::new(fit, 6, 4, c.stroke_width(1)))?;
-                    format!("{name} (order {p:.2})")
+        let root = root.titled(&format!("{case}: error against resolution"), font(20))?;
+        for (panel, method) in root.split_evenly(grid).iter().zip(&methods) {
+            let mut ch = ChartBuilder::on(panel)
+                .caption(method.as_str(), font(15))
+                .margin(8)
+                .x_label_area_size(40)
+                .y_label_area_size(60)
+                .build_cartesian_2d(xr.clone().log_scale(), yr.clone().log_scale())?;
+            ch.configure_mesh()
+                .x_desc("n = L/dx")
+                .y_desc("error (fraction)")
+                .x_label_formatter(&tick)
+                .y_label_formatter(&tick)
+                .light_line_style(RGBColor(238, 238, 238))
+                .label_style(font(12))
+                .axis_desc_style(font(13))
+                .draw()?;
+            for (k, base) in bases.iter().enumerate() {
+                let c = PALETTE[k % PALETTE.len()];
+                let mine_rows: Vec<&&Row> = ok
+                    .iter()
+                    .filter(|r| split_variant(&r.variant) == (base.clone(), method.clone()))
+                    .collect();
+                if mine_rows.is_empty() {
+                    continue;
                 }
-                None => name.clone(),
-            };
-            ch.draw_series(LineSeries::new(mine.clone(), c.stroke_width(2)))?
-                .label(label)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
-            ch.draw_series(mine.into_iter().map(|p| Circle::new(p, 4, c.filled())))?;
+                let mine_dx: Vec<(f64, f64)> = mine_rows.iter().map(|r| (r.dx, r.error)).collect();
+                // n = L/dx
+                let len = mine_rows[0].dx * mine_rows[0].resolution as f64;
+                let mut mine: Vec<(f64, f64)> = mine_dx.iter().map(|&(d, e)| (len / d, e)).collect();
+                mine.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let label = match convergence_order(&mine_dx) {
+                    Some((p, cst)) => {
+                        let (a, b) = (mine[0].0, mine[mine.len() - 1].0);
+                        let fit = [(a, cst * (len / a).powf(p)), (b, cst * (len / b).powf(p))];
+                        ch.draw_series(DashedLineSeries::new(fit, 6, 4, c.stroke_width(1)))?;
+                        format!("{base} (order {p:.2})")
+                    }
+                    None => base.clone(),
+                };
+                ch.draw_series(LineSeries::new(mine.clone(), c.stroke_width(2)))?
+                    .label(label)
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+                ch.draw_series(mine.into_iter().map(|p| Circle::new(p, 4, c.filled())))?;
+            }
+            ch.configure_series_labels()
+                .position(SeriesLabelPosition::LowerLeft)
+                .label_font(font(11))
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .draw()?;
         }
-        ch.configure_series_labels()
-            .position(SeriesLabelPosition::LowerLeft)
-            .label_font(font(12))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
         Ok(())
     })
 }
@@ -231,4 +299,37 @@ pub fn stability_map(
         }
         Ok(())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_variant_splits_into_its_discretisation_and_its_method() {
+        assert_eq!(
+            split_variant("quintic_spline-h1.0-dummy-none-renorm-morriswall"),
+            (
+                "quintic_spline-h1.0".into(),
+                "dummy-none-renorm-morriswall".into()
+            )
+        );
+        assert_eq!(
+            split_variant("wendland_c2-h2.0-mirror-none"),
+            ("wendland_c2-h2.0".into(), "mirror-none".into())
+        );
+        assert_eq!(split_variant("odd"), ("odd".into(), String::new()));
+    }
+
+    #[test]
+    fn six_methods_get_six_different_markers_inside_their_radius() {
+        let shapes: Vec<Vec<(i32, i32)>> = (0..6).map(|k| marker_shape(k, 5)).collect();
+        for (a, sa) in shapes.iter().enumerate() {
+            assert!(sa.iter().all(|&(x, y)| x * x + y * y <= 36), "{sa:?}");
+            for sb in &shapes[a + 1..] {
+                assert_ne!(sa, sb);
+            }
+        }
+        assert_eq!(marker_shape(6, 5), shapes[0]);
+    }
 }
