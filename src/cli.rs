@@ -993,7 +993,7 @@ fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
     for line in crate::setup::extent_lines::<D>(scene) {
         let _ = writeln!(w, "  - {line}");
     }
-    for warning in crate::setup::extent_warnings::<D>(scene) {
+    for warning in crate::setup::scene_warnings::<D>(scene) {
         let _ = writeln!(w, "  warning: {warning}");
     }
     let _ = writeln!(w, "ghosts      {} (periodic and mirror images)", sim.halo.len());

@@ -615,7 +615,7 @@ fn print_warnings<const D: usize>(layout: &RunLayout, scene: &Scene) {
     for w in layout
         .warnings
         .iter()
-        .chain(&crate::setup::extent_warnings::<D>(scene))
+        .chain(&crate::setup::scene_warnings::<D>(scene))
     {
         eprintln!("hsph: warning: {w}");
     }

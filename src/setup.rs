@@ -692,12 +692,22 @@ pub fn extent_lines<const D: usize>(s: &Scene) -> Vec<String> {
         .collect()
 }
 
-/// Warnings for bodies built more than 1 % off their scene size or volume (a body fills whole
-/// lattice cells of dx counted from `domain.min`), with the spacing that would build them all
-/// as written, if one lies within ±30 % of dx.
-pub fn extent_warnings<const D: usize>(s: &Scene) -> Vec<String> {
+/// A scene's set-up warnings: settings outside their tested range (shifting below h/dx 1.8, a
+/// CFL number above 1), fluids and solids that touch without coupling, and bodies built more
+/// than 1 % off their scene size or volume (a body fills whole lattice cells of dx counted
+/// from `domain.min`), with the spacing that would build them all as written, if one lies
+/// within ±30 % of dx.
+pub fn scene_warnings<const D: usize>(s: &Scene) -> Vec<String> {
     let mut out = sphere_warnings::<D>(s);
     out.extend(coupling_warnings(s));
+    if s.time.cfl > 1.0 && s.time.dt == 0.0 {
+        out.push(format!(
+            "time.cfl = {} is above 1: dt = CFL·h/(c0 + |v|max) then exceeds the time sound takes \
+             to cross h; in the 2D dam break every method held to 0.75, plain WCSPH and Molteni's \
+             δ-SPH to 1.25, and all failed at 1.5 (docs/validation.md §5c); 0.2 is typical",
+            s.time.cfl
+        ));
+    }
     if s.physics.shifting == crate::scene::ShiftingKind::DeltaPlus && s.discretisation.h_over_dx < 1.8 {
         out.push(format!(
             "physics.shifting = \"delta_plus\" with discretisation.h_over_dx = {}: shifting is made \

@@ -125,6 +125,27 @@ fn negative_spacing() {
     );
 }
 
+/// A CFL number above the accepted range is an input error naming the range; one above 1
+/// but inside it is accepted with a warning (the stability map goes there).
+#[test]
+fn cfl_beyond_the_range_is_refused_and_above_one_warned() {
+    let text = shipped().replace("cfl = 0.2", "cfl = 4.0");
+    run_bad_scene(
+        "cfl4",
+        &text,
+        "time.cfl",
+        "cfl = 4.0",
+        &["must lie in (0, 3]", "0.2 is typical"],
+    );
+    let (scene, _) = write_scene("cfl15", &shipped().replace("cfl = 0.2", "cfl = 1.5"));
+    let o = hsph(&["check", scene.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    let all = format!("{stderr}{}", String::from_utf8_lossy(&o.stdout));
+    assert!(all.contains("time.cfl = 1.5 is above 1"), "{all}");
+    let _ = fs::remove_dir_all(scene.parent().unwrap());
+}
+
 #[test]
 fn body_outside_domain() {
     let text = shipped().replace("max = [0.146, 0.292]", "max = [0.146, 0.9]");

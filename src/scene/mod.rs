@@ -803,7 +803,8 @@ fn default_slip() -> Slip {
 pub struct Time {
     /// End time (s).
     pub t_end: f64,
-    /// Courant number for dt = CFL · h/(c0 + |v|max) (and the force limit).
+    /// Courant number for dt = CFL · h/(c0 + |v|max) (and the force limit); in (0, 3], with a
+    /// warning above 1 (`MAX_CFL` in `scene/validate.rs`).
     #[serde(default = "default_cfl")]
     pub cfl: f64,
     /// Fixed time step (s), overriding the adaptive one (0 = adaptive).

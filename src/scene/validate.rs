@@ -657,14 +657,22 @@ fn validate_motion(w: &mut crate::scene::WallBody, k: &str, d: usize) -> Result<
     Ok(())
 }
 
+/// The largest `time.cfl` a scene may ask for. Above 1 a run gets a warning: the stability
+/// map (`hsph validate --map cfl`, docs/validation.md §5c) goes there to find where each
+/// method fails.
+pub const MAX_CFL: f64 = 3.0;
+
 /// Time stepping, output schedule, format and snapshot fields.
 fn validate_time_output(s: &mut Scene) -> Result<()> {
     let t = &s.time;
     positive(t.t_end, "time.t_end", "t_end = 1.0")?;
-    if !(t.cfl > 0.0 && t.cfl <= 1.0) {
+    if !(t.cfl > 0.0 && t.cfl <= MAX_CFL) {
         return err(
             "time.cfl",
-            format!("must lie in (0, 1] (got {}); 0.2 is typical", t.cfl),
+            format!(
+                "must lie in (0, {MAX_CFL}] (got {}); 0.2 is typical, above 1 only for stability studies",
+                t.cfl
+            ),
         );
     }
     non_negative(t.dt, "time.dt")?;

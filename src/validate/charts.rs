@@ -290,7 +290,7 @@ pub fn stability_map(
                 root.draw(&Text::new(text, (x + 8, y + 12), font(12).color(&ink)))?;
                 if let Some(m) = cell.map(|c| c.metric).filter(|m| m.is_finite()) {
                     root.draw(&Text::new(
-                        format!("{}: {m:.4}", study.metric_name()),
+                        format!("{}: {}", study.metric_name(), super::map::show_metric(m)),
                         (x + 8, y + 36),
                         font(11).color(&ink),
                     ))?;

@@ -154,7 +154,7 @@ fn stability(names: &[String], out: &Path) -> Result<i32> {
                     None => "not run".to_string(),
                     Some(c) => {
                         let metric = if c.metric.is_finite() {
-                            format!(" ({}: {:.4})", st.metric_name(), c.metric)
+                            format!(" ({}: {})", st.metric_name(), map::show_metric(c.metric))
                         } else {
                             String::new()
                         };
