@@ -99,21 +99,21 @@ fn dam_break_2d_same_bits_on_1_to_8_ranks() {
     same_bits_on_any_rank_count(&s, "par-db2", None);
 }
 
+/// The Poiseuille channel with 100 × the body force, so that particles travel a few spacings
+/// along the periodic axis, round the seam and across the slabs, in a short run that
+/// rebalances often.
+const FAST_POISEUILLE: &[&str] = &[
+    "time.t_end=0.12",
+    "physics.body_force=[0.02,0.0]",
+    "material[0].c0=0.05",
+    "reference.times=[0.1]",
+    "balance.check_every=5",
+    "balance.threshold=1.0",
+];
+
 #[test]
 fn poiseuille_same_bits_on_1_to_8_ranks() {
-    // 100 × the body force so particles travel a few spacings along the periodic axis, round
-    // the seam and across the slabs, in a short run
-    let s = scene(
-        "inputs/poiseuille_2d.toml",
-        &[
-            "time.t_end=0.12",
-            "physics.body_force=[0.02,0.0]",
-            "material[0].c0=0.05",
-            "reference.times=[0.1]",
-            "balance.check_every=5",
-            "balance.threshold=1.0",
-        ],
-    );
+    let s = scene("inputs/poiseuille_2d.toml", FAST_POISEUILLE);
     same_bits_on_any_rank_count(&s, "par-poiseuille", Some(0));
 }
 
@@ -121,20 +121,13 @@ fn poiseuille_same_bits_on_1_to_8_ranks() {
 fn renormalised_viscous_operator_and_morris_walls_same_bits_on_1_to_8_ranks() {
     // the lattice moment is a pass of its own whose result reaches ghosts before momentum;
     // Morris's no-slip measures depths to the plates from images across the periodic seam
-    let s = scene(
-        "inputs/poiseuille_2d.toml",
-        &[
-            "time.t_end=0.12",
-            "physics.body_force=[0.02,0.0]",
-            "material[0].c0=0.05",
-            "reference.times=[0.1]",
-            "balance.check_every=5",
-            "balance.threshold=1.0",
-            "physics.viscous_operator=\"renormalised\"",
-            "wall[0].no_slip=\"morris\"",
-            "wall[1].no_slip=\"morris\"",
-        ],
-    );
+    let mut sets = FAST_POISEUILLE.to_vec();
+    sets.extend([
+        "physics.viscous_operator=\"renormalised\"",
+        "wall[0].no_slip=\"morris\"",
+        "wall[1].no_slip=\"morris\"",
+    ]);
+    let s = scene("inputs/poiseuille_2d.toml", &sets);
     same_bits_on_any_rank_count(&s, "par-poiseuille-corrected", Some(0));
 }
 
