@@ -215,7 +215,9 @@ Examples:
     /// meets a target error.
     #[command(after_help = "\
 Cases: poiseuille, couette (Morris et al. 1997 start-ups; velocity error at t = 2 s in units of
-the peak speed), hydrostatic (still tank; pressure error below mid-depth in units of rho g H),
+the peak speed; variants include dummy plates with Adami's or Morris's no-slip, mirror plates,
+and the renormalised viscous operator), hydrostatic (still tank; pressure error below
+mid-depth in units of rho g H; variants include delta-plus shifting),
 cavity (lid-driven, Re = 100, against Ghia et al. 1982 at t = 30 L/U; variants include the
 wall methods dummy, repulsive and mixed: mirror box under a dummy lid).
 Writes into --out: sweep.csv (one row per run: error, wall time, particle-steps/s, peak RSS,
@@ -235,8 +237,8 @@ Examples:
     Validate {
         /// Cases to run (default: all).
         cases: Vec<String>,
-        /// Sweep the method variants (kernels, h/dx, walls, density diffusion), not only the
-        /// shipped scene's method.
+        /// Sweep the method variants (kernels, h/dx, walls, density diffusion, viscous operator,
+        /// shifting, pair mode), not only the shipped scene's method.
         #[arg(long)]
         sweep: bool,
         /// Resolutions (cells across the case's length scale), comma separated (default: the

@@ -87,7 +87,7 @@ fn pairs_mode_gives_the_same_bits_on_any_ranks_and_threads_and_stays_near_gather
     // 2D dam break (walls, free surface, δ-SPH) and 3D dam break, each long enough that the
     // ranks rebalance and particles migrate
     type Case<'a> = (&'a str, &'a [&'a str], &'a [(usize, usize)]);
-    let cases: [Case; 5] = [
+    let cases: [Case; 6] = [
         (
             "inputs/dam_break_2d.toml",
             &["time.t_end=0.05"],
@@ -115,6 +115,18 @@ fn pairs_mode_gives_the_same_bits_on_any_ranks_and_threads_and_stays_near_gather
                 "wall[1].no_slip=\"morris\"",
                 "discretisation.kernel=\"wendland_c2\"",
                 "discretisation.h_over_dx=1.2",
+            ],
+            &[(1, 1), (3, 2)],
+        ),
+        // Morris's no-slip between mirror plates: images across two planes, one of them
+        // moving (the Couette lid), seen from either side of a pair
+        (
+            "inputs/couette_2d_mirror.toml",
+            &[
+                "time.max_steps=200",
+                "physics.viscous_operator=\"renormalised\"",
+                "wall[0].no_slip=\"morris\"",
+                "wall[1].no_slip=\"morris\"",
             ],
             &[(1, 1), (3, 2)],
         ),

@@ -132,6 +132,21 @@ fn renormalised_viscous_operator_and_morris_walls_same_bits_on_1_to_8_ranks() {
 }
 
 #[test]
+fn morris_mirror_walls_same_bits_on_1_to_8_ranks() {
+    // Morris's no-slip reads the plane an image was reflected across from its sort key and
+    // both depths from positions: the same on every rank that holds the image
+    let mut sets = FAST_POISEUILLE.to_vec();
+    sets.extend([
+        "physics.viscous_operator=\"renormalised\"",
+        "wall[0].no_slip=\"morris\"",
+        "discretisation.kernel=\"cubic_spline\"",
+        "discretisation.h_over_dx=2.0",
+    ]);
+    let s = scene("inputs/poiseuille_2d_mirror.toml", &sets);
+    same_bits_on_any_rank_count(&s, "par-poiseuille-mirror-morris", Some(0));
+}
+
+#[test]
 fn dam_break_3d_same_bits_on_1_to_8_ranks() {
     // the shipped scene (repulsive walls), coarsened to dx = 5 cm for CI
     let s = scene(

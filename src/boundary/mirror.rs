@@ -21,6 +21,10 @@ pub struct MirrorPlane<const D: usize> {
     pub wall_velocity: Vector<D>,
     /// No-slip (reflect the whole velocity about the wall's) or free-slip (normal only).
     pub no_slip: bool,
+    /// Morris et al.'s no-slip in the laminar term (`no_slip = "morris"`): the fluid sees an
+    /// image with v_i − v_j′ = β (v_i − u_w), β = 1 + d_j′/d_i, instead of the reflected
+    /// velocity ([`crate::physics::viscous`]).
+    pub morris: bool,
     /// The container's corners (m): the face spans them on the other axes.
     pub lo: Vector<D>,
     /// See `lo`.
@@ -95,6 +99,7 @@ pub fn planes_of<const D: usize>(scene: &Scene) -> Vec<MirrorPlane<D>> {
                     fluid_above: !up,
                     wall_velocity: Vector::from_fn(|k, _| w.velocity[k]),
                     no_slip: w.slip == Slip::NoSlip,
+                    morris: w.slip == Slip::NoSlip && w.no_slip == crate::scene::NoSlipMethod::Morris,
                     lo: Vector::from_fn(|k, _| w.min[k]),
                     hi: Vector::from_fn(|k, _| w.max[k]),
                 });

@@ -299,9 +299,14 @@ fn fluid_pair<const D: usize>(
             // the same factor as super::viscous::Viscous::difference, both sides
             mu_sum *= 2.0 / (ti.lap + p.lap[j]);
         }
+        // against a Morris mirror image, each side sees Morris's velocity difference
+        // (super::viscous::Viscous::mirror_difference); one of the two at most is an image
+        let v = &model.viscous;
+        let vi = v.mirror_difference(p, &ti.x, &ti.v, j).unwrap_or(vij);
+        let vj = v.mirror_difference(p, &p.x[j], &p.v[j], i).map_or(vij, |m| -m);
         let rr = rhoi * rhoj;
-        a_i += vij * (mj * mu_sum * f / rr);
-        a_j += vij * (mi * mu_sum * f / rr);
+        a_i += vi * (mj * mu_sum * f / rr);
+        a_j += vj * (mi * mu_sum * f / rr);
     }
     (a_i, -a_j)
 }

@@ -16,7 +16,13 @@
 //! - **`wall[].no_slip = "morris"`** replaces Adami's extrapolated wall velocity in the
 //!   laminar term by Morris's distance ratio, v_i − v_w = β (v_i − u_wall), β = 1 + d_w/d_i
 //!   ([`crate::boundary::geometry`]): exact for a linear profile, where Adami's kernel-weighted
-//!   mean puts the no-slip point O(h) off the surface.
+//!   mean puts the no-slip point O(h) off the surface. On a mirror wall it replaces the
+//!   reflected velocity of an image j′ (v_j′ = 2 u_w − v_j) by the same ratio with d_j′ the
+//!   image's depth behind the face: both are exact for a linear profile, but the reflection
+//!   drops a quadratic profile's curvature, 2b d_j′² for u − u_w = a d + b d², where Morris's
+//!   ratio drops b d_j′ (d_i + d_j′), less for the images deeper than the particle. A steady
+//!   lattice model of the channel gives 0.59 → 0.47 % (cubic, h = 2 dx, n = 25; measured the
+//!   same, docs/validation.md §4). A corner image, reflected on two axes, keeps the reflection.
 //!
 //! Both are exact for the flows they target on a steady lattice; together they bring every
 //! kernel and h/dx of the Poiseuille sweep within 0.5 % at 25 rows (docs/validation.md §4).
@@ -24,8 +30,9 @@
 use super::fluid::PairTerms;
 use super::Model;
 use crate::boundary::geometry::{morris_beta, WallSurface};
+use crate::boundary::mirror::{planes_of, MirrorPlane};
 use crate::cells::Neighbours;
-use crate::particles::{Kind, Particles};
+use crate::particles::{Kind, Particles, IMAGE_BITS};
 use crate::scene::{NoSlipMethod, Scene, Slip, ViscousOperator, WallMethod};
 use crate::Vector;
 use rayon::prelude::*;
@@ -40,8 +47,12 @@ pub struct Viscous<const D: usize> {
     pub renormalised: bool,
     /// Per wall body, its surface where `no_slip = "morris"` applies.
     pub morris: Vec<Option<WallSurface<D>>>,
-    /// True if some wall uses Morris's no-slip.
+    /// True if some dummy wall uses Morris's no-slip.
     pub any_morris: bool,
+    /// Every mirror plane of the scene (to find the one an image was reflected across).
+    pub planes: Vec<MirrorPlane<D>>,
+    /// True if some mirror plane uses Morris's no-slip.
+    pub any_mirror_morris: bool,
     /// Smallest fluid depth d_i in β (m): half a spacing.
     pub floor: f64,
 }
@@ -59,10 +70,13 @@ impl<const D: usize> Viscous<D> {
                 on.then(|| WallSurface::new(w))
             })
             .collect();
+        let planes: Vec<MirrorPlane<D>> = planes_of(s);
         Viscous {
             renormalised: s.physics.viscous_operator == ViscousOperator::Renormalised,
             any_morris: morris.iter().any(Option::is_some),
             morris,
+            any_mirror_morris: planes.iter().any(|pl| pl.morris),
+            planes,
             floor: 0.5 * s.discretisation.dx,
         }
     }
@@ -89,12 +103,71 @@ impl<const D: usize> Viscous<D> {
                     d = (ti.v - p.v[j]) * morris_beta(di, dj, self.floor);
                 }
             }
+        } else if let Some(m) = self.mirror_difference(p, &ti.x, &ti.v, j) {
+            d = m;
         }
         if self.renormalised {
             let lj = if dummy { ti.lap } else { p.lap[j] };
             d *= 2.0 / (ti.lap + lj);
         }
         d
+    }
+}
+
+impl<const D: usize> Viscous<D> {
+    /// Morris's v_a − v_b′ = β (v_a − u_w), β = 1 + d_b′/d_a, for particle a (at `xa`, moving
+    /// at `va`) against neighbour b when b is the image of a fluid particle across a single
+    /// mirror plane with `no_slip = "morris"`; `None` otherwise (the caller keeps the
+    /// reflected velocity). The plane is read from b's sort key (the axis and which side it
+    /// reflected) and, among the planes of that axis and side, the one between a and b
+    /// nearest to a.
+    #[inline(always)]
+    pub fn mirror_difference(
+        &self,
+        p: &Particles<D>,
+        xa: &Vector<D>,
+        va: &Vector<D>,
+        b: usize,
+    ) -> Option<Vector<D>> {
+        if !self.any_mirror_morris {
+            return None;
+        }
+        let code = p.key[b] & ((1u64 << IMAGE_BITS) - 1);
+        if code == 0 {
+            return None;
+        }
+        // the axis reflected (code 3: across a lower face, 4: an upper one; AxisOp::code)
+        let mut reflected = None;
+        for a in 0..D {
+            let c = (code >> (3 * a)) & 7;
+            if c == 3 || c == 4 {
+                if reflected.is_some() {
+                    return None;
+                }
+                reflected = Some((a, c == 3));
+            }
+        }
+        let (axis, lower) = reflected?;
+        let xb = &p.x[b];
+        let between = |pl: &&MirrorPlane<D>| {
+            pl.axis == axis
+                && pl.fluid_above == lower
+                && if lower {
+                    xa[axis] >= pl.at && xb[axis] <= pl.at
+                } else {
+                    xa[axis] <= pl.at && xb[axis] >= pl.at
+                }
+        };
+        let plane = self
+            .planes
+            .iter()
+            .filter(between)
+            .min_by(|u, v| (xa[axis] - u.at).abs().total_cmp(&(xa[axis] - v.at).abs()))?;
+        if !plane.morris {
+            return None;
+        }
+        let (da, db) = ((xa[axis] - plane.at).abs(), (xb[axis] - plane.at).abs());
+        Some((va - plane.wall_velocity) * morris_beta(da, db, self.floor))
     }
 }
 

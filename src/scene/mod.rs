@@ -701,13 +701,15 @@ pub enum Slip {
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum NoSlipMethod {
-    /// Adami et al. (2012): every wall particle carries v_w = 2 u_wall − ṽ_w, ṽ_w the
-    /// kernel-weighted mean of the fluid velocities round it.
+    /// Adami et al. (2012): every dummy wall particle carries v_w = 2 u_wall − ṽ_w, ṽ_w the
+    /// kernel-weighted mean of the fluid velocities round it; on a mirror wall, the image's
+    /// reflected velocity v′ = 2 u_wall − v.
     #[default]
     Adami,
     /// Morris et al. (1997): per pair, v_i − v_w = β (v_i − u_wall) with β = 1 + d_w/d_i, the
-    /// depths of the wall particle and the fluid particle on either side of the wall's
-    /// surface: exact for a linear profile ([`crate::boundary::geometry`]).
+    /// depths of the wall (or image) particle and the fluid particle on either side of the
+    /// wall's surface: exact for a linear profile ([`crate::boundary::geometry`],
+    /// [`crate::physics::viscous`]).
     Morris,
 }
 

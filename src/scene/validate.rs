@@ -582,12 +582,13 @@ fn validate_walls(s: &mut Scene, mat_names: &[String], support: f64) -> Result<(
         }
         validate_motion(w, &k, d)?;
         if w.no_slip == crate::scene::NoSlipMethod::Morris
-            && (w.method != WallMethod::Dummy || w.slip != crate::scene::Slip::NoSlip)
+            && (w.method == WallMethod::Repulsive || w.slip != crate::scene::Slip::NoSlip)
         {
             return err(
                 format!("{k}.no_slip"),
-                "`morris` sets the velocity a no-slip dummy wall shows the fluid: it needs \
-                 method = \"dummy\" and slip = \"no_slip\"; remove it, or use no_slip = \"adami\"",
+                "`morris` sets the velocity a no-slip dummy or mirror wall shows the fluid: it \
+                 needs method = \"dummy\" or \"mirror\" and slip = \"no_slip\"; remove it, or use \
+                 no_slip = \"adami\"",
             );
         }
     }

@@ -156,6 +156,10 @@ fn channel_overrides(n: u32, v: &Variant, mirrors: usize) -> Vec<String> {
     if v.walls == "mirror" {
         for w in 0..mirrors {
             o.push(format!("wall[{w}].max=[{x:e},{gap:e}]"));
+            // set only when not the default, so that earlier mirror sweeps resume
+            if v.no_slip != "adami" {
+                o.push(format!("wall[{w}].no_slip=\"{}\"", v.no_slip));
+            }
         }
         return o;
     }
@@ -186,7 +190,7 @@ fn channel_sweep() -> Vec<Variant> {
         ],
     );
     // each again with the renormalised operator and Morris's no-slip (physics::viscous), and
-    // between mirror walls with the plain and the renormalised operator
+    // between mirror walls with the plain and the renormalised operator, and with both
     let mut out = plain.clone();
     out.extend(plain.iter().map(Variant::corrected));
     for viscous in ["morris", "renormalised"] {
@@ -196,6 +200,10 @@ fn channel_sweep() -> Vec<Variant> {
             ..v.clone()
         }));
     }
+    out.extend(plain.iter().map(|v| Variant {
+        walls: "mirror",
+        ..v.corrected()
+    }));
     out.push(channel_default().in_pairs());
     out
 }
@@ -414,7 +422,7 @@ mod tests {
                 .into_iter()
                 .filter(|v| v.walls == "mirror")
                 .collect();
-            assert_eq!(mirror.len(), 12, "{name}: six kernels x two operators");
+            assert_eq!(mirror.len(), 18, "{name}: six kernels x three wall treatments");
             for v in &mirror {
                 let (file, text) = case.scene_for(v);
                 assert!(file.ends_with("_mirror.toml"), "{file}");
@@ -426,7 +434,11 @@ mod tests {
                     1 + containers,
                     "{sets:?}"
                 );
-                assert!(!sets.iter().any(|s| s.contains("no_slip")), "{sets:?}");
+                // Morris's no-slip on every plate where it is on, nothing otherwise
+                let morris = sets.iter().filter(|s| s.contains("no_slip=\"morris\"")).count();
+                let want = if v.no_slip == "morris" { containers } else { 0 };
+                assert_eq!(morris, want, "{sets:?}");
+                assert_eq!(sets.iter().filter(|s| s.contains("no_slip")).count(), want);
             }
             assert_eq!(case.scene_for(&case.default).0, case.file);
         }
