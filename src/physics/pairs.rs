@@ -302,8 +302,11 @@ fn fluid_pair<const D: usize>(
         // against a Morris mirror image, each side sees Morris's velocity difference
         // (super::viscous::Viscous::mirror_difference); one of the two at most is an image
         let v = &model.viscous;
-        let vi = v.mirror_difference(p, &ti.x, &ti.v, j).unwrap_or(vij);
-        let vj = v.mirror_difference(p, &p.x[j], &p.v[j], i).map_or(vij, |m| -m);
+        let (mut vi, mut vj) = (vij, vij);
+        if v.any_mirror_morris {
+            vi = v.mirror_difference(p, &ti.x, &ti.v, j).unwrap_or(vij);
+            vj = v.mirror_difference(p, &p.x[j], &p.v[j], i).map_or(vij, |m| -m);
+        }
         let rr = rhoi * rhoj;
         a_i += vi * (mj * mu_sum * f / rr);
         a_j += vj * (mi * mu_sum * f / rr);

@@ -96,15 +96,8 @@ impl<const D: usize> Viscous<D> {
     ) -> Vector<D> {
         let dummy = p.kind[j] == Kind::Dummy;
         let mut d = vij;
-        if dummy && self.any_morris {
-            let body = p.body[j] as usize;
-            if let Some(surface) = &self.morris[body] {
-                if let Some((di, dj)) = surface.depths(&ti.x, &p.x[j], &wall_shift[body]) {
-                    d = (ti.v - p.v[j]) * morris_beta(di, dj, self.floor);
-                }
-            }
-        } else if let Some(m) = self.mirror_difference(p, &ti.x, &ti.v, j) {
-            d = m;
+        if self.any_morris || self.any_mirror_morris {
+            d = self.morris_difference(p, wall_shift, ti, j, vij);
         }
         if self.renormalised {
             let lj = if dummy { ti.lap } else { p.lap[j] };
@@ -115,13 +108,38 @@ impl<const D: usize> Viscous<D> {
 }
 
 impl<const D: usize> Viscous<D> {
+    /// [`Self::difference`] before renormalisation where some wall uses Morris's no-slip:
+    /// Morris's difference against a dummy particle of such a wall or an image across such
+    /// a mirror plane, `vij` otherwise. Kept out of line, so that scenes without it keep
+    /// their laminar loop as it was.
+    #[inline(never)]
+    fn morris_difference(
+        &self,
+        p: &Particles<D>,
+        wall_shift: &[Vector<D>],
+        ti: &PairTerms<D>,
+        j: usize,
+        vij: Vector<D>,
+    ) -> Vector<D> {
+        if p.kind[j] == Kind::Dummy {
+            let body = p.body[j] as usize;
+            if let Some(surface) = &self.morris[body] {
+                if let Some((di, dj)) = surface.depths(&ti.x, &p.x[j], &wall_shift[body]) {
+                    return (ti.v - p.v[j]) * morris_beta(di, dj, self.floor);
+                }
+            }
+            return vij;
+        }
+        self.mirror_difference(p, &ti.x, &ti.v, j).unwrap_or(vij)
+    }
+
     /// Morris's v_a − v_b′ = β (v_a − u_w), β = 1 + d_b′/d_a, for particle a (at `xa`, moving
     /// at `va`) against neighbour b when b is the image of a fluid particle across a single
     /// mirror plane with `no_slip = "morris"`; `None` otherwise (the caller keeps the
     /// reflected velocity). The plane is read from b's sort key (the axis and which side it
     /// reflected) and, among the planes of that axis and side, the one between a and b
     /// nearest to a.
-    #[inline(always)]
+    #[inline]
     pub fn mirror_difference(
         &self,
         p: &Particles<D>,
