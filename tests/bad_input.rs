@@ -441,7 +441,11 @@ fn morris_no_slip_needs_a_no_slip_dummy_or_mirror_wall() {
         &text,
         "wall[0].no_slip",
         "no_slip = \"morris\"",
-        &["method = \"dummy\" or \"mirror\"", "slip = \"no_slip\"", "no_slip = \"adami\""],
+        &[
+            "method = \"dummy\" or \"mirror\"",
+            "slip = \"no_slip\"",
+            "no_slip = \"adami\"",
+        ],
     );
 }
 
