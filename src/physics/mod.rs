@@ -157,8 +157,16 @@ impl<const D: usize> Model<D> {
             if self.viscous.renormalised {
                 v.push("viscous operator renormalised by the lattice moment 2/(L_i + L_j)".into());
             }
-            if self.viscous.any_morris {
-                v.push("no-slip by Morris et al.'s distance ratio on the walls that ask for it".into());
+            match (self.viscous.any_morris, self.viscous.any_mirror_morris) {
+                (false, false) => {}
+                (dummy, mirror) => v.push(format!(
+                    "no-slip by Morris et al.'s distance ratio on the {} walls that ask for it",
+                    match (dummy, mirror) {
+                        (true, true) => "dummy and mirror",
+                        (true, false) => "dummy",
+                        _ => "mirror",
+                    }
+                )),
             }
         }
         if self.g.norm() > 0.0 {
