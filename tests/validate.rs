@@ -109,12 +109,19 @@ fn a_small_poiseuille_sweep_charts_its_front_and_names_the_cheapest_run() {
     assert_eq!(again.status.code(), Some(0));
     assert!(String::from_utf8_lossy(&again.stderr).contains("4 configuration(s) already in"));
     assert_eq!(std::fs::read_to_string(out.join("sweep.csv")).unwrap(), csv);
-    // --target: the cheapest run that met it, and its scene
+    target_names_a_run_that_met_it(&out, &rows, (n, var, error));
+    bad_requests_are_refused(&out);
+}
+
+/// `--target` on the sweep of `out` (rows of `sweep.csv`; columns resolution, variant, error)
+/// names the run that met it, and `--write` gives a scene that `hsph check` accepts.
+fn target_names_a_run_that_met_it(out: &Path, rows: &[Vec<&str>], cols: (usize, usize, usize)) {
+    let (n, var, error) = cols;
     let errors: Vec<f64> = rows.iter().map(|r| r[error].parse().unwrap()).collect();
     let target = errors.iter().cloned().fold(f64::INFINITY, f64::min) * 1.0001;
     let scene = out.join("cheapest.toml");
     let t = sweep(
-        &out,
+        out,
         &[
             "--target",
             &target.to_string(),
@@ -144,10 +151,13 @@ fn a_small_poiseuille_sweep_charts_its_front_and_names_the_cheapest_run() {
         "{}",
         String::from_utf8_lossy(&check.stderr)
     );
-    // an unmet target is exit 1; bad requests are exit 2 naming the flag
-    let none = sweep(&out, &["--target", "1e-9"]);
+}
+
+/// An unmet target is exit 1; bad requests are exit 2 naming the flag or the known names.
+fn bad_requests_are_refused(out: &Path) {
+    let none = sweep(out, &["--target", "1e-9"]);
     assert_eq!(none.status.code(), Some(1));
-    let bad = sweep(&out, &["--variants", "nonsense"]);
+    let bad = sweep(out, &["--variants", "nonsense"]);
     assert_eq!(bad.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("quintic_spline-h1.0-dummy-none"));
     let other = hsph(&[

@@ -195,7 +195,10 @@ pub fn convergence(dir: &Path, case: &str, rows: &[&Row]) -> Result<Vec<PathBuf>
                 let c = PALETTE[k % PALETTE.len()];
                 let mine_rows: Vec<&&Row> = ok
                     .iter()
-                    .filter(|r| split_variant(&r.variant) == (base.clone(), method.clone()))
+                    .filter(|r| {
+                        let (b, m) = split_variant(&r.variant);
+                        b == *base && m == *method
+                    })
                     .collect();
                 if mine_rows.is_empty() {
                     continue;
