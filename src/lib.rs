@@ -24,6 +24,7 @@ pub mod joblayout;
 pub mod jobscript;
 pub mod kernel;
 pub mod layout;
+pub mod limits;
 pub mod memory;
 pub mod model;
 pub mod output;

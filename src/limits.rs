@@ -1,0 +1,176 @@
+//! Every bound on a count or size taken from input, in one place.
+//!
+//! A scene file, a flag, a checkpoint manifest or a node-layout file can ask for anything: a
+//! hundred thousand ranks, a probe of 10¹¹ points, a nested expression of a megabyte, a
+//! "file" that is `/dev/zero`. Each command checks what it was given here, before anything
+//! is allocated, and refuses what is beyond a bound with exit status 2 naming the key or flag,
+//! the value and the limit. The README's "Exit status and limits" section lists every constant
+//! below with its value; `tests/hardening.rs` and `tests/fuzz.rs` try each class.
+
+use crate::error::{Error, Result};
+use std::io::Read;
+use std::path::Path;
+
+/// Most ranks of a run, a plan, a model or a job script. The placement's pairwise tables grow
+/// as P², which at this size is about 130 MiB each; the local back end runs every rank as a
+/// thread of one process.
+pub const MAX_RANKS: usize = 4096;
+
+/// Most rayon threads of one rank (`--threads`, `--threads-per-rank`). More threads than
+/// cores is allowed with a warning (it runs slower); above this it is refused.
+pub const MAX_THREADS: usize = 1024;
+
+/// Most threads in one process: ranks of the local back end × threads per rank.
+pub const MAX_PROCESS_THREADS: usize = 8192;
+
+/// Most particles a scene may build (2³¹: ids and counts fit in the wire format with room).
+pub const MAX_PARTICLES: u64 = 1 << 31;
+
+/// Most sample points of one probe (`points` of a line probe).
+pub const MAX_PROBE_POINTS: u64 = 1_000_000;
+
+/// The step budget: a run estimated above this many steps is refused unless the scene sets
+/// `time.max_steps` (which then bounds it).
+pub const MAX_STEPS: f64 = 1e9;
+
+/// Largest text file read as input (scene, node layout, checkpoint manifest, summary).
+pub const MAX_INPUT_BYTES: u64 = 16 << 20;
+
+/// Largest initial-field expression (characters).
+pub const MAX_EXPR_CHARS: usize = 4096;
+
+/// Deepest nesting of brackets in an initial-field expression.
+pub const MAX_EXPR_DEPTH: usize = 64;
+
+/// Longest wall-clock duration a flag may ask for (`--time`, `--max-wall`): 366 days.
+pub const MAX_WALL_SECONDS: f64 = 366.0 * 86_400.0;
+
+/// Fewest and most seconds of warning before a job's time limit (`--signal-before`): Slurm may
+/// send the signal up to a minute early, and takes at most 65 535 s.
+pub const SIGNAL_BEFORE_RANGE: (u64, u64) = (10, 65_535);
+
+/// Most timed steps or repetitions of `hsph bench`, and most parallel jobs of `hsph validate`.
+pub const MAX_BENCH_STEPS: u64 = 1_000_000;
+/// Most repetitions of one `hsph bench` measurement.
+pub const MAX_REPEAT: usize = 1000;
+/// Most child runs `hsph validate --jobs` starts at once.
+pub const MAX_JOBS: usize = 256;
+/// Most cells across a validation case's length scale (`hsph validate --resolutions`).
+pub const MAX_RESOLUTION: u32 = 4096;
+
+/// `value` of `key` within `1..=max`, else exit 2 naming both.
+pub fn count(key: &str, value: u64, max: u64) -> Result<()> {
+    if value == 0 {
+        return Err(Error::input(
+            key,
+            format!("must be at least 1, got 0 (limit {max})"),
+        ));
+    }
+    if value > max {
+        return Err(Error::input(key, format!("{value} is above the limit of {max}")));
+    }
+    Ok(())
+}
+
+/// Ranks asked for by `key` (a flag or `--nodes × --ranks-per-node`).
+pub fn ranks(key: &str, ranks: usize) -> Result<()> {
+    count(key, ranks as u64, MAX_RANKS as u64)
+}
+
+/// Threads per rank asked for by `key`, with `ranks_in_process` ranks in this process; returns
+/// a warning when they exceed the cores this process may use.
+pub fn threads(key: &str, threads: usize, ranks_in_process: usize) -> Result<Option<String>> {
+    count(key, threads as u64, MAX_THREADS as u64)?;
+    let total = threads.saturating_mul(ranks_in_process.max(1));
+    if total > MAX_PROCESS_THREADS {
+        return Err(Error::input(
+            key,
+            format!(
+                "{threads} threads × {ranks_in_process} ranks = {total} threads in one process, above the limit of \
+                 {MAX_PROCESS_THREADS}; run the ranks under MPI"
+            ),
+        ));
+    }
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    Ok((total > cores).then(|| {
+        format!(
+            "{key} {threads}: {total} threads on {cores} core(s) available; threads beyond the cores share them \
+             and the run is slower, not faster"
+        )
+    }))
+}
+
+/// The text of an input file, read with a bound: at most [`MAX_INPUT_BYTES`], and only from a
+/// regular file or a pipe (`hsph check <(generate)`); a device such as `/dev/zero` is refused.
+/// `key` names the file's role in the message (`SCENE`, `--topology`, ...).
+pub fn read_text(path: &Path, key: &str) -> Result<String> {
+    let bad = |m: String| Error::Input {
+        at: Some(crate::error::Location {
+            file: path.to_path_buf(),
+            line: None,
+        }),
+        key: key.to_string(),
+        message: m,
+    };
+    let meta = std::fs::metadata(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+    let ft = meta.file_type();
+    if !(ft.is_file() || is_fifo(&ft)) {
+        return Err(bad(
+            "is not a regular file (a directory or a device); give a TOML file, e.g. inputs/dam_break_2d.toml".into(),
+        ));
+    }
+    if meta.len() > MAX_INPUT_BYTES {
+        return Err(bad(format!(
+            "is {} bytes, above the input limit of {MAX_INPUT_BYTES} bytes",
+            meta.len()
+        )));
+    }
+    let f = std::fs::File::open(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+    let mut bytes = Vec::new();
+    f.take(MAX_INPUT_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| bad(format!("cannot read: {e}")))?;
+    if bytes.len() as u64 > MAX_INPUT_BYTES {
+        return Err(bad(format!(
+            "is longer than the input limit of {MAX_INPUT_BYTES} bytes"
+        )));
+    }
+    String::from_utf8(bytes).map_err(|e| bad(format!("is not UTF-8 text: {e}")))
+}
+
+#[cfg(unix)]
+fn is_fifo(ft: &std::fs::FileType) -> bool {
+    std::os::unix::fs::FileTypeExt::is_fifo(ft)
+}
+
+#[cfg(not(unix))]
+fn is_fifo(_: &std::fs::FileType) -> bool {
+    false
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_are_refused_at_zero_and_above_the_limit() {
+        assert!(count("--x", 1, 3).is_ok());
+        assert!(count("--x", 3, 3).is_ok());
+        for v in [0, 4, u64::MAX] {
+            let e = count("--x", v, 3).unwrap_err();
+            assert_eq!(e.exit_code(), 2);
+            assert!(e.to_string().contains("--x"), "{e}");
+        }
+        assert!(threads("--threads", MAX_THREADS + 1, 1).is_err());
+        assert!(threads("--threads", 2, MAX_PROCESS_THREADS).is_err());
+        assert!(ranks("--ranks", MAX_RANKS + 1).is_err());
+    }
+
+    #[test]
+    fn devices_and_directories_are_not_read() {
+        for p in ["/dev/zero", "/dev/null", "/"] {
+            let e = read_text(Path::new(p), "SCENE").unwrap_err();
+            assert_eq!(e.exit_code(), 2, "{p}: {e}");
+        }
+    }
+}
