@@ -715,6 +715,7 @@ fn cmd_restart(from: &std::path::Path, set: &[String], mut opts: RunOptions) -> 
     let (original, _) = crate::scene::load_scene_str(&m.scene, &at, "restart", &[])?;
     let (scene, src) = crate::scene::load_scene_str(&m.scene, &at, &original.name, set)?;
     crate::checkpoint::compat::check(&original, &scene)?;
+    restart_not_before_start(&scene, &m).map_err(|e| locate(&src, e))?;
     if scene.dimension != m.dimension {
         return Err(Error::input(
             "--restart",
@@ -732,6 +733,34 @@ fn cmd_restart(from: &std::path::Path, set: &[String], mut opts: RunOptions) -> 
     })
 }
 
+/// A restart must end after it starts: `time.t_end` not before the checkpoint's time, and
+/// `time.max_steps` not below its step.
+fn restart_not_before_start(scene: &Scene, m: &crate::checkpoint::Manifest) -> Result<()> {
+    if scene.time.t_end < m.t {
+        return Err(Error::input(
+            "time.t_end",
+            format!(
+                "{} s is before the checkpoint's time {} s: a restart continues from there; set \
+                 time.t_end above it, e.g. --set time.t_end={}",
+                scene.time.t_end,
+                m.t,
+                m.t * 2.0
+            ),
+        ));
+    }
+    let max = scene.time.max_steps;
+    if max > 0 && max < m.step {
+        return Err(Error::input(
+            "time.max_steps",
+            format!(
+                "{max} is below the checkpoint's step {}: a restart continues from there",
+                m.step
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// `hsph plan`: the layout resolved as `hsph run` resolves it (nodes declared, never
 /// discovered), then every placement asked for.
 fn cmd_plan(
@@ -743,10 +772,8 @@ fn cmd_plan(
     placement: PlanPlacement,
     out: Option<&std::path::Path>,
 ) -> Result<i32> {
-    let (scene, _) = load_scene(scene, set)?;
-    if ranks == 0 {
-        return Err(Error::input("--ranks", "must be at least 1, e.g. --ranks 96"));
-    }
+    let (scene, src) = load_scene(scene, set)?;
+    layout_limits(&scene, &src, ranks)?;
     let req = LayoutRequest {
         backend: Backend::Local,
         ranks,
@@ -830,10 +857,8 @@ fn cmd_model(
     let Some(path) = scene else {
         return Ok(0);
     };
-    let (scene, _) = load_scene(path, set)?;
-    if ranks == 0 {
-        return Err(Error::input("--ranks", "must be at least 1, e.g. --ranks 96"));
-    }
+    let (scene, src) = load_scene(path, set)?;
+    layout_limits(&scene, &src, ranks)?;
     let per_node = if ranks_per_node == 0 {
         ranks
     } else {
@@ -879,6 +904,19 @@ fn cmd_check(scene: &std::path::Path, set: &[String], ranks: usize, max_memory: 
     say(&estimate_report(&est, ranks, max_memory));
     say(&check_report(&scene).map_err(|e| locate(&src, e))?);
     Ok(0)
+}
+
+/// The limits `hsph run` applies to `ranks` ranks of `scene` (the same function: ranks, particles
+/// per rank, probe sizes), for the commands that plan a layout without running it (`plan`,
+/// `model`, `jobscript`); the memory of this machine is not the run's, so it is not checked.
+fn layout_limits(scene: &Scene, src: &SceneSource, ranks: usize) -> Result<()> {
+    let opts = RunOptions {
+        max_memory: Some(f64::INFINITY),
+        ..Default::default()
+    };
+    driver::check_limits(scene, ranks, 1, &opts)
+        .map(|_| ())
+        .map_err(|e| locate(src, e))
 }
 
 /// Give a scene error found after loading (e.g. overlapping bodies, found while filling the

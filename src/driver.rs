@@ -109,7 +109,20 @@ pub struct RunOptions {
 pub const MIN_PARTICLES_PER_RANK: usize = 16;
 
 /// Most ranks of the local back end (threads of one process); more is a job for MPI.
-pub const MAX_LOCAL_RANKS: usize = 4096;
+pub const MAX_LOCAL_RANKS: usize = crate::limits::MAX_RANKS;
+
+/// `--threads` against the limits (exit 2 above [`crate::limits::MAX_THREADS`]); more threads
+/// than cores is said on standard error (when `say`: rank 0) and run.
+pub fn check_threads(threads: usize, ranks_in_process: usize, say: bool) -> Result<()> {
+    if threads == 0 {
+        return Ok(());
+    }
+    let warning = crate::limits::threads("--threads", threads, ranks_in_process)?;
+    if let (Some(w), true) = (warning, say) {
+        eprintln!("hsph: warning: {w}");
+    }
+    Ok(())
+}
 
 /// Check a layout of `ranks` ranks, `ranks_in_process` of them in this process, against the
 /// scene's particle count (counted without building particles) and the memory this process
@@ -121,6 +134,8 @@ pub fn check_limits(
     opts: &RunOptions,
 ) -> Result<crate::memory::Estimate> {
     use crate::memory::{available, human};
+    crate::limits::ranks("--ranks", ranks)?;
+    check_probe_sizes(scene)?;
     let n = crate::with_dim!(scene.dimension, D => Ok(crate::setup::count_particles::<D>(scene)))?;
     let min = if opts.min_particles_per_rank == 0 {
         MIN_PARTICLES_PER_RANK
@@ -172,6 +187,21 @@ pub fn check_limits(
         }
     }
     Ok(est)
+}
+
+/// Every probe's sample count within [`crate::limits::MAX_PROBE_POINTS`] (a line probe holds
+/// its points and their values in memory).
+fn check_probe_sizes(scene: &Scene) -> Result<()> {
+    for (k, p) in scene.probes.iter().enumerate() {
+        if let crate::scene::Probe::VelocityLine { points, .. } = p {
+            crate::limits::count(
+                &format!("probe[{k}].points"),
+                *points as u64,
+                crate::limits::MAX_PROBE_POINTS,
+            )?;
+        }
+    }
+    Ok(())
 }
 
 impl RunOptions {
@@ -271,11 +301,13 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
     }
     let layout = RunLayout::resolve(&req, backend, opts.ranks.max(1), None)?;
     check_limits(scene, layout.ranks, layout.ranks, opts)?;
+    check_threads(opts.threads, layout.ranks, true)?;
     if let (Some(dir), Some(_)) = (&opts.out, &opts.restart) {
         // a restart continues in its run directory, which is not prepared afresh
+        let _lock = output::DirLock::take(dir, "--restart")?;
         return run_prepared(scene, opts, &layout, dir);
     }
-    let dir = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
+    let (dir, _lock) = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
     cleaning_up(&dir, run_prepared(scene, opts, &layout, &dir))
 }
 
@@ -321,7 +353,8 @@ fn run_mpi(scene: &Scene, opts: &RunOptions, req: &LayoutRequest) -> Result<RunO
     // the layout is found by every rank alike from the same node keys: exit 2 everywhere
     let layout = RunLayout::resolve(req, Backend::Mpi, comm.size(), Some(&node_keys(&comm)?))?;
     check_limits(scene, layout.ranks, 1, opts)?;
-    let dir = mpi_prepare_dir(&comm, scene, opts)?;
+    check_threads(opts.threads, 1, comm.rank() == 0)?;
+    let (dir, _lock) = mpi_prepare_dir(&comm, scene, opts)?;
     // MPI calls stay on this (main) thread, so the rank body runs here on the global pool
     let n = if opts.threads == 0 { cores() } else { opts.threads };
     let start = crate::affinity::mpi_start_handler(opts.bind, n)?;
@@ -354,22 +387,35 @@ fn run_mpi(scene: &Scene, opts: &RunOptions, req: &LayoutRequest) -> Result<RunO
 /// Rank 0 chooses and prepares the run directory and broadcasts it; a failure there is every
 /// rank's input error.
 #[cfg(feature = "mpi")]
-fn mpi_prepare_dir(comm: &dyn Comm, scene: &Scene, opts: &RunOptions) -> Result<PathBuf> {
-    if let (Some(dir), Some(_)) = (&opts.out, &opts.restart) {
+fn mpi_prepare_dir(
+    comm: &dyn Comm,
+    scene: &Scene,
+    opts: &RunOptions,
+) -> Result<(PathBuf, Option<output::DirLock>)> {
+    let mut lock = None;
+    let prepared = if comm.rank() != 0 {
+        String::new()
+    } else if let (Some(dir), Some(_)) = (&opts.out, &opts.restart) {
         // a restart continues in its run directory, which is not prepared afresh
-        return Ok(dir.clone());
-    }
-    let prepared = if comm.rank() == 0 {
-        match output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force) {
-            Ok(d) => format!("ok:{}", d.display()),
+        match output::DirLock::take(dir, "--restart") {
+            Ok(l) => {
+                lock = Some(l);
+                format!("ok:{}", dir.display())
+            }
             Err(e) => format!("err:{e}"),
         }
     } else {
-        String::new()
+        match output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force) {
+            Ok((d, l)) => {
+                lock = Some(l);
+                format!("ok:{}", d.display())
+            }
+            Err(e) => format!("err:{e}"),
+        }
     };
     let text = String::from_utf8_lossy(&comm.broadcast_bytes(0, prepared.into_bytes())?).into_owned();
     match text.strip_prefix("ok:") {
-        Some(d) => Ok(PathBuf::from(d)),
+        Some(d) => Ok((PathBuf::from(d), lock)),
         None => {
             let msg = text
                 .strip_prefix("err:")
@@ -929,9 +975,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             self.probes.after_step(&self.sim, self.comm, scheduled, false)?;
             self.sim.timers.add(Timer::Output, t0);
             if scheduled {
-                while self.next_out <= self.sim.t * (1.0 + 1e-12) {
-                    self.next_out += interval;
-                }
+                crate::probes::advance_past(&mut self.next_out, interval, self.sim.t);
                 self.output()?;
                 self.traffic(self.sim.step)?;
             }
@@ -1069,9 +1113,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         let by_steps = c.every_steps > 0 && self.sim.step % c.every_steps == 0;
         let by_time = c.every > 0.0 && self.sim.t >= self.next_checkpoint * (1.0 - 1e-12);
         if by_time {
-            while self.next_checkpoint <= self.sim.t * (1.0 + 1e-12) {
-                self.next_checkpoint += c.every;
-            }
+            crate::probes::advance_past(&mut self.next_checkpoint, c.every, self.sim.t);
         }
         by_steps || by_time
     }

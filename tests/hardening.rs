@@ -219,7 +219,14 @@ fn row_02_03_rank_counts_beyond_the_particles_are_refused_before_any_rank_starts
     let dir = temp_dir("ranks");
     let out = dir.join("run");
     let t0 = std::time::Instant::now();
-    for ranks in ["100000", "1000"] {
+    let beyond_particles: &[&str] = &[
+        "--ranks",
+        "2221 particles",
+        "at most 138 ranks",
+        "--min-particles-per-rank",
+    ];
+    let beyond_limit: &[&str] = &["--ranks", "100000", "limit of 4096"];
+    for (ranks, needles) in [("100000", beyond_limit), ("1000", beyond_particles)] {
         let o = hsph(&[
             "run",
             SCENE,
@@ -231,15 +238,7 @@ fn row_02_03_rank_counts_beyond_the_particles_are_refused_before_any_rank_starts
             "--out",
             out.to_str().unwrap(),
         ]);
-        assert_input_error(
-            &o,
-            &[
-                "--ranks",
-                "2221 particles",
-                "at most 138 ranks",
-                "--min-particles-per-rank",
-            ],
-        );
+        assert_input_error(&o, needles);
         assert!(!out.exists());
     }
     // with the minimum lowered, the memory the 1000 set-ups would take is what refuses it

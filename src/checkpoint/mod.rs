@@ -83,15 +83,22 @@ pub fn fnv1a64(bytes: &[u8]) -> u64 {
     h
 }
 
-/// Write `bytes` to `path` through `<path>.tmp`, synced, then renamed.
+/// Write `bytes` to `path` through `<path>.tmp`, synced, then renamed. On any failure (a full
+/// disk, a quota) the temporary file is removed, so a failed checkpoint leaves nothing that
+/// holds space or a later restart would trip over.
 fn write_synced(path: &Path, bytes: &[u8]) -> Result<()> {
     let tmp = path.with_extension("tmp");
     let io = |e| Error::io(path, e);
-    let mut f = crate::output::create_file(&tmp)?;
-    f.write_all(bytes).map_err(io)?;
-    f.sync_all().map_err(io)?;
-    drop(f);
-    fs::rename(&tmp, path).map_err(io)
+    let result = crate::output::create_file(&tmp).and_then(|mut f| {
+        f.write_all(bytes).map_err(io)?;
+        f.sync_all().map_err(io)?;
+        drop(f);
+        fs::rename(&tmp, path).map_err(io)
+    });
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result
 }
 
 /// The directory of the checkpoint at `step` under the run directory `run`.
@@ -133,7 +140,11 @@ pub fn write<const D: usize>(
     fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     let bytes = encode(sim);
     let file = format!("part-{:05}.bin", comm.rank());
-    write_synced(&dir.join(&file), &bytes)?;
+    if let Err(e) = write_synced(&dir.join(&file), &bytes) {
+        // the checkpoint is incomplete (no manifest will follow): leave no empty directory
+        let _ = fs::remove_dir(&dir);
+        return Err(e);
+    }
     let info = PartInfo {
         file,
         particles: sim.p.n_owned as u64,
@@ -251,16 +262,66 @@ pub fn run_dir_of(checkpoint: &Path) -> PathBuf {
 /// Read a checkpoint's manifest.
 pub fn manifest(dir: &Path) -> Result<Manifest> {
     let path = dir.join("manifest.json");
-    let text = fs::read(&path).map_err(|e| bad(&path, format!("cannot read: {e}")))?;
+    let text = crate::limits::read_text(&path, "--restart")?;
     let m: Manifest =
-        serde_json::from_slice(&text).map_err(|e| bad(&path, format!("not a checkpoint manifest: {e}")))?;
+        serde_json::from_str(&text).map_err(|e| bad(&path, format!("not a checkpoint manifest: {e}")))?;
     if m.format != FORMAT {
         return Err(bad(
             &path,
             format!("checkpoint format {} (this hsph reads format {FORMAT})", m.format),
         ));
     }
+    m.check().map_err(|e| bad(&path, e))?;
     Ok(m)
+}
+
+/// Whether `name` is a part file name this hsph writes: `part-<digits>.bin`, a plain name
+/// inside the checkpoint directory (no separator, no `..`, nothing absolute).
+pub fn is_part_name(name: &str) -> bool {
+    name.strip_prefix("part-")
+        .and_then(|r| r.strip_suffix(".bin"))
+        .is_some_and(|d| !d.is_empty() && d.len() <= 10 && d.bytes().all(|b| b.is_ascii_digit()))
+}
+
+impl Manifest {
+    /// A manifest is input: its numbers must be finite and consistent, its part names plain
+    /// file names, its counts within the limits, before any part is opened.
+    pub fn check(&self) -> std::result::Result<(), String> {
+        if !(self.dimension == 2 || self.dimension == 3) {
+            return Err(format!("dimension {} (2 or 3)", self.dimension));
+        }
+        if !(self.t.is_finite() && self.t >= 0.0) {
+            return Err(format!("t = {} is not a finite time ≥ 0 s", self.t));
+        }
+        if !(self.dt.is_finite() && self.dt > 0.0) {
+            return Err(format!("dt = {} is not a finite time step > 0 s", self.dt));
+        }
+        if self.ranks == 0 || self.ranks > crate::limits::MAX_RANKS || self.parts.len() != self.ranks {
+            return Err(format!(
+                "{} parts for {} ranks (1 to {} ranks, one part each)",
+                self.parts.len(),
+                self.ranks,
+                crate::limits::MAX_RANKS
+            ));
+        }
+        let mut total = 0u64;
+        for (k, p) in self.parts.iter().enumerate() {
+            if !is_part_name(&p.file) {
+                return Err(format!(
+                    "parts[{k}].file = {:?} is not a part file name (part-NNNNN.bin inside the checkpoint)",
+                    p.file
+                ));
+            }
+            total = total.saturating_add(p.particles);
+        }
+        if total > crate::limits::MAX_PARTICLES {
+            return Err(format!(
+                "{total} particles, above the limit of {}",
+                crate::limits::MAX_PARTICLES
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// Every particle of a checkpoint, sorted by id, with the acceleration of each (m/s²), after
@@ -302,6 +363,28 @@ fn particles_of_parts<const D: usize>(
             continue;
         }
         let path = dir.join(&part.file);
+        let need = 24 + part.particles as u128 * ((Record::<D>::words() + D) * 8) as u128;
+        if need != part.bytes as u128 {
+            return Err(bad(
+                &path,
+                format!(
+                    "the manifest says {} bytes for {} particles, which take {need}",
+                    part.bytes, part.particles
+                ),
+            ));
+        }
+        let len = fs::metadata(&path)
+            .map_err(|e| bad(&path, format!("checkpoint part missing or unreadable: {e}")))?;
+        if !len.is_file() || len.len() != part.bytes {
+            return Err(bad(
+                &path,
+                format!(
+                    "checkpoint part is {} bytes, the manifest says {} (truncated?)",
+                    len.len(),
+                    part.bytes
+                ),
+            ));
+        }
         let bytes =
             fs::read(&path).map_err(|e| bad(&path, format!("checkpoint part missing or unreadable: {e}")))?;
         if bytes.len() as u64 != part.bytes {

@@ -51,17 +51,70 @@ pub fn safe_name(name: &str) -> String {
     }
 }
 
-/// Choose and create the output directory: `--out`, else `runs/<safe scene name>-<UTC time>`.
-/// Refuses a non-empty directory unless `force`. Every problem with the directory is an input
-/// error (exit 2) naming it.
-pub fn prepare_dir(out: Option<&Path>, scene_name: &str, force: bool) -> Result<PathBuf> {
-    let (dir, key) = match out {
-        Some(d) => (d.to_path_buf(), "--out"),
-        None => (
-            PathBuf::from("runs").join(format!("{}-{}", safe_name(scene_name), timestamp())),
-            "name",
-        ),
+/// What a run writes into its directory: the only names `--force` removes.
+pub const RUN_FILES: &[&str] = &[
+    "summary.json",
+    "scene.toml",
+    "timeseries.csv",
+    "timeseries.nc",
+    "diagnostics.csv",
+    "final.csv",
+    "traffic.csv",
+    "removed.csv",
+    LOCK_FILE,
+];
+/// The folders a run writes (removed whole by `--force`).
+pub const RUN_FOLDERS: &[&str] = &["probes", "snapshots", "checkpoints", "final", "report"];
+/// The lock a run holds on its directory while it runs (an empty file, kept).
+pub const LOCK_FILE: &str = ".hsph.lock";
+
+/// Most directories `runs/<name>-<time>-<k>` tried when runs start in the same second.
+const MAX_SUFFIX: usize = 1000;
+
+/// A run's exclusive hold on its directory: two runs (or a run and a restart of it) cannot
+/// write one directory at once. Released when dropped (or when the process ends).
+#[derive(Debug)]
+pub struct DirLock {
+    _file: File,
+}
+
+impl DirLock {
+    /// Take the lock of `dir` (which exists), or exit 2 naming `key` if another run holds it.
+    /// A file system without locks (some network file systems) is let through.
+    pub fn take(dir: &Path, key: &str) -> Result<DirLock> {
+        let path = dir.join(LOCK_FILE);
+        let file = fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&path)
+            .map_err(|e| Error::input(key, format!("cannot use {} as the run directory: {e}", dir.display())))?;
+        match file.try_lock() {
+            Ok(()) => Ok(DirLock { _file: file }),
+            Err(fs::TryLockError::WouldBlock) => Err(Error::input(
+                key,
+                format!(
+                    "{} is in use by another hsph run (it holds {LOCK_FILE}); wait for it to end or choose \
+                     another directory with --out DIR",
+                    dir.display()
+                ),
+            )),
+            Err(fs::TryLockError::Error(_)) => Ok(DirLock { _file: file }),
+        }
+    }
+}
+
+/// Choose, create and lock the output directory: `--out`, else `runs/<safe scene name>-<UTC
+/// time>` (with `-2`, `-3`, … when another run took that name in the same second). A
+/// non-empty directory is refused unless `force`, and `force` empties only a run directory
+/// (one with a `scene.toml` or `summary.json`), removing only what a run writes
+/// ([`RUN_FILES`], [`RUN_FOLDERS`]: the old checkpoints too, so a restart cannot resume the
+/// old run). Every problem with the directory is an input error (exit 2) naming it.
+pub fn prepare_dir(out: Option<&Path>, scene_name: &str, force: bool) -> Result<(PathBuf, DirLock)> {
+    let Some(dir) = out else {
+        return fresh_default_dir(scene_name);
     };
+    let key = "--out";
     let bad = |why: String| {
         Error::input(
             key,
@@ -71,15 +124,18 @@ pub fn prepare_dir(out: Option<&Path>, scene_name: &str, force: bool) -> Result<
             ),
         )
     };
-    if dir.exists() {
-        if !dir.is_dir() {
-            return Err(bad("it is a file, not a directory".into()));
-        }
-        let non_empty = fs::read_dir(&dir)
-            .map_err(|e| bad(e.to_string()))?
-            .next()
-            .is_some();
-        if non_empty && !force {
+    if dir.exists() && !dir.is_dir() {
+        return Err(bad("it is a file, not a directory".into()));
+    }
+    fs::create_dir_all(dir).map_err(|e| bad(e.to_string()))?;
+    let lock = DirLock::take(dir, key)?;
+    let entries: Vec<std::ffi::OsString> = fs::read_dir(dir)
+        .map_err(|e| bad(e.to_string()))?
+        .filter_map(|e| e.ok().map(|e| e.file_name()))
+        .filter(|n| n != LOCK_FILE)
+        .collect();
+    if !entries.is_empty() {
+        if !force {
             return Err(Error::input(
                 key,
                 format!(
@@ -88,36 +144,100 @@ pub fn prepare_dir(out: Option<&Path>, scene_name: &str, force: bool) -> Result<
                 ),
             ));
         }
-        if non_empty {
-            // --force: remove what a previous run wrote (only our own files and folders)
-            for name in [
-                "summary.json",
-                "scene.toml",
-                "timeseries.csv",
-                "diagnostics.csv",
-                "final.csv",
-                "traffic.csv",
-                "removed.csv",
-            ] {
-                let _ = fs::remove_file(dir.join(name));
-            }
-            for sub in ["probes", "snapshots"] {
-                let _ = fs::remove_dir_all(dir.join(sub));
-            }
+        let is_run = ["scene.toml", "summary.json"].iter().any(|f| dir.join(f).is_file());
+        if !is_run {
+            return Err(bad(
+                "it is not empty and not a run directory (no scene.toml or summary.json), so --force \
+                 will not empty it"
+                    .into(),
+            ));
         }
+        clear_run(dir).map_err(|e| bad(e.to_string()))?;
     }
-    fs::create_dir_all(&dir).map_err(|e| bad(e.to_string()))?;
-    // a directory we cannot write into fails here, not after the set-up
-    let probe = dir.join(".hsph-write-test");
-    fs::write(&probe, b"").map_err(|e| bad(e.to_string()))?;
-    let _ = fs::remove_file(&probe);
-    Ok(dir)
+    check_writable(dir).map_err(|e| bad(e.to_string()))?;
+    Ok((dir.to_path_buf(), lock))
 }
 
-/// Remove `dir` if a run that failed before writing anything left it empty.
+/// Remove what a run wrote in `dir` (and nothing else).
+fn clear_run(dir: &Path) -> std::io::Result<()> {
+    for name in RUN_FILES.iter().filter(|n| **n != LOCK_FILE) {
+        match fs::remove_file(dir.join(name)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e),
+            _ => {}
+        }
+    }
+    for sub in RUN_FOLDERS {
+        match fs::remove_dir_all(dir.join(sub)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e),
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// A directory we cannot write into fails here, not after the set-up.
+fn check_writable(dir: &Path) -> std::io::Result<()> {
+    let probe = dir.join(".hsph-write-test");
+    fs::write(&probe, b"")?;
+    fs::remove_file(&probe)
+}
+
+/// `runs/<name>-<time>`, created by this process alone (`create_dir` fails if another run made
+/// it first; then `-2`, `-3`, …).
+fn fresh_default_dir(scene_name: &str) -> Result<(PathBuf, DirLock)> {
+    let base = format!("{}-{}", safe_name(scene_name), timestamp());
+    let bad = |dir: &Path, why: String| {
+        Error::input(
+            "name",
+            format!(
+                "cannot create the run directory {}: {why}; choose one with --out DIR",
+                dir.display()
+            ),
+        )
+    };
+    let runs = Path::new("runs");
+    fs::create_dir_all(runs).map_err(|e| bad(runs, e.to_string()))?;
+    for k in 1..=MAX_SUFFIX {
+        let dir = if k == 1 {
+            runs.join(&base)
+        } else {
+            runs.join(format!("{base}-{k}"))
+        };
+        match fs::create_dir(&dir) {
+            Ok(()) => {
+                let lock = DirLock::take(&dir, "name")?;
+                check_writable(&dir).map_err(|e| bad(&dir, e.to_string()))?;
+                return Ok((dir, lock));
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+            Err(e) => return Err(bad(&dir, e.to_string())),
+        }
+    }
+    Err(bad(
+        &runs.join(&base),
+        format!("{MAX_SUFFIX} runs of this scene started in the same second"),
+    ))
+}
+
+/// Remove `dir` if a run that failed before writing anything left it empty (but for its lock).
 pub fn remove_if_empty(dir: &Path) {
-    if fs::read_dir(dir).is_ok_and(|mut d| d.next().is_none()) {
+    let only_lock = fs::read_dir(dir).is_ok_and(|d| d.flatten().all(|e| e.file_name() == LOCK_FILE));
+    if only_lock {
+        let _ = fs::remove_file(dir.join(LOCK_FILE));
         let _ = fs::remove_dir(dir);
+    }
+}
+
+/// Refuse to write over `path` if it is there and is not a regular file (a device such as
+/// `/dev/full`, a FIFO, a directory): hsph never truncates or renames over one.
+pub fn refuse_non_regular(path: &Path) -> Result<()> {
+    match fs::metadata(path) {
+        Ok(m) if !m.is_file() => Err(Error::input(
+            path.display().to_string(),
+            "exists and is not a regular file (a device, FIFO or directory); hsph writes only \
+             regular files: choose another path",
+        )),
+        _ => Ok(()),
     }
 }
 
@@ -151,6 +271,9 @@ pub(crate) fn create_file(path: &Path) -> Result<File> {
     let full = std::env::var("HSPH_TEST_FULL_DISK")
         .ok()
         .is_some_and(|suffix| !suffix.is_empty() && path.to_string_lossy().ends_with(&suffix));
+    if !full {
+        refuse_non_regular(path)?;
+    }
     let target = if full { Path::new("/dev/full") } else { path };
     let f = if full {
         fs::OpenOptions::new().write(true).open(target)
@@ -188,6 +311,7 @@ pub(crate) fn write_atomic(
     let mut tmp_name = path.file_name().unwrap_or_default().to_os_string();
     tmp_name.push(".tmp");
     let tmp = path.with_file_name(tmp_name);
+    refuse_non_regular(path)?;
     let result = create(&tmp).and_then(|mut f| {
         write(&mut f)
             .and_then(|_| f.flush())

@@ -280,6 +280,25 @@ impl<const D: usize> ProbeSet<D> {
     }
 }
 
+/// Move an interval clock's `next` time (s) past `t` (s) by whole `interval`s, in O(1) whatever
+/// the ratio of the step to the interval: a few additions (the usual case: the same times as
+/// always), then, for a clock far behind (an interval far below dt, or one below the spacing
+/// of floats at `t`), a jump to the first multiple of the interval after `t`. A clock fires at
+/// most once per step.
+pub fn advance_past(next: &mut f64, interval: f64, t: f64) {
+    let limit = t * (1.0 + 1e-12);
+    for _ in 0..4 {
+        if *next > limit {
+            return;
+        }
+        *next += interval;
+    }
+    if *next <= limit {
+        let k = (limit / interval).floor() + 1.0;
+        *next = (k * interval).max(limit.next_up());
+    }
+}
+
 /// Whether a clock writes a row at time `t` (s); advances an interval clock past `t`.
 fn clock_due(c: &mut Clock, t: f64, output: bool) -> bool {
     match c {
@@ -287,9 +306,7 @@ fn clock_due(c: &mut Clock, t: f64, output: bool) -> bool {
         Clock::Step => true,
         Clock::Every { interval, next } => {
             if t >= *next * (1.0 - 1e-12) - 1e-300 {
-                while *next <= t * (1.0 + 1e-12) {
-                    *next += *interval;
-                }
+                advance_past(next, *interval, t);
                 true
             } else {
                 false
@@ -326,6 +343,26 @@ fn mean(w: &Window) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_clock_far_behind_catches_up_in_one_step() {
+        for (interval, t) in [(1e-30, 1e-5), (1e-15, 0.47), (1e-300, 1.0), (0.1, 1e6)] {
+            let mut next = interval;
+            advance_past(&mut next, interval, t);
+            assert!(next > t * (1.0 + 1e-12), "{interval} {t}: {next}");
+            assert!(next <= t * (1.0 + 1e-12) + interval.max(t * 1e-15), "{interval} {t}: {next}");
+        }
+        // the usual case: the same times as repeated addition
+        let (mut a, mut b) = (0.1, 0.1);
+        for step in 1..100 {
+            let t = step as f64 * 0.037;
+            advance_past(&mut a, 0.1, t);
+            while b <= t * (1.0 + 1e-12) {
+                b += 0.1;
+            }
+            assert_eq!(a.to_bits(), b.to_bits());
+        }
+    }
 
     #[test]
     fn an_interval_clock_fires_at_the_first_step_past_each_multiple() {
