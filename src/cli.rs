@@ -328,6 +328,10 @@ fn dispatch(cmd: Command) -> Result<i32> {
         Command::Run(a) => cmd_run_args(a),
         Command::Jobscript(a) => cmd_jobscript(a),
         Command::Topology { ranks, threads } => {
+            crate::limits::ranks("--ranks", ranks)?;
+            if threads > 0 {
+                crate::limits::threads("--threads", threads, ranks)?;
+            }
             say(&crate::affinity::topology_report(ranks, threads)?);
             Ok(0)
         }
@@ -429,6 +433,12 @@ fn cmd_bench(
     interactions: Option<crate::scene::Interactions>,
     neighbours: Option<crate::scene::NeighbourMode>,
 ) -> Result<i32> {
+    use crate::limits::{count, MAX_BENCH_STEPS, MAX_REPEAT};
+    count("--steps", steps, MAX_BENCH_STEPS)?;
+    count("--repeat", repeat as u64, MAX_REPEAT as u64)?;
+    for &t in &threads {
+        crate::limits::threads("--threads", t, 1)?;
+    }
     set.extend(interactions_override(interactions));
     set.extend(neighbours.map(|m| format!("performance.neighbours=\"{}\"", m.name())));
     let scenes = if scenes.is_empty() {

@@ -90,7 +90,11 @@ impl Measured {
                 ),
             )
         };
-        let text = std::fs::read_to_string(dir.join("summary.json")).map_err(|_| bad("no summary.json"))?;
+        let summary = dir.join("summary.json");
+        if !summary.exists() {
+            return Err(bad("no summary.json"));
+        }
+        let text = crate::limits::read_text(&summary, "summary.json")?;
         let s: serde_json::Value =
             serde_json::from_str(&text).map_err(|_| bad("summary.json is not JSON"))?;
         let (scene, _) = load_scene(&dir.join("scene.toml"), &[])?;

@@ -172,14 +172,7 @@ impl Topology {
     /// [`Error::Input`] (exit 2) with file, line and key: unreadable file, invalid TOML, an
     /// unknown or missing key, a value out of range.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::Input {
-            at: Some(Location {
-                file: path.to_path_buf(),
-                line: None,
-            }),
-            key: String::new(),
-            message: format!("cannot read the topology file: {e}"),
-        })?;
+        let text = crate::limits::read_text(path, "--topology")?;
         Self::from_toml(&text, path)
     }
 
@@ -249,10 +242,24 @@ impl Topology {
             ("node.cores_per_domain", n.cores_per_domain),
             ("node.ranks", n.ranks),
         ] {
-            if v == 0 {
-                return Err(Error::input(key, "must be at least 1"));
-            }
+            crate::limits::count(key, v as u64, crate::limits::MAX_RANKS as u64)?;
         }
+        crate::limits::count(
+            "node.count",
+            (n.count as u64).saturating_mul(n.ranks as u64),
+            crate::limits::MAX_RANKS as u64,
+        )
+        .map_err(|_| {
+            Error::input(
+                "node.count",
+                format!(
+                    "{} nodes × {} ranks is above the limit of {} ranks",
+                    n.count,
+                    n.ranks,
+                    crate::limits::MAX_RANKS
+                ),
+            )
+        })?;
         let cores = n.numa_domains * n.cores_per_domain;
         let cpus = match n.cpus_per_rank {
             Some(0) => return Err(Error::input("node.cpus_per_rank", "must be at least 1")),

@@ -47,6 +47,44 @@ pub struct Options {
     pub map: Option<Vec<String>>,
 }
 
+/// `--jobs`, `--threads` and `--resolutions` within the limits (exit 2 naming the flag).
+fn check_flags(opts: &Options) -> Result<()> {
+    use crate::limits::{count, MAX_JOBS, MAX_RESOLUTION, MAX_THREADS};
+    count("--jobs", opts.jobs as u64, MAX_JOBS as u64)?;
+    count("--threads", opts.threads as u64, MAX_THREADS as u64)?;
+    for &n in &opts.resolutions {
+        count("--resolutions", n as u64, MAX_RESOLUTION as u64)?;
+    }
+    Ok(())
+}
+
+/// A configuration's scene, loaded with its overrides and the user's `--set` and checked
+/// against the limits, before any child run starts: bad input is exit 2 here, naming the key,
+/// not a failed run (exit 1) later.
+fn check_job(job: &Job, set: &[String]) -> Result<()> {
+    let (file, text) = job.case.scene_for(&job.variant);
+    let sets: Vec<String> = job
+        .case
+        .sets(job.n, &job.variant)
+        .into_iter()
+        .chain(set.iter().cloned())
+        .collect();
+    let (scene, _) = crate::scene::load_scene_str(text, Path::new(file), job.case.name, &sets)?;
+    let opts = crate::driver::RunOptions {
+        max_memory: Some(f64::INFINITY),
+        ..Default::default()
+    };
+    crate::driver::check_limits(&scene, 1, 1, &opts).map_err(|e| match e {
+        Error::Input { at, key, message } => Error::Input {
+            at,
+            key,
+            message: format!("{message} (case {} at resolution {})", job.case.name, job.n),
+        },
+        e => e,
+    })?;
+    Ok(())
+}
+
 /// The configurations `opts` asks of `case`: an exit-2 error names an unknown variant.
 fn jobs_of(case: &Case, opts: &Options) -> Result<Vec<Job>> {
     let pool: Vec<Variant> = (case.sweep)();
@@ -214,9 +252,13 @@ pub fn command(opts: &Options) -> Result<i32> {
             ));
         }
     }
+    check_flags(opts)?;
     let mut jobs = Vec::new();
     for c in &cases {
         jobs.extend(jobs_of(c, opts)?);
+    }
+    for job in &jobs {
+        check_job(job, &opts.set)?;
     }
     same_overrides(&opts.out, &opts.set)?;
     let exe =
