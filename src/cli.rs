@@ -1005,6 +1005,68 @@ fn solid_speeds(scene: &Scene) -> Option<String> {
     })
 }
 
+/// The `hsph check` lines on what a run will write: the bytes by kind, a warning when an output
+/// or probe interval is below dt₀ (then a row or snapshot every step) and when the total
+/// exceeds the free space where runs are written.
+fn output_volume<const D: usize>(
+    scene: &Scene,
+    n: usize,
+    steps: f64,
+    dt: f64,
+    dropped: crate::particles::Fields,
+) -> String {
+    use crate::memory::human;
+    use crate::output::volume::{estimate, free_space};
+    let t_end = scene.time.t_end;
+    let interval = if scene.output.interval > 0.0 {
+        scene.output.interval
+    } else {
+        t_end / 50.0
+    };
+    let record = crate::particles::Particles::<D>::bytes_per_particle_carried(dropped) as f64;
+    let v = estimate(scene, D, n as f64, steps, record, interval);
+    let mut s = format!(
+        "output      about {} written: snapshots {}, probes {}, series {}, final.csv {}, checkpoints {}\n",
+        human(v.total()),
+        human(v.snapshots),
+        human(v.probes),
+        human(v.series),
+        human(v.final_csv),
+        human(v.checkpoints)
+    );
+    let mut short = Vec::new();
+    if interval < dt {
+        short.push(format!("output.interval {interval:e} s"));
+    }
+    for (k, p) in scene.probes.iter().enumerate() {
+        if let Some(iv) = p.interval().filter(|&iv| iv > 0.0 && iv < dt) {
+            short.push(format!("probe[{k}].interval {iv:e} s"));
+        }
+    }
+    if !short.is_empty() {
+        s += &format!(
+            "  warning: {} below dt₀ = {dt:.4e} s: written at every step\n",
+            short.join(", ")
+        );
+    }
+    let here = if std::path::Path::new("runs").is_dir() {
+        "runs"
+    } else {
+        "."
+    };
+    if let Some(free) = free_space(std::path::Path::new(here)) {
+        if v.total() > free {
+            s += &format!(
+                "  warning: about {} to write, more than the {} free where runs go ({here}); \
+                 raise output.interval or write elsewhere with --out\n",
+                human(v.total()),
+                human(free)
+            );
+        }
+    }
+    s
+}
+
 /// The text `hsph check` prints: counts, physics, dt and memory estimates.
 pub fn check_report(scene: &Scene) -> Result<String> {
     crate::with_dim!(scene.dimension, D => check_dim::<D>(scene))
@@ -1091,6 +1153,11 @@ fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
         bytes as f64 / n.max(1) as f64
     );
     let _ = writeln!(w, "probes      {}", scene.probes.len());
+    let _ = write!(
+        w,
+        "{}",
+        output_volume::<D>(scene, n, steps, sim.dt, sim.p.dropped)
+    );
     if let Some(r) = &scene.reference {
         let _ = writeln!(w, "reference   {r:?}");
     }

@@ -11,6 +11,7 @@ pub mod netcdf;
 #[cfg(feature = "netcdf")]
 pub mod netcdf4;
 pub mod snapshot;
+pub mod volume;
 pub mod vtk;
 
 use crate::comm::TrafficEntry;
@@ -88,7 +89,12 @@ impl DirLock {
             .truncate(false)
             .write(true)
             .open(&path)
-            .map_err(|e| Error::input(key, format!("cannot use {} as the run directory: {e}", dir.display())))?;
+            .map_err(|e| {
+                Error::input(
+                    key,
+                    format!("cannot use {} as the run directory: {e}", dir.display()),
+                )
+            })?;
         match file.try_lock() {
             Ok(()) => Ok(DirLock { _file: file }),
             Err(fs::TryLockError::WouldBlock) => Err(Error::input(
@@ -144,7 +150,9 @@ pub fn prepare_dir(out: Option<&Path>, scene_name: &str, force: bool) -> Result<
                 ),
             ));
         }
-        let is_run = ["scene.toml", "summary.json"].iter().any(|f| dir.join(f).is_file());
+        let is_run = ["scene.toml", "summary.json"]
+            .iter()
+            .any(|f| dir.join(f).is_file());
         if !is_run {
             return Err(bad(
                 "it is not empty and not a run directory (no scene.toml or summary.json), so --force \

@@ -350,7 +350,10 @@ mod tests {
             let mut next = interval;
             advance_past(&mut next, interval, t);
             assert!(next > t * (1.0 + 1e-12), "{interval} {t}: {next}");
-            assert!(next <= t * (1.0 + 1e-12) + interval.max(t * 1e-15), "{interval} {t}: {next}");
+            assert!(
+                next <= t * (1.0 + 1e-12) + interval.max(t * 1e-15),
+                "{interval} {t}: {next}"
+            );
         }
         // the usual case: the same times as repeated addition
         let (mut a, mut b) = (0.1, 0.1);
