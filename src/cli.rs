@@ -910,24 +910,35 @@ pub fn say(text: &str) {
     let _ = std::io::stdout().write_all(text.as_bytes());
 }
 
-/// `--max-memory SIZE`.
-/// HH:MM:SS, MM:SS or seconds, as seconds.
+/// `--time`, `--max-wall`: HH:MM:SS, MM:SS or seconds, as seconds. Fields after the first are
+/// below 60; the whole is above zero and at most [`crate::limits::MAX_WALL_SECONDS`].
 fn parse_duration(s: &str) -> std::result::Result<f64, String> {
+    use crate::limits::MAX_WALL_SECONDS;
+    const EXAMPLE: &str = "e.g. 23:50:00, 45:00 or 3600";
     let parts: Vec<&str> = s.split(':').collect();
     let nums: Option<Vec<f64>> = parts.iter().map(|p| p.trim().parse::<f64>().ok()).collect();
-    match nums {
-        Some(n) if (1..=3).contains(&n.len()) && n.iter().all(|x| *x >= 0.0 && x.is_finite()) => {
-            let secs = n.iter().fold(0.0, |acc, x| acc * 60.0 + x);
-            if secs > 0.0 {
-                Ok(secs)
-            } else {
-                Err(format!("`{s}` is zero; e.g. 23:50:00"))
-            }
-        }
-        _ => Err(format!("`{s}` is not a duration; e.g. 23:50:00, 45:00 or 3600")),
+    let n = match nums {
+        Some(n) if (1..=3).contains(&n.len()) && n.iter().all(|x| *x >= 0.0 && x.is_finite()) => n,
+        _ => return Err(format!("`{s}` is not a duration; {EXAMPLE}")),
+    };
+    if let Some(x) = n[1..].iter().find(|x| **x >= 60.0) {
+        return Err(format!(
+            "`{s}`: {x} is not below 60; minutes and seconds after the first field are 0 to 59, {EXAMPLE}"
+        ));
+    }
+    let secs = n.iter().fold(0.0, |acc, x| acc * 60.0 + x);
+    if secs <= 0.0 {
+        Err(format!("`{s}` is zero; {EXAMPLE}"))
+    } else if secs > MAX_WALL_SECONDS {
+        Err(format!(
+            "`{s}` is {secs} s, above the limit of {MAX_WALL_SECONDS} s (366 days); {EXAMPLE}"
+        ))
+    } else {
+        Ok(secs)
     }
 }
 
+/// `--max-memory SIZE`.
 fn parse_memory(s: &str) -> std::result::Result<f64, String> {
     crate::memory::parse_size(s)
         .ok_or_else(|| format!("`{s}` is not a size; e.g. 64G, 512MiB or 1000000 (bytes)"))
