@@ -622,31 +622,33 @@ fn check_run_flags(
     Ok(())
 }
 
-/// `hsph jobscript`'s flags.
+/// `hsph jobscript`'s flags. Every value is checked before the script is written
+/// ([`crate::jobscript::JobSpec::validate`]): counts and times against [`crate::limits`],
+/// Slurm names against their charset, paths for control characters.
 #[derive(clap::Args, Debug)]
 pub struct JobArgs {
-    /// Scene file (TOML).
+    /// Scene file (TOML); its `name` is the job's name (letters, digits and . _ + -).
     scene: PathBuf,
-    /// Nodes.
+    /// Nodes (nodes × ranks per node at most 4096).
     #[arg(long)]
     nodes: usize,
     /// Ranks (MPI tasks) per node.
     #[arg(long)]
     ranks_per_node: usize,
-    /// Rayon threads per rank (CPUs per task).
+    /// Rayon threads per rank (CPUs per task), at most 1024.
     #[arg(long, default_value_t = 1)]
     threads_per_rank: usize,
-    /// Time limit, HH:MM:SS (or MM:SS, or seconds).
+    /// Time limit, HH:MM:SS (or MM:SS, or seconds), at most 366 days.
     #[arg(long, value_parser = parse_duration)]
     time: f64,
-    /// Seconds before the limit at which the run is told to checkpoint and stop (default: a
-    /// tenth of the time, 60 s to 15 min).
+    /// Seconds before the limit at which the run is told to checkpoint and stop, 10 to 65535
+    /// and below --time (default: a tenth of the time, 60 s to 15 min).
     #[arg(long, value_name = "SECONDS")]
     signal_before: Option<u64>,
-    /// Slurm partition.
+    /// Slurm partition, or a comma-separated list (letters, digits and . _ + -).
     #[arg(long)]
     partition: Option<String>,
-    /// Slurm account.
+    /// Slurm account (letters, digits and . _ + -).
     #[arg(long)]
     account: Option<String>,
     /// Placement of subdomains on ranks.
@@ -658,13 +660,15 @@ pub struct JobArgs {
     /// Run directory (default runs/<scene name>).
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Write the script to this file (default: standard output).
+    /// Write the script to this file (default: standard output); an existing path must be a
+    /// regular file.
     #[arg(long)]
     script: Option<PathBuf>,
 }
 
 /// `hsph jobscript`: the sbatch script for a scene, to a file or standard output.
 fn cmd_jobscript(a: JobArgs) -> Result<i32> {
+    use crate::jobscript::{path_text, HSPH_ADVICE, OUT_ADVICE, SCENE_ADVICE};
     let JobArgs {
         scene,
         nodes,
@@ -679,14 +683,24 @@ fn cmd_jobscript(a: JobArgs) -> Result<i32> {
         out,
         script,
     } = a;
+    if let Some(path) = &script {
+        crate::jobscript::script_target(path)?;
+    }
     let (sc, _) = load_scene(&scene, &[])?;
     let abs = |p: &std::path::Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
-    let run = out.unwrap_or_else(|| PathBuf::from("runs").join(&sc.name));
+    // the default run directory as `run` makes it from the name: one safe path component
+    let run = out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("runs").join(crate::output::safe_name(&sc.name)));
+    let hsph = match std::env::current_exe() {
+        Ok(p) => path_text("HSPH", &p, HSPH_ADVICE)?,
+        Err(_) => "hsph".into(),
+    };
     let time_s = time.round() as u64;
     let spec = crate::jobscript::JobSpec {
-        scene: abs(&scene).display().to_string(),
-        run: abs(&run).display().to_string(),
-        hsph: std::env::current_exe().map_or("hsph".into(), |p| p.display().to_string()),
+        scene: path_text("SCENE", &abs(&scene), SCENE_ADVICE)?,
+        run: path_text("--out", &abs(&run), OUT_ADVICE)?,
+        hsph,
         name: sc.name.clone(),
         nodes,
         ranks_per_node,
@@ -944,24 +958,35 @@ pub fn say(text: &str) {
     let _ = std::io::stdout().write_all(text.as_bytes());
 }
 
-/// `--max-memory SIZE`.
-/// HH:MM:SS, MM:SS or seconds, as seconds.
+/// `--time`, `--max-wall`: HH:MM:SS, MM:SS or seconds, as seconds. Fields after the first are
+/// below 60; the whole is above zero and at most [`crate::limits::MAX_WALL_SECONDS`].
 fn parse_duration(s: &str) -> std::result::Result<f64, String> {
+    use crate::limits::MAX_WALL_SECONDS;
+    const EXAMPLE: &str = "e.g. 23:50:00, 45:00 or 3600";
     let parts: Vec<&str> = s.split(':').collect();
     let nums: Option<Vec<f64>> = parts.iter().map(|p| p.trim().parse::<f64>().ok()).collect();
-    match nums {
-        Some(n) if (1..=3).contains(&n.len()) && n.iter().all(|x| *x >= 0.0 && x.is_finite()) => {
-            let secs = n.iter().fold(0.0, |acc, x| acc * 60.0 + x);
-            if secs > 0.0 {
-                Ok(secs)
-            } else {
-                Err(format!("`{s}` is zero; e.g. 23:50:00"))
-            }
-        }
-        _ => Err(format!("`{s}` is not a duration; e.g. 23:50:00, 45:00 or 3600")),
+    let n = match nums {
+        Some(n) if (1..=3).contains(&n.len()) && n.iter().all(|x| *x >= 0.0 && x.is_finite()) => n,
+        _ => return Err(format!("`{s}` is not a duration; {EXAMPLE}")),
+    };
+    if let Some(x) = n[1..].iter().find(|x| **x >= 60.0) {
+        return Err(format!(
+            "`{s}`: {x} is not below 60; minutes and seconds after the first field are 0 to 59, {EXAMPLE}"
+        ));
+    }
+    let secs = n.iter().fold(0.0, |acc, x| acc * 60.0 + x);
+    if secs <= 0.0 {
+        Err(format!("`{s}` is zero; {EXAMPLE}"))
+    } else if secs > MAX_WALL_SECONDS {
+        Err(format!(
+            "`{s}` is {secs} s, above the limit of {MAX_WALL_SECONDS} s (366 days); {EXAMPLE}"
+        ))
+    } else {
+        Ok(secs)
     }
 }
 
+/// `--max-memory SIZE`.
 fn parse_memory(s: &str) -> std::result::Result<f64, String> {
     crate::memory::parse_size(s)
         .ok_or_else(|| format!("`{s}` is not a size; e.g. 64G, 512MiB or 1000000 (bytes)"))

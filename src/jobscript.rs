@@ -6,9 +6,17 @@
 //! the job (`scontrol requeue`, which needs `JobRequeue=1` or `--requeue`), and the requeued job
 //! finds the checkpoint and continues with `hsph run --restart`. Threads: one rayon thread per
 //! CPU of the task (`--cpus-per-task`), cores bound by the launcher.
+//!
+//! Nothing taken from input reaches the script unchecked: the job name (the scene's `name`),
+//! `--partition` and `--account` must be Slurm names ([`slurm_name`]), written only on
+//! `#SBATCH` lines; paths (the scene, the run directory, the hsph binary) are refused if they
+//! hold a control character and written only as single-quoted shell words ([`shell_quote`]);
+//! everything else is a number checked against [`crate::limits`].
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Location, Result};
+use crate::limits::{MAX_RANKS, MAX_SLURM_NAME, MAX_THREADS, MAX_WALL_SECONDS, SIGNAL_BEFORE_RANGE};
 use clap::ValueEnum;
+use std::path::{Path, PathBuf};
 
 /// How the ranks are started inside the allocation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -19,16 +27,17 @@ pub enum Launcher {
     Mpirun,
 }
 
-/// What the script asks for.
+/// What the script asks for. [`JobSpec::validate`] checks every field; [`JobSpec::script`]
+/// assumes it has.
 #[derive(Debug, Clone)]
 pub struct JobSpec {
-    /// Scene file, as the job should see it.
+    /// Scene file, as the job should see it (absolute; no control character).
     pub scene: String,
-    /// Run directory.
+    /// Run directory (absolute; no control character).
     pub run: String,
-    /// The hsph binary (built with the `mpi` feature).
+    /// The hsph binary (built with the `mpi` feature; no control character).
     pub hsph: String,
-    /// Job name.
+    /// Job name: the scene's `name`, a Slurm name ([`slurm_name`]).
     pub name: String,
     /// Nodes.
     pub nodes: usize,
@@ -40,9 +49,9 @@ pub struct JobSpec {
     pub time_s: u64,
     /// Seconds before the limit at which Slurm sends USR1.
     pub signal_s: u64,
-    /// Partition, if any.
+    /// Partition, or a comma-separated list of partitions, if any (Slurm names).
     pub partition: Option<String>,
-    /// Account, if any.
+    /// Account, if any (a Slurm name).
     pub account: Option<String>,
     /// Placement of subdomains (`hsph run --placement`).
     pub placement: String,
@@ -61,17 +70,152 @@ pub fn default_signal(time_s: u64) -> u64 {
     (time_s / 10).clamp(60, 900)
 }
 
+/// `s` as one POSIX shell word: in single quotes, each `'` written `'\''`. Inside single quotes
+/// the shell expands nothing (`$`, backquotes, `\`, `"`, newlines are all literal).
+pub fn shell_quote(s: &str) -> String {
+    format!("'{}'", s.replace('\'', r"'\''"))
+}
+
+/// A character Slurm takes in a name without quoting, and a shell line without meaning:
+/// ASCII letters, digits, `.`, `_`, `+`, `-`.
+fn slurm_char(c: char) -> bool {
+    c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '+' | '-')
+}
+
+/// Check `value` of `key` as a Slurm name (job name, account; with `list`, a comma-separated
+/// list of them, as `--partition` takes): 1 to [`MAX_SLURM_NAME`] characters, each a letter,
+/// digit, `.`, `_`, `+` or `-` (or `,` between names of a list). Anything else, a newline, a
+/// quote, `$`, a space, could end an `#SBATCH` line or start a command, and is refused with
+/// exit 2 naming `key`, the value and an example like `example`.
+pub fn slurm_name(key: &str, value: &str, list: bool, example: &str) -> Result<()> {
+    let what = if list {
+        "a Slurm name or a comma-separated list of names"
+    } else {
+        "a Slurm name"
+    };
+    let chars = value.chars().count();
+    let bad = if value.is_empty() {
+        Some("is empty".to_string())
+    } else if chars > MAX_SLURM_NAME {
+        Some(format!(
+            "is {chars} characters, above the limit of {MAX_SLURM_NAME}"
+        ))
+    } else if list && value.split(',').any(str::is_empty) {
+        Some("has an empty name in its list".to_string())
+    } else {
+        value
+            .chars()
+            .find(|&c| !(slurm_char(c) || (list && c == ',')))
+            .map(|c| format!("contains {c:?}"))
+    };
+    match bad {
+        None => Ok(()),
+        Some(why) => Err(Error::input(
+            key,
+            format!(
+                "{value:?} {why}: it must be {what} of letters, digits and . _ + -{}, at most \
+                 {MAX_SLURM_NAME} characters; e.g. {example}",
+                if list { " (and , between names)" } else { "" }
+            ),
+        )),
+    }
+}
+
+/// Check a path written into the script, given by `key`: refused (exit 2, with `advice`) if it
+/// holds a control character (a newline, a carriage return, a tab, ...), which could end a line
+/// of the script or of its log.
+pub fn plain_path(key: &str, path: &str, advice: &str) -> Result<()> {
+    match path.chars().find(|c| c.is_control()) {
+        None => Ok(()),
+        Some(c) => Err(Error::input(
+            key,
+            format!("{path:?} contains the control character {c:?}, which a batch script cannot hold safely; {advice}"),
+        )),
+    }
+}
+
+/// `path` (given by `key`) as UTF-8 text for the script, else exit 2 naming `key` (with
+/// `advice`): the script must name the very file, not a lossy rendering of it.
+pub fn path_text(key: &str, path: &Path, advice: &str) -> Result<String> {
+    let text = path.to_str().ok_or_else(|| {
+        Error::input(
+            key,
+            format!("{path:?} is not valid UTF-8, so a batch script cannot name it exactly; {advice}"),
+        )
+    })?;
+    plain_path(key, text, advice)?;
+    Ok(text.to_string())
+}
+
+/// What to do about an unusable scene path, run directory or hsph binary.
+pub const SCENE_ADVICE: &str = "rename it, e.g. inputs/dam_break_2d.toml";
+/// See [`SCENE_ADVICE`].
+pub const OUT_ADVICE: &str = "choose another, e.g. --out runs/dam_break";
+/// See [`SCENE_ADVICE`].
+pub const HSPH_ADVICE: &str = "install hsph under a path of printable characters, e.g. /opt/hsph/bin/hsph";
+
+/// Refuse (exit 2 naming `--script`) a script path that exists and is not a regular file (a
+/// directory, a device such as `/dev/full`, a FIFO): the script would be renamed over it.
+/// A symbolic link is judged by what it points to.
+pub fn script_target(path: &Path) -> Result<()> {
+    match std::fs::metadata(path) {
+        Ok(m) if !m.is_file() => Err(Error::input(
+            "--script",
+            format!(
+                "{path:?} exists and is not a regular file (a directory, a device or a FIFO), and \
+                 would be replaced; give a file path, e.g. --script job.sh"
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
 impl JobSpec {
-    /// Check the request (exit 2 naming the flag).
+    /// Check the request: every count, time and name within its bound, every path printable
+    /// (exit 2 naming the flag, or the scene file and its `name`).
     pub fn validate(&self) -> Result<()> {
-        for (v, flag) in [
-            (self.nodes, "--nodes"),
-            (self.ranks_per_node, "--ranks-per-node"),
-            (self.threads_per_rank, "--threads-per-rank"),
-        ] {
-            if v == 0 {
-                return Err(Error::input(flag, "must be at least 1"));
-            }
+        let max_ranks = MAX_RANKS as u64;
+        crate::limits::count("--nodes", self.nodes as u64, max_ranks)?;
+        crate::limits::count("--ranks-per-node", self.ranks_per_node as u64, max_ranks)?;
+        crate::limits::ranks(
+            "--nodes × --ranks-per-node",
+            self.nodes.saturating_mul(self.ranks_per_node),
+        )?;
+        crate::limits::count(
+            "--threads-per-rank",
+            self.threads_per_rank as u64,
+            MAX_THREADS as u64,
+        )?;
+        let (lo, hi) = SIGNAL_BEFORE_RANGE;
+        if self.time_s as f64 > MAX_WALL_SECONDS {
+            return Err(Error::input(
+                "--time",
+                format!(
+                    "{} is above the limit of {} ({MAX_WALL_SECONDS} s); e.g. 23:50:00",
+                    hms(self.time_s),
+                    hms(MAX_WALL_SECONDS as u64)
+                ),
+            ));
+        }
+        if self.time_s <= lo {
+            return Err(Error::input(
+                "--time",
+                format!(
+                    "{} leaves no room for the warning before the limit (at least {lo} s); e.g. 00:10:00",
+                    hms(self.time_s)
+                ),
+            ));
+        }
+        if !(lo..=hi).contains(&self.signal_s) {
+            return Err(Error::input(
+                "--signal-before",
+                format!(
+                    "{} s is outside {lo}..={hi} s (Slurm may send the signal up to a minute early, and \
+                     takes at most {hi} s); e.g. {}",
+                    self.signal_s,
+                    self.example_signal()
+                ),
+            ));
         }
         if self.signal_s >= self.time_s {
             return Err(Error::input(
@@ -80,11 +224,43 @@ impl JobSpec {
                     "{} s is not before the time limit {}: the run would never get its warning; e.g. {}",
                     self.signal_s,
                     hms(self.time_s),
-                    default_signal(self.time_s).min(self.time_s / 2)
+                    self.example_signal()
                 ),
             ));
         }
+        plain_path("SCENE", &self.scene, SCENE_ADVICE)?;
+        plain_path("--out", &self.run, OUT_ADVICE)?;
+        plain_path("HSPH", &self.hsph, HSPH_ADVICE)?;
+        slurm_name("name", &self.name, false, "name = \"dam_break\"").map_err(|e| match e {
+            Error::Input { key, message, .. } => Error::Input {
+                at: Some(Location {
+                    file: PathBuf::from(&self.scene),
+                    line: None,
+                }),
+                key,
+                message: format!("{message} (the scene's name is the job's name)"),
+            },
+            other => other,
+        })?;
+        if let Some(p) = &self.partition {
+            slurm_name(
+                "--partition",
+                p,
+                true,
+                "--partition compute or --partition compute,debug",
+            )?;
+        }
+        if let Some(a) = &self.account {
+            slurm_name("--account", a, false, "--account proj-123")?;
+        }
         Ok(())
+    }
+
+    /// A warning that fits the time limit, for messages: the default, within
+    /// [`SIGNAL_BEFORE_RANGE`] and below the limit where the limit allows.
+    fn example_signal(&self) -> u64 {
+        let (lo, hi) = SIGNAL_BEFORE_RANGE;
+        default_signal(self.time_s).min(self.time_s / 2).clamp(lo, hi)
     }
 
     /// The layout the script asks for, as `HSPH_JOB_PLAN`
@@ -98,7 +274,7 @@ impl JobSpec {
 
     /// The sbatch script.
     pub fn script(&self) -> String {
-        let ranks = self.nodes * self.ranks_per_node;
+        let ranks = self.nodes.saturating_mul(self.ranks_per_node);
         let t = self.threads_per_rank;
         let mut s = String::new();
         s += "#!/bin/bash\n";
@@ -128,8 +304,15 @@ impl JobSpec {
         s += "#SBATCH --open-mode=append\n";
         s += "#SBATCH --output=hsph-%x-%j.out\n\n";
         s += "set -u\n";
-        s += &format!("HSPH=\"${{HSPH:-{}}}\"\n", self.hsph);
-        s += &format!("SCENE=\"{}\"\nRUN=\"{}\"\n", self.scene, self.run);
+        // paths as single-quoted words; the default binary through a variable, so that it is
+        // not expanded inside ${HSPH:-...}
+        s += &format!("HSPH_DEFAULT={}\n", shell_quote(&self.hsph));
+        s += "HSPH=\"${HSPH:-$HSPH_DEFAULT}\"\n";
+        s += &format!(
+            "SCENE={}\nRUN={}\n",
+            shell_quote(&self.scene),
+            shell_quote(&self.run)
+        );
         s += &format!("export RAYON_NUM_THREADS={t}\n");
         s += "# the layout asked for here; the run compares it with the one it gets and warns\n";
         s += &format!("export HSPH_JOB_PLAN=\"{}\"\n\n", self.plan());
@@ -279,5 +462,224 @@ mod tests {
         s.signal_s = 60;
         s.nodes = 0;
         assert_eq!(s.validate().unwrap_err().exit_code(), 2);
+    }
+
+    /// The message of `sp`'s refusal, which must be exit 2 naming `key`.
+    fn refused(sp: &JobSpec, key: &str) -> String {
+        let e = sp.validate().expect_err(key);
+        assert_eq!(e.exit_code(), 2, "{e}");
+        let m = e.to_string();
+        assert!(m.contains(&format!("key `{key}`")), "{key}: {m}");
+        m
+    }
+
+    #[test]
+    fn counts_and_times_are_bounded() {
+        assert!(spec(Launcher::Srun).validate().is_ok());
+        let with = |f: &dyn Fn(&mut JobSpec)| {
+            let mut sp = spec(Launcher::Srun);
+            f(&mut sp);
+            sp
+        };
+        refused(&with(&|s| s.ranks_per_node = 0), "--ranks-per-node");
+        refused(&with(&|s| s.nodes = MAX_RANKS + 1), "--nodes");
+        // each below the limit, the product above it (and no overflow at the extremes)
+        let m = refused(
+            &with(&|s| {
+                s.nodes = 1000;
+                s.ranks_per_node = 1000
+            }),
+            "--nodes × --ranks-per-node",
+        );
+        assert!(m.contains("1000000") && m.contains("4096"), "{m}");
+        assert!(with(&|s| {
+            s.nodes = 64;
+            s.ranks_per_node = 64
+        })
+        .validate()
+        .is_ok());
+        refused(&with(&|s| s.threads_per_rank = 0), "--threads-per-rank");
+        refused(
+            &with(&|s| s.threads_per_rank = MAX_THREADS + 1),
+            "--threads-per-rank",
+        );
+        refused(&with(&|s| s.time_s = MAX_WALL_SECONDS as u64 + 1), "--time");
+        refused(&with(&|s| s.time_s = 10), "--time");
+        for signal in [0, 9, 65_536, u64::MAX] {
+            refused(&with(&|s| s.signal_s = signal), "--signal-before");
+        }
+        // the suggestion fits: within the range and below the limit
+        let m = refused(
+            &with(&|s| {
+                s.time_s = 15;
+                s.signal_s = 60
+            }),
+            "--signal-before",
+        );
+        assert!(m.ends_with("e.g. 10"), "{m}");
+        assert!(with(&|s| {
+            s.time_s = 15;
+            s.signal_s = 10
+        })
+        .validate()
+        .is_ok());
+    }
+
+    #[test]
+    fn names_must_be_slurm_names() {
+        for ok in ["dam_break_2d", "a.b+c-d", "X1"] {
+            assert!(slurm_name("--account", ok, false, "x").is_ok(), "{ok}");
+        }
+        assert!(slurm_name("--partition", "compute,debug", true, "x").is_ok());
+        let long = "a".repeat(MAX_SLURM_NAME + 1);
+        for (bad, list) in [
+            ("", false),
+            ("a,b", false),
+            (",a", true),
+            ("a,", true),
+            ("a,,b", true),
+            ("x\ntouch PWNED", false),
+            ("x\rb", false),
+            ("a b", false),
+            ("$(id)", false),
+            ("`id`", false),
+            ("a'b", false),
+            ("a\"b", false),
+            ("a;b", false),
+            ("a#b", false),
+            ("a/b", false),
+            ("é", false),
+            (long.as_str(), true),
+        ] {
+            let e = slurm_name("--partition", bad, list, "--partition compute").unwrap_err();
+            assert_eq!(e.exit_code(), 2);
+            let m = e.to_string();
+            assert!(
+                m.contains("--partition") && m.contains("e.g. --partition compute"),
+                "{m}"
+            );
+            assert!(!m.contains('\n'), "the value is escaped: {m}");
+        }
+        let mut sp = spec(Launcher::Srun);
+        sp.name = "x\ntouch PWNED".into();
+        let m = refused(&sp, "name");
+        assert!(
+            m.contains("/data/dam.toml") && m.contains(r#""x\ntouch PWNED""#),
+            "{m}"
+        );
+        let mut sp = spec(Launcher::Srun);
+        sp.account = Some("p\n#SBATCH --x".into());
+        refused(&sp, "--account");
+    }
+
+    #[test]
+    fn paths_with_control_characters_are_refused() {
+        for (key, set) in [
+            (
+                "SCENE",
+                (|s: &mut JobSpec, v: String| s.scene = v) as fn(&mut JobSpec, String),
+            ),
+            ("--out", |s, v| s.run = v),
+            ("HSPH", |s, v| s.hsph = v),
+        ] {
+            for bad in ["/a\nb", "/a\rb", "/a\tb", "/a\u{7f}b", "/a\u{85}b"] {
+                let mut sp = spec(Launcher::Srun);
+                set(&mut sp, bad.into());
+                refused(&sp, key);
+            }
+            let mut sp = spec(Launcher::Srun);
+            set(&mut sp, "/a b/'c'/\"$(touch PWNED)\"/`x`;\\".into());
+            assert!(
+                sp.validate().is_ok(),
+                "{key}: printable paths are quoted, not refused"
+            );
+        }
+        #[cfg(unix)]
+        {
+            use std::os::unix::ffi::OsStrExt;
+            let p = Path::new(std::ffi::OsStr::from_bytes(b"/a\xffb"));
+            let e = path_text("--out", p, OUT_ADVICE).unwrap_err();
+            assert!(
+                e.to_string().contains("--out") && e.to_string().contains("UTF-8"),
+                "{e}"
+            );
+        }
+    }
+
+    /// What bash makes of `word` as the argument of printf.
+    fn through_bash(word: &str) -> String {
+        let out = std::process::Command::new("bash")
+            .args(["-c", &format!("printf %s {word}")])
+            .output()
+            .expect("bash");
+        assert!(
+            out.status.success(),
+            "{word}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8(out.stdout).unwrap()
+    }
+
+    #[test]
+    fn quoted_words_come_back_from_the_shell_unchanged() {
+        for s in [
+            "",
+            "plain",
+            "a b  c",
+            "'",
+            "''",
+            "it's",
+            "'\\''",
+            "\"",
+            "\\",
+            "\\'",
+            "$HOME",
+            "${HOME:-x}",
+            "$(touch PWNED)",
+            "`touch PWNED`",
+            "\"; touch PWNED; echo \"",
+            "'; touch PWNED; echo '",
+            "a\nb\ttouch PWNED",
+            "*",
+            "~",
+            "!x",
+            "#x",
+            "a;b|c&d<e>f",
+            "é ✓",
+        ] {
+            assert_eq!(through_bash(&shell_quote(s)), s, "{s:?}");
+        }
+        assert_eq!(shell_quote("it's"), r"'it'\''s'");
+    }
+
+    #[test]
+    fn paths_are_single_quoted_and_the_default_binary_is_not_expanded() {
+        let mut sp = spec(Launcher::Mpirun);
+        sp.scene = "/d/it's \"$(x)\".toml".into();
+        sp.run = "/r/`y` $z".into();
+        sp.hsph = "/o/$(w)/hsph".into();
+        let s = sp.script();
+        for line in [
+            "SCENE='/d/it'\\''s \"$(x)\".toml'\n",
+            "RUN='/r/`y` $z'\n",
+            "HSPH_DEFAULT='/o/$(w)/hsph'\nHSPH=\"${HSPH:-$HSPH_DEFAULT}\"\n",
+        ] {
+            assert!(s.contains(line), "missing {line:?} in\n{s}");
+        }
+        let out = std::process::Command::new("bash")
+            .args(["-n", "-c", &s])
+            .output()
+            .expect("bash");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+
+    #[test]
+    fn a_script_path_that_is_not_a_regular_file_is_refused() {
+        for p in ["/dev/full", "/dev/null", "/"] {
+            let e = script_target(Path::new(p)).unwrap_err();
+            assert_eq!(e.exit_code(), 2);
+            assert!(e.to_string().contains("--script"), "{e}");
+        }
+        assert!(script_target(Path::new("/nonexistent/job.sh")).is_ok());
     }
 }

@@ -58,6 +58,10 @@ pub const MAX_JOBS: usize = 256;
 /// Most cells across a validation case's length scale (`hsph validate --resolutions`).
 pub const MAX_RESOLUTION: u32 = 4096;
 
+/// Longest Slurm name `hsph jobscript` writes (job name from the scene's `name`, `--partition`
+/// with its commas, `--account`); each is also held to letters, digits and `. _ + -`.
+pub const MAX_SLURM_NAME: usize = 128;
+
 /// `value` of `key` within `1..=max`, else exit 2 naming both.
 pub fn count(key: &str, value: u64, max: u64) -> Result<()> {
     if value == 0 {

@@ -100,3 +100,76 @@ fn the_job_script_checkpoints_on_the_early_signal_and_the_requeued_job_continues
         assert!(read(&run) == read(&reference), "{f} differs after the requeue");
     }
 }
+
+/// Issue 32, defect 20: nonsense layouts and times are refused with exit 2 naming the flag and
+/// the limit, before any script is written.
+#[test]
+fn flags_beyond_their_bounds_are_refused() {
+    let scene = common::repo_path("inputs/dam_break_2d.toml");
+    let scene = scene.to_str().unwrap();
+    let base = [
+        ("--nodes", "1"),
+        ("--ranks-per-node", "1"),
+        ("--time", "01:00:00"),
+    ];
+    for (extra, needles) in [
+        (
+            &["--nodes", "1000000", "--ranks-per-node", "1000000"][..],
+            &["--nodes", "4096"][..],
+        ),
+        (
+            &["--nodes", "100", "--ranks-per-node", "100"],
+            &["--nodes × --ranks-per-node", "10000", "4096"],
+        ),
+        (
+            &[
+                "--nodes",
+                "18446744073709551615",
+                "--ranks-per-node",
+                "18446744073709551615",
+            ],
+            &["--nodes", "4096"],
+        ),
+        (&["--nodes", "0"], &["--nodes", "at least 1"]),
+        (&["--ranks-per-node", "0"], &["--ranks-per-node", "at least 1"]),
+        (
+            &["--threads-per-rank", "0"],
+            &["--threads-per-rank", "at least 1"],
+        ),
+        (&["--threads-per-rank", "1025"], &["--threads-per-rank", "1024"]),
+        (&["--time", "99999999:00:00"], &["--time", "31622400"]),
+        (&["--time", "99:99:99"], &["--time", "not below 60"]),
+        (&["--time", "10:60"], &["--time", "not below 60"]),
+        (&["--time", "0:00:00"], &["--time", "zero"]),
+        (&["--time", "00:00:10"], &["--time", "no room"]),
+        (&["--time", "-5"], &["--time"]),
+        (&["--signal-before", "0"], &["--signal-before", "10..=65535"]),
+        (&["--signal-before", "65536"], &["--signal-before", "10..=65535"]),
+        (
+            &["--signal-before", "3600"],
+            &["--signal-before", "not before the time limit"],
+        ),
+    ] {
+        // the extra flags replace the base ones (clap takes each flag once)
+        let mut args = vec!["jobscript", scene];
+        for (flag, value) in base {
+            if !extra.contains(&flag) {
+                args.extend([flag, value]);
+            }
+        }
+        args.extend_from_slice(extra);
+        let (code, out, err) = common::hsph(&args);
+        assert_eq!(code, 2, "{extra:?}: {err}");
+        assert!(out.is_empty(), "{extra:?}: no script: {out}");
+        assert!(!err.contains("panicked"), "{err}");
+        for n in needles {
+            assert!(err.contains(n), "{extra:?}: `{n}` missing from {err}");
+        }
+    }
+    // the same duration parser bounds `run --max-wall`
+    for bad in ["99:99:99", "99999999:00:00"] {
+        let (code, _, err) = common::hsph(&["run", scene, "--max-wall", bad, "-q"]);
+        assert_eq!(code, 2, "--max-wall {bad}: {err}");
+        assert!(err.contains("--max-wall"), "{err}");
+    }
+}
