@@ -686,7 +686,7 @@ fn cmd_jobscript(a: JobArgs) -> Result<i32> {
     if let Some(path) = &script {
         crate::jobscript::script_target(path)?;
     }
-    let (sc, _) = load_scene(&scene, &[])?;
+    let (sc, src) = load_scene(&scene, &[])?;
     let abs = |p: &std::path::Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
     // the default run directory as `run` makes it from the name: one safe path component
     let run = out
@@ -715,6 +715,16 @@ fn cmd_jobscript(a: JobArgs) -> Result<i32> {
         launcher,
     };
     spec.validate()?;
+    // the limits `run` will apply to this many ranks (after the flags, which name the limit
+    // themselves)
+    layout_limits(&sc, &src, nodes * ranks_per_node).map_err(|e| match e {
+        Error::Input { at, key, message } if key == "--ranks" => Error::Input {
+            at,
+            key: "--nodes × --ranks-per-node".into(),
+            message,
+        },
+        e => e,
+    })?;
     let text = spec.script();
     match script {
         Some(path) => {
