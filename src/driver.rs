@@ -644,14 +644,33 @@ fn truncate_series(dir: &Path, series: &serde_json::Value) -> Result<()> {
     let Some(map) = series.as_object() else {
         return Err(Error::run("checkpoint: the run state lacks the series lengths"));
     };
+    let bad = |file: &str, why: &str| {
+        Error::input(
+            "--restart",
+            format!("the checkpoint's run state names the series {file:?}, which {why}"),
+        )
+    };
     for (file, len) in map {
+        if !output::is_series_path(file) {
+            return Err(bad(file, "is not a series file of a run directory"));
+        }
         let path = dir.join(file);
+        let meta = std::fs::symlink_metadata(&path).map_err(|e| Error::io(&path, e))?;
+        let len = len.as_u64().ok_or_else(|| bad(file, "has no length"))?;
+        if !meta.is_file() {
+            return Err(bad(file, "is not a regular file"));
+        }
+        if len > meta.len() {
+            return Err(bad(
+                file,
+                &format!("is {} bytes, shorter than the checkpoint's {len}", meta.len()),
+            ));
+        }
         let f = std::fs::OpenOptions::new()
             .write(true)
             .open(&path)
             .map_err(|e| Error::io(&path, e))?;
-        f.set_len(len.as_u64().unwrap_or(0))
-            .map_err(|e| Error::io(&path, e))?;
+        f.set_len(len).map_err(|e| Error::io(&path, e))?;
     }
     Ok(())
 }

@@ -244,7 +244,7 @@ pub fn write(dir: &Path, scene: &Scene, ranks: usize, topology: &Topology, rows:
     });
     let pj = dir.join("plan.json");
     let text = serde_json::to_string_pretty(&doc).map_err(|e| Error::run(e.to_string()))?;
-    std::fs::write(&pj, text + "\n").map_err(|e| Error::io(&pj, e))?;
+    crate::output::write_file(&pj, (text + "\n").as_bytes())?;
     let mut csv = String::from(
         "placement,imbalance,ghost_fraction,halo_intra_node_bytes,halo_inter_node_bytes,halo_messages,node_pairs,max_node_inter_bytes\n",
     );
@@ -263,5 +263,5 @@ pub fn write(dir: &Path, scene: &Scene, ranks: usize, topology: &Topology, rows:
         );
     }
     let pc = dir.join("plan.csv");
-    std::fs::write(&pc, csv).map_err(|e| Error::io(&pc, e))
+    crate::output::write_file(&pc, csv.as_bytes())
 }

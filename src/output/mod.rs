@@ -166,6 +166,20 @@ pub fn prepare_dir(out: Option<&Path>, scene_name: &str, force: bool) -> Result<
     Ok((dir.to_path_buf(), lock))
 }
 
+/// Whether `file` (relative to a run directory, as a checkpoint's run state names it) is a
+/// series a run appends to: one of [`RUN_FILES`] or `probes/<plain name>`; never absolute,
+/// never with `..`.
+pub fn is_series_path(file: &str) -> bool {
+    use std::path::Component;
+    let parts: Vec<Component> = Path::new(file).components().collect();
+    let plain = |c: &Component| matches!(c, Component::Normal(_));
+    match parts.as_slice() {
+        [one] => plain(one) && RUN_FILES.contains(&file),
+        [dir, name] => plain(dir) && plain(name) && dir.as_os_str() == "probes",
+        _ => false,
+    }
+}
+
 /// Remove what a run wrote in `dir` (and nothing else).
 fn clear_run(dir: &Path) -> std::io::Result<()> {
     for name in RUN_FILES.iter().filter(|n| **n != LOCK_FILE) {
@@ -308,6 +322,13 @@ pub(crate) fn series(path: &Path, header: &str, append: bool) -> Result<BufWrite
     let mut f = create(path)?;
     writeln!(f, "{header}").map_err(|e| Error::io(path, e))?;
     Ok(f)
+}
+
+/// Write `bytes` as the whole file `path`, atomically, never over a non-regular file: the one
+/// way commands other than the step loop write a file (plans, reports, charts' markdown,
+/// validation tables, job scripts).
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomic(path, |f| f.write_all(bytes))
 }
 
 /// Write a whole file atomically: into `<path>.tmp`, then renamed over `path`. On any failure

@@ -27,6 +27,8 @@ macro_rules! both {
         register_font();
         let png = $dir.join(format!("{}.png", $stem));
         let svg = $dir.join(format!("{}.svg", $stem));
+        $crate::output::refuse_non_regular(&png)?;
+        $crate::output::refuse_non_regular(&svg)?;
         {
             let area = BitMapBackend::new(&png, $size).into_drawing_area();
             let r: Res = (|| -> Res {

@@ -106,7 +106,7 @@ pub fn write_run(run: &Run, dir: &Path) -> Result<Vec<PathBuf>> {
     ));
     let md = dir.join("report.md");
     let text = run_markdown(run, &charts_done);
-    std::fs::write(&md, text).map_err(|e| Error::io(&md, e))?;
+    crate::output::write_file(&md, text.as_bytes())?;
     files.push(md);
     Ok(files)
 }
@@ -456,7 +456,7 @@ pub fn write_compare(runs: &[Run], dir: &Path) -> Result<Vec<PathBuf>> {
     let rows = compare_rows(runs);
     let mut files = charts::compare(dir, &rows)?;
     let md = dir.join("compare.md");
-    std::fs::write(&md, compare_markdown(&rows)).map_err(|e| Error::io(&md, e))?;
+    crate::output::write_file(&md, compare_markdown(&rows).as_bytes())?;
     files.push(md);
     Ok(files)
 }

@@ -441,14 +441,14 @@ pub fn run(study: &Study, out: &Path, exe: &Path) -> Result<Vec<Cell>> {
     }
     let csv = out.join("map.csv");
     if !csv.exists() {
-        std::fs::write(&csv, format!("{HEADER}\n")).map_err(|e| Error::io(&csv, e))?;
+        crate::output::write_file(&csv, format!("{HEADER}\n").as_bytes())?;
     }
     let done: BTreeSet<(String, String, u64)> = read_cells(&csv)?
         .iter()
         .map(|c| (c.study.clone(), c.method.clone(), c.value.to_bits()))
         .collect();
     let scene = out.join("scenes").join(format!("{}.toml", study.name));
-    std::fs::write(&scene, study.scene).map_err(|e| Error::io(&scene, e))?;
+    crate::output::write_file(&scene, study.scene.as_bytes())?;
     let mut file = std::fs::OpenOptions::new()
         .append(true)
         .open(&csv)

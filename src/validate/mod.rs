@@ -147,7 +147,7 @@ fn same_overrides(out: &Path, set: &[String]) -> Result<()> {
             ),
         )),
         Ok(_) => Ok(()),
-        Err(_) => std::fs::write(&path, format!("{mine}\n")).map_err(|e| Error::io(&path, e)),
+        Err(_) => crate::output::write_file(&path, format!("{mine}\n").as_bytes()),
     }
 }
 
@@ -216,7 +216,7 @@ fn stability(names: &[String], out: &Path) -> Result<i32> {
         md.push('\n');
     }
     let path = out.join("map.md");
-    std::fs::write(&path, &md).map_err(|e| Error::io(&path, e))?;
+    crate::output::write_file(&path, md.as_bytes())?;
     eprintln!("hsph validate: stability map in {}", path.display());
     Ok(0)
 }
@@ -253,6 +253,9 @@ pub fn command(opts: &Options) -> Result<i32> {
         }
     }
     check_flags(opts)?;
+    if let Some(w) = &opts.write {
+        crate::output::refuse_non_regular(w)?;
+    }
     let mut jobs = Vec::new();
     for c in &cases {
         jobs.extend(jobs_of(c, opts)?);
@@ -286,7 +289,7 @@ pub fn command(opts: &Options) -> Result<i32> {
         }
     }
     let path = opts.out.join("validate.md");
-    std::fs::write(&path, &md).map_err(|e| Error::io(&path, e))?;
+    crate::output::write_file(&path, md.as_bytes())?;
     eprintln!(
         "hsph validate: {} rows in {}; charts and validate.md beside it",
         rows.len(),
@@ -390,7 +393,8 @@ fn target(case: &Case, rows: &[Row], t: f64, out: &Path, write: Option<&Path>) -
     );
     if let Some(w) = write {
         let src = dir.join("scene.toml");
-        std::fs::copy(&src, w).map_err(|e| Error::io(w, e))?;
+        let text = std::fs::read(&src).map_err(|e| Error::io(&src, e))?;
+        crate::output::write_file(w, &text)?;
         println!("wrote {}", w.display());
     }
     Ok(0)

@@ -172,7 +172,7 @@ impl Runner {
         let csv = self.out.join("sweep.csv");
         let done: BTreeSet<_> = read_rows(&csv)?.iter().map(Row::key).collect();
         if !csv.exists() {
-            std::fs::write(&csv, format!("{HEADER}\n")).map_err(|e| Error::io(&csv, e))?;
+            crate::output::write_file(&csv, format!("{HEADER}\n").as_bytes())?;
         }
         let todo: Vec<&Job> = jobs
             .iter()
@@ -240,7 +240,7 @@ impl Runner {
             .map_or(job.case.name.into(), |s| s.to_string_lossy());
         let scene = self.out.join("scenes").join(format!("{stem}.toml"));
         if !scene.exists() {
-            std::fs::write(&scene, text).map_err(|e| Error::io(&scene, e))?;
+            crate::output::write_file(&scene, text.as_bytes())?;
         }
         let dir = self.out.join("runs").join(job.dir_name());
         let sets: Vec<String> = job
