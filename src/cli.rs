@@ -604,6 +604,7 @@ fn check_run_flags(
     ranks: usize,
     checkpoint_minutes: Option<f64>,
 ) -> Result<()> {
+    crate::limits::ranks("--ranks", ranks.max(1))?;
     if backend == Backend::Mpi && !cfg!(feature = "mpi") {
         return Err(Error::missing_feature("--backend", "mpi"));
     }

@@ -299,6 +299,7 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
     if backend == Backend::Mpi {
         return run_mpi(scene, opts, &req);
     }
+    crate::limits::ranks("--ranks", opts.ranks.max(1))?;
     let layout = RunLayout::resolve(&req, backend, opts.ranks.max(1), None)?;
     check_limits(scene, layout.ranks, layout.ranks, opts)?;
     check_threads(opts.threads, layout.ranks, true)?;
@@ -1129,7 +1130,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
     /// True when `[checkpoint]` asks for one at this step.
     fn checkpoint_due(&mut self) -> bool {
         let c = &self.scene.checkpoint;
-        let by_steps = c.every_steps > 0 && self.sim.step % c.every_steps == 0;
+        let by_steps = c.every_steps > 0 && self.sim.step.is_multiple_of(c.every_steps);
         let by_time = c.every > 0.0 && self.sim.t >= self.next_checkpoint * (1.0 - 1e-12);
         if by_time {
             crate::probes::advance_past(&mut self.next_checkpoint, c.every, self.sim.t);

@@ -524,7 +524,7 @@ pub fn pack_owned_where<const D: usize>(
 pub fn unpack_owned<const D: usize>(bytes: &[u8], p: &mut Particles<D>) -> Result<()> {
     let dropped = p.dropped;
     let w = Record::<D>::words_carried(dropped) * 8;
-    if bytes.len() % w != 0 {
+    if !bytes.len().is_multiple_of(w) {
         return Err(Error::run("gather: message of unexpected length"));
     }
     read_records::<D>(bytes, bytes.len() / w, dropped, "gather", |r| p.push_owned(r))

@@ -352,7 +352,7 @@ fn node_grid<const D: usize>(
     w: &PairVolumes,
 ) -> Option<Vec<usize>> {
     let nodes = topology.nodes();
-    if topology.ranks() % topology.ranks_per_node() != 0 {
+    if !topology.ranks().is_multiple_of(topology.ranks_per_node()) {
         return None;
     }
     let n = decomp.factors();
@@ -369,7 +369,7 @@ fn node_grid<const D: usize>(
     // Candidates in ascending lexicographic order; keep the last of the best (largest on ties).
     let mut best: Option<(u64, f64, Vec<usize>)> = None;
     for m in crate::decomp::ordered_factorisations(nodes, D) {
-        if (0..D).any(|k| n[k] % m[k] != 0) {
+        if (0..D).any(|k| !n[k].is_multiple_of(m[k])) {
             continue;
         }
         let node = assign(&m);

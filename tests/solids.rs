@@ -131,7 +131,7 @@ fn tension_clumps_without_artificial_stress_and_not_with_it() {
         let mut worst = f64::INFINITY;
         while sim.t < sim.scene.time.t_end {
             sim.advance(&comm).unwrap();
-            if sim.step % 10 == 0 {
+            if sim.step.is_multiple_of(10) {
                 worst = worst.min(min_pair_distance_over_dx(&sim));
             }
         }

@@ -291,10 +291,10 @@ impl Manifest {
             return Err(format!("dimension {} (2 or 3)", self.dimension));
         }
         if !(self.t.is_finite() && self.t >= 0.0) {
-            return Err(format!("t = {} is not a finite time ≥ 0 s", self.t));
+            return Err(format!("t = {:e} is not a finite time ≥ 0 s", self.t));
         }
         if !(self.dt.is_finite() && self.dt > 0.0) {
-            return Err(format!("dt = {} is not a finite time step > 0 s", self.dt));
+            return Err(format!("dt = {:e} is not a finite time step > 0 s", self.dt));
         }
         if self.ranks == 0 || self.ranks > crate::limits::MAX_RANKS || self.parts.len() != self.ranks {
             return Err(format!(

@@ -36,7 +36,7 @@ pub fn ordered_factorisations(p: usize, axes: usize) -> Vec<Vec<usize>> {
             return;
         }
         for k in 1..=rest {
-            if rest % k == 0 {
+            if rest.is_multiple_of(k) {
                 prefix.push(k);
                 rec(rest / k, axes_left - 1, prefix, out);
                 prefix.pop();
@@ -90,7 +90,7 @@ mod tests {
         match e.len() {
             2 => {
                 for nx in 1..=p {
-                    if p % nx == 0 {
+                    if p.is_multiple_of(nx) {
                         best = best.min((e[0] / nx as f64 - e[1] / (p / nx) as f64).abs());
                     }
                 }
@@ -98,7 +98,7 @@ mod tests {
             3 => {
                 for nx in 1..=p {
                     for ny in 1..=p {
-                        if p % (nx * ny) == 0 {
+                        if p.is_multiple_of(nx * ny) {
                             let nz = p / (nx * ny);
                             let (a, b, c) = (e[0] / nx as f64, e[1] / ny as f64, e[2] / nz as f64);
                             best = best.min((a - b).abs().max((b - c).abs()).max((c - a).abs()));

@@ -59,14 +59,7 @@ fn display_path(segs: &[Seg]) -> String {
 
 /// Read and validate a scene file, applying `--set key.path=value` overrides.
 pub fn load_scene(path: &Path, overrides: &[String]) -> Result<(Scene, SceneSource)> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::Input {
-        at: Some(Location {
-            file: path.to_path_buf(),
-            line: None,
-        }),
-        key: String::new(),
-        message: format!("cannot read the scene file: {e}"),
-    })?;
+    let text = crate::limits::read_text(path, "SCENE")?;
     let stem = path
         .file_stem()
         .and_then(|s| s.to_str())

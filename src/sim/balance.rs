@@ -78,7 +78,7 @@ impl<const D: usize> Simulation<D> {
     /// rank's box, once.
     pub(super) fn migrate_and_balance(&mut self, comm: &dyn Comm) -> Result<()> {
         let b = &self.scene.balance;
-        if self.ranks > 1 && b.check_every > 0 && self.step % b.check_every == 0 {
+        if self.ranks > 1 && b.check_every > 0 && self.step.is_multiple_of(b.check_every) {
             let t0 = Instant::now();
             self.balance.checks += 1;
             // loads are taken before migration, while the neighbour lists match the particles

@@ -204,7 +204,7 @@ impl<const D: usize> Simulation<D> {
     pub(super) fn rebuild_neighbours(&mut self, comm: &dyn Comm) -> Result<()> {
         let support = self.model.kernel.support;
         self.p.truncate_ghosts();
-        if self.step % REORDER_EVERY == 0 {
+        if self.step.is_multiple_of(REORDER_EVERY) {
             // owned particles in cell order (then key order) for memory locality
             let t0 = Instant::now();
             let grid = &self.grid;
