@@ -133,13 +133,15 @@ pub fn prepare_dir(out: Option<&Path>, scene_name: &str, force: bool) -> Result<
     if dir.exists() && !dir.is_dir() {
         return Err(bad("it is a file, not a directory".into()));
     }
-    fs::create_dir_all(dir).map_err(|e| bad(e.to_string()))?;
-    let lock = DirLock::take(dir, key)?;
-    let entries: Vec<std::ffi::OsString> = fs::read_dir(dir)
-        .map_err(|e| bad(e.to_string()))?
-        .filter_map(|e| e.ok().map(|e| e.file_name()))
-        .filter(|n| n != LOCK_FILE)
-        .collect();
+    // refuse before writing anything (the lock file too) into a directory that is not ours
+    let entries: Vec<std::ffi::OsString> = match fs::read_dir(dir) {
+        Ok(rd) => rd
+            .filter_map(|e| e.ok().map(|e| e.file_name()))
+            .filter(|n| n != LOCK_FILE)
+            .collect(),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
+        Err(e) => return Err(bad(e.to_string())),
+    };
     if !entries.is_empty() {
         if !force {
             return Err(Error::input(
@@ -160,6 +162,11 @@ pub fn prepare_dir(out: Option<&Path>, scene_name: &str, force: bool) -> Result<
                     .into(),
             ));
         }
+    }
+    fs::create_dir_all(dir).map_err(|e| bad(e.to_string()))?;
+    // a run still writing there holds the lock: nothing is removed under it
+    let lock = DirLock::take(dir, key)?;
+    if !entries.is_empty() {
         clear_run(dir).map_err(|e| bad(e.to_string()))?;
     }
     check_writable(dir).map_err(|e| bad(e.to_string()))?;
