@@ -12,7 +12,7 @@ mod validate_solid;
 
 pub(crate) use load::{first_line, key_at, line_of, span_of_key};
 pub use load::{load_scene, load_scene_str, SceneSource};
-pub use validate::{expected_speed, face as face_of, validate};
+pub use validate::{dt_upper_bound, expected_speed, face as face_of, validate};
 
 use crate::kernel::KernelKind;
 use serde::{Deserialize, Serialize};

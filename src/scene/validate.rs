@@ -5,6 +5,10 @@
 
 use super::*;
 use crate::error::{Error, Result};
+use crate::limits::{
+    DENSITY_RANGE, MAX_BODY_FORCE, MAX_CELLS, MAX_COEFFICIENT, MAX_EOS_CONSTANT, MAX_PARTICLES, MAX_SPEED,
+    MAX_STEPS, MAX_T_END, MAX_VISCOSITY, SOUND_SPEED_RANGE,
+};
 
 fn err<T>(key: impl Into<String>, msg: impl Into<String>) -> Result<T> {
     Err(Error::input(key, msg))
@@ -225,6 +229,78 @@ fn non_negative(x: f64, key: &str) -> Result<()> {
     Ok(())
 }
 
+/// `x` as a scene would write it, short at any magnitude: `0.3`, `2000`, `1e300`, `1e-300`.
+pub(super) fn num(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-3..1e7).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// `x` (in `unit`) must lie in `[lo, hi]`, the physical range `name` of `src/limits.rs`;
+/// NaN and infinities never do. The message names the value, the range and `example`.
+pub(super) fn in_range(
+    x: f64,
+    key: &str,
+    (lo, hi): (f64, f64),
+    unit: &str,
+    name: &str,
+    example: &str,
+) -> Result<()> {
+    if x >= lo && x <= hi {
+        return Ok(());
+    }
+    // no unit: dimensionless
+    let u = if unit.is_empty() {
+        String::new()
+    } else {
+        format!(" {unit}")
+    };
+    err(
+        key,
+        format!(
+            "{}{u} lies outside [{}, {}]{u}, the range hsph accepts ({name}); e.g. {example}",
+            num(x),
+            num(lo),
+            num(hi)
+        ),
+    )
+}
+
+/// A vector `v` (in `unit`) whose length, computed without overflow, is at most `max`.
+fn length_at_most(v: &[f64], key: &str, max: f64, unit: &str, name: &str, example: &str) -> Result<()> {
+    let len = norm(v);
+    if len <= max {
+        return Ok(());
+    }
+    err(
+        key,
+        format!(
+            "[{}] has length {} {unit}, above the limit of {} {unit} ({name}); e.g. {example}",
+            v.iter().map(|x| num(*x)).collect::<Vec<_>>().join(", "),
+            num(len),
+            num(max)
+        ),
+    )
+}
+
+/// A velocity (m/s) no faster than [`MAX_SPEED`].
+fn speed_at_most(v: &[f64], key: &str) -> Result<()> {
+    length_at_most(v, key, MAX_SPEED, "m/s", "MAX_SPEED", "velocity = [1.0, 0.0]")
+}
+
+/// Euclidean length: √(Σ x²) (the bits every earlier version computed), or, where the squares
+/// overflow, the same length without intermediate overflow (`hypot`); NaN stays NaN.
+fn norm(v: &[f64]) -> f64 {
+    let n = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    if n.is_finite() {
+        n
+    } else {
+        v.iter().fold(0.0, |n: f64, x| n.hypot(*x))
+    }
+}
+
 /// The face names of a container's `open` list.
 pub fn face(name: &str, dim: usize) -> Option<(usize, bool)> {
     let axes = ["x", "y", "z"];
@@ -272,7 +348,8 @@ pub fn validate(s: &mut Scene) -> Result<()> {
     validate_checkpoint(&s.checkpoint)?;
     validate_reference(s)?;
     validate_performance(s)?;
-    check_sound_speed(s)
+    check_sound_speed(s)?;
+    check_step_budget(s)
 }
 
 /// `[performance]`: pair mode covers the fluid passes; a scene whose other passes gather over
@@ -386,12 +463,13 @@ fn validate_domain(s: &mut Scene) -> Result<f64> {
     let cells: f64 = (0..d)
         .map(|a| ((s.domain.max[a] - s.domain.min[a]) / support).floor().max(1.0) + 2.0)
         .product();
-    if cells.is_nan() || cells > MAX_CELLS {
+    if cells.is_nan() || cells > MAX_CELLS as f64 {
         return err(
             "domain.max",
             format!(
                 "the domain spans {cells:.3e} cells of the kernel support ({support:.3e} m), \
-                 more than the {MAX_CELLS:.3e} hsph allows; shrink the domain or coarsen dx"
+                 more than the {:.3e} hsph allows; shrink the domain or coarsen dx",
+                MAX_CELLS as f64
             ),
         );
     }
@@ -415,6 +493,30 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
             positive(m.rho0, &format!("{k}.rho0"), "rho0 = 1000.0")?;
             positive(m.c0, &format!("{k}.c0"), "c0 = 20.0")?;
             positive(m.gamma, &format!("{k}.gamma"), "gamma = 7.0")?;
+            in_range(
+                m.rho0,
+                &format!("{k}.rho0"),
+                DENSITY_RANGE,
+                "kg/m³",
+                "DENSITY_RANGE",
+                "rho0 = 1000.0",
+            )?;
+            in_range(
+                m.c0,
+                &format!("{k}.c0"),
+                SOUND_SPEED_RANGE,
+                "m/s",
+                "SOUND_SPEED_RANGE",
+                "c0 = 20.0",
+            )?;
+            in_range(
+                m.gamma,
+                &format!("{k}.gamma"),
+                (f64::MIN_POSITIVE, MAX_EOS_CONSTANT),
+                "",
+                "MAX_EOS_CONSTANT",
+                "gamma = 7.0",
+            )?;
         }
         if before.iter().any(|o| o.name == m.name) {
             return err(
@@ -424,12 +526,45 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
         }
     }
     let ph = &mut s.physics;
-    non_negative(ph.delta, "physics.delta")?;
-    non_negative(ph.artificial_viscosity, "physics.artificial_viscosity")?;
+    for (x, key, example) in [
+        (ph.delta, "physics.delta", "delta = 0.1"),
+        (
+            ph.artificial_viscosity,
+            "physics.artificial_viscosity",
+            "artificial_viscosity = 0.02",
+        ),
+        (
+            ph.artificial_viscosity_beta,
+            "physics.artificial_viscosity_beta",
+            "artificial_viscosity_beta = 2.0",
+        ),
+        (
+            ph.artificial_stress,
+            "physics.artificial_stress",
+            "artificial_stress = 0.3",
+        ),
+    ] {
+        non_negative(x, key)?;
+        in_range(x, key, (0.0, MAX_COEFFICIENT), "", "MAX_COEFFICIENT", example)?;
+    }
     non_negative(ph.laminar_viscosity, "physics.laminar_viscosity")?;
-    non_negative(ph.artificial_viscosity_beta, "physics.artificial_viscosity_beta")?;
-    non_negative(ph.artificial_stress, "physics.artificial_stress")?;
+    in_range(
+        ph.laminar_viscosity,
+        "physics.laminar_viscosity",
+        (0.0, MAX_VISCOSITY),
+        "m²/s",
+        "MAX_VISCOSITY",
+        "laminar_viscosity = 1.0e-6 (water)",
+    )?;
     check_vec(&mut ph.body_force, d, "physics.body_force", true)?;
+    length_at_most(
+        &ph.body_force,
+        "physics.body_force",
+        MAX_BODY_FORCE,
+        "m/s²",
+        "MAX_BODY_FORCE",
+        "body_force = [0.0, -9.81]",
+    )?;
     if ph.viscous_operator != crate::scene::ViscousOperator::Morris && ph.laminar_viscosity == 0.0 {
         return err(
             "physics.viscous_operator",
@@ -495,6 +630,7 @@ fn validate_fluids(s: &mut Scene, mat_names: &[String]) -> Result<()> {
         check_vec(&mut f.max, d, &format!("{k}.max"), false)?;
         check_box(&f.min, &f.max, &k)?;
         check_vec(&mut f.velocity, d, &format!("{k}.velocity"), true)?;
+        speed_at_most(&f.velocity, &format!("{k}.velocity"))?;
         validate_fields(f, &k, d, &s.constants)?;
         in_domain(&f.min, &f.max, &k, &s.domain)?;
     }
@@ -511,6 +647,7 @@ fn validate_walls(s: &mut Scene, mat_names: &[String], support: f64) -> Result<(
         check_vec(&mut w.max, d, &format!("{k}.max"), false)?;
         check_box(&w.min, &w.max, &k)?;
         check_vec(&mut w.velocity, d, &format!("{k}.velocity"), true)?;
+        speed_at_most(&w.velocity, &format!("{k}.velocity"))?;
         if w.material.is_empty() {
             w.material = mat_names[0].clone();
         } else if !mat_names.contains(&w.material) {
@@ -620,6 +757,7 @@ fn validate_motion(w: &mut crate::scene::WallBody, k: &str, d: usize) -> Result<
             }
             Motion::ConstantVelocity { velocity } => {
                 check_vec(velocity, d, &format!("{k}.motion.velocity"), false)?;
+                speed_at_most(velocity, &format!("{k}.motion.velocity"))?;
             }
             Motion::Solitary {
                 amplitude,
@@ -667,6 +805,14 @@ pub const MAX_CFL: f64 = 3.0;
 fn validate_time_output(s: &mut Scene) -> Result<()> {
     let t = &s.time;
     positive(t.t_end, "time.t_end", "t_end = 1.0")?;
+    in_range(
+        t.t_end,
+        "time.t_end",
+        (0.0, MAX_T_END),
+        "s",
+        "MAX_T_END",
+        "t_end = 1.0",
+    )?;
     if !(t.cfl > 0.0 && t.cfl <= MAX_CFL) {
         return err(
             "time.cfl",
@@ -677,6 +823,14 @@ fn validate_time_output(s: &mut Scene) -> Result<()> {
         );
     }
     non_negative(t.dt, "time.dt")?;
+    in_range(
+        t.dt,
+        "time.dt",
+        (0.0, MAX_T_END),
+        "s",
+        "MAX_T_END",
+        "dt = 1.0e-4, or 0 for the adaptive step",
+    )?;
     non_negative(s.output.interval, "output.interval")?;
     if s.output.interval == 0.0 {
         s.output.interval = s.time.t_end / 50.0;
@@ -712,12 +866,6 @@ fn validate_time_output(s: &mut Scene) -> Result<()> {
     Ok(())
 }
 
-/// Largest number of cells of the global cell grid (1 GiB of u32 cell offsets).
-const MAX_CELLS: f64 = (1u64 << 28) as f64;
-
-/// Largest number of particles (neighbour indices are u32, ghosts included).
-const MAX_PARTICLES: f64 = (1u64 << 31) as f64;
-
 /// Upper bound on the lattice sites of a box: ⌈len/dx⌉ + 1 per axis.
 fn sites_in(min: &[f64], max: &[f64], dx: f64) -> f64 {
     min.iter()
@@ -746,12 +894,13 @@ fn check_particle_count(s: &Scene) -> Result<()> {
             key = "wall";
         }
     }
-    if n.is_nan() || n > MAX_PARTICLES {
+    if n.is_nan() || n > MAX_PARTICLES as f64 {
         return err(
             key,
             format!(
                 "the bodies hold up to {n:.3e} particles at dx = {dx}, more than the \
-                 {MAX_PARTICLES:.3e} hsph allows; shrink the bodies or coarsen dx"
+                 {:.3e} hsph allows; shrink the bodies or coarsen dx",
+                MAX_PARTICLES as f64
             ),
         );
     }
@@ -944,6 +1093,16 @@ fn validate_reference(s: &Scene) -> Result<()> {
     let times = match r {
         Reference::Poiseuille { gap, times } | Reference::Couette { gap, times, .. } => {
             positive(*gap, "reference.gap", "gap = 1e-3")?;
+            if let Reference::Couette { v0, .. } = r {
+                in_range(
+                    *v0,
+                    "reference.v0",
+                    (-MAX_SPEED, MAX_SPEED),
+                    "m/s",
+                    "MAX_SPEED",
+                    "v0 = 2.5e-5",
+                )?;
+            }
             if s.physics.laminar_viscosity <= 0.0 {
                 return err(
                     "physics.laminar_viscosity",
@@ -954,6 +1113,14 @@ fn validate_reference(s: &Scene) -> Result<()> {
         }
         Reference::TaylorGreen { speed, length, times } => {
             positive(*speed, "reference.speed", "speed = 1.0")?;
+            in_range(
+                *speed,
+                "reference.speed",
+                (0.0, MAX_SPEED),
+                "m/s",
+                "MAX_SPEED",
+                "speed = 1.0",
+            )?;
             positive(*length, "reference.length", "length = 1.0")?;
             if s.dimension != 2 || s.domain.periodic.iter().take(2).any(|p| !p) {
                 return err(
@@ -1075,7 +1242,8 @@ fn validate_solitary_reference(s: &Scene, gauges: [&String; 3]) -> Result<()> {
 
 /// The speed the flow is expected to reach (m/s): the largest of sqrt(2 g H) (g along the
 /// non-periodic axes, H the fluid's extent along it), wall surface and motion speeds, initial
-/// speeds, and the reference solution's peak speed.
+/// speeds, and the reference solution's peak speed. Computed without overflow to a false 0: a
+/// speed too large for an f64 is +∞ (and a validated scene has none: its c0 covers it).
 pub fn expected_speed(s: &Scene) -> f64 {
     let d = s.dimension;
     let g: Vec<f64> = (0..d)
@@ -1087,9 +1255,11 @@ pub fn expected_speed(s: &Scene) -> f64 {
             }
         })
         .collect();
-    let gmag = g.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let gmag = norm(&g);
+    // of two candidate speeds the larger; NaN (0 × ∞ of absurd inputs) counts as unbounded
+    let up = |s: f64, x: f64| if x.is_nan() { f64::INFINITY } else { s.max(x) };
     let mut speed: f64 = 0.0;
-    if gmag > 0.0 {
+    if gmag > 0.0 && gmag.is_finite() && !s.fluids.is_empty() {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for f in &s.fluids {
             // extreme corners of the box along ĝ
@@ -1102,25 +1272,33 @@ pub fn expected_speed(s: &Scene) -> f64 {
             lo = lo.min(a);
             hi = hi.max(b);
         }
-        speed = speed.max((2.0 * gmag * (hi - lo)).sqrt());
+        let v = (2.0 * gmag * (hi - lo)).sqrt();
+        // where 2gH overflows, √(2g)·√H does not
+        speed = up(
+            speed,
+            if v.is_finite() {
+                v
+            } else {
+                (2.0 * gmag).sqrt() * (hi - lo).sqrt()
+            },
+        );
+    } else if !gmag.is_finite() {
+        speed = f64::INFINITY;
     }
-    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
     for f in &s.fluids {
-        speed = speed
-            .max(norm(&f.velocity))
-            .max(sampled_speed(f, d, &s.constants));
+        speed = up(up(speed, norm(&f.velocity)), sampled_speed(f, d, &s.constants));
     }
     for w in &s.walls {
-        speed = speed.max(norm(&w.velocity));
+        speed = up(speed, norm(&w.velocity));
         match &w.motion {
             Some(Motion::Sine {
                 amplitude, period, ..
-            }) => speed = speed.max(2.0 * std::f64::consts::PI * norm(amplitude) / period),
-            Some(Motion::ConstantVelocity { velocity }) => speed = speed.max(norm(velocity)),
+            }) => speed = up(speed, 2.0 * std::f64::consts::PI * norm(amplitude) / period),
+            Some(Motion::ConstantVelocity { velocity }) => speed = up(speed, norm(velocity)),
             // the paddle's top speed c A/(h + A); the run-up at a wall moves about twice as fast
             Some(Motion::Solitary { amplitude, depth, .. }) => {
                 let c = (gmag * (depth + amplitude)).sqrt();
-                speed = speed.max(2.0 * c * amplitude / (depth + amplitude));
+                speed = up(speed, 2.0 * c * amplitude / (depth + amplitude));
             }
             None => {}
         }
@@ -1128,10 +1306,12 @@ pub fn expected_speed(s: &Scene) -> f64 {
     match &s.reference {
         Some(Reference::Poiseuille { gap, .. }) if s.physics.laminar_viscosity > 0.0 => {
             let f = norm(&s.physics.body_force);
-            speed = speed.max(f * gap * gap / (8.0 * s.physics.laminar_viscosity));
+            if f > 0.0 {
+                speed = up(speed, f * gap * gap / (8.0 * s.physics.laminar_viscosity));
+            }
         }
-        Some(Reference::Couette { v0, .. }) => speed = speed.max(v0.abs()),
-        Some(Reference::TaylorGreen { speed: u, .. }) => speed = speed.max(*u),
+        Some(Reference::Couette { v0, .. }) => speed = up(speed, v0.abs()),
+        Some(Reference::TaylorGreen { speed: u, .. }) => speed = up(speed, *u),
         _ => {}
     }
     speed
@@ -1140,6 +1320,19 @@ pub fn expected_speed(s: &Scene) -> f64 {
 fn check_sound_speed(s: &Scene) -> Result<()> {
     let u = expected_speed(s);
     for (i, m) in s.materials.iter().enumerate() {
+        if !(10.0 * u <= SOUND_SPEED_RANGE.1) {
+            return err(
+                format!("material[{i}].c0"),
+                format!(
+                    "the expected speed {u:.4e} m/s (from gravity × fluid height, wall and initial \
+                     speeds) would need c0 ≥ {:.4e} m/s, above the largest sound speed hsph accepts, \
+                     {:e} m/s (SOUND_SPEED_RANGE); lower physics.body_force, the velocities or the \
+                     wall motions",
+                    10.0 * u,
+                    SOUND_SPEED_RANGE.1
+                ),
+            );
+        }
         if m.c0 < 10.0 * u {
             return err(
                 format!("material[{i}].c0"),
@@ -1154,4 +1347,62 @@ fn check_sound_speed(s: &Scene) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// An upper bound of the time step (s), known before any particle is built, and what sets it:
+/// the scene's fixed `time.dt`, or the first step's bound of the adaptive one,
+/// min(CFL·h/c, 0.125 h²/ν), where c is the fastest signal at rest: the largest c0 of the
+/// materials when there is fluid (the run's c_max), each solid body's longitudinal wave speed
+/// √((ρ0c0² + 4G/3)/ρ0) plus its initial speed. The run's steps can only be shorter (the
+/// fluid's own speed, the acceleration bound and a solid's strain rate shorten them), so
+/// `t_end` over this is a lower bound of the step count, and the CFL part the same bound
+/// `sim::Simulation::next_dt` takes.
+pub fn dt_upper_bound(s: &Scene) -> (f64, String) {
+    let t = &s.time;
+    if t.dt > 0.0 {
+        return (t.dt, "the fixed time.dt".to_string());
+    }
+    let h = s.discretisation.h_over_dx * s.discretisation.dx;
+    let mut c: f64 = 0.0;
+    if !s.fluids.is_empty() {
+        c = s.materials.iter().fold(0.0, |m, x| m.max(x.c0));
+    }
+    for b in &s.solids {
+        if let Some(m) = s.materials.iter().find(|m| m.name == b.material) {
+            let g = m.shear_modulus.unwrap_or(0.0);
+            let c_long = (m.c0 * m.c0 + 4.0 * g / (3.0 * m.rho0)).sqrt();
+            c = c.max(c_long + norm(&b.velocity));
+        }
+    }
+    let mut dt = t.cfl * h / c;
+    let mut why = format!("CFL·h/c with CFL = {}, h = {h:.4e} m, c = {c:.4e} m/s", t.cfl);
+    let nu = s.physics.laminar_viscosity;
+    if nu > 0.0 && 0.125 * h * h / nu < dt {
+        dt = 0.125 * h * h / nu;
+        why = format!("0.125 h²/ν with h = {h:.4e} m, ν = {nu:e} m²/s");
+    }
+    (dt, why)
+}
+
+/// The step budget: a run that needs more than [`MAX_STEPS`] steps (t_end over
+/// [`dt_upper_bound`]) is refused unless `time.max_steps` bounds it.
+fn check_step_budget(s: &Scene) -> Result<()> {
+    if s.time.max_steps > 0 {
+        return Ok(());
+    }
+    let (dt, why) = dt_upper_bound(s);
+    let steps = s.time.t_end / dt;
+    if steps <= MAX_STEPS {
+        return Ok(());
+    }
+    let key = if s.time.dt > 0.0 { "time.dt" } else { "time.t_end" };
+    err(
+        key,
+        format!(
+            "time.t_end = {} s needs at least {steps:.3e} steps of dt ≤ {dt:.4e} s ({why}), above the \
+             step budget of {MAX_STEPS:e} steps; shorten time.t_end, coarsen discretisation.dx, \
+             or set time.max_steps to run it anyway",
+            num(s.time.t_end)
+        ),
+    )
 }
