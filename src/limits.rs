@@ -92,6 +92,14 @@ pub const MAX_T_END: f64 = 1e9;
 /// (1 GiB of u32 cell offsets).
 pub const MAX_CELLS: u64 = 1 << 28;
 
+/// Most characters of all the initial-field expressions of a scene together (16 of the
+/// longest): each is parsed and sampled during validation, and evaluated at every site.
+pub const MAX_EXPR_TOTAL_CHARS: usize = 16 * MAX_EXPR_CHARS;
+
+/// Most bodies of one kind (`[[fluid]]`, `[[solid]]`, `[[wall]]`) and most materials of a
+/// scene: a particle stores its body and material as 16-bit indices.
+pub const MAX_BODIES: usize = 1 << 16;
+
 /// `value` of `key` within `1..=max`, else exit 2 naming both.
 pub fn count(key: &str, value: u64, max: u64) -> Result<()> {
     if value == 0 {

@@ -10,6 +10,7 @@
 //! (exit 2) naming the key.
 
 use crate::error::{Error, Result};
+use crate::limits::{MAX_EXPR_CHARS, MAX_EXPR_DEPTH};
 use exmex::prelude::*;
 use exmex::{literal_matcher_from_pattern, FloatOpsFactory, MatchLiteral};
 
@@ -43,7 +44,13 @@ impl FieldExpr {
     /// Parse `text` (the value of scene key `key`) for a `dim`-dimensional scene with
     /// `constants`.
     pub fn parse(key: &str, text: &str, dim: usize, constants: &BTreeMap<String, f64>) -> Result<Self> {
-        let expr = Expr::parse(text).map_err(|e| Error::input(key, format!("cannot parse `{text}`: {e}")))?;
+        check_size(key, text)?;
+        let expr = Expr::parse(text).map_err(|e| {
+            Error::input(
+                key,
+                format!("cannot parse `{}`: {}", shown(text), shown(&e.to_string())),
+            )
+        })?;
         let axes = &["x", "y", "z"][..dim];
         let mut slots = Vec::new();
         for name in expr.var_names() {
@@ -58,7 +65,8 @@ impl FieldExpr {
                 return Err(Error::input(
                     key,
                     format!(
-                        "unknown name `{name}` in `{text}`; names: {} (add it to [constants], e.g. `{name} = 1.0`)",
+                        "unknown name `{name}` in `{}`; names: {} (add it to [constants], e.g. `{name} = 1.0`)",
+                        shown(text),
                         known.join(", ")
                     ),
                 ));
@@ -79,13 +87,14 @@ impl FieldExpr {
         let v = self
             .expr
             .eval(&args)
-            .map_err(|e| Error::input(&self.key, format!("cannot evaluate `{}`: {e}", self.text)))?;
+            .map_err(|e| Error::input(&self.key, format!("cannot evaluate `{}`: {e}", shown(&self.text))))?;
         if !v.is_finite() {
             return Err(Error::input(
                 &self.key,
                 format!(
                     "`{}` is {v} at {:?}: an initial field must be finite in the whole body",
-                    self.text, x
+                    shown(&self.text),
+                    x
                 ),
             ));
         }
@@ -98,6 +107,54 @@ impl FieldExpr {
             Slot::Const(v) => v,
         }
     }
+}
+
+/// Bound an expression before it is parsed (the parser's time grows faster than its length):
+/// at most [`MAX_EXPR_CHARS`] characters and [`MAX_EXPR_DEPTH`] nested brackets.
+pub(crate) fn check_size(key: &str, text: &str) -> Result<()> {
+    let chars = text.chars().count();
+    if chars > MAX_EXPR_CHARS {
+        return Err(Error::input(
+            key,
+            format!(
+                "the expression `{}` is {chars} characters long, above the limit of {MAX_EXPR_CHARS} \
+                 (limits::MAX_EXPR_CHARS); name its parts in [constants] or simplify it",
+                shown(text)
+            ),
+        ));
+    }
+    let (mut depth, mut deepest) = (0usize, 0usize);
+    for c in text.chars() {
+        match c {
+            '(' | '[' | '{' => {
+                depth += 1;
+                deepest = deepest.max(depth);
+            }
+            ')' | ']' | '}' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    if deepest > MAX_EXPR_DEPTH {
+        return Err(Error::input(
+            key,
+            format!(
+                "the expression `{}` nests brackets {deepest} deep, above the limit of {MAX_EXPR_DEPTH} \
+                 (limits::MAX_EXPR_DEPTH); flatten it, e.g. sin(x)*cos(y) rather than sin(cos(sin(…)))",
+                shown(text)
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// `text` for a message: whole up to 80 characters, else its first 60 and the count left out.
+fn shown(text: &str) -> String {
+    let n = text.chars().count();
+    if n <= 80 {
+        return text.to_string();
+    }
+    let head: String = text.chars().take(60).collect();
+    format!("{head}… ({} more characters)", n - 60)
 }
 
 #[cfg(test)]
@@ -132,5 +189,30 @@ mod tests {
                 .unwrap(),
             3.0
         );
+    }
+
+    #[test]
+    fn long_or_deep_expressions_are_refused_before_parsing() {
+        let c = BTreeMap::new();
+        let t = std::time::Instant::now();
+        let deep = format!("{}x{}", "sin(".repeat(200_000), ")".repeat(200_000));
+        let long = vec!["x"; 100_000].join("+");
+        for (text, what) in [(&deep, "characters long"), (&long, "characters long")] {
+            let e = FieldExpr::parse("k", text, 2, &c).unwrap_err();
+            assert_eq!(e.exit_code(), 2);
+            assert!(e.to_string().contains(what), "{e}");
+            assert!(
+                e.to_string().len() < 400,
+                "the message quotes the whole text: {e}"
+            );
+        }
+        let nest = |n: usize| format!("{}x{}", "(".repeat(n), ")".repeat(n));
+        assert!(FieldExpr::parse("k", &nest(MAX_EXPR_DEPTH), 2, &c).is_ok());
+        let e = FieldExpr::parse("k", &nest(MAX_EXPR_DEPTH + 1), 2, &c).unwrap_err();
+        assert!(e.to_string().contains("nests brackets"), "{e}");
+        let longest = vec!["x"; MAX_EXPR_CHARS / 2].join("+");
+        assert!(longest.len() < MAX_EXPR_CHARS);
+        assert!(FieldExpr::parse("k", &longest, 2, &c).is_ok());
+        assert!(t.elapsed().as_secs_f64() < 2.0, "{:?}", t.elapsed());
     }
 }

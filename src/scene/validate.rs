@@ -6,8 +6,8 @@
 use super::*;
 use crate::error::{Error, Result};
 use crate::limits::{
-    DENSITY_RANGE, MAX_BODY_FORCE, MAX_CELLS, MAX_COEFFICIENT, MAX_EOS_CONSTANT, MAX_PARTICLES, MAX_SPEED,
-    MAX_STEPS, MAX_T_END, MAX_VISCOSITY, SOUND_SPEED_RANGE,
+    DENSITY_RANGE, MAX_BODY_FORCE, MAX_CELLS, MAX_COEFFICIENT, MAX_EOS_CONSTANT, MAX_EXPR_TOTAL_CHARS,
+    MAX_PARTICLES, MAX_SPEED, MAX_STEPS, MAX_T_END, MAX_VISCOSITY, SOUND_SPEED_RANGE,
 };
 
 fn err<T>(key: impl Into<String>, msg: impl Into<String>) -> Result<T> {
@@ -621,7 +621,35 @@ fn validate_fluids(s: &mut Scene, mat_names: &[String]) -> Result<()> {
             .enumerate()
             .map(|(i, f)| (format!("solid[{i}]"), f)),
     );
+    let mut total = 0;
     for (k, f) in bodies {
+        // every expression's length before any is parsed ([`crate::scene::expr`] bounds each)
+        let texts = (f.velocity_field.iter().flatten().enumerate())
+            .map(|(a, t)| (format!("{k}.velocity_field[{a}]"), t))
+            .chain(
+                f.pressure_field
+                    .iter()
+                    .map(|t| (format!("{k}.pressure_field"), t)),
+            );
+        for (key, t) in texts {
+            crate::scene::expr::check_size(&key, t)?;
+            total += t.chars().count();
+        }
+        if total > MAX_EXPR_TOTAL_CHARS {
+            let key = if f.pressure_field.is_some() {
+                "pressure_field"
+            } else {
+                "velocity_field"
+            };
+            return err(
+                format!("{k}.{key}"),
+                format!(
+                    "the initial-field expressions of the bodies up to this one hold {total} characters, \
+                     above the limit of {MAX_EXPR_TOTAL_CHARS} for a scene (limits::MAX_EXPR_TOTAL_CHARS); \
+                     name common parts in [constants] or share one body's fields"
+                ),
+            );
+        }
         if !mat_names.contains(&f.material) {
             return unknown_material(&k, &f.material, mat_names);
         }
