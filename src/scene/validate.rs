@@ -89,14 +89,6 @@ fn validate_fields(
     constants: &std::collections::BTreeMap<String, f64>,
 ) -> Result<()> {
     use crate::scene::expr::FieldExpr;
-    for (name, v) in constants {
-        if ["x", "y", "z"].contains(&name.as_str()) || !v.is_finite() {
-            return err(
-                format!("constants.{name}"),
-                "a constant needs a finite value and a name other than x, y, z",
-            );
-        }
-    }
     let mut exprs = Vec::new();
     if let Some(v) = &f.velocity_field {
         if v.len() != d {
@@ -132,6 +124,21 @@ fn validate_fields(
     for e in &exprs {
         for x in box_samples(&f.min, &f.max, 2) {
             e.eval(&x)?;
+        }
+    }
+    Ok(())
+}
+
+/// `[constants]`: finite values, and names that expressions read as the constant
+/// ([`crate::scene::expr::constant_name`]: no coordinate, no built-in name in any case).
+fn validate_constants(constants: &std::collections::BTreeMap<String, f64>) -> Result<()> {
+    for (name, v) in constants {
+        crate::scene::expr::constant_name(name).or_else(|why| err(format!("constants.{name}"), why))?;
+        if !v.is_finite() {
+            return err(
+                format!("constants.{name}"),
+                format!("a constant needs a finite value, got {v}; e.g. {name} = 1.0"),
+            );
         }
     }
     Ok(())
@@ -318,6 +325,7 @@ pub fn face(name: &str, dim: usize) -> Option<(usize, bool)> {
 pub fn validate(s: &mut Scene) -> Result<()> {
     let support = validate_domain(s)?;
     validate_materials(s)?;
+    validate_constants(&s.constants)?;
     let mat_names: Vec<String> = s.materials.iter().map(|m| m.name.clone()).collect();
     validate_fluids(s, &mat_names)?;
     validate_walls(s, &mat_names, support)?;
