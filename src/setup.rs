@@ -218,6 +218,11 @@ impl<'s, const D: usize> SiteSource<'s, D> {
     pub fn new(s: &'s Scene) -> Result<Self> {
         let lat = Lattice::<D>::new(s);
         let materials: Vec<MaterialModel> = s.materials.iter().map(MaterialModel::new).collect();
+        // material indices by name, once: a scene may hold thousands of bodies and materials
+        let mat_of: std::collections::HashMap<&str, u16> = (s.materials.iter().enumerate().rev())
+            .map(|(i, m)| (m.name.as_str(), i as u16))
+            .collect();
+        let mat_index = |name: &str| mat_of.get(name).copied().unwrap_or(0);
         let g = Vector::<D>::from_fn(|a, _| s.physics.body_force[a]);
         let gmag = g.norm();
         let mut sources = Vec::new();
@@ -229,7 +234,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
             .chain(s.solids.iter().enumerate().map(|(b, f)| (b, f, true)));
         for (b, f, solid) in bodies {
             let key = format!("{}[{b}]", if solid { "solid" } else { "fluid" });
-            let mat = mat_index(s, &f.material);
+            let mat = mat_index(&f.material);
             // top of the block along -ĝ, for the hydrostatic profile
             let top = if gmag > 0.0 {
                 (0..D)
@@ -268,7 +273,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
             let Some(kind) = wall_kind(w.method) else {
                 continue;
             };
-            let mat = mat_index(s, &w.material);
+            let mat = mat_index(&w.material);
             let (min, max, inner) = match w.shape {
                 WallShape::Block => (w.min.clone(), w.max.clone(), None),
                 WallShape::Container => {
@@ -483,11 +488,6 @@ impl<const D: usize> Cloud<D> for LayerShare<'_, '_, D> {
         let b = (a + self.step()).min(self.layers.end);
         self.src.for_each(a..b, |id, x, kind| f(x, id, kind.is_fluid()));
     }
-}
-
-/// Index of material `name` in the scene (validated earlier; 0 if absent).
-fn mat_index(s: &Scene, name: &str) -> u16 {
-    s.materials.iter().position(|m| m.name == name).unwrap_or(0) as u16
 }
 
 /// Exit-2 error naming the second of two bodies that claim one lattice site (`by_id`: the

@@ -323,10 +323,12 @@ pub fn face(name: &str, dim: usize) -> Option<(usize, bool)> {
 
 /// Validate a scene and fill the defaults that depend on other keys.
 pub fn validate(s: &mut Scene) -> Result<()> {
+    validate_counts(s)?;
     let support = validate_domain(s)?;
     validate_materials(s)?;
     validate_constants(&s.constants)?;
-    let mat_names: Vec<String> = s.materials.iter().map(|m| m.name.clone()).collect();
+    validate_body_names(s)?;
+    let mat_names = Names::new(s.materials.iter().map(|m| m.name.as_str()));
     validate_fluids(s, &mat_names)?;
     validate_walls(s, &mat_names, support)?;
     validate_time_output(s)?;
@@ -358,6 +360,93 @@ pub fn validate(s: &mut Scene) -> Result<()> {
     validate_performance(s)?;
     check_sound_speed(s)?;
     check_step_budget(s)
+}
+
+/// Names in file order, with a set to look them up in O(1) (a scene may hold thousands).
+struct Names {
+    list: Vec<String>,
+    set: std::collections::HashSet<String>,
+}
+
+impl Names {
+    fn new<'a>(names: impl Iterator<Item = &'a str>) -> Self {
+        let list: Vec<String> = names.map(String::from).collect();
+        let set = list.iter().cloned().collect();
+        Names { list, set }
+    }
+
+    fn contains(&self, name: &str) -> bool {
+        self.set.contains(name)
+    }
+
+    /// The names for a message: all of them, or the first 20 and how many more.
+    fn shown(&self) -> String {
+        let mut out = self.list.iter().take(20).cloned().collect::<Vec<_>>().join(", ");
+        if self.list.len() > 20 {
+            out.push_str(&format!(" and {} more", self.list.len() - 20));
+        }
+        out
+    }
+}
+
+/// Materials and bodies of each kind: at most [`crate::limits::MAX_BODIES`] (a particle stores
+/// its body and material as 16-bit indices), checked before anything else looks at them.
+fn validate_counts(s: &Scene) -> Result<()> {
+    let max = crate::limits::MAX_BODIES;
+    for (key, n) in [
+        ("material", s.materials.len()),
+        ("fluid", s.fluids.len()),
+        ("solid", s.solids.len()),
+        ("wall", s.walls.len()),
+    ] {
+        if n > max {
+            return err(
+                key,
+                format!(
+                    "the scene has {n} [[{key}]] entries, above the limit of {max} (limits::MAX_BODIES); \
+                     merge bodies that share a material and motion into fewer, larger ones"
+                ),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Body names are unique across `[[fluid]]`, `[[solid]]` and `[[wall]]`: probes and outputs
+/// refer to bodies by name. A second use of a name is an error on its `name`, naming the first.
+fn validate_body_names(s: &Scene) -> Result<()> {
+    let mut seen: std::collections::HashMap<&str, String> = std::collections::HashMap::new();
+    let bodies = (s
+        .fluids
+        .iter()
+        .enumerate()
+        .map(|(i, b)| (format!("fluid[{i}]"), &b.name)))
+    .chain(
+        s.solids
+            .iter()
+            .enumerate()
+            .map(|(i, b)| (format!("solid[{i}]"), &b.name)),
+    )
+    .chain(
+        s.walls
+            .iter()
+            .enumerate()
+            .map(|(i, b)| (format!("wall[{i}]"), &b.name)),
+    );
+    for (k, name) in bodies {
+        if let Some(first) = seen.get(name.as_str()) {
+            return err(
+                format!("{k}.name"),
+                format!(
+                    "`{name}` is already the name of {first}: body names are unique across [[fluid]], \
+                     [[solid]] and [[wall]], since probes and outputs refer to bodies by name; e.g. \
+                     name = \"{name}_2\""
+                ),
+            );
+        }
+        seen.insert(name, k);
+    }
+    Ok(())
 }
 
 /// `[performance]`: pair mode covers the fluid passes; a scene whose other passes gather over
@@ -490,9 +579,8 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
     if s.materials.is_empty() {
         return err("material", "at least one [[material]] is needed");
     }
-    for i in 0..s.materials.len() {
-        let (before, rest) = s.materials.split_at_mut(i);
-        let m = &mut rest[0];
+    let mut seen = std::collections::HashSet::new();
+    for (i, m) in s.materials.iter_mut().enumerate() {
         let k = format!("material[{i}]");
         if m.is_solid() {
             super::validate_solid::solid_material(m, &k)?;
@@ -526,7 +614,7 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
                 "gamma = 7.0",
             )?;
         }
-        if before.iter().any(|o| o.name == m.name) {
+        if !seen.insert(m.name.clone()) {
             return err(
                 format!("{k}.name"),
                 format!("material `{}` is defined twice", m.name),
@@ -585,10 +673,10 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
 }
 
 /// An unknown material name of body key `k` (exit 2 listing the defined ones).
-fn unknown_material(k: &str, name: &str, mat_names: &[String]) -> Result<()> {
+fn unknown_material(k: &str, name: &str, mat_names: &Names) -> Result<()> {
     err(
         format!("{k}.material"),
-        format!("unknown material `{name}`; defined: {}", mat_names.join(", ")),
+        format!("unknown material `{name}`; defined: {}", mat_names.shown()),
     )
 }
 
@@ -613,7 +701,7 @@ fn in_domain(min: &[f64], max: &[f64], body: &str, dom: &Domain) -> Result<()> {
 }
 
 /// Fluid bodies: material, shape and box, velocity and initial-field expressions, in the domain.
-fn validate_fluids(s: &mut Scene, mat_names: &[String]) -> Result<()> {
+fn validate_fluids(s: &mut Scene, mat_names: &Names) -> Result<()> {
     let d = s.dimension;
     if s.fluids.is_empty() && s.solids.is_empty() {
         return err("fluid", "at least one [[fluid]] or [[solid]] body is needed");
@@ -674,7 +762,7 @@ fn validate_fluids(s: &mut Scene, mat_names: &[String]) -> Result<()> {
 }
 
 /// Walls: box, material, open faces, container layers, motion.
-fn validate_walls(s: &mut Scene, mat_names: &[String], support: f64) -> Result<()> {
+fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> Result<()> {
     let d = s.dimension;
     let dx = s.discretisation.dx;
     for (i, w) in s.walls.iter_mut().enumerate() {
@@ -685,7 +773,7 @@ fn validate_walls(s: &mut Scene, mat_names: &[String], support: f64) -> Result<(
         check_vec(&mut w.velocity, d, &format!("{k}.velocity"), true)?;
         speed_at_most(&w.velocity, &format!("{k}.velocity"))?;
         if w.material.is_empty() {
-            w.material = mat_names[0].clone();
+            w.material = mat_names.list[0].clone();
         } else if !mat_names.contains(&w.material) {
             return unknown_material(&k, &w.material, mat_names);
         }
@@ -986,11 +1074,23 @@ fn validate_checkpoint(c: &CheckpointSpec) -> Result<()> {
 }
 
 /// The keys of probe `i` (named `k`) that depend on its kind.
-fn validate_probe_kind(k: &str, i: usize, s: &mut Scene) -> Result<()> {
-    let d = s.dimension;
-    let (domain, walls) = (s.domain.clone(), s.walls.clone());
-    let s_solids = s.solids.clone();
-    match &mut s.probes[i] {
+/// The bodies probes refer to by name, looked up in O(1) (a scene may hold thousands of
+/// probes and bodies).
+struct ProbeTargets<'s> {
+    walls: std::collections::HashMap<&'s str, &'s WallBody>,
+    solids: std::collections::HashMap<&'s str, &'s FluidBody>,
+    wall_names: Names,
+    solid_names: Names,
+}
+
+fn validate_probe_kind(
+    k: &str,
+    probe: &mut Probe,
+    d: usize,
+    domain: &Domain,
+    t: &ProbeTargets,
+) -> Result<()> {
+    match probe {
         Probe::Pressure {
             point,
             diameter,
@@ -998,7 +1098,7 @@ fn validate_probe_kind(k: &str, i: usize, s: &mut Scene) -> Result<()> {
             ..
         } => {
             check_vec(point, d, &format!("{k}.point"), false)?;
-            point_in_domain(point, &format!("{k}.point"), &domain)?;
+            point_in_domain(point, &format!("{k}.point"), domain)?;
             if !(*diameter >= 0.0 && diameter.is_finite()) {
                 return err(format!("{k}.diameter"), format!("must be ≥ 0 m, got {diameter}"));
             }
@@ -1023,21 +1123,23 @@ fn validate_probe_kind(k: &str, i: usize, s: &mut Scene) -> Result<()> {
         }
         Probe::Gauge { point, .. } => {
             check_vec(point, d, &format!("{k}.point"), false)?;
-            point_in_domain(point, &format!("{k}.point"), &domain)?;
+            point_in_domain(point, &format!("{k}.point"), domain)?;
         }
         Probe::Hole {
             plate, projectile, ..
         } => {
-            let names: Vec<&str> = s_solids.iter().map(|b| b.name.as_str()).collect();
             for (key, name) in [("plate", &*plate), ("projectile", &*projectile)] {
-                if !names.contains(&name.as_str()) {
+                if !t.solids.contains_key(name.as_str()) {
                     return err(
                         format!("{k}.{key}"),
-                        format!("no [[solid]] body named `{name}`; solids: {}", names.join(", ")),
+                        format!(
+                            "no [[solid]] body named `{name}`; solids: {}",
+                            t.solid_names.shown()
+                        ),
                     );
                 }
             }
-            let pr = s_solids.iter().find(|b| b.name == *projectile);
+            let pr = t.solids.get(projectile.as_str());
             if pr.is_some_and(|b| b.velocity.iter().all(|c| *c == 0.0)) {
                 return err(
                     format!("{k}.projectile"),
@@ -1048,11 +1150,16 @@ fn validate_probe_kind(k: &str, i: usize, s: &mut Scene) -> Result<()> {
         Probe::VelocityLine { from, to, points, .. } => {
             check_vec(from, d, &format!("{k}.from"), false)?;
             check_vec(to, d, &format!("{k}.to"), false)?;
-            point_in_domain(from, &format!("{k}.from"), &domain)?;
-            point_in_domain(to, &format!("{k}.to"), &domain)?;
+            point_in_domain(from, &format!("{k}.from"), domain)?;
+            point_in_domain(to, &format!("{k}.to"), domain)?;
             if *points < 2 {
                 return err(format!("{k}.points"), "needs at least 2 points");
             }
+            crate::limits::count(
+                &format!("{k}.points"),
+                *points as u64,
+                crate::limits::MAX_PROBE_POINTS,
+            )?;
         }
         Probe::Front { axis, link, .. } => {
             if *axis >= d {
@@ -1066,11 +1173,13 @@ fn validate_probe_kind(k: &str, i: usize, s: &mut Scene) -> Result<()> {
             }
         }
         Probe::Force { body, about, .. } => {
-            let Some(w) = walls.iter().find(|w| w.name == *body) else {
-                let names: Vec<&str> = walls.iter().map(|w| w.name.as_str()).collect();
+            let Some(w) = t.walls.get(body.as_str()) else {
                 return err(
                     format!("{k}.body"),
-                    format!("no [[wall]] is named `{body}`; the walls are {names:?}"),
+                    format!(
+                        "no [[wall]] is named `{body}`; the walls are {}",
+                        t.wall_names.shown()
+                    ),
                 );
             };
             if w.method == WallMethod::Mirror {
@@ -1088,9 +1197,16 @@ fn validate_probe_kind(k: &str, i: usize, s: &mut Scene) -> Result<()> {
 }
 
 fn validate_probes(s: &mut Scene) -> Result<()> {
-    for i in 0..s.probes.len() {
+    let t = ProbeTargets {
+        walls: s.walls.iter().map(|w| (w.name.as_str(), w)).collect(),
+        solids: s.solids.iter().map(|b| (b.name.as_str(), b)).collect(),
+        wall_names: Names::new(s.walls.iter().map(|w| w.name.as_str())),
+        solid_names: Names::new(s.solids.iter().map(|b| b.name.as_str())),
+    };
+    let mut seen = std::collections::HashSet::new();
+    for (i, probe) in s.probes.iter_mut().enumerate() {
         let k = format!("probe[{i}]");
-        let name = s.probes[i].name().to_string();
+        let name = probe.name().to_string();
         if name.is_empty()
             || !name
                 .chars()
@@ -1101,10 +1217,10 @@ fn validate_probes(s: &mut Scene) -> Result<()> {
                 format!("`{name}` must be non-empty letters, digits, _ or -"),
             );
         }
-        if s.probes[..i].iter().any(|p| p.name() == name) {
+        if !seen.insert(name.clone()) {
             return err(format!("{k}.name"), format!("probe `{name}` is defined twice"));
         }
-        if let Some(iv) = s.probes[i].interval() {
+        if let Some(iv) = probe.interval() {
             if !(iv >= 0.0 && iv.is_finite()) {
                 return err(
                     format!("{k}.interval"),
@@ -1112,14 +1228,14 @@ fn validate_probes(s: &mut Scene) -> Result<()> {
                 );
             }
         }
-        let window = s.probes[i].window();
+        let window = probe.window();
         if !(window >= 0.0 && window.is_finite()) {
             return err(
                 format!("{k}.window"),
                 format!("must be ≥ 0 s (0 = no time average), got {window}"),
             );
         }
-        validate_probe_kind(&k, i, s)?;
+        validate_probe_kind(&k, probe, s.dimension, &s.domain, &t)?;
     }
     Ok(())
 }
@@ -1403,8 +1519,10 @@ pub fn dt_upper_bound(s: &Scene) -> (f64, String) {
     if !s.fluids.is_empty() {
         c = s.materials.iter().fold(0.0, |m, x| m.max(x.c0));
     }
+    let by_name: std::collections::HashMap<&str, &Material> =
+        s.materials.iter().map(|m| (m.name.as_str(), m)).collect();
     for b in &s.solids {
-        if let Some(m) = s.materials.iter().find(|m| m.name == b.material) {
+        if let Some(m) = by_name.get(b.material.as_str()) {
             let g = m.shear_modulus.unwrap_or(0.0);
             let c_long = (m.c0 * m.c0 + 4.0 * g / (3.0 * m.rho0)).sqrt();
             c = c.max(c_long + norm(&b.velocity));

@@ -214,7 +214,13 @@ pub(super) fn fluid_material(m: &Material, k: &str) -> Result<()> {
 /// Each body's material is of the body's kind: `fluid[i]` with a fluid material, `solid[i]`
 /// with a solid one; `clamped` and `hydrostatic` where they mean something.
 pub(super) fn body_kinds(s: &Scene) -> Result<()> {
-    let solid = |name: &str| s.materials.iter().any(|m| m.name == name && m.is_solid());
+    let solids: std::collections::HashSet<&str> = s
+        .materials
+        .iter()
+        .filter(|m| m.is_solid())
+        .map(|m| m.name.as_str())
+        .collect();
+    let solid = |name: &str| solids.contains(name);
     for (i, f) in s.fluids.iter().enumerate() {
         if solid(&f.material) {
             return err(
