@@ -333,6 +333,7 @@ pub fn validate(s: &mut Scene) -> Result<()> {
     validate_walls(s, &mat_names, support)?;
     validate_time_output(s)?;
     check_particle_count(s)?;
+    crate::with_dim!(s.dimension, D => crate::setup::check_bodies_build::<D>(s))?;
     if !(s.balance.threshold >= 1.0 && s.balance.threshold.is_finite()) {
         return err(
             "balance.threshold",
