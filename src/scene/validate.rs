@@ -236,9 +236,9 @@ fn non_negative(x: f64, key: &str) -> Result<()> {
     Ok(())
 }
 
-/// `x` as a scene would write it, short at any magnitude: `0.3`, `2000`, `1e300`, `1e-300`.
+/// `x` as a scene would write it, short at any magnitude: `0.3`, `2000`, `1e5`, `1e-300`.
 pub(super) fn num(x: f64) -> String {
-    if x == 0.0 || !x.is_finite() || (1e-3..1e7).contains(&x.abs()) {
+    if x == 0.0 || !x.is_finite() || (1e-3..1e5).contains(&x.abs()) {
         format!("{x}")
     } else {
         format!("{x:e}")
@@ -327,7 +327,7 @@ pub fn validate(s: &mut Scene) -> Result<()> {
     let support = validate_domain(s)?;
     validate_materials(s)?;
     validate_constants(&s.constants)?;
-    validate_body_names(s)?;
+    check_body_names(s, None)?;
     let mat_names = Names::new(s.materials.iter().map(|m| m.name.as_str()));
     validate_fluids(s, &mat_names)?;
     validate_walls(s, &mat_names, support)?;
@@ -414,10 +414,14 @@ fn validate_counts(s: &Scene) -> Result<()> {
 }
 
 /// Body names are unique across `[[fluid]]`, `[[solid]]` and `[[wall]]`: probes and outputs
-/// refer to bodies by name. A second use of a name is an error on its `name`, naming the first.
-fn validate_body_names(s: &Scene) -> Result<()> {
-    let mut seen: std::collections::HashMap<&str, String> = std::collections::HashMap::new();
-    let bodies = (s
+/// refer to bodies by name. A second use of a name is an error on its `name`, naming the first;
+/// "second" in the file when `order` gives each body's position there (its key, `fluid[0]`,
+/// to a byte offset), else in the order fluids, solids, walls.
+pub(crate) fn check_body_names(
+    s: &Scene,
+    order: Option<&std::collections::HashMap<String, usize>>,
+) -> Result<()> {
+    let mut bodies: Vec<(String, &String)> = (s
         .fluids
         .iter()
         .enumerate()
@@ -433,8 +437,14 @@ fn validate_body_names(s: &Scene) -> Result<()> {
             .iter()
             .enumerate()
             .map(|(i, b)| (format!("wall[{i}]"), &b.name)),
-    );
-    for (k, name) in bodies {
+    )
+    .collect();
+    if let Some(at) = order {
+        // stable: a body the file does not place keeps its place after those it does
+        bodies.sort_by_key(|(k, _)| at.get(k).copied().unwrap_or(usize::MAX));
+    }
+    let mut seen: std::collections::HashMap<&str, &str> = std::collections::HashMap::new();
+    for (k, name) in &bodies {
         if let Some(first) = seen.get(name.as_str()) {
             return err(
                 format!("{k}.name"),
@@ -1473,7 +1483,7 @@ pub fn expected_speed(s: &Scene) -> f64 {
 fn check_sound_speed(s: &Scene) -> Result<()> {
     let u = expected_speed(s);
     for (i, m) in s.materials.iter().enumerate() {
-        if !(10.0 * u <= SOUND_SPEED_RANGE.1) {
+        if u.is_nan() || 10.0 * u > SOUND_SPEED_RANGE.1 {
             return err(
                 format!("material[{i}].c0"),
                 format!(

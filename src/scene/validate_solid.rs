@@ -164,7 +164,7 @@ fn solid_ranges(m: &Material, k: &str) -> Result<()> {
     }
     let g = m.shear_modulus.unwrap_or(0.0);
     let c_long = (m.c0 * m.c0 + 4.0 * g / (3.0 * m.rho0)).sqrt();
-    if !(c_long <= SOUND_SPEED_RANGE.1) {
+    if c_long.is_nan() || c_long > SOUND_SPEED_RANGE.1 {
         return err(
             format!("{k}.shear_modulus"),
             format!(
