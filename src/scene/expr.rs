@@ -15,8 +15,8 @@
 //! `E = 70e9` would be ignored), and not starting with `min`, `max` or `atan2` (exmex reads
 //! `max_u` as `max` and `_u`).
 //!
-//! Each expression is bounded before it is parsed ([`check_size`]): the parser's time grows
-//! faster than the text.
+//! Each expression is bounded before it is parsed (`check_size`): the parser's time grows
+//! faster than the text ([`crate::limits::MAX_EXPR_CHARS`], [`crate::limits::MAX_EXPR_DEPTH`]).
 
 use crate::error::{Error, Result};
 use crate::limits::{MAX_EXPR_CHARS, MAX_EXPR_DEPTH};
