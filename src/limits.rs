@@ -62,6 +62,48 @@ pub const MAX_RESOLUTION: u32 = 4096;
 /// with its commas, `--account`); each is also held to letters, digits and `. _ + -`.
 pub const MAX_SLURM_NAME: usize = 128;
 
+// Physical ranges of the scene constants that enter the time step (issue 32): generous
+// beyond any real material or flow, so that only a typo or a hostile value is refused. The
+// step budget ([`MAX_STEPS`]) then bounds what they allow together.
+
+/// Sound speeds a material may give, `c0` of a fluid or a solid, and a solid's longitudinal
+/// wave speed √((ρ0c0² + 4G/3)/ρ0) (m/s): from 1 µm/s (a numerical c0 of a creeping flow) to
+/// 100 km/s (diamond's longitudinal speed is 18 km/s).
+pub const SOUND_SPEED_RANGE: (f64, f64) = (1e-6, 1e5);
+/// Reference densities ρ0 (kg/m³): from 1 mg/m³ to 10⁵ (osmium is 2.26 × 10⁴).
+pub const DENSITY_RANGE: (f64, f64) = (1e-6, 1e5);
+/// Largest modulus or stress constant of a solid: shear modulus G, Johnson–Cook A and B,
+/// spall strength (Pa): 10 TPa (diamond's shear modulus is 0.5 TPa).
+pub const MAX_MODULUS: f64 = 1e13;
+/// Largest dimensionless EOS constant: the Tait exponent γ (water 7), a Hugoniot slope s
+/// and a Grüneisen Γ0 (both below 5 in every tabulated metal).
+pub const MAX_EOS_CONSTANT: f64 = 100.0;
+/// Largest body force |g| (m/s²): 10⁶, about 10⁵ g, beyond any centrifuge.
+pub const MAX_BODY_FORCE: f64 = 1e6;
+/// Largest laminar kinematic viscosity ν (m²/s): 10⁶ (honey is 10⁻², a lava 10²).
+pub const MAX_VISCOSITY: f64 = 1e6;
+/// Largest dimensionless coefficient of a numerical term: artificial viscosity α and β,
+/// density diffusion δ, artificial stress ε (usual values 0.01 to 2).
+pub const MAX_COEFFICIENT: f64 = 100.0;
+/// Largest speed a scene may give a body, a wall or a reference flow (m/s): the largest
+/// sound speed.
+pub const MAX_SPEED: f64 = 1e5;
+/// Longest simulated time `time.t_end`, and longest fixed step `time.dt` (s): 10⁹ s, about
+/// 32 years.
+pub const MAX_T_END: f64 = 1e9;
+
+/// Most cells of the global cell grid, cells of the kernel support over the whole domain
+/// (1 GiB of u32 cell offsets).
+pub const MAX_CELLS: u64 = 1 << 28;
+
+/// Most characters of all the initial-field expressions of a scene together (16 of the
+/// longest): each is parsed and sampled during validation, and evaluated at every site.
+pub const MAX_EXPR_TOTAL_CHARS: usize = 16 * MAX_EXPR_CHARS;
+
+/// Most bodies of one kind (`[[fluid]]`, `[[solid]]`, `[[wall]]`) and most materials of a
+/// scene: a particle stores its body and material as 16-bit indices.
+pub const MAX_BODIES: usize = 1 << 16;
+
 /// `value` of `key` within `1..=max`, else exit 2 naming both.
 pub fn count(key: &str, value: u64, max: u64) -> Result<()> {
     if value == 0 {

@@ -218,6 +218,11 @@ impl<'s, const D: usize> SiteSource<'s, D> {
     pub fn new(s: &'s Scene) -> Result<Self> {
         let lat = Lattice::<D>::new(s);
         let materials: Vec<MaterialModel> = s.materials.iter().map(MaterialModel::new).collect();
+        // material indices by name, once: a scene may hold thousands of bodies and materials
+        let mat_of: std::collections::HashMap<&str, u16> = (s.materials.iter().enumerate().rev())
+            .map(|(i, m)| (m.name.as_str(), i as u16))
+            .collect();
+        let mat_index = |name: &str| mat_of.get(name).copied().unwrap_or(0);
         let g = Vector::<D>::from_fn(|a, _| s.physics.body_force[a]);
         let gmag = g.norm();
         let mut sources = Vec::new();
@@ -229,7 +234,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
             .chain(s.solids.iter().enumerate().map(|(b, f)| (b, f, true)));
         for (b, f, solid) in bodies {
             let key = format!("{}[{b}]", if solid { "solid" } else { "fluid" });
-            let mat = mat_index(s, &f.material);
+            let mat = mat_index(&f.material);
             // top of the block along -ĝ, for the hydrostatic profile
             let top = if gmag > 0.0 {
                 (0..D)
@@ -268,7 +273,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
             let Some(kind) = wall_kind(w.method) else {
                 continue;
             };
-            let mat = mat_index(s, &w.material);
+            let mat = mat_index(&w.material);
             let (min, max, inner) = match w.shape {
                 WallShape::Block => (w.min.clone(), w.max.clone(), None),
                 WallShape::Container => {
@@ -485,11 +490,6 @@ impl<const D: usize> Cloud<D> for LayerShare<'_, '_, D> {
     }
 }
 
-/// Index of material `name` in the scene (validated earlier; 0 if absent).
-fn mat_index(s: &Scene, name: &str) -> u16 {
-    s.materials.iter().position(|m| m.name == name).unwrap_or(0) as u16
-}
-
 /// Exit-2 error naming the second of two bodies that claim one lattice site (`by_id`: the
 /// particles of `p` in id order; `label[i]` indexes `keys`, the bodies' names).
 fn reject_overlaps<const D: usize>(
@@ -521,37 +521,134 @@ pub fn id_bound<const D: usize>(s: &Scene) -> u64 {
 }
 
 /// Number of particles the scene's bodies hold, counted from the lattice ranges without
-/// building them (exact unless two bodies overlap, which [`build_particles`] rejects).
+/// building them (exact unless two bodies overlap, which [`build_particles`] rejects; a
+/// sphere or cylinder counts the sites of its box).
 pub fn count_particles<const D: usize>(s: &Scene) -> u64 {
+    body_sites::<D>(s).iter().map(|b| b.sites).sum()
+}
+
+/// The lattice sites of one body, counted without building them.
+#[derive(Debug, Clone)]
+pub struct BodySites {
+    /// `fluid[i]`, `solid[i]` or `wall[i]`.
+    pub key: String,
+    /// The body's name in the scene.
+    pub name: String,
+    /// Sites of its box (a container: of its walls, the outer box less the inner one).
+    pub sites: u64,
+    /// True if the body claims at least one site: its box has sites and, for a sphere or a
+    /// cylinder, the site nearest its centre lies inside it.
+    pub builds: bool,
+    /// Smallest extent of its box (m; a container's inner box).
+    pub smallest: f64,
+    /// A container with every face open (no walls at any dx).
+    pub all_open: bool,
+}
+
+/// The sites of every body that has particles (fluids, solids, then dummy and repulsive walls;
+/// mirror walls have none), in the order [`SiteSource`] adds them, from the lattice ranges
+/// alone: O(1) per body whatever its size.
+pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
     let lat = Lattice::<D>::new(s);
     let dx = s.discretisation.dx;
-    let sites = |min: &[f64], max: &[f64]| -> u64 {
-        (0..D)
-            .map(|a| {
-                let (lo, hi) = lat.range(a, min[a], max[a]);
-                hi.saturating_sub(lo)
-            })
-            .product()
+    let ranges = |min: &[f64], max: &[f64]| -> Vec<(u64, u64)> {
+        (0..D).map(|a| lat.range(a, min[a], max[a])).collect()
     };
-    let mut n: u64 = s
+    let sites = |r: &[(u64, u64)]| -> u64 { r.iter().map(|(lo, hi)| hi.saturating_sub(*lo)).product() };
+    let smallest = |min: &[f64], max: &[f64]| (0..D).map(|a| max[a] - min[a]).fold(f64::INFINITY, f64::min);
+    let mut out = Vec::new();
+    let bodies = (s
         .fluids
         .iter()
-        .chain(&s.solids)
-        .map(|f| sites(&f.min, &f.max))
-        .sum();
-    for w in &s.walls {
+        .enumerate()
+        .map(|(i, f)| (format!("fluid[{i}]"), f)))
+    .chain(
+        s.solids
+            .iter()
+            .enumerate()
+            .map(|(i, f)| (format!("solid[{i}]"), f)),
+    );
+    for (key, f) in bodies {
+        let r = ranges(&f.min, &f.max);
+        let n = sites(&r);
+        // of the box's sites the one nearest the centre (per axis, so nearest overall) is
+        // inside a sphere or cylinder if any is
+        let builds = n > 0
+            && (f.shape == crate::scene::BodyShape::Block || {
+                let x: Vec<f64> = (0..D)
+                    .map(|a| {
+                        let i = ((f.centre[a] - lat.origin[a]) / dx - 0.5).round().max(0.0) as u64;
+                        let i = i.clamp(r[a].0, r[a].1 - 1);
+                        lat.origin[a] + (i as f64 + 0.5) * dx
+                    })
+                    .collect();
+                f.contains(&x)
+            });
+        out.push(BodySites {
+            key,
+            name: f.name.clone(),
+            sites: n,
+            builds,
+            smallest: smallest(&f.min, &f.max),
+            all_open: false,
+        });
+    }
+    for (i, w) in s.walls.iter().enumerate() {
         if wall_kind(w.method).is_none() {
             continue;
         }
-        n += match w.shape {
-            WallShape::Block => sites(&w.min, &w.max),
+        let n = match w.shape {
+            WallShape::Block => sites(&ranges(&w.min, &w.max)),
             WallShape::Container => {
                 let (lo, hi) = container_outer(w, D, dx);
-                sites(&lo, &hi).saturating_sub(sites(&w.min, &w.max))
+                sites(&ranges(&lo, &hi)).saturating_sub(sites(&ranges(&w.min, &w.max)))
             }
         };
+        let open = |a: usize, up: bool| {
+            w.open
+                .iter()
+                .any(|o| crate::scene::face_of(o, D) == Some((a, up)))
+        };
+        out.push(BodySites {
+            key: format!("wall[{i}]"),
+            name: w.name.clone(),
+            sites: n,
+            builds: n > 0,
+            smallest: smallest(&w.min, &w.max),
+            all_open: w.shape == WallShape::Container && (0..D).all(|a| open(a, false) && open(a, true)),
+        });
     }
-    n
+    out
+}
+
+/// Every body builds at least one particle at the scene's dx: one that builds none is an
+/// input error naming it and dx, with a spacing that would resolve it.
+pub fn check_bodies_build<const D: usize>(s: &Scene) -> Result<()> {
+    let dx = s.discretisation.dx;
+    let Some(b) = body_sites::<D>(s).into_iter().find(|b| !b.builds) else {
+        return Ok(());
+    };
+    if b.all_open {
+        return Err(Error::input(
+            format!("{}.open", b.key),
+            format!(
+                "wall `{}` is a container with every face open, which has no particle at any dx; \
+                 close a face (e.g. open = [\"y+\"]) or remove the wall",
+                b.name
+            ),
+        ));
+    }
+    let smallest = b.smallest;
+    Err(Error::input(
+        b.key.clone(),
+        format!(
+            "body `{}` builds no particle at dx = {dx} m: no lattice site (at domain.min + (i + ½)·dx) \
+             lies inside it, its smallest extent being {smallest:.4e} m; refine discretisation.dx \
+             (e.g. dx = {:.4e}, half that extent) or enlarge the body",
+            b.name,
+            0.5 * smallest
+        ),
+    ))
 }
 
 /// A body as the lattice builds it: every lattice site whose centre lies in the scene's box
@@ -801,4 +898,110 @@ fn container_outer(w: &crate::scene::WallBody, d: usize, dx: f64) -> (Vec<f64>, 
         }
     }
     (lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 2D scene of one fluid disc (and a 3D one of a cylinder) that the tests reshape.
+    fn scene(text: &str) -> Scene {
+        crate::scene::load_scene_str(text, std::path::Path::new("t.toml"), "t", &[])
+            .unwrap()
+            .0
+    }
+
+    const DISC: &str = r#"
+dimension = 2
+[domain]
+min = [0.0, 0.0]
+max = [1.0, 1.0]
+[discretisation]
+dx = 0.1
+[[material]]
+name = "w"
+rho0 = 1000.0
+c0 = 10.0
+[[fluid]]
+name = "disc"
+material = "w"
+shape = "sphere"
+centre = [0.5, 0.5]
+radius = 0.2
+[time]
+t_end = 0.01
+"#;
+
+    const CYLINDER: &str = r#"
+dimension = 3
+[domain]
+min = [0.0, 0.0, 0.0]
+max = [1.0, 1.0, 1.0]
+[discretisation]
+dx = 0.1
+[[material]]
+name = "w"
+rho0 = 1000.0
+c0 = 10.0
+[[fluid]]
+name = "rod"
+material = "w"
+shape = "cylinder"
+centre = [0.5, 0.5, 0.5]
+radius = 0.2
+length = 0.4
+axis = 1
+[time]
+t_end = 0.01
+"#;
+
+    /// The a-priori answer of [`body_sites`] (does the body build a particle?) is the one
+    /// building the particles gives, for discs and cylinders of every size and offset.
+    #[test]
+    fn bodies_that_build_no_particle_are_found_without_building() {
+        let mut rng = 0x2545_f491_4f6c_dd1du64;
+        let mut uniform = || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut empty, mut full) = (0, 0);
+        for text in [DISC, CYLINDER] {
+            let base = scene(text);
+            let d = base.dimension;
+            for _ in 0..400 {
+                let mut s = base.clone();
+                let f = &mut s.fluids[0];
+                f.radius = 0.01 + 0.12 * uniform();
+                f.length = 0.01 + 0.2 * uniform();
+                f.centre = (0..d).map(|_| 0.3 + 0.4 * uniform()).collect();
+                let mut half = vec![f.radius; d];
+                if f.shape == crate::scene::BodyShape::Cylinder {
+                    half[1] = 0.5 * f.length;
+                }
+                f.min = (0..d).map(|a| f.centre[a] - half[a]).collect();
+                f.max = (0..d).map(|a| f.centre[a] + half[a]).collect();
+                let (builds, built) = crate::with_dim!(d, D => Ok::<_, Error>((
+                    body_sites::<D>(&s)[0].builds,
+                    SiteSource::<D>::new(&s).unwrap().build(None, |_, _| true).unwrap().n_owned,
+                )))
+                .unwrap();
+                assert_eq!(
+                    builds,
+                    built > 0,
+                    "{:?} r {} l {}",
+                    s.fluids[0].centre,
+                    s.fluids[0].radius,
+                    s.fluids[0].length
+                );
+                if built == 0 {
+                    empty += 1;
+                } else {
+                    full += 1;
+                }
+            }
+        }
+        assert!(empty > 50 && full > 50, "{empty} empty, {full} built");
+    }
 }

@@ -106,8 +106,32 @@ pub fn load_scene_str(
     if scene.name.is_empty() {
         scene.name = default_name.to_string();
     }
+    // duplicate body names, the later in the file named (validation alone knows only kinds)
+    super::validate::check_body_names(&scene, Some(&body_positions(&src.text))).map_err(|e| src.locate(e))?;
     super::validate(&mut scene).map_err(|e| src.locate(e))?;
     Ok((scene, src))
+}
+
+/// Where each body starts in scene `text`: `fluid[i]`, `solid[i]`, `wall[i]` to a byte offset
+/// (arrays of tables or inline arrays alike). One parse, however many bodies.
+fn body_positions(text: &str) -> std::collections::HashMap<String, usize> {
+    let mut at = std::collections::HashMap::new();
+    let Ok(doc) = ImDocument::parse(text.to_string()) else {
+        return at;
+    };
+    for kind in ["fluid", "solid", "wall"] {
+        let starts: Vec<Option<usize>> = match doc.as_table().get(kind) {
+            Some(Item::ArrayOfTables(a)) => a.iter().map(|t| t.span().map(|s| s.start)).collect(),
+            Some(Item::Value(Value::Array(a))) => a.iter().map(|v| v.span().map(|s| s.start)).collect(),
+            _ => continue,
+        };
+        for (i, start) in starts.into_iter().enumerate() {
+            if let Some(start) = start {
+                at.insert(format!("{kind}[{i}]"), start);
+            }
+        }
+    }
+    at
 }
 
 /// Apply one `key.path=value` override; returns the dotted key.

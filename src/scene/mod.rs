@@ -12,7 +12,7 @@ mod validate_solid;
 
 pub(crate) use load::{first_line, key_at, line_of, span_of_key};
 pub use load::{load_scene, load_scene_str, SceneSource};
-pub use validate::{expected_speed, face as face_of, validate};
+pub use validate::{dt_upper_bound, expected_speed, face as face_of, validate};
 
 use crate::kernel::KernelKind;
 use serde::{Deserialize, Serialize};
@@ -73,7 +73,9 @@ pub struct Scene {
     /// Checkpoints for restarts (`[checkpoint]`).
     #[serde(default)]
     pub checkpoint: CheckpointSpec,
-    /// Named constants for initial-field expressions (`[constants]`, e.g. `U = 1.0`).
+    /// Named constants for initial-field expressions (`[constants]`, e.g. `U = 1.0`); a name may
+    /// not be a coordinate or a built-in name of expressions in any letter case
+    /// ([`expr::constant_name`]).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub constants: BTreeMap<String, f64>,
 }
@@ -578,7 +580,8 @@ impl Default for Physics {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct FluidBody {
-    /// Name (used in `final.csv` as the body index order).
+    /// Name (used in `final.csv` as the body index order), unique among all bodies (fluids,
+    /// solids, walls).
     pub name: String,
     /// Material name.
     pub material: String,
@@ -756,7 +759,7 @@ pub enum Motion {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct WallBody {
-    /// Name.
+    /// Name, unique among all bodies (fluids, solids, walls).
     pub name: String,
     /// `block` or `container`.
     pub shape: WallShape,
@@ -803,7 +806,9 @@ fn default_slip() -> Slip {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Time {
-    /// End time (s).
+    /// End time (s), at most [`crate::limits::MAX_T_END`]. With `max_steps` unset, t_end over
+    /// the first step's bound of dt ([`dt_upper_bound`]) must stay within the step budget
+    /// [`crate::limits::MAX_STEPS`].
     pub t_end: f64,
     /// Courant number for dt = CFL · h/(c0 + |v|max) (and the force limit); in (0, 3], with a
     /// warning above 1 (`MAX_CFL` in `scene/validate.rs`).
@@ -812,7 +817,8 @@ pub struct Time {
     /// Fixed time step (s), overriding the adaptive one (0 = adaptive).
     #[serde(default)]
     pub dt: f64,
-    /// Stop after this many steps (0 = no limit).
+    /// Stop after this many steps (0 = no limit). Setting it lifts the step budget: the run
+    /// is then bounded by it.
     #[serde(default)]
     pub max_steps: u64,
 }

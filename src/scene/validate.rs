@@ -5,6 +5,10 @@
 
 use super::*;
 use crate::error::{Error, Result};
+use crate::limits::{
+    DENSITY_RANGE, MAX_BODY_FORCE, MAX_CELLS, MAX_COEFFICIENT, MAX_EOS_CONSTANT, MAX_EXPR_TOTAL_CHARS,
+    MAX_PARTICLES, MAX_SPEED, MAX_STEPS, MAX_T_END, MAX_VISCOSITY, SOUND_SPEED_RANGE,
+};
 
 fn err<T>(key: impl Into<String>, msg: impl Into<String>) -> Result<T> {
     Err(Error::input(key, msg))
@@ -85,14 +89,6 @@ fn validate_fields(
     constants: &std::collections::BTreeMap<String, f64>,
 ) -> Result<()> {
     use crate::scene::expr::FieldExpr;
-    for (name, v) in constants {
-        if ["x", "y", "z"].contains(&name.as_str()) || !v.is_finite() {
-            return err(
-                format!("constants.{name}"),
-                "a constant needs a finite value and a name other than x, y, z",
-            );
-        }
-    }
     let mut exprs = Vec::new();
     if let Some(v) = &f.velocity_field {
         if v.len() != d {
@@ -128,6 +124,21 @@ fn validate_fields(
     for e in &exprs {
         for x in box_samples(&f.min, &f.max, 2) {
             e.eval(&x)?;
+        }
+    }
+    Ok(())
+}
+
+/// `[constants]`: finite values, and names that expressions read as the constant
+/// ([`crate::scene::expr::constant_name`]: no coordinate, no built-in name in any case).
+fn validate_constants(constants: &std::collections::BTreeMap<String, f64>) -> Result<()> {
+    for (name, v) in constants {
+        crate::scene::expr::constant_name(name).or_else(|why| err(format!("constants.{name}"), why))?;
+        if !v.is_finite() {
+            return err(
+                format!("constants.{name}"),
+                format!("a constant needs a finite value, got {v}; e.g. {name} = 1.0"),
+            );
         }
     }
     Ok(())
@@ -225,6 +236,78 @@ fn non_negative(x: f64, key: &str) -> Result<()> {
     Ok(())
 }
 
+/// `x` as a scene would write it, short at any magnitude: `0.3`, `2000`, `1e5`, `1e-300`.
+pub(super) fn num(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-3..1e5).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// `x` (in `unit`) must lie in `[lo, hi]`, the physical range `name` of `src/limits.rs`;
+/// NaN and infinities never do. The message names the value, the range and `example`.
+pub(super) fn in_range(
+    x: f64,
+    key: &str,
+    (lo, hi): (f64, f64),
+    unit: &str,
+    name: &str,
+    example: &str,
+) -> Result<()> {
+    if x >= lo && x <= hi {
+        return Ok(());
+    }
+    // no unit: dimensionless
+    let u = if unit.is_empty() {
+        String::new()
+    } else {
+        format!(" {unit}")
+    };
+    err(
+        key,
+        format!(
+            "{}{u} lies outside [{}, {}]{u}, the range hsph accepts ({name}); e.g. {example}",
+            num(x),
+            num(lo),
+            num(hi)
+        ),
+    )
+}
+
+/// A vector `v` (in `unit`) whose length, computed without overflow, is at most `max`.
+fn length_at_most(v: &[f64], key: &str, max: f64, unit: &str, name: &str, example: &str) -> Result<()> {
+    let len = norm(v);
+    if len <= max {
+        return Ok(());
+    }
+    err(
+        key,
+        format!(
+            "[{}] has length {} {unit}, above the limit of {} {unit} ({name}); e.g. {example}",
+            v.iter().map(|x| num(*x)).collect::<Vec<_>>().join(", "),
+            num(len),
+            num(max)
+        ),
+    )
+}
+
+/// A velocity (m/s) no faster than [`MAX_SPEED`].
+fn speed_at_most(v: &[f64], key: &str) -> Result<()> {
+    length_at_most(v, key, MAX_SPEED, "m/s", "MAX_SPEED", "velocity = [1.0, 0.0]")
+}
+
+/// Euclidean length: √(Σ x²) (the bits every earlier version computed), or, where the squares
+/// overflow, the same length without intermediate overflow (`hypot`); NaN stays NaN.
+fn norm(v: &[f64]) -> f64 {
+    let n = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    if n.is_finite() {
+        n
+    } else {
+        v.iter().fold(0.0, |n: f64, x| n.hypot(*x))
+    }
+}
+
 /// The face names of a container's `open` list.
 pub fn face(name: &str, dim: usize) -> Option<(usize, bool)> {
     let axes = ["x", "y", "z"];
@@ -240,13 +323,17 @@ pub fn face(name: &str, dim: usize) -> Option<(usize, bool)> {
 
 /// Validate a scene and fill the defaults that depend on other keys.
 pub fn validate(s: &mut Scene) -> Result<()> {
+    validate_counts(s)?;
     let support = validate_domain(s)?;
     validate_materials(s)?;
-    let mat_names: Vec<String> = s.materials.iter().map(|m| m.name.clone()).collect();
+    validate_constants(&s.constants)?;
+    check_body_names(s, None)?;
+    let mat_names = Names::new(s.materials.iter().map(|m| m.name.as_str()));
     validate_fluids(s, &mat_names)?;
     validate_walls(s, &mat_names, support)?;
     validate_time_output(s)?;
     check_particle_count(s)?;
+    crate::with_dim!(s.dimension, D => crate::setup::check_bodies_build::<D>(s))?;
     if !(s.balance.threshold >= 1.0 && s.balance.threshold.is_finite()) {
         return err(
             "balance.threshold",
@@ -272,7 +359,105 @@ pub fn validate(s: &mut Scene) -> Result<()> {
     validate_checkpoint(&s.checkpoint)?;
     validate_reference(s)?;
     validate_performance(s)?;
-    check_sound_speed(s)
+    check_sound_speed(s)?;
+    check_step_budget(s)
+}
+
+/// Names in file order, with a set to look them up in O(1) (a scene may hold thousands).
+struct Names {
+    list: Vec<String>,
+    set: std::collections::HashSet<String>,
+}
+
+impl Names {
+    fn new<'a>(names: impl Iterator<Item = &'a str>) -> Self {
+        let list: Vec<String> = names.map(String::from).collect();
+        let set = list.iter().cloned().collect();
+        Names { list, set }
+    }
+
+    fn contains(&self, name: &str) -> bool {
+        self.set.contains(name)
+    }
+
+    /// The names for a message: all of them, or the first 20 and how many more.
+    fn shown(&self) -> String {
+        let mut out = self.list.iter().take(20).cloned().collect::<Vec<_>>().join(", ");
+        if self.list.len() > 20 {
+            out.push_str(&format!(" and {} more", self.list.len() - 20));
+        }
+        out
+    }
+}
+
+/// Materials and bodies of each kind: at most [`crate::limits::MAX_BODIES`] (a particle stores
+/// its body and material as 16-bit indices), checked before anything else looks at them.
+fn validate_counts(s: &Scene) -> Result<()> {
+    let max = crate::limits::MAX_BODIES;
+    for (key, n) in [
+        ("material", s.materials.len()),
+        ("fluid", s.fluids.len()),
+        ("solid", s.solids.len()),
+        ("wall", s.walls.len()),
+    ] {
+        if n > max {
+            return err(
+                key,
+                format!(
+                    "the scene has {n} [[{key}]] entries, above the limit of {max} (limits::MAX_BODIES); \
+                     merge bodies that share a material and motion into fewer, larger ones"
+                ),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Body names are unique across `[[fluid]]`, `[[solid]]` and `[[wall]]`: probes and outputs
+/// refer to bodies by name. A second use of a name is an error on its `name`, naming the first;
+/// "second" in the file when `order` gives each body's position there (its key, `fluid[0]`,
+/// to a byte offset), else in the order fluids, solids, walls.
+pub(crate) fn check_body_names(
+    s: &Scene,
+    order: Option<&std::collections::HashMap<String, usize>>,
+) -> Result<()> {
+    let mut bodies: Vec<(String, &String)> = (s
+        .fluids
+        .iter()
+        .enumerate()
+        .map(|(i, b)| (format!("fluid[{i}]"), &b.name)))
+    .chain(
+        s.solids
+            .iter()
+            .enumerate()
+            .map(|(i, b)| (format!("solid[{i}]"), &b.name)),
+    )
+    .chain(
+        s.walls
+            .iter()
+            .enumerate()
+            .map(|(i, b)| (format!("wall[{i}]"), &b.name)),
+    )
+    .collect();
+    if let Some(at) = order {
+        // stable: a body the file does not place keeps its place after those it does
+        bodies.sort_by_key(|(k, _)| at.get(k).copied().unwrap_or(usize::MAX));
+    }
+    let mut seen: std::collections::HashMap<&str, &str> = std::collections::HashMap::new();
+    for (k, name) in &bodies {
+        if let Some(first) = seen.get(name.as_str()) {
+            return err(
+                format!("{k}.name"),
+                format!(
+                    "`{name}` is already the name of {first}: body names are unique across [[fluid]], \
+                     [[solid]] and [[wall]], since probes and outputs refer to bodies by name; e.g. \
+                     name = \"{name}_2\""
+                ),
+            );
+        }
+        seen.insert(name, k);
+    }
+    Ok(())
 }
 
 /// `[performance]`: pair mode covers the fluid passes; a scene whose other passes gather over
@@ -386,12 +571,13 @@ fn validate_domain(s: &mut Scene) -> Result<f64> {
     let cells: f64 = (0..d)
         .map(|a| ((s.domain.max[a] - s.domain.min[a]) / support).floor().max(1.0) + 2.0)
         .product();
-    if cells.is_nan() || cells > MAX_CELLS {
+    if cells.is_nan() || cells > MAX_CELLS as f64 {
         return err(
             "domain.max",
             format!(
                 "the domain spans {cells:.3e} cells of the kernel support ({support:.3e} m), \
-                 more than the {MAX_CELLS:.3e} hsph allows; shrink the domain or coarsen dx"
+                 more than the {:.3e} hsph allows; shrink the domain or coarsen dx",
+                MAX_CELLS as f64
             ),
         );
     }
@@ -404,9 +590,8 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
     if s.materials.is_empty() {
         return err("material", "at least one [[material]] is needed");
     }
-    for i in 0..s.materials.len() {
-        let (before, rest) = s.materials.split_at_mut(i);
-        let m = &mut rest[0];
+    let mut seen = std::collections::HashSet::new();
+    for (i, m) in s.materials.iter_mut().enumerate() {
         let k = format!("material[{i}]");
         if m.is_solid() {
             super::validate_solid::solid_material(m, &k)?;
@@ -415,8 +600,32 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
             positive(m.rho0, &format!("{k}.rho0"), "rho0 = 1000.0")?;
             positive(m.c0, &format!("{k}.c0"), "c0 = 20.0")?;
             positive(m.gamma, &format!("{k}.gamma"), "gamma = 7.0")?;
+            in_range(
+                m.rho0,
+                &format!("{k}.rho0"),
+                DENSITY_RANGE,
+                "kg/m³",
+                "DENSITY_RANGE",
+                "rho0 = 1000.0",
+            )?;
+            in_range(
+                m.c0,
+                &format!("{k}.c0"),
+                SOUND_SPEED_RANGE,
+                "m/s",
+                "SOUND_SPEED_RANGE",
+                "c0 = 20.0",
+            )?;
+            in_range(
+                m.gamma,
+                &format!("{k}.gamma"),
+                (f64::MIN_POSITIVE, MAX_EOS_CONSTANT),
+                "",
+                "MAX_EOS_CONSTANT",
+                "gamma = 7.0",
+            )?;
         }
-        if before.iter().any(|o| o.name == m.name) {
+        if !seen.insert(m.name.clone()) {
             return err(
                 format!("{k}.name"),
                 format!("material `{}` is defined twice", m.name),
@@ -424,12 +633,45 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
         }
     }
     let ph = &mut s.physics;
-    non_negative(ph.delta, "physics.delta")?;
-    non_negative(ph.artificial_viscosity, "physics.artificial_viscosity")?;
+    for (x, key, example) in [
+        (ph.delta, "physics.delta", "delta = 0.1"),
+        (
+            ph.artificial_viscosity,
+            "physics.artificial_viscosity",
+            "artificial_viscosity = 0.02",
+        ),
+        (
+            ph.artificial_viscosity_beta,
+            "physics.artificial_viscosity_beta",
+            "artificial_viscosity_beta = 2.0",
+        ),
+        (
+            ph.artificial_stress,
+            "physics.artificial_stress",
+            "artificial_stress = 0.3",
+        ),
+    ] {
+        non_negative(x, key)?;
+        in_range(x, key, (0.0, MAX_COEFFICIENT), "", "MAX_COEFFICIENT", example)?;
+    }
     non_negative(ph.laminar_viscosity, "physics.laminar_viscosity")?;
-    non_negative(ph.artificial_viscosity_beta, "physics.artificial_viscosity_beta")?;
-    non_negative(ph.artificial_stress, "physics.artificial_stress")?;
+    in_range(
+        ph.laminar_viscosity,
+        "physics.laminar_viscosity",
+        (0.0, MAX_VISCOSITY),
+        "m²/s",
+        "MAX_VISCOSITY",
+        "laminar_viscosity = 1.0e-6 (water)",
+    )?;
     check_vec(&mut ph.body_force, d, "physics.body_force", true)?;
+    length_at_most(
+        &ph.body_force,
+        "physics.body_force",
+        MAX_BODY_FORCE,
+        "m/s²",
+        "MAX_BODY_FORCE",
+        "body_force = [0.0, -9.81]",
+    )?;
     if ph.viscous_operator != crate::scene::ViscousOperator::Morris && ph.laminar_viscosity == 0.0 {
         return err(
             "physics.viscous_operator",
@@ -442,10 +684,10 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
 }
 
 /// An unknown material name of body key `k` (exit 2 listing the defined ones).
-fn unknown_material(k: &str, name: &str, mat_names: &[String]) -> Result<()> {
+fn unknown_material(k: &str, name: &str, mat_names: &Names) -> Result<()> {
     err(
         format!("{k}.material"),
-        format!("unknown material `{name}`; defined: {}", mat_names.join(", ")),
+        format!("unknown material `{name}`; defined: {}", mat_names.shown()),
     )
 }
 
@@ -470,7 +712,7 @@ fn in_domain(min: &[f64], max: &[f64], body: &str, dom: &Domain) -> Result<()> {
 }
 
 /// Fluid bodies: material, shape and box, velocity and initial-field expressions, in the domain.
-fn validate_fluids(s: &mut Scene, mat_names: &[String]) -> Result<()> {
+fn validate_fluids(s: &mut Scene, mat_names: &Names) -> Result<()> {
     let d = s.dimension;
     if s.fluids.is_empty() && s.solids.is_empty() {
         return err("fluid", "at least one [[fluid]] or [[solid]] body is needed");
@@ -486,7 +728,35 @@ fn validate_fluids(s: &mut Scene, mat_names: &[String]) -> Result<()> {
             .enumerate()
             .map(|(i, f)| (format!("solid[{i}]"), f)),
     );
+    let mut total = 0;
     for (k, f) in bodies {
+        // every expression's length before any is parsed ([`crate::scene::expr`] bounds each)
+        let texts = (f.velocity_field.iter().flatten().enumerate())
+            .map(|(a, t)| (format!("{k}.velocity_field[{a}]"), t))
+            .chain(
+                f.pressure_field
+                    .iter()
+                    .map(|t| (format!("{k}.pressure_field"), t)),
+            );
+        for (key, t) in texts {
+            crate::scene::expr::check_size(&key, t)?;
+            total += t.chars().count();
+        }
+        if total > MAX_EXPR_TOTAL_CHARS {
+            let key = if f.pressure_field.is_some() {
+                "pressure_field"
+            } else {
+                "velocity_field"
+            };
+            return err(
+                format!("{k}.{key}"),
+                format!(
+                    "the initial-field expressions of the bodies up to this one hold {total} characters, \
+                     above the limit of {MAX_EXPR_TOTAL_CHARS} for a scene (limits::MAX_EXPR_TOTAL_CHARS); \
+                     name common parts in [constants] or share one body's fields"
+                ),
+            );
+        }
         if !mat_names.contains(&f.material) {
             return unknown_material(&k, &f.material, mat_names);
         }
@@ -495,6 +765,7 @@ fn validate_fluids(s: &mut Scene, mat_names: &[String]) -> Result<()> {
         check_vec(&mut f.max, d, &format!("{k}.max"), false)?;
         check_box(&f.min, &f.max, &k)?;
         check_vec(&mut f.velocity, d, &format!("{k}.velocity"), true)?;
+        speed_at_most(&f.velocity, &format!("{k}.velocity"))?;
         validate_fields(f, &k, d, &s.constants)?;
         in_domain(&f.min, &f.max, &k, &s.domain)?;
     }
@@ -502,7 +773,7 @@ fn validate_fluids(s: &mut Scene, mat_names: &[String]) -> Result<()> {
 }
 
 /// Walls: box, material, open faces, container layers, motion.
-fn validate_walls(s: &mut Scene, mat_names: &[String], support: f64) -> Result<()> {
+fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> Result<()> {
     let d = s.dimension;
     let dx = s.discretisation.dx;
     for (i, w) in s.walls.iter_mut().enumerate() {
@@ -511,8 +782,9 @@ fn validate_walls(s: &mut Scene, mat_names: &[String], support: f64) -> Result<(
         check_vec(&mut w.max, d, &format!("{k}.max"), false)?;
         check_box(&w.min, &w.max, &k)?;
         check_vec(&mut w.velocity, d, &format!("{k}.velocity"), true)?;
+        speed_at_most(&w.velocity, &format!("{k}.velocity"))?;
         if w.material.is_empty() {
-            w.material = mat_names[0].clone();
+            w.material = mat_names.list[0].clone();
         } else if !mat_names.contains(&w.material) {
             return unknown_material(&k, &w.material, mat_names);
         }
@@ -620,6 +892,7 @@ fn validate_motion(w: &mut crate::scene::WallBody, k: &str, d: usize) -> Result<
             }
             Motion::ConstantVelocity { velocity } => {
                 check_vec(velocity, d, &format!("{k}.motion.velocity"), false)?;
+                speed_at_most(velocity, &format!("{k}.motion.velocity"))?;
             }
             Motion::Solitary {
                 amplitude,
@@ -667,6 +940,14 @@ pub const MAX_CFL: f64 = 3.0;
 fn validate_time_output(s: &mut Scene) -> Result<()> {
     let t = &s.time;
     positive(t.t_end, "time.t_end", "t_end = 1.0")?;
+    in_range(
+        t.t_end,
+        "time.t_end",
+        (0.0, MAX_T_END),
+        "s",
+        "MAX_T_END",
+        "t_end = 1.0",
+    )?;
     if !(t.cfl > 0.0 && t.cfl <= MAX_CFL) {
         return err(
             "time.cfl",
@@ -677,6 +958,14 @@ fn validate_time_output(s: &mut Scene) -> Result<()> {
         );
     }
     non_negative(t.dt, "time.dt")?;
+    in_range(
+        t.dt,
+        "time.dt",
+        (0.0, MAX_T_END),
+        "s",
+        "MAX_T_END",
+        "dt = 1.0e-4, or 0 for the adaptive step",
+    )?;
     non_negative(s.output.interval, "output.interval")?;
     if s.output.interval == 0.0 {
         s.output.interval = s.time.t_end / 50.0;
@@ -712,12 +1001,6 @@ fn validate_time_output(s: &mut Scene) -> Result<()> {
     Ok(())
 }
 
-/// Largest number of cells of the global cell grid (1 GiB of u32 cell offsets).
-const MAX_CELLS: f64 = (1u64 << 28) as f64;
-
-/// Largest number of particles (neighbour indices are u32, ghosts included).
-const MAX_PARTICLES: f64 = (1u64 << 31) as f64;
-
 /// Upper bound on the lattice sites of a box: ⌈len/dx⌉ + 1 per axis.
 fn sites_in(min: &[f64], max: &[f64], dx: f64) -> f64 {
     min.iter()
@@ -746,12 +1029,13 @@ fn check_particle_count(s: &Scene) -> Result<()> {
             key = "wall";
         }
     }
-    if n.is_nan() || n > MAX_PARTICLES {
+    if n.is_nan() || n > MAX_PARTICLES as f64 {
         return err(
             key,
             format!(
                 "the bodies hold up to {n:.3e} particles at dx = {dx}, more than the \
-                 {MAX_PARTICLES:.3e} hsph allows; shrink the bodies or coarsen dx"
+                 {:.3e} hsph allows; shrink the bodies or coarsen dx",
+                MAX_PARTICLES as f64
             ),
         );
     }
@@ -801,11 +1085,23 @@ fn validate_checkpoint(c: &CheckpointSpec) -> Result<()> {
 }
 
 /// The keys of probe `i` (named `k`) that depend on its kind.
-fn validate_probe_kind(k: &str, i: usize, s: &mut Scene) -> Result<()> {
-    let d = s.dimension;
-    let (domain, walls) = (s.domain.clone(), s.walls.clone());
-    let s_solids = s.solids.clone();
-    match &mut s.probes[i] {
+/// The bodies probes refer to by name, looked up in O(1) (a scene may hold thousands of
+/// probes and bodies).
+struct ProbeTargets<'s> {
+    walls: std::collections::HashMap<&'s str, &'s WallBody>,
+    solids: std::collections::HashMap<&'s str, &'s FluidBody>,
+    wall_names: Names,
+    solid_names: Names,
+}
+
+fn validate_probe_kind(
+    k: &str,
+    probe: &mut Probe,
+    d: usize,
+    domain: &Domain,
+    t: &ProbeTargets,
+) -> Result<()> {
+    match probe {
         Probe::Pressure {
             point,
             diameter,
@@ -813,7 +1109,7 @@ fn validate_probe_kind(k: &str, i: usize, s: &mut Scene) -> Result<()> {
             ..
         } => {
             check_vec(point, d, &format!("{k}.point"), false)?;
-            point_in_domain(point, &format!("{k}.point"), &domain)?;
+            point_in_domain(point, &format!("{k}.point"), domain)?;
             if !(*diameter >= 0.0 && diameter.is_finite()) {
                 return err(format!("{k}.diameter"), format!("must be ≥ 0 m, got {diameter}"));
             }
@@ -838,21 +1134,23 @@ fn validate_probe_kind(k: &str, i: usize, s: &mut Scene) -> Result<()> {
         }
         Probe::Gauge { point, .. } => {
             check_vec(point, d, &format!("{k}.point"), false)?;
-            point_in_domain(point, &format!("{k}.point"), &domain)?;
+            point_in_domain(point, &format!("{k}.point"), domain)?;
         }
         Probe::Hole {
             plate, projectile, ..
         } => {
-            let names: Vec<&str> = s_solids.iter().map(|b| b.name.as_str()).collect();
             for (key, name) in [("plate", &*plate), ("projectile", &*projectile)] {
-                if !names.contains(&name.as_str()) {
+                if !t.solids.contains_key(name.as_str()) {
                     return err(
                         format!("{k}.{key}"),
-                        format!("no [[solid]] body named `{name}`; solids: {}", names.join(", ")),
+                        format!(
+                            "no [[solid]] body named `{name}`; solids: {}",
+                            t.solid_names.shown()
+                        ),
                     );
                 }
             }
-            let pr = s_solids.iter().find(|b| b.name == *projectile);
+            let pr = t.solids.get(projectile.as_str());
             if pr.is_some_and(|b| b.velocity.iter().all(|c| *c == 0.0)) {
                 return err(
                     format!("{k}.projectile"),
@@ -863,11 +1161,16 @@ fn validate_probe_kind(k: &str, i: usize, s: &mut Scene) -> Result<()> {
         Probe::VelocityLine { from, to, points, .. } => {
             check_vec(from, d, &format!("{k}.from"), false)?;
             check_vec(to, d, &format!("{k}.to"), false)?;
-            point_in_domain(from, &format!("{k}.from"), &domain)?;
-            point_in_domain(to, &format!("{k}.to"), &domain)?;
+            point_in_domain(from, &format!("{k}.from"), domain)?;
+            point_in_domain(to, &format!("{k}.to"), domain)?;
             if *points < 2 {
                 return err(format!("{k}.points"), "needs at least 2 points");
             }
+            crate::limits::count(
+                &format!("{k}.points"),
+                *points as u64,
+                crate::limits::MAX_PROBE_POINTS,
+            )?;
         }
         Probe::Front { axis, link, .. } => {
             if *axis >= d {
@@ -881,11 +1184,13 @@ fn validate_probe_kind(k: &str, i: usize, s: &mut Scene) -> Result<()> {
             }
         }
         Probe::Force { body, about, .. } => {
-            let Some(w) = walls.iter().find(|w| w.name == *body) else {
-                let names: Vec<&str> = walls.iter().map(|w| w.name.as_str()).collect();
+            let Some(w) = t.walls.get(body.as_str()) else {
                 return err(
                     format!("{k}.body"),
-                    format!("no [[wall]] is named `{body}`; the walls are {names:?}"),
+                    format!(
+                        "no [[wall]] is named `{body}`; the walls are {}",
+                        t.wall_names.shown()
+                    ),
                 );
             };
             if w.method == WallMethod::Mirror {
@@ -903,9 +1208,16 @@ fn validate_probe_kind(k: &str, i: usize, s: &mut Scene) -> Result<()> {
 }
 
 fn validate_probes(s: &mut Scene) -> Result<()> {
-    for i in 0..s.probes.len() {
+    let t = ProbeTargets {
+        walls: s.walls.iter().map(|w| (w.name.as_str(), w)).collect(),
+        solids: s.solids.iter().map(|b| (b.name.as_str(), b)).collect(),
+        wall_names: Names::new(s.walls.iter().map(|w| w.name.as_str())),
+        solid_names: Names::new(s.solids.iter().map(|b| b.name.as_str())),
+    };
+    let mut seen = std::collections::HashSet::new();
+    for (i, probe) in s.probes.iter_mut().enumerate() {
         let k = format!("probe[{i}]");
-        let name = s.probes[i].name().to_string();
+        let name = probe.name().to_string();
         if name.is_empty()
             || !name
                 .chars()
@@ -916,10 +1228,10 @@ fn validate_probes(s: &mut Scene) -> Result<()> {
                 format!("`{name}` must be non-empty letters, digits, _ or -"),
             );
         }
-        if s.probes[..i].iter().any(|p| p.name() == name) {
+        if !seen.insert(name.clone()) {
             return err(format!("{k}.name"), format!("probe `{name}` is defined twice"));
         }
-        if let Some(iv) = s.probes[i].interval() {
+        if let Some(iv) = probe.interval() {
             if !(iv >= 0.0 && iv.is_finite()) {
                 return err(
                     format!("{k}.interval"),
@@ -927,14 +1239,14 @@ fn validate_probes(s: &mut Scene) -> Result<()> {
                 );
             }
         }
-        let window = s.probes[i].window();
+        let window = probe.window();
         if !(window >= 0.0 && window.is_finite()) {
             return err(
                 format!("{k}.window"),
                 format!("must be ≥ 0 s (0 = no time average), got {window}"),
             );
         }
-        validate_probe_kind(&k, i, s)?;
+        validate_probe_kind(&k, probe, s.dimension, &s.domain, &t)?;
     }
     Ok(())
 }
@@ -944,6 +1256,16 @@ fn validate_reference(s: &Scene) -> Result<()> {
     let times = match r {
         Reference::Poiseuille { gap, times } | Reference::Couette { gap, times, .. } => {
             positive(*gap, "reference.gap", "gap = 1e-3")?;
+            if let Reference::Couette { v0, .. } = r {
+                in_range(
+                    *v0,
+                    "reference.v0",
+                    (-MAX_SPEED, MAX_SPEED),
+                    "m/s",
+                    "MAX_SPEED",
+                    "v0 = 2.5e-5",
+                )?;
+            }
             if s.physics.laminar_viscosity <= 0.0 {
                 return err(
                     "physics.laminar_viscosity",
@@ -954,6 +1276,14 @@ fn validate_reference(s: &Scene) -> Result<()> {
         }
         Reference::TaylorGreen { speed, length, times } => {
             positive(*speed, "reference.speed", "speed = 1.0")?;
+            in_range(
+                *speed,
+                "reference.speed",
+                (0.0, MAX_SPEED),
+                "m/s",
+                "MAX_SPEED",
+                "speed = 1.0",
+            )?;
             positive(*length, "reference.length", "length = 1.0")?;
             if s.dimension != 2 || s.domain.periodic.iter().take(2).any(|p| !p) {
                 return err(
@@ -1075,7 +1405,8 @@ fn validate_solitary_reference(s: &Scene, gauges: [&String; 3]) -> Result<()> {
 
 /// The speed the flow is expected to reach (m/s): the largest of sqrt(2 g H) (g along the
 /// non-periodic axes, H the fluid's extent along it), wall surface and motion speeds, initial
-/// speeds, and the reference solution's peak speed.
+/// speeds, and the reference solution's peak speed. Computed without overflow to a false 0: a
+/// speed too large for an f64 is +∞ (and a validated scene has none: its c0 covers it).
 pub fn expected_speed(s: &Scene) -> f64 {
     let d = s.dimension;
     let g: Vec<f64> = (0..d)
@@ -1087,9 +1418,11 @@ pub fn expected_speed(s: &Scene) -> f64 {
             }
         })
         .collect();
-    let gmag = g.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let gmag = norm(&g);
+    // of two candidate speeds the larger; NaN (0 × ∞ of absurd inputs) counts as unbounded
+    let up = |s: f64, x: f64| if x.is_nan() { f64::INFINITY } else { s.max(x) };
     let mut speed: f64 = 0.0;
-    if gmag > 0.0 {
+    if gmag > 0.0 && gmag.is_finite() && !s.fluids.is_empty() {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for f in &s.fluids {
             // extreme corners of the box along ĝ
@@ -1102,25 +1435,33 @@ pub fn expected_speed(s: &Scene) -> f64 {
             lo = lo.min(a);
             hi = hi.max(b);
         }
-        speed = speed.max((2.0 * gmag * (hi - lo)).sqrt());
+        let v = (2.0 * gmag * (hi - lo)).sqrt();
+        // where 2gH overflows, √(2g)·√H does not
+        speed = up(
+            speed,
+            if v.is_finite() {
+                v
+            } else {
+                (2.0 * gmag).sqrt() * (hi - lo).sqrt()
+            },
+        );
+    } else if !gmag.is_finite() {
+        speed = f64::INFINITY;
     }
-    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
     for f in &s.fluids {
-        speed = speed
-            .max(norm(&f.velocity))
-            .max(sampled_speed(f, d, &s.constants));
+        speed = up(up(speed, norm(&f.velocity)), sampled_speed(f, d, &s.constants));
     }
     for w in &s.walls {
-        speed = speed.max(norm(&w.velocity));
+        speed = up(speed, norm(&w.velocity));
         match &w.motion {
             Some(Motion::Sine {
                 amplitude, period, ..
-            }) => speed = speed.max(2.0 * std::f64::consts::PI * norm(amplitude) / period),
-            Some(Motion::ConstantVelocity { velocity }) => speed = speed.max(norm(velocity)),
+            }) => speed = up(speed, 2.0 * std::f64::consts::PI * norm(amplitude) / period),
+            Some(Motion::ConstantVelocity { velocity }) => speed = up(speed, norm(velocity)),
             // the paddle's top speed c A/(h + A); the run-up at a wall moves about twice as fast
             Some(Motion::Solitary { amplitude, depth, .. }) => {
                 let c = (gmag * (depth + amplitude)).sqrt();
-                speed = speed.max(2.0 * c * amplitude / (depth + amplitude));
+                speed = up(speed, 2.0 * c * amplitude / (depth + amplitude));
             }
             None => {}
         }
@@ -1128,10 +1469,12 @@ pub fn expected_speed(s: &Scene) -> f64 {
     match &s.reference {
         Some(Reference::Poiseuille { gap, .. }) if s.physics.laminar_viscosity > 0.0 => {
             let f = norm(&s.physics.body_force);
-            speed = speed.max(f * gap * gap / (8.0 * s.physics.laminar_viscosity));
+            if f > 0.0 {
+                speed = up(speed, f * gap * gap / (8.0 * s.physics.laminar_viscosity));
+            }
         }
-        Some(Reference::Couette { v0, .. }) => speed = speed.max(v0.abs()),
-        Some(Reference::TaylorGreen { speed: u, .. }) => speed = speed.max(*u),
+        Some(Reference::Couette { v0, .. }) => speed = up(speed, v0.abs()),
+        Some(Reference::TaylorGreen { speed: u, .. }) => speed = up(speed, *u),
         _ => {}
     }
     speed
@@ -1140,6 +1483,19 @@ pub fn expected_speed(s: &Scene) -> f64 {
 fn check_sound_speed(s: &Scene) -> Result<()> {
     let u = expected_speed(s);
     for (i, m) in s.materials.iter().enumerate() {
+        if u.is_nan() || 10.0 * u > SOUND_SPEED_RANGE.1 {
+            return err(
+                format!("material[{i}].c0"),
+                format!(
+                    "the expected speed {u:.4e} m/s (from gravity × fluid height, wall and initial \
+                     speeds) would need c0 ≥ {:.4e} m/s, above the largest sound speed hsph accepts, \
+                     {:e} m/s (SOUND_SPEED_RANGE); lower physics.body_force, the velocities or the \
+                     wall motions",
+                    10.0 * u,
+                    SOUND_SPEED_RANGE.1
+                ),
+            );
+        }
         if m.c0 < 10.0 * u {
             return err(
                 format!("material[{i}].c0"),
@@ -1154,4 +1510,64 @@ fn check_sound_speed(s: &Scene) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// An upper bound of the time step (s), known before any particle is built, and what sets it:
+/// the scene's fixed `time.dt`, or the first step's bound of the adaptive one,
+/// min(CFL·h/c, 0.125 h²/ν), where c is the fastest signal at rest: the largest c0 of the
+/// materials when there is fluid (the run's c_max), each solid body's longitudinal wave speed
+/// √((ρ0c0² + 4G/3)/ρ0) plus its initial speed. The run's steps can only be shorter (the
+/// fluid's own speed, the acceleration bound and a solid's strain rate shorten them), so
+/// `t_end` over this is a lower bound of the step count, and the CFL part the same bound
+/// `sim::Simulation::next_dt` takes.
+pub fn dt_upper_bound(s: &Scene) -> (f64, String) {
+    let t = &s.time;
+    if t.dt > 0.0 {
+        return (t.dt, "the fixed time.dt".to_string());
+    }
+    let h = s.discretisation.h_over_dx * s.discretisation.dx;
+    let mut c: f64 = 0.0;
+    if !s.fluids.is_empty() {
+        c = s.materials.iter().fold(0.0, |m, x| m.max(x.c0));
+    }
+    let by_name: std::collections::HashMap<&str, &Material> =
+        s.materials.iter().map(|m| (m.name.as_str(), m)).collect();
+    for b in &s.solids {
+        if let Some(m) = by_name.get(b.material.as_str()) {
+            let g = m.shear_modulus.unwrap_or(0.0);
+            let c_long = (m.c0 * m.c0 + 4.0 * g / (3.0 * m.rho0)).sqrt();
+            c = c.max(c_long + norm(&b.velocity));
+        }
+    }
+    let mut dt = t.cfl * h / c;
+    let mut why = format!("CFL·h/c with CFL = {}, h = {h:.4e} m, c = {c:.4e} m/s", t.cfl);
+    let nu = s.physics.laminar_viscosity;
+    if nu > 0.0 && 0.125 * h * h / nu < dt {
+        dt = 0.125 * h * h / nu;
+        why = format!("0.125 h²/ν with h = {h:.4e} m, ν = {nu:e} m²/s");
+    }
+    (dt, why)
+}
+
+/// The step budget: a run that needs more than [`MAX_STEPS`] steps (t_end over
+/// [`dt_upper_bound`]) is refused unless `time.max_steps` bounds it.
+fn check_step_budget(s: &Scene) -> Result<()> {
+    if s.time.max_steps > 0 {
+        return Ok(());
+    }
+    let (dt, why) = dt_upper_bound(s);
+    let steps = s.time.t_end / dt;
+    if steps <= MAX_STEPS {
+        return Ok(());
+    }
+    let key = if s.time.dt > 0.0 { "time.dt" } else { "time.t_end" };
+    err(
+        key,
+        format!(
+            "time.t_end = {} s needs at least {steps:.3e} steps of dt ≤ {dt:.4e} s ({why}), above the \
+             step budget of {MAX_STEPS:e} steps; shorten time.t_end, coarsen discretisation.dx, \
+             or set time.max_steps to run it anyway",
+            num(s.time.t_end)
+        ),
+    )
 }

@@ -2,8 +2,10 @@
 //! filled (from the library where named) and physically possible, and fluids and solids each
 //! get a material of their own kind.
 
+use super::validate::{in_range, num};
 use super::*;
 use crate::error::{Error, Result};
+use crate::limits::{DENSITY_RANGE, MAX_EOS_CONSTANT, MAX_MODULUS, SOUND_SPEED_RANGE};
 use crate::physics::solid::library;
 
 fn err<T>(key: impl Into<String>, msg: impl Into<String>) -> Result<T> {
@@ -100,6 +102,7 @@ pub(super) fn solid_material(m: &mut Material, k: &str) -> Result<()> {
             );
         }
     }
+    solid_ranges(m, k)?;
     if m.failure_strain.is_some() {
         check(
             m.failure_strain,
@@ -115,6 +118,65 @@ pub(super) fn solid_material(m: &mut Material, k: &str) -> Result<()> {
             "spall_pressure = 1.2e9",
             false,
         )?;
+    }
+    Ok(())
+}
+
+/// The constants of a solid that enter its wave speed (and so the time step) and its stresses
+/// lie in the physical ranges of `src/limits.rs`, and so does the longitudinal wave speed
+/// √((ρ0c0² + 4G/3)/ρ0) they give.
+fn solid_ranges(m: &Material, k: &str) -> Result<()> {
+    in_range(
+        m.rho0,
+        &format!("{k}.rho0"),
+        DENSITY_RANGE,
+        "kg/m³",
+        "DENSITY_RANGE",
+        "rho0 = 2703.0",
+    )?;
+    in_range(
+        m.c0,
+        &format!("{k}.c0"),
+        SOUND_SPEED_RANGE,
+        "m/s",
+        "SOUND_SPEED_RANGE",
+        "c0 = 5240.0",
+    )?;
+    let eos = (0.0, MAX_EOS_CONSTANT);
+    for (v, key, example) in [
+        (m.hugoniot_slope, "hugoniot_slope", "hugoniot_slope = 1.4"),
+        (m.gruneisen, "gruneisen", "gruneisen = 1.97"),
+    ] {
+        if let Some(x) = v {
+            in_range(x, &format!("{k}.{key}"), eos, "", "MAX_EOS_CONSTANT", example)?;
+        }
+    }
+    let moduli = (0.0, MAX_MODULUS);
+    for (v, key, example) in [
+        (m.shear_modulus, "shear_modulus", "shear_modulus = 27.6e9"),
+        (m.jc_a, "jc_a", "jc_a = 324e6"),
+        (m.jc_b, "jc_b", "jc_b = 114e6"),
+        (m.spall_pressure, "spall_pressure", "spall_pressure = 1.2e9"),
+    ] {
+        if let Some(x) = v {
+            in_range(x, &format!("{k}.{key}"), moduli, "Pa", "MAX_MODULUS", example)?;
+        }
+    }
+    let g = m.shear_modulus.unwrap_or(0.0);
+    let c_long = (m.c0 * m.c0 + 4.0 * g / (3.0 * m.rho0)).sqrt();
+    if c_long.is_nan() || c_long > SOUND_SPEED_RANGE.1 {
+        return err(
+            format!("{k}.shear_modulus"),
+            format!(
+                "the longitudinal wave speed √((ρ0c0² + 4G/3)/ρ0) = {c_long:.4e} m/s of G = {} Pa, \
+                 ρ0 = {} kg/m³ and c0 = {} m/s is above the largest wave speed hsph accepts, {:e} m/s \
+                 (SOUND_SPEED_RANGE); e.g. shear_modulus = 27.6e9 with rho0 = 2703.0",
+                num(g),
+                num(m.rho0),
+                num(m.c0),
+                SOUND_SPEED_RANGE.1
+            ),
+        );
     }
     Ok(())
 }
@@ -152,7 +214,13 @@ pub(super) fn fluid_material(m: &Material, k: &str) -> Result<()> {
 /// Each body's material is of the body's kind: `fluid[i]` with a fluid material, `solid[i]`
 /// with a solid one; `clamped` and `hydrostatic` where they mean something.
 pub(super) fn body_kinds(s: &Scene) -> Result<()> {
-    let solid = |name: &str| s.materials.iter().any(|m| m.name == name && m.is_solid());
+    let solids: std::collections::HashSet<&str> = s
+        .materials
+        .iter()
+        .filter(|m| m.is_solid())
+        .map(|m| m.name.as_str())
+        .collect();
+    let solid = |name: &str| solids.contains(name);
     for (i, f) in s.fluids.iter().enumerate() {
         if solid(&f.material) {
             return err(
