@@ -222,20 +222,21 @@ fn class_05_clocks_far_below_dt_advance_in_one_step_and_a_signal_acts_within_it(
 
 #[test]
 fn class_05_a_sigterm_is_honoured_within_one_step() {
-    // a run long enough to be caught mid-way, writing every step (the slowest schedule)
+    // steps of about 0.1 s (a 3D tank of 80 000 particles on one thread), a row every step
+    // (the slowest schedule): the rows written after the signal count the steps it took
     let dir = temp_dir("sigterm");
     let out = dir.join("run");
     let mut child = Command::new(env!("CARGO_BIN_EXE_hsph"))
         .args([
             "run",
-            SCENE,
+            "inputs/dam_break_3d.toml",
             "-q",
             "--threads",
             "1",
             "--out",
             out.to_str().unwrap(),
             "--set",
-            "time.t_end=10",
+            "discretisation.dx=0.017",
             "--set",
             "output.interval=1e-30",
             "--set",
@@ -249,7 +250,7 @@ fn class_05_a_sigterm_is_honoured_within_one_step() {
     // wait for the step loop: the timeseries grows
     let ts = out.join("timeseries.csv");
     let t0 = Instant::now();
-    while fs::read_to_string(&ts).map_or(0, |t| t.lines().count()) < 20 {
+    while fs::read_to_string(&ts).map_or(0, |t| t.lines().count()) < 5 {
         assert!(
             t0.elapsed() < Duration::from_secs(60),
             "the run did not start stepping"
@@ -273,7 +274,7 @@ fn class_05_a_sigterm_is_honoured_within_one_step() {
     // (the one in progress, and the one in flight when the rows were counted)
     let after = fs::read_to_string(&ts).unwrap().lines().count();
     assert!(
-        after <= before + 3,
+        after <= before + 2,
         "{before} rows when signalled, {after} at the stop"
     );
     assert!(took < Duration::from_secs(10), "{took:?}");
