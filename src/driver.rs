@@ -192,14 +192,57 @@ pub fn check_limits(
 /// Every probe's sample count within [`crate::limits::MAX_PROBE_POINTS`] (a line probe holds
 /// its points and their values in memory).
 fn check_probe_sizes(scene: &Scene) -> Result<()> {
+    use crate::scene::Probe;
     for (k, p) in scene.probes.iter().enumerate() {
-        if let crate::scene::Probe::VelocityLine { points, .. } = p {
-            crate::limits::count(
-                &format!("probe[{k}].points"),
-                *points as u64,
-                crate::limits::MAX_PROBE_POINTS,
-            )?;
+        match p {
+            Probe::VelocityLine { points, .. } => {
+                crate::limits::count(
+                    &format!("probe[{k}].points"),
+                    *points as u64,
+                    crate::limits::MAX_PROBE_POINTS,
+                )?;
+            }
+            Probe::Pressure { diameter, normal, .. } if *diameter != 0.0 => {
+                face_points(k, *diameter, normal.as_deref(), scene)?
+            }
+            _ => {}
         }
+    }
+    Ok(())
+}
+
+/// A pressure sensor's face: a finite diameter whose samples (every dx/4 across it, a disc in
+/// 3D) stay within [`crate::limits::MAX_FACE_POINTS`], and a normal of a length that can be
+/// normalised.
+fn face_points(k: usize, diameter: f64, normal: Option<&[f64]>, scene: &Scene) -> Result<()> {
+    let dx = scene.discretisation.dx;
+    let m = (0.5 * diameter / (0.25 * dx)).ceil();
+    let points = (2.0 * m + 1.0).powi(scene.dimension as i32 - 1);
+    let most = crate::limits::MAX_FACE_POINTS;
+    if !(diameter.is_finite() && diameter > 0.0 && points <= most as f64) {
+        let largest = if scene.dimension == 3 {
+            ((most as f64).sqrt() - 1.0) / 2.0 * 0.5 * dx
+        } else {
+            (most as f64 - 1.0) / 2.0 * 0.5 * dx
+        };
+        return Err(Error::input(
+            format!("probe[{k}].diameter"),
+            format!(
+                "{diameter:e} m: the sensing face is sampled every dx/4 and may have at most {most} samples; \
+                 give a diameter ≥ 0 and at most {largest:.3e} m at dx = {dx} m"
+            ),
+        ));
+    }
+    let len = normal.map_or(0.0, |n| n.iter().map(|x| x * x).sum::<f64>().sqrt());
+    if !(len.is_finite() && (1e-100..=1e100).contains(&len)) {
+        return Err(Error::input(
+            format!("probe[{k}].normal"),
+            format!(
+                "a sensing face of diameter {diameter} m needs a normal of length between 1e-100 and 1e100, \
+                 e.g. normal = [1, 0{}]",
+                if scene.dimension == 3 { ", 0" } else { "" }
+            ),
+        ));
     }
     Ok(())
 }

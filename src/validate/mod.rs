@@ -47,6 +47,13 @@ pub struct Options {
     pub map: Option<Vec<String>>,
 }
 
+/// The stability map of `--map`'s studies, into `--out`.
+fn run_map(opts: &Options) -> Result<i32> {
+    let names = opts.map.clone().unwrap_or_default();
+    std::fs::create_dir_all(&opts.out).map_err(|e| Error::io(&opts.out, e))?;
+    stability(&names, &opts.out)
+}
+
 /// `--jobs`, `--threads` and `--resolutions` within the limits (exit 2 naming the flag).
 fn check_flags(opts: &Options) -> Result<()> {
     use crate::limits::{count, MAX_JOBS, MAX_RESOLUTION, MAX_THREADS};
@@ -223,12 +230,25 @@ fn stability(names: &[String], out: &Path) -> Result<i32> {
 
 /// Run `hsph validate`; returns the exit status (0, or 1 when `--target` is met by no run).
 pub fn command(opts: &Options) -> Result<i32> {
-    if let Some(names) = &opts.map {
-        std::fs::create_dir_all(&opts.out).map_err(|e| Error::io(&opts.out, e))?;
-        let code = stability(names, &opts.out)?;
-        if opts.cases.is_empty() {
-            return Ok(code);
+    check_flags(opts)?;
+    if opts.map.is_some() && opts.cases.is_empty() {
+        // the stability map runs its own studies: the case flags would be silently ignored
+        let case_only = [
+            ("--set", !opts.set.is_empty()),
+            ("--variants", !opts.variants.is_empty()),
+            ("--resolutions", !opts.resolutions.is_empty()),
+            ("--sweep", opts.sweep),
+            ("--target", opts.target.is_some()),
+            ("--write", opts.write.is_some()),
+        ];
+        if let Some((flag, _)) = case_only.iter().find(|(_, given)| *given) {
+            return Err(Error::input(
+                *flag,
+                "applies to validation cases, not to --map's studies; name a case too, e.g. \
+                 hsph validate poiseuille --map",
+            ));
         }
+        return run_map(opts);
     }
     let cases: Vec<Case> = if opts.cases.is_empty() {
         cases::all()
@@ -252,7 +272,6 @@ pub fn command(opts: &Options) -> Result<i32> {
             ));
         }
     }
-    check_flags(opts)?;
     if let Some(w) = &opts.write {
         crate::output::refuse_non_regular(w)?;
     }
@@ -262,6 +281,9 @@ pub fn command(opts: &Options) -> Result<i32> {
     }
     for job in &jobs {
         check_job(job, &opts.set)?;
+    }
+    if opts.map.is_some() {
+        run_map(opts)?;
     }
     same_overrides(&opts.out, &opts.set)?;
     let exe =
