@@ -6,6 +6,7 @@
 
 mod common;
 
+use common::cli::{assert_input_error, hsph_in, stderr};
 use common::{repo_path, temp_dir};
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -14,30 +15,8 @@ use std::time::{Duration, Instant};
 
 const SCENE: &str = "inputs/dam_break_2d.toml";
 
-fn hsph_in(cwd: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hsph"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the hsph binary runs")
-}
-
 fn hsph(args: &[&str]) -> Output {
     hsph_in(&repo_path(""), args)
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// Exit 2, no panic, every needle in the message.
-fn assert_input_error(o: &Output, needles: &[&str]) {
-    let e = stderr(o);
-    assert_eq!(o.status.code(), Some(2), "{e}");
-    assert!(!e.contains("panicked"), "{e}");
-    for n in needles {
-        assert!(e.contains(n), "`{n}` missing from:\n{e}");
-    }
 }
 
 fn scene() -> String {

@@ -1,6 +1,7 @@
 //! Helpers shared by the integration tests: a deterministic RNG and unique temp dirs.
 #![allow(dead_code)]
 
+pub mod cli;
 pub mod mutate;
 
 use std::path::PathBuf;

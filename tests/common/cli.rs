@@ -1,0 +1,28 @@
+//! Running the `hsph` binary and reading its refusals, for the tests of bad input.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+/// Run `hsph ARGS` in `cwd` and keep its whole output.
+pub fn hsph_in(cwd: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hsph"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("the hsph binary runs")
+}
+
+/// Standard error as text.
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Exit 2, no panic, every needle in the message.
+pub fn assert_input_error(o: &Output, needles: &[&str]) {
+    let e = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+    for n in needles {
+        assert!(e.contains(n), "`{n}` missing from:\n{e}");
+    }
+}
