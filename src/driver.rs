@@ -964,7 +964,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
         [obs.removed_energy, obs.removed_mass] = self.removed_out;
         let r = reduce(&self.sim, self.comm, self.setup_peak)?;
         if Tracker::measures_at_output(self.scene) {
-            if let Some(v) = self.sim.gather(self.comm)? {
+            // both such references (front, cavity) read the fluid alone
+            let fluid = |p: &crate::particles::Particles<D>, i: usize| p.kind[i].is_fluid();
+            if let Some(v) = self.sim.gather_where(self.comm, &fluid)? {
                 self.tracker.at_output(&v);
             }
         }

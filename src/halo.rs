@@ -510,11 +510,10 @@ pub fn pack_owned_where<const D: usize>(
     p: &Particles<D>,
     keep: &dyn Fn(&Particles<D>, usize) -> bool,
 ) -> Vec<u8> {
-    let mut buf = Vec::new();
-    for i in 0..p.n_owned {
-        if keep(p, i) {
-            p.record(i).put_carried(p.dropped, &mut Words::new(&mut buf));
-        }
+    let kept: Vec<usize> = (0..p.n_owned).filter(|&i| keep(p, i)).collect();
+    let mut buf = Vec::with_capacity(kept.len() * Record::<D>::words_carried(p.dropped) * 8);
+    for i in kept {
+        p.record(i).put_carried(p.dropped, &mut Words::new(&mut buf));
     }
     buf
 }
@@ -527,5 +526,6 @@ pub fn unpack_owned<const D: usize>(bytes: &[u8], p: &mut Particles<D>) -> Resul
     if !bytes.len().is_multiple_of(w) {
         return Err(Error::run("gather: message of unexpected length"));
     }
+    p.reserve(bytes.len() / w);
     read_records::<D>(bytes, bytes.len() / w, dropped, "gather", |r| p.push_owned(r))
 }

@@ -174,7 +174,8 @@ impl Tracker {
         }
     }
 
-    /// True if `scene`'s reference measures the gathered flow at every output step.
+    /// True if `scene`'s reference measures the gathered fluid at every output step
+    /// ([`Tracker::at_output`] is given the fluid particles alone).
     pub fn measures_at_output(scene: &crate::scene::Scene) -> bool {
         matches!(
             scene.reference,

@@ -193,6 +193,17 @@ macro_rules! particle_table {
                 $( self.$oname.push(<$oty as FieldValue<D>>::zero()); )*
             }
 
+            /// Room for `n` more particles in every column this store keeps.
+            pub fn reserve(&mut self, n: usize) {
+                $(
+                    $(#[cfg($cfg)])?
+                    if !self.dropped.has(Fields::$flag) {
+                        self.$name.reserve(n);
+                    }
+                )*
+                $( self.$oname.reserve(n); )*
+            }
+
             /// Write the `fields` of particle `i` seen through `im` (a ghost refresh record).
             #[inline]
             pub fn put_fields(&self, i: usize, fields: Fields, im: &impl Imager<D>, s: &mut impl Sink) {

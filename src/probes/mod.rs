@@ -11,6 +11,7 @@
 //! A probe with an averaging `window` samples every step and writes, at its rows, the mean of
 //! its samples over the last `window` seconds (trapezoid rule in time).
 
+mod bins;
 pub mod disorder;
 pub mod hole;
 pub mod sensors;

@@ -3,11 +3,11 @@
 //! Interpolated values use Shepard's normalisation over fluid particles:
 //! f(x) = Σ_j f_j W(x − x_j) V_j / Σ_j W(x − x_j) V_j, V_j = m_j/ρ_j, summed in id order.
 
+use super::bins::{around, Bins};
 use crate::physics::fluid::{pair_acceleration, PairTerms};
 use crate::scene::{Direction, Probe};
 use crate::sim::View;
 use crate::Vector;
-use std::collections::HashMap;
 
 /// Column names of a probe (after `t`).
 pub fn columns(probe: &Probe, dim: usize) -> Vec<String> {
@@ -194,41 +194,13 @@ fn gauge<const D: usize>(v: &View<D>, point: &[f64]) -> f64 {
     top
 }
 
-/// Integer cell of `x` in a grid of spacing `size` (m).
-fn cell_of<const D: usize>(x: &Vector<D>, size: f64) -> [i64; D] {
-    std::array::from_fn(|a| (x[a] / size).floor() as i64)
-}
-
-/// The fluid particles of `v` binned in cells of side `size` (m), each cell in id order.
-fn bin_fluid<const D: usize>(v: &View<D>, size: f64) -> HashMap<[i64; D], Vec<usize>> {
-    let mut cells: HashMap<[i64; D], Vec<usize>> = HashMap::new();
-    for i in 0..v.p.n_owned {
-        if v.p.kind[i].is_fluid() {
-            cells.entry(cell_of(&v.p.x[i], size)).or_default().push(i);
-        }
-    }
-    cells
-}
-
-/// The 3^D cell offsets around a cell (itself included).
-fn around<const D: usize>(c: [i64; D]) -> impl Iterator<Item = [i64; D]> {
-    (0..3i64.pow(D as u32)).map(move |k| {
-        let mut k = k;
-        std::array::from_fn(|a| {
-            let o = k % 3 - 1;
-            k /= 3;
-            c[a] + o
-        })
-    })
-}
-
 /// Front of the main body (m): the largest connected group of fluid particles, two particles
 /// connected when closer than `link` (m) — ties to the group holding the smallest id — and
 /// its largest (`+`) or smallest (`-`) coordinate along `axis`. Detached drops and spray ahead
 /// of the body are separate groups and do not count. NaN when there is no fluid.
 pub(crate) fn front<const D: usize>(v: &View<D>, axis: usize, dir: Direction, link: f64) -> f64 {
     let p = &v.p;
-    let cells = bin_fluid(v, link);
+    let bins = Bins::new(&p.x, link, (0..p.n_owned).filter(|&i| p.kind[i].is_fluid()));
     // union–find over particle indices (fluid only take part)
     let mut parent: Vec<usize> = (0..p.n_owned).collect();
     fn root(parent: &mut [usize], mut i: usize) -> usize {
@@ -238,17 +210,20 @@ pub(crate) fn front<const D: usize>(v: &View<D>, axis: usize, dir: Direction, li
         }
         i
     }
-    for i in 0..p.n_owned {
-        if !p.kind[i].is_fluid() {
-            continue;
-        }
-        for c in around(cell_of(&p.x[i], link)) {
-            for &j in cells.get(&c).map_or(&[][..], |v| v.as_slice()) {
-                if j > i && (p.x[i] - p.x[j]).norm() < link {
-                    let (a, b) = (root(&mut parent, i), root(&mut parent, j));
-                    // the smaller index (id) becomes the root: deterministic
-                    if a != b {
-                        parent[a.max(b)] = a.min(b);
+    // each pair once: a cell with itself (j > i) and with the cells around it that sort after
+    // it. The groups do not depend on the order of the unions, and each group's root is its
+    // smallest index (id)
+    let link2 = link * link;
+    for k in 0..bins.len() {
+        let (cell, here) = (bins.cell(k), bins.members(k));
+        for c in around(cell).filter(|c| *c >= cell) {
+            for &j in bins.at(c) {
+                for &i in here {
+                    if (c != cell || j > i) && (p.x[i] - p.x[j]).norm_squared() < link2 {
+                        let (a, b) = (root(&mut parent, i), root(&mut parent, j));
+                        if a != b {
+                            parent[a.max(b)] = a.min(b);
+                        }
                     }
                 }
             }
@@ -286,27 +261,26 @@ pub(crate) fn front<const D: usize>(v: &View<D>, axis: usize, dir: Direction, li
 fn force<const D: usize>(v: &View<D>, wall: u16, about: &Vector<D>) -> Vec<f64> {
     let (p, model) = (&v.p, v.model);
     let reach = model.kernel.support.max(model.repulsive.r0);
-    let mut walls: HashMap<[i64; D], Vec<usize>> = HashMap::new();
-    for j in 0..p.n_owned {
-        if p.kind[j].is_wall() && p.body[j] == wall {
-            walls.entry(cell_of(&p.x[j], reach)).or_default().push(j);
-        }
-    }
+    let walls = Bins::new(
+        &p.x,
+        reach,
+        (0..p.n_owned).filter(|&j| p.kind[j].is_wall() && p.body[j] == wall),
+    );
+    let mut near = Vec::new();
     let p_rho2 = |i: usize| p.p[i] / (p.rho[i] * p.rho[i]);
     let (mut f, mut m) = (Vector::<D>::zeros(), [0.0f64; 3]);
     for i in 0..p.n_owned {
         if !p.kind[i].is_fluid() {
             continue;
         }
-        let terms = PairTerms::of(p, model, i, p_rho2(i));
-        let mut near: Vec<usize> = around(cell_of(&p.x[i], reach))
-            .filter_map(|c| walls.get(&c))
-            .flatten()
-            .copied()
-            .filter(|&j| (p.x[i] - p.x[j]).norm() < reach)
-            .collect();
+        near.clear();
+        near.extend(walls.near(&p.x[i]).filter(|&j| (p.x[i] - p.x[j]).norm() < reach));
+        if near.is_empty() {
+            continue;
+        }
         near.sort_unstable();
-        for j in near {
+        let terms = PairTerms::of(p, model, i, p_rho2(i));
+        for &j in &near {
             let fj = pair_acceleration(p, model, &terms, p_rho2(j), j) * -p.mass[i];
             f += fj;
             let r = p.x[j] - about;

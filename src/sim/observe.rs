@@ -153,10 +153,10 @@ impl<const D: usize> Simulation<D> {
     ) -> Result<Option<View<'_, D>>> {
         let mut all = Particles::<D>::without(self.p.dropped);
         if self.ranks == 1 {
-            for i in 0..self.p.n_owned {
-                if keep(&self.p, i) {
-                    all.push_owned(self.p.record(i));
-                }
+            let kept: Vec<usize> = (0..self.p.n_owned).filter(|&i| keep(&self.p, i)).collect();
+            all.reserve(kept.len());
+            for i in kept {
+                all.push_owned(self.p.record(i));
             }
         } else {
             let prev = comm.set_phase(Phase::Output);
