@@ -1029,7 +1029,7 @@ fn solid_speeds(scene: &Scene) -> Option<String> {
     for b in &scene.solids {
         v = v.max(norm(&b.velocity));
         let m = scene.materials.iter().find(|m| m.name == b.material)?;
-        if let Some(sm) = crate::physics::material::MaterialModel::new(m).solid() {
+        if let Some(sm) = m.model().solid() {
             c = c.max(sm.c_long0());
         }
     }
@@ -1138,10 +1138,10 @@ fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
         w,
         "bodies      as built on the lattice (each particle fills a cell of dx)"
     );
-    for line in crate::setup::extent_lines::<D>(scene) {
+    for line in crate::scene::lattice::extent_lines::<D>(scene) {
         let _ = writeln!(w, "  - {line}");
     }
-    for warning in crate::setup::scene_warnings::<D>(scene) {
+    for warning in crate::scene::lattice::scene_warnings::<D>(scene) {
         let _ = writeln!(w, "  warning: {warning}");
     }
     let _ = writeln!(w, "ghosts      {} (periodic and mirror images)", sim.halo.len());

@@ -136,7 +136,7 @@ pub fn check_limits(
     use crate::memory::{available, human};
     crate::limits::ranks("--ranks", ranks)?;
     check_probe_sizes(scene)?;
-    let n = crate::with_dim!(scene.dimension, D => Ok(crate::setup::count_particles::<D>(scene)))?;
+    let n = crate::with_dim!(scene.dimension, D => Ok(crate::scene::lattice::count_particles::<D>(scene)))?;
     let min = if opts.min_particles_per_rank == 0 {
         MIN_PARTICLES_PER_RANK
     } else {
@@ -724,7 +724,7 @@ fn print_warnings<const D: usize>(layout: &RunLayout, scene: &Scene) {
     for w in layout
         .warnings
         .iter()
-        .chain(&crate::setup::scene_warnings::<D>(scene))
+        .chain(&crate::scene::lattice::scene_warnings::<D>(scene))
     {
         eprintln!("hsph: warning: {w}");
     }

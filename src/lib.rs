@@ -25,6 +25,7 @@ pub mod jobscript;
 pub mod kernel;
 pub mod layout;
 pub mod limits;
+pub mod material;
 pub mod memory;
 pub mod model;
 pub mod output;

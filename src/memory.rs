@@ -46,7 +46,7 @@ pub struct Estimate {
     pub process: f64,
 }
 
-/// Estimate a run of `scene` (`particles` counted by [`crate::setup::count_particles`]) on
+/// Estimate a run of `scene` (`particles` counted by [`crate::scene::lattice::count_particles`]) on
 /// `ranks` ranks of which `ranks_in_process` share this process.
 pub fn estimate<const D: usize>(
     scene: &Scene,

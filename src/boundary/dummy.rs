@@ -7,13 +7,28 @@
 //! A wall particle with no fluid neighbour keeps p = 0, ρ = ρ0, v_w = u_wall.
 
 use crate::cells::Neighbours;
+use crate::kernel::Kernel;
+use crate::material::MaterialModel;
 use crate::particles::{Kind, Particles};
-use crate::physics::Model;
 use crate::Vector;
 use rayon::prelude::*;
 
+/// What the extrapolation reads besides the particles (the physics model lends it).
+pub struct DummyWalls<'a, const D: usize> {
+    /// The smoothing kernel.
+    pub kernel: &'a Kernel,
+    /// Material models by material index (the EOS inverse gives ρ_w from p_w).
+    pub materials: &'a [MaterialModel],
+    /// Body force g (m/s²).
+    pub g: Vector<D>,
+    /// Acceleration a_w of each wall body (m/s²), by body index.
+    pub wall_acc: &'a [Vector<D>],
+    /// No-slip (`true`) or free-slip walls, by body index.
+    pub no_slip: &'a [bool],
+}
+
 /// Extrapolate p, ρ and v_w onto every owned dummy wall particle.
-pub fn extrapolate<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, model: &Model<D>) {
+pub fn extrapolate<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, model: &DummyWalls<D>) {
     let n = p.n_owned;
     let k = &model.kernel;
     let out: Vec<(f64, f64, Vector<D>)> = {
@@ -47,7 +62,7 @@ pub fn extrapolate<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, 
                 }
                 let pw = (sp + (model.g - model.wall_acc[body]).dot(&srx)) / sw;
                 let vt = sv / sw;
-                let vw = if model.wall_no_slip[body] {
+                let vw = if model.no_slip[body] {
                     2.0 * u_wall - vt
                 } else {
                     vt

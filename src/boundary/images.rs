@@ -5,38 +5,10 @@
 //! same path; the periodic and mirror specifics are in [`super::periodic`] and
 //! [`super::mirror`].
 
+pub use super::axis_op::AxisOp;
 use super::mirror::MirrorPlane;
 use crate::particles::{Imager, IMAGE_BITS};
 use crate::{Tensor, Vector};
-
-/// What happens to a particle along one axis to make an image.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum AxisOp {
-    /// Unchanged.
-    Keep,
-    /// Periodic shift by this amount (m).
-    Shift(f64),
-    /// Reflection across mirror plane number `usize`.
-    Mirror(usize),
-}
-
-impl AxisOp {
-    /// Image code of this axis operation (3 bits) in a sort key.
-    pub fn code<const D: usize>(self, planes: &[MirrorPlane<D>]) -> u64 {
-        match self {
-            AxisOp::Keep => 0,
-            AxisOp::Shift(s) if s > 0.0 => 1,
-            AxisOp::Shift(_) => 2,
-            AxisOp::Mirror(k) => {
-                if planes[k].fluid_above {
-                    3
-                } else {
-                    4
-                }
-            }
-        }
-    }
-}
 
 /// Periodic box and mirror planes: the geometry ghosts are made from.
 #[derive(Debug, Clone)]
@@ -52,6 +24,24 @@ pub struct ImageSpace<const D: usize> {
 }
 
 impl<const D: usize> ImageSpace<D> {
+    /// Wrap a position into the periodic box (in place).
+    #[inline]
+    pub fn wrap(&self, x: &mut Vector<D>) {
+        for a in 0..D {
+            if self.periodic[a] {
+                let l = self.max[a] - self.min[a];
+                if x[a] >= self.max[a] {
+                    x[a] -= l;
+                } else if x[a] < self.min[a] {
+                    x[a] += l;
+                }
+                if x[a] >= self.max[a] {
+                    x[a] = self.min[a];
+                }
+            }
+        }
+    }
+
     /// True if `x` lies inside the domain on every non-periodic axis.
     #[inline]
     pub fn contains(&self, x: &Vector<D>) -> bool {
@@ -69,7 +59,7 @@ impl<const D: usize> ImageSpace<D> {
                 AxisOp::Shift(s) => xg[a] += s,
                 AxisOp::Mirror(k) => xg[a] = self.planes[k].reflect(xg[a]),
             }
-            code |= ops[a].code(&self.planes) << (3 * a);
+            code |= self::code(ops[a], &self.planes) << (3 * a);
         }
         debug_assert!(code < (1 << IMAGE_BITS));
         (xg, code)
@@ -79,6 +69,22 @@ impl<const D: usize> ImageSpace<D> {
     #[inline]
     pub fn image<'a>(&'a self, id: u64, ops: &'a [AxisOp; D]) -> Image<'a, D> {
         Image { space: self, ops, id }
+    }
+}
+
+/// Image code of axis operation `op` (3 bits) in a sort key.
+fn code<const D: usize>(op: AxisOp, planes: &[MirrorPlane<D>]) -> u64 {
+    match op {
+        AxisOp::Keep => 0,
+        AxisOp::Shift(s) if s > 0.0 => 1,
+        AxisOp::Shift(_) => 2,
+        AxisOp::Mirror(k) => {
+            if planes[k].fluid_above {
+                3
+            } else {
+                4
+            }
+        }
     }
 }
 
@@ -104,7 +110,9 @@ pub fn images_of<const D: usize>(
     for (a, opts) in options.iter_mut().enumerate() {
         opts.clear();
         opts.push(AxisOp::Keep);
-        super::periodic::shifts(x, a, space, support, opts);
+        if space.periodic[a] {
+            super::periodic::shifts(x[a], space.min[a], space.max[a], support, opts);
+        }
         if mirrored {
             super::mirror::reflections(x, a, &space.planes, support, opts);
         }

@@ -4,7 +4,7 @@
 //! the wall's surface velocity u_w: no-slip v' = 2u_w − v (every component), free-slip only
 //! the normal component v'_n = 2u_w,n − v_n.
 
-use super::images::AxisOp;
+use super::axis_op::AxisOp;
 use crate::scene::{Scene, Slip, WallMethod, WallShape};
 use crate::Vector;
 

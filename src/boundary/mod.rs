@@ -12,6 +12,7 @@
 //! Image particles (periodic and mirror) are ghosts: [`images`] holds their geometry and
 //! [`crate::halo`] makes and refreshes them with the other ranks' ghosts.
 
+pub mod axis_op;
 pub mod dummy;
 pub mod geometry;
 pub mod images;
@@ -23,19 +24,8 @@ pub mod repulsive;
 pub use images::{AxisOp, ImageSpace};
 pub use mirror::MirrorPlane;
 
-use crate::particles::Kind;
-use crate::scene::{Scene, WallMethod};
+use crate::scene::Scene;
 use crate::Vector;
-
-/// The particle kind a wall method fills its body with (`None`: mirror walls have no
-/// particles of their own).
-pub fn wall_kind(method: WallMethod) -> Option<Kind> {
-    match method {
-        WallMethod::Dummy => Some(Kind::Dummy),
-        WallMethod::Repulsive => Some(Kind::Repulsive),
-        WallMethod::Mirror => None,
-    }
-}
 
 /// The periodic box and mirror planes of a scene.
 pub fn image_space<const D: usize>(scene: &Scene) -> ImageSpace<D> {

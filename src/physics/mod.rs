@@ -6,11 +6,10 @@
 //! particle summing its neighbours in the fixed order of [`crate::cells::NeighbourList`]):
 //! [`delta::renormalised_gradient`] (⟨∇ρ⟩^L for Antuono's δ-SPH), [`fluid::continuity`],
 //! [`crate::boundary::dummy::extrapolate`] (dummy-wall p, ρ, v_w) and [`fluid::momentum`].
-//! Materials answer through [`material::MaterialModel`].
+//! Materials answer through [`crate::material::MaterialModel`].
 
 pub mod delta;
 pub mod fluid;
-pub mod material;
 pub mod pairs;
 pub mod passes;
 pub mod shifting;
@@ -19,9 +18,9 @@ pub mod viscous;
 
 use crate::boundary::repulsive::Repulsion;
 use crate::kernel::Kernel;
+use crate::material::MaterialModel;
 use crate::scene::{DensityDiffusion, Scene, WallMethod};
 use crate::Vector;
-use material::MaterialModel;
 
 /// Everything the passes need to know about the model (no particle data).
 #[derive(Debug, Clone)]
@@ -72,10 +71,21 @@ pub struct Model<const D: usize> {
 }
 
 impl<const D: usize> Model<D> {
+    /// What dummy walls read to extrapolate onto their particles.
+    pub fn dummy_walls(&self) -> crate::boundary::dummy::DummyWalls<'_, D> {
+        crate::boundary::dummy::DummyWalls {
+            kernel: &self.kernel,
+            materials: &self.materials,
+            g: self.g,
+            wall_acc: &self.wall_acc,
+            no_slip: &self.wall_no_slip,
+        }
+    }
+
     /// The model a scene asks for.
     pub fn new(s: &Scene) -> Self {
         let h = s.discretisation.h_over_dx * s.discretisation.dx;
-        let materials: Vec<MaterialModel> = s.materials.iter().map(MaterialModel::new).collect();
+        let materials: Vec<MaterialModel> = s.materials.iter().map(|m| m.model()).collect();
         let c_max = materials.iter().fold(0.0f64, |m, e| m.max(e.c0()));
         let has_solid = !s.solids.is_empty();
         let kernel = Kernel::new(s.discretisation.kernel, h, D);

@@ -5,10 +5,13 @@
 //! has a default, and `hsph run` writes the resolved scene (defaults filled in) to the run
 //! directory. The key reference lives in README.md ("Scene files").
 
+mod checks;
 pub mod expr;
+pub mod lattice;
 mod load;
+mod materials;
+mod models;
 mod validate;
-mod validate_solid;
 
 pub(crate) use load::{first_line, key_at, line_of, span_of_key};
 pub use load::{load_scene, load_scene_str, SceneSource};
@@ -320,15 +323,7 @@ fn default_kernel() -> KernelKind {
     KernelKind::WendlandC2
 }
 
-/// Equation of state of a weakly compressible fluid.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum EosKind {
-    /// Tait: p = ρ0 c0²/γ [(ρ/ρ0)^γ − 1].
-    Tait,
-    /// Linear: p = c0² (ρ − ρ0).
-    Linear,
-}
+pub use crate::material::EosKind;
 
 /// What a material is: a weakly compressible fluid or an elastic–plastic solid.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
@@ -688,6 +683,18 @@ pub enum WallMethod {
     Repulsive,
     /// Mirror (image) particles across the inner faces of a container; no wall particles.
     Mirror,
+}
+
+impl WallMethod {
+    /// The particle kind the method fills its body with (`None`: mirror walls have no
+    /// particles of their own).
+    pub fn particle_kind(self) -> Option<crate::particles::Kind> {
+        match self {
+            WallMethod::Dummy => Some(crate::particles::Kind::Dummy),
+            WallMethod::Repulsive => Some(crate::particles::Kind::Repulsive),
+            WallMethod::Mirror => None,
+        }
+    }
 }
 
 /// Tangential condition of a wall.

@@ -3,16 +3,13 @@
 //! Each error names the dotted key and what would be valid; [`super::SceneSource::locate`]
 //! adds the file and line.
 
+use super::checks::{err, in_range, non_negative, num, positive};
 use super::*;
 use crate::error::{Error, Result};
 use crate::limits::{
-    DENSITY_RANGE, MAX_BODY_FORCE, MAX_CELLS, MAX_COEFFICIENT, MAX_EOS_CONSTANT, MAX_EXPR_TOTAL_CHARS,
-    MAX_PARTICLES, MAX_SPEED, MAX_STEPS, MAX_T_END, MAX_VISCOSITY, SOUND_SPEED_RANGE,
+    MAX_BODY_FORCE, MAX_CELLS, MAX_COEFFICIENT, MAX_EXPR_TOTAL_CHARS, MAX_PARTICLES, MAX_SPEED, MAX_STEPS,
+    MAX_T_END, MAX_VISCOSITY, SOUND_SPEED_RANGE,
 };
-
-fn err<T>(key: impl Into<String>, msg: impl Into<String>) -> Result<T> {
-    Err(Error::input(key, msg))
-}
 
 /// Check a vector key has `d` components, all finite; fill an empty one with zeros if allowed.
 /// A sphere's or cylinder's box from its centre, radius (and axis and length); a resolved
@@ -219,62 +216,6 @@ fn check_box(min: &[f64], max: &[f64], key: &str) -> Result<()> {
     Ok(())
 }
 
-fn positive(x: f64, key: &str, example: &str) -> Result<()> {
-    if !(x > 0.0 && x.is_finite()) {
-        return err(
-            key,
-            format!("must be a positive number (got {x}); e.g. {example}"),
-        );
-    }
-    Ok(())
-}
-
-fn non_negative(x: f64, key: &str) -> Result<()> {
-    if !(x >= 0.0 && x.is_finite()) {
-        return err(key, format!("must be ≥ 0 (got {x})"));
-    }
-    Ok(())
-}
-
-/// `x` as a scene would write it, short at any magnitude: `0.3`, `2000`, `1e5`, `1e-300`.
-pub(super) fn num(x: f64) -> String {
-    if x == 0.0 || !x.is_finite() || (1e-3..1e5).contains(&x.abs()) {
-        format!("{x}")
-    } else {
-        format!("{x:e}")
-    }
-}
-
-/// `x` (in `unit`) must lie in `[lo, hi]`, the physical range `name` of `src/limits.rs`;
-/// NaN and infinities never do. The message names the value, the range and `example`.
-pub(super) fn in_range(
-    x: f64,
-    key: &str,
-    (lo, hi): (f64, f64),
-    unit: &str,
-    name: &str,
-    example: &str,
-) -> Result<()> {
-    if x >= lo && x <= hi {
-        return Ok(());
-    }
-    // no unit: dimensionless
-    let u = if unit.is_empty() {
-        String::new()
-    } else {
-        format!(" {unit}")
-    };
-    err(
-        key,
-        format!(
-            "{}{u} lies outside [{}, {}]{u}, the range hsph accepts ({name}); e.g. {example}",
-            num(x),
-            num(lo),
-            num(hi)
-        ),
-    )
-}
-
 /// A vector `v` (in `unit`) whose length, computed without overflow, is at most `max`.
 fn length_at_most(v: &[f64], key: &str, max: f64, unit: &str, name: &str, example: &str) -> Result<()> {
     let len = norm(v);
@@ -333,7 +274,7 @@ pub fn validate(s: &mut Scene) -> Result<()> {
     validate_walls(s, &mat_names, support)?;
     validate_time_output(s)?;
     check_particle_count(s)?;
-    crate::with_dim!(s.dimension, D => crate::setup::check_bodies_build::<D>(s))?;
+    crate::with_dim!(s.dimension, D => super::lattice::check_bodies_build::<D>(s))?;
     if !(s.balance.threshold >= 1.0 && s.balance.threshold.is_finite()) {
         return err(
             "balance.threshold",
@@ -594,36 +535,9 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
     for (i, m) in s.materials.iter_mut().enumerate() {
         let k = format!("material[{i}]");
         if m.is_solid() {
-            super::validate_solid::solid_material(m, &k)?;
+            super::materials::solid_material(m, &k)?;
         } else {
-            super::validate_solid::fluid_material(m, &k)?;
-            positive(m.rho0, &format!("{k}.rho0"), "rho0 = 1000.0")?;
-            positive(m.c0, &format!("{k}.c0"), "c0 = 20.0")?;
-            positive(m.gamma, &format!("{k}.gamma"), "gamma = 7.0")?;
-            in_range(
-                m.rho0,
-                &format!("{k}.rho0"),
-                DENSITY_RANGE,
-                "kg/m³",
-                "DENSITY_RANGE",
-                "rho0 = 1000.0",
-            )?;
-            in_range(
-                m.c0,
-                &format!("{k}.c0"),
-                SOUND_SPEED_RANGE,
-                "m/s",
-                "SOUND_SPEED_RANGE",
-                "c0 = 20.0",
-            )?;
-            in_range(
-                m.gamma,
-                &format!("{k}.gamma"),
-                (f64::MIN_POSITIVE, MAX_EOS_CONSTANT),
-                "",
-                "MAX_EOS_CONSTANT",
-                "gamma = 7.0",
-            )?;
+            super::materials::fluid_material(m, &k)?;
         }
         if !seen.insert(m.name.clone()) {
             return err(
@@ -769,7 +683,7 @@ fn validate_fluids(s: &mut Scene, mat_names: &Names) -> Result<()> {
         validate_fields(f, &k, d, &s.constants)?;
         in_domain(&f.min, &f.max, &k, &s.domain)?;
     }
-    super::validate_solid::body_kinds(s)
+    super::materials::body_kinds(s)
 }
 
 /// Walls: box, material, open faces, container layers, motion.

@@ -106,7 +106,7 @@ impl<const D: usize> Simulation<D> {
                     .map(|blk| w[self.map.block_to_rank[blk]])
                     .collect()
             }),
-            id_bound: Some(crate::setup::id_bound::<D>(&self.scene)),
+            id_bound: Some(crate::scene::lattice::id_bound::<D>(&self.scene)),
             ..BalanceParams::default()
         };
         let prev = comm.set_phase(Phase::Balance);

@@ -158,7 +158,7 @@ impl<const D: usize> Simulation<D> {
         let loaded = p.n_owned;
         let space = image_space::<D>(scene);
         let support = Model::<D>::new(scene).kernel.support;
-        let bound = crate::setup::id_bound::<D>(scene);
+        let bound = crate::scene::lattice::id_bound::<D>(scene);
         let n = p.n_owned;
         let cloud = crate::decomp::Points {
             x: &p.x[..n],

@@ -300,7 +300,7 @@ impl<const D: usize> Simulation<D> {
         };
         let g = if p.failed[i] != 0 { 0.0 } else { s.shear };
         let k = s.eos.bulk_modulus(p.rho[i], p.energy[i]);
-        crate::physics::solid::strength::longitudinal_speed(k, g, p.rho[i]) + p.v[i].norm()
+        crate::material::strength::longitudinal_speed(k, g, p.rho[i]) + p.v[i].norm()
     }
 
     /// The time step for the next step (s): min of CFL·h/max(c0 + |v|max, solid signal
@@ -398,7 +398,7 @@ fn gather_pass<const D: usize, N: Neighbours>(
         Pass::DensityGradient => delta::renormalised_gradient(p, nb, model, buf),
         Pass::Continuity => fluid::continuity(p, nb, model, dt, buf),
         Pass::ViscousMoment => viscous::lattice_moment(p, nb, model, buf),
-        Pass::WallExtrapolation => dummy::extrapolate(p, nb, model),
+        Pass::WallExtrapolation => dummy::extrapolate(p, nb, &model.dummy_walls()),
         Pass::Momentum => fluid::momentum(p, nb, model, buf),
         Pass::SolidCorrection => dynamics::correction(p, nb, model),
         Pass::SolidRates => dynamics::rates(p, nb, model, dt, solid),

@@ -28,8 +28,8 @@
 //! (x_ij − ½dt v_ij), and the update ([`update`]) advances ρ, S and e by dt, returns S to the
 //! Johnson–Cook surface, computes p(ρ, e) and applies the failure criteria. Units: SI.
 
-use super::strength::{jaumann_rate, radial_return, rate_and_spin, temperature};
 use crate::cells::Neighbours;
+use crate::material::strength::{jaumann_rate, radial_return, rate_and_spin, temperature};
 use crate::particles::Particles;
 use crate::physics::Model;
 use crate::{Tensor, Vector};

@@ -4,15 +4,7 @@
 //! artificial viscosity and artificial stress, energy equation) and the scene keys come next;
 //! a fluid scene pays nothing for any of it.
 //!
-//! - [`eos`]: Mie–Grüneisen on a linear Us–up Hugoniot, ρΓ = ρ0Γ0.
-//! - [`strength`]: Johnson–Cook flow stress, Jaumann rate, radial return, temperature,
-//!   failure, the longitudinal wave speed of the time step.
-//! - [`library`]: the material constants hsph ships, each with its source.
+//! - [`dynamics`]: the solid passes. The constitutive pieces (Mie–Grüneisen, Johnson–Cook,
+//!   radial return, failure) and the material library are in `crate::material`.
 
 pub mod dynamics;
-pub mod eos;
-pub mod library;
-pub mod model;
-pub mod strength;
-
-pub use model::SolidModel;

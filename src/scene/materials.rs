@@ -1,16 +1,13 @@
-//! Semantic checks of solid materials and `[[solid]]` bodies: every constant a solid needs is
-//! filled (from the library where named) and physically possible, and fluids and solids each
-//! get a material of their own kind.
+//! Materials: each kind's keys checked and completed (a solid from the library), and each
+//! body's material of the body's kind. The models these keys build are in `crate::material`
+//! (`models.rs` turns a validated material into one). Every constant a solid needs is filled
+//! (from the library where named) and physically possible.
 
-use super::validate::{in_range, num};
+use super::checks::{err, in_range, num, positive};
 use super::*;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::limits::{DENSITY_RANGE, MAX_EOS_CONSTANT, MAX_MODULUS, SOUND_SPEED_RANGE};
-use crate::physics::solid::library;
-
-fn err<T>(key: impl Into<String>, msg: impl Into<String>) -> Result<T> {
-    Err(Error::input(key, msg))
-}
+use crate::material::library;
 
 /// `value` must be a finite number > 0 (or ≥ 0 with `allow_zero`).
 fn check(value: Option<f64>, key: &str, example: &str, allow_zero: bool) -> Result<()> {
@@ -126,22 +123,7 @@ pub(super) fn solid_material(m: &mut Material, k: &str) -> Result<()> {
 /// lie in the physical ranges of `src/limits.rs`, and so does the longitudinal wave speed
 /// √((ρ0c0² + 4G/3)/ρ0) they give.
 fn solid_ranges(m: &Material, k: &str) -> Result<()> {
-    in_range(
-        m.rho0,
-        &format!("{k}.rho0"),
-        DENSITY_RANGE,
-        "kg/m³",
-        "DENSITY_RANGE",
-        "rho0 = 2703.0",
-    )?;
-    in_range(
-        m.c0,
-        &format!("{k}.c0"),
-        SOUND_SPEED_RANGE,
-        "m/s",
-        "SOUND_SPEED_RANGE",
-        "c0 = 5240.0",
-    )?;
+    density_and_sound_speed(m, k, ("rho0 = 2703.0", "c0 = 5240.0"))?;
     let eos = (0.0, MAX_EOS_CONSTANT);
     for (v, key, example) in [
         (m.hugoniot_slope, "hugoniot_slope", "hugoniot_slope = 1.4"),
@@ -181,7 +163,8 @@ fn solid_ranges(m: &Material, k: &str) -> Result<()> {
     Ok(())
 }
 
-/// A fluid material must not carry solid keys (a typo for `model = "solid"`, most likely).
+/// A fluid material: no solid keys (a typo for `model = "solid"`, most likely), and ρ0, c0
+/// and γ positive and within their physical ranges.
 pub(super) fn fluid_material(m: &Material, k: &str) -> Result<()> {
     let solid_keys = [
         ("library", m.library.is_some()),
@@ -208,7 +191,39 @@ pub(super) fn fluid_material(m: &Material, k: &str) -> Result<()> {
             ),
         );
     }
-    Ok(())
+    positive(m.rho0, &format!("{k}.rho0"), "rho0 = 1000.0")?;
+    positive(m.c0, &format!("{k}.c0"), "c0 = 20.0")?;
+    positive(m.gamma, &format!("{k}.gamma"), "gamma = 7.0")?;
+    density_and_sound_speed(m, k, ("rho0 = 1000.0", "c0 = 20.0"))?;
+    in_range(
+        m.gamma,
+        &format!("{k}.gamma"),
+        (f64::MIN_POSITIVE, MAX_EOS_CONSTANT),
+        "",
+        "MAX_EOS_CONSTANT",
+        "gamma = 7.0",
+    )
+}
+
+/// ρ0 and c0 of any material within the physical ranges of `src/limits.rs`; `examples` are
+/// the values the messages suggest for this kind of material.
+fn density_and_sound_speed(m: &Material, k: &str, examples: (&str, &str)) -> Result<()> {
+    in_range(
+        m.rho0,
+        &format!("{k}.rho0"),
+        DENSITY_RANGE,
+        "kg/m³",
+        "DENSITY_RANGE",
+        examples.0,
+    )?;
+    in_range(
+        m.c0,
+        &format!("{k}.c0"),
+        SOUND_SPEED_RANGE,
+        "m/s",
+        "SOUND_SPEED_RANGE",
+        examples.1,
+    )
 }
 
 /// Each body's material is of the body's kind: `fluid[i]` with a fluid material, `solid[i]`

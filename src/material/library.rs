@@ -5,7 +5,7 @@
 //! Johnson–Cook set; the Al 2024-T3 Johnson–Cook row of that table is marked UNVERIFIED and is
 //! left out.
 
-use super::eos::MieGruneisen;
+use super::mie_gruneisen::MieGruneisen;
 use super::strength::JohnsonCook;
 
 /// An elastic–plastic material: EOS, shear modulus, strength, heat capacity.

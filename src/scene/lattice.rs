@@ -1,0 +1,471 @@
+//! Where a scene's bodies fall on the global lattice, before any particle is built: the
+//! lattice itself (sites at domain.min + (i + ½)·dx, a site's id its index), the sites each
+//! body claims (counts for `hsph check`, the memory estimate and the id bound), the extents
+//! the bodies are built at and the warnings when those differ from the scene's. `setup`
+//! builds the particles on this lattice; the scene's validation refuses a body with no site.
+
+use super::{Scene, WallShape};
+use crate::error::{Error, Result};
+use crate::Vector;
+
+/// The global lattice of a scene.
+#[derive(Debug, Clone)]
+pub struct Lattice<const D: usize> {
+    /// Lower corner of the domain (m).
+    pub origin: Vector<D>,
+    /// Spacing dx (m).
+    pub dx: f64,
+    /// Sites per axis.
+    pub n: [u64; D],
+}
+
+impl<const D: usize> Lattice<D> {
+    /// The lattice covering the scene's domain.
+    pub fn new(s: &Scene) -> Self {
+        let dx = s.discretisation.dx;
+        let mut n = [0u64; D];
+        for (a, na) in n.iter_mut().enumerate() {
+            *na = ((s.domain.max[a] - s.domain.min[a]) / dx + 1e-9).floor().max(1.0) as u64;
+        }
+        Lattice {
+            origin: Vector::from_fn(|a, _| s.domain.min[a]),
+            dx,
+            n,
+        }
+    }
+
+    /// Site index range `[lo, hi)` along `axis` whose centres lie in `[min, max)`.
+    pub fn range(&self, axis: usize, min: f64, max: f64) -> (u64, u64) {
+        let t = 1e-9;
+        let lo = ((min - self.origin[axis]) / self.dx - 0.5 - t).ceil().max(0.0) as u64;
+        let hi = ((max - self.origin[axis]) / self.dx - 0.5 - t).ceil().max(0.0) as u64;
+        (lo.min(self.n[axis]), hi.min(self.n[axis]))
+    }
+
+    /// Visit every site in the box `[min, max)`: `(site index per axis, id, centre)`.
+    pub fn for_each_in(&self, min: &[f64], max: &[f64], mut f: impl FnMut(&[u64], u64, Vector<D>)) {
+        let r: Vec<(u64, u64)> = (0..D).map(|a| self.range(a, min[a], max[a])).collect();
+        if r.iter().any(|(lo, hi)| hi <= lo) {
+            return;
+        }
+        let mut idx: Vec<u64> = r.iter().map(|(lo, _)| *lo).collect();
+        loop {
+            let mut id = 0u64;
+            for (na, ia) in self.n.iter().zip(&idx) {
+                id = id * na + ia;
+            }
+            let x = Vector::from_fn(|a, _| self.origin[a] + (idx[a] as f64 + 0.5) * self.dx);
+            f(&idx, id, x);
+            // odometer, last axis fastest
+            let mut a = D;
+            loop {
+                if a == 0 {
+                    return;
+                }
+                a -= 1;
+                idx[a] += 1;
+                if idx[a] < r[a].1 {
+                    break;
+                }
+                idx[a] = r[a].0;
+            }
+        }
+    }
+}
+
+/// Exclusive bound of the particle ids of `s`: the number of sites of its lattice.
+pub fn id_bound<const D: usize>(s: &Scene) -> u64 {
+    Lattice::<D>::new(s).n.iter().product()
+}
+
+/// Number of particles the scene's bodies hold, counted from the lattice ranges without
+/// building them (exact unless two bodies overlap, which `setup::build_particles` rejects; a
+/// sphere or cylinder counts the sites of its box).
+pub fn count_particles<const D: usize>(s: &Scene) -> u64 {
+    body_sites::<D>(s).iter().map(|b| b.sites).sum()
+}
+
+/// The lattice sites of one body, counted without building them.
+#[derive(Debug, Clone)]
+pub struct BodySites {
+    /// `fluid[i]`, `solid[i]` or `wall[i]`.
+    pub key: String,
+    /// The body's name in the scene.
+    pub name: String,
+    /// Sites of its box (a container: of its walls, the outer box less the inner one).
+    pub sites: u64,
+    /// True if the body claims at least one site: its box has sites and, for a sphere or a
+    /// cylinder, the site nearest its centre lies inside it.
+    pub builds: bool,
+    /// Smallest extent of its box (m; a container's inner box).
+    pub smallest: f64,
+    /// A container with every face open (no walls at any dx).
+    pub all_open: bool,
+}
+
+/// The sites of every body that has particles (fluids, solids, then dummy and repulsive walls;
+/// mirror walls have none), in the order `setup::SiteSource` adds them, from the lattice ranges
+/// alone: O(1) per body whatever its size.
+pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
+    let lat = Lattice::<D>::new(s);
+    let dx = s.discretisation.dx;
+    let ranges = |min: &[f64], max: &[f64]| -> Vec<(u64, u64)> {
+        (0..D).map(|a| lat.range(a, min[a], max[a])).collect()
+    };
+    let sites = |r: &[(u64, u64)]| -> u64 { r.iter().map(|(lo, hi)| hi.saturating_sub(*lo)).product() };
+    let smallest = |min: &[f64], max: &[f64]| (0..D).map(|a| max[a] - min[a]).fold(f64::INFINITY, f64::min);
+    let mut out = Vec::new();
+    let bodies = (s
+        .fluids
+        .iter()
+        .enumerate()
+        .map(|(i, f)| (format!("fluid[{i}]"), f)))
+    .chain(
+        s.solids
+            .iter()
+            .enumerate()
+            .map(|(i, f)| (format!("solid[{i}]"), f)),
+    );
+    for (key, f) in bodies {
+        let r = ranges(&f.min, &f.max);
+        let n = sites(&r);
+        // of the box's sites the one nearest the centre (per axis, so nearest overall) is
+        // inside a sphere or cylinder if any is
+        let builds = n > 0
+            && (f.shape == super::BodyShape::Block || {
+                let x: Vec<f64> = (0..D)
+                    .map(|a| {
+                        let i = ((f.centre[a] - lat.origin[a]) / dx - 0.5).round().max(0.0) as u64;
+                        let i = i.clamp(r[a].0, r[a].1 - 1);
+                        lat.origin[a] + (i as f64 + 0.5) * dx
+                    })
+                    .collect();
+                f.contains(&x)
+            });
+        out.push(BodySites {
+            key,
+            name: f.name.clone(),
+            sites: n,
+            builds,
+            smallest: smallest(&f.min, &f.max),
+            all_open: false,
+        });
+    }
+    for (i, w) in s.walls.iter().enumerate() {
+        if w.method.particle_kind().is_none() {
+            continue;
+        }
+        let n = match w.shape {
+            WallShape::Block => sites(&ranges(&w.min, &w.max)),
+            WallShape::Container => {
+                let (lo, hi) = container_outer(w, D, dx);
+                sites(&ranges(&lo, &hi)).saturating_sub(sites(&ranges(&w.min, &w.max)))
+            }
+        };
+        let open = |a: usize, up: bool| w.open.iter().any(|o| super::face_of(o, D) == Some((a, up)));
+        out.push(BodySites {
+            key: format!("wall[{i}]"),
+            name: w.name.clone(),
+            sites: n,
+            builds: n > 0,
+            smallest: smallest(&w.min, &w.max),
+            all_open: w.shape == WallShape::Container && (0..D).all(|a| open(a, false) && open(a, true)),
+        });
+    }
+    out
+}
+
+/// Every body builds at least one particle at the scene's dx: one that builds none is an
+/// input error naming it and dx, with a spacing that would resolve it.
+pub fn check_bodies_build<const D: usize>(s: &Scene) -> Result<()> {
+    let dx = s.discretisation.dx;
+    let Some(b) = body_sites::<D>(s).into_iter().find(|b| !b.builds) else {
+        return Ok(());
+    };
+    if b.all_open {
+        return Err(Error::input(
+            format!("{}.open", b.key),
+            format!(
+                "wall `{}` is a container with every face open, which has no particle at any dx; \
+                 close a face (e.g. open = [\"y+\"]) or remove the wall",
+                b.name
+            ),
+        ));
+    }
+    let smallest = b.smallest;
+    Err(Error::input(
+        b.key.clone(),
+        format!(
+            "body `{}` builds no particle at dx = {dx} m: no lattice site (at domain.min + (i + ½)·dx) \
+             lies inside it, its smallest extent being {smallest:.4e} m; refine discretisation.dx \
+             (e.g. dx = {:.4e}, half that extent) or enlarge the body",
+            b.name,
+            0.5 * smallest
+        ),
+    ))
+}
+
+/// A body as the lattice builds it: every lattice site whose centre lies in the scene's box
+/// `[min, max)` becomes a particle standing for a cell of side dx, so the body as built spans
+/// `[origin + lo·dx, origin + hi·dx)` along each axis.
+#[derive(Debug, Clone)]
+pub struct BuiltBody {
+    /// `fluid[i]`, `wall[i]` (a block) or `wall[i] inner` (a container's inner box).
+    pub key: String,
+    /// The body's name in the scene.
+    pub name: String,
+    /// Box in the scene (m).
+    pub scene: (Vec<f64>, Vec<f64>),
+    /// Box as built (m).
+    pub built: (Vec<f64>, Vec<f64>),
+    /// Sites per axis.
+    pub sites: Vec<u64>,
+}
+
+/// Largest relative difference between built and scene sizes (per axis, and of the volume).
+const EXTENT_TOLERANCE: f64 = 0.01;
+
+impl BuiltBody {
+    /// Relative size differences per axis and of the volume, (built − scene) / scene.
+    pub fn differences(&self) -> (Vec<f64>, f64) {
+        let len = |b: &(Vec<f64>, Vec<f64>), a: usize| b.1[a] - b.0[a];
+        let d = self.scene.0.len();
+        let per_axis: Vec<f64> = (0..d)
+            .map(|a| len(&self.built, a) / len(&self.scene, a) - 1.0)
+            .collect();
+        let vol = |b: &(Vec<f64>, Vec<f64>)| (0..d).map(|a| len(b, a)).product::<f64>();
+        (per_axis, vol(&self.built) / vol(&self.scene) - 1.0)
+    }
+
+    /// True if the body as built differs from the scene's by more than 1 % in size or volume.
+    pub fn off(&self) -> bool {
+        let (axes, vol) = self.differences();
+        vol.abs() > EXTENT_TOLERANCE || axes.iter().any(|x| x.abs() > EXTENT_TOLERANCE)
+    }
+}
+
+/// Every fluid block, wall block and container inner box as built on the scene's lattice.
+pub fn built_extents<const D: usize>(s: &Scene) -> Vec<BuiltBody> {
+    let lat = Lattice::<D>::new(s);
+    let body = |key: String, name: &str, min: &[f64], max: &[f64]| {
+        let r: Vec<(u64, u64)> = (0..D).map(|a| lat.range(a, min[a], max[a])).collect();
+        let edge = |i: u64, a: usize| lat.origin[a] + i as f64 * lat.dx;
+        BuiltBody {
+            key,
+            name: name.to_string(),
+            scene: (min.to_vec(), max.to_vec()),
+            built: (
+                (0..D).map(|a| edge(r[a].0, a)).collect(),
+                (0..D).map(|a| edge(r[a].1, a)).collect(),
+            ),
+            sites: r.iter().map(|(lo, hi)| hi.saturating_sub(*lo)).collect(),
+        }
+    };
+    let mut out: Vec<BuiltBody> = s
+        .fluids
+        .iter()
+        .enumerate()
+        .filter(|(_, f)| f.shape == super::BodyShape::Block)
+        .map(|(i, f)| body(format!("fluid[{i}]"), &f.name, &f.min, &f.max))
+        .collect();
+    for (i, w) in s.walls.iter().enumerate() {
+        match (w.shape, w.method.particle_kind()) {
+            (WallShape::Block, Some(_)) => out.push(body(format!("wall[{i}]"), &w.name, &w.min, &w.max)),
+            (WallShape::Container, Some(_)) => {
+                out.push(body(format!("wall[{i}] inner"), &w.name, &w.min, &w.max))
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
+/// The spacing nearest to the scene's dx (within ±30 %) on whose lattice every body is built
+/// exactly as written (every extent and offset from the domain's corner a whole number of
+/// spacings), if there is one.
+pub fn fitting_dx<const D: usize>(s: &Scene) -> Option<f64> {
+    let dx = s.discretisation.dx;
+    let origin = &s.domain.min;
+    let mut lengths = Vec::new();
+    for b in built_extents::<D>(s) {
+        for (a, o) in origin.iter().enumerate().take(D) {
+            lengths.push(b.scene.0[a] - o);
+            lengths.push(b.scene.1[a] - o);
+        }
+    }
+    let reference = lengths
+        .iter()
+        .copied()
+        .filter(|l| *l > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    if !reference.is_finite() {
+        return None;
+    }
+    let whole = |l: f64, h: f64| ((l / h) - (l / h).round()).abs() < 1e-6 * (l / h).abs().max(1.0);
+    let n0 = (reference / dx).round().max(1.0) as u64;
+    // candidates reference / n near n0, nearest first
+    (0..n0.max(8))
+        .flat_map(|k| [n0 + k, n0.saturating_sub(k)])
+        .filter(|&n| n > 0)
+        .map(|n| reference / n as f64)
+        .filter(|h| (h / dx - 1.0).abs() <= 0.3)
+        .find(|&h| lengths.iter().all(|&l| whole(l, h)))
+}
+
+/// Sizes "a × b (× c)" in metres with 4 significant digits.
+fn sizes(b: &(Vec<f64>, Vec<f64>)) -> String {
+    let v: Vec<String> =
+        b.0.iter()
+            .zip(&b.1)
+            .map(|(lo, hi)| format!("{:.4}", hi - lo))
+            .collect();
+    v.join(" × ")
+}
+
+/// One line per body: its size in the scene and as built, its particles per axis and the
+/// volume difference.
+pub fn extent_lines<const D: usize>(s: &Scene) -> Vec<String> {
+    built_extents::<D>(s)
+        .iter()
+        .map(|b| {
+            let (_, vol) = b.differences();
+            let n: Vec<String> = b.sites.iter().map(|k| k.to_string()).collect();
+            format!(
+                "{} `{}`: scene {} m, built {} m ({} sites), volume {:+.2} %",
+                b.key,
+                b.name,
+                sizes(&b.scene),
+                sizes(&b.built),
+                n.join(" × "),
+                100.0 * vol
+            )
+        })
+        .collect()
+}
+
+/// A fluid body and a solid body whose boxes overlap or come within a kernel support of each
+/// other: they would pass through each other, since fluids and solids do not interact yet.
+pub fn coupling_warnings(s: &Scene) -> Vec<String> {
+    let reach = s.discretisation.h_over_dx * s.discretisation.dx * 3.0;
+    let mut out = Vec::new();
+    for (i, f) in s.fluids.iter().enumerate() {
+        for (j, b) in s.solids.iter().enumerate() {
+            let near = (0..s.dimension).all(|a| f.min[a] - reach < b.max[a] && b.min[a] - reach < f.max[a]);
+            if near {
+                out.push(format!(
+                    "fluid[{i}] `{}` and solid[{j}] `{}` touch or overlap, but fluids and solids do not \
+                     interact yet (no coupling): each moves through the other",
+                    f.name, b.name
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// A scene's set-up warnings: settings outside their tested range (shifting below h/dx 1.8, a
+/// CFL number above 1), fluids and solids that touch without coupling, and bodies built more
+/// than 1 % off their scene size or volume (a body fills whole lattice cells of dx counted
+/// from `domain.min`), with the spacing that would build them all as written, if one lies
+/// within ±30 % of dx.
+pub fn scene_warnings<const D: usize>(s: &Scene) -> Vec<String> {
+    let mut out = sphere_warnings::<D>(s);
+    out.extend(coupling_warnings(s));
+    if s.time.cfl > 1.0 && s.time.dt == 0.0 {
+        out.push(format!(
+            "time.cfl = {} is above 1: dt = CFL·h/(c0 + |v|max) then exceeds the time sound takes \
+             to cross h; in the 2D dam break every method held to 0.75, plain WCSPH and Molteni's \
+             δ-SPH to 1.25, and all failed at 1.5 (docs/validation.md §5c); 0.2 is typical",
+            s.time.cfl
+        ));
+    }
+    if s.physics.shifting == super::ShiftingKind::DeltaPlus && s.discretisation.h_over_dx < 1.8 {
+        out.push(format!(
+            "physics.shifting = \"delta_plus\" with discretisation.h_over_dx = {}: shifting is made \
+             for h/dx = 2 (Sun et al. 2017); at 1.3 it raised the 40 × 40 cavity's error from 3.2 % \
+             to 17.6 % (docs/validation.md §3d); use h_over_dx = 2.0",
+            s.discretisation.h_over_dx
+        ));
+    }
+    let off: Vec<BuiltBody> = built_extents::<D>(s).into_iter().filter(|b| b.off()).collect();
+    if off.is_empty() {
+        return out;
+    }
+    let fit = match fitting_dx::<D>(s) {
+        Some(h) => format!("discretisation.dx = {h:.6e} m would build every body as written"),
+        None => "no spacing within ±30 % of dx builds every body as written; align the bodies with \
+                 domain.min + k·dx"
+            .to_string(),
+    };
+    out.extend(off.iter().map(|b| {
+        let (axes, vol) = b.differences();
+        let a: Vec<String> = axes.iter().map(|x| format!("{:+.1} %", 100.0 * x)).collect();
+        format!(
+            "{} `{}` is built {} m where the scene says {} m ({}; volume {:+.1} %): bodies fill \
+                 whole cells of dx = {} m counted from domain.min; {fit}",
+            b.key,
+            b.name,
+            sizes(&b.built),
+            sizes(&b.scene),
+            a.join(", "),
+            100.0 * vol,
+            s.discretisation.dx
+        )
+    }));
+    out
+}
+
+/// Spheres (discs in 2D) whose lattice volume (sites × dx^D) differs from the true volume by
+/// more than 1 %: a sphere is resolved by its diameter in spacings.
+fn sphere_warnings<const D: usize>(s: &Scene) -> Vec<String> {
+    let lat = Lattice::<D>::new(s);
+    let dx = s.discretisation.dx;
+    let mut out = Vec::new();
+    for (i, f) in s.fluids.iter().enumerate() {
+        if f.shape == super::BodyShape::Block {
+            continue;
+        }
+        let mut n = 0u64;
+        lat.for_each_in(&f.min, &f.max, |_, _, x| n += f.contains(x.as_slice()) as u64);
+        let pi = std::f64::consts::PI;
+        let exact = match (f.shape, D) {
+            (super::BodyShape::Cylinder, _) => pi * f.radius.powi(2) * f.length,
+            (_, 2) => pi * f.radius.powi(2),
+            _ => 4.0 / 3.0 * pi * f.radius.powi(3),
+        };
+        let rel = n as f64 * dx.powi(D as i32) / exact - 1.0;
+        if rel.abs() > 0.01 {
+            out.push(format!(
+                "fluid[{i}] `{}` (a {} of radius {} m, {:.1} spacings across) is built with a \
+                 volume {:+.1} % off the true one; a finer dx resolves it better",
+                f.name,
+                if f.shape == super::BodyShape::Cylinder {
+                    "cylinder"
+                } else {
+                    "sphere"
+                },
+                f.radius,
+                2.0 * f.radius / dx,
+                100.0 * rel
+            ));
+        }
+    }
+    out
+}
+
+/// The outer box of a container wall: its inner box grown by `layers` spacings on every closed
+/// face (open faces stay at the inner box).
+pub(crate) fn container_outer(w: &super::WallBody, d: usize, dx: f64) -> (Vec<f64>, Vec<f64>) {
+    let mut lo = w.min.clone();
+    let mut hi = w.max.clone();
+    for a in 0..d {
+        let open = |up| w.open.iter().any(|o| super::face_of(o, d) == Some((a, up)));
+        if !open(false) {
+            lo[a] -= w.layers as f64 * dx;
+        }
+        if !open(true) {
+            hi[a] += w.layers as f64 * dx;
+        }
+    }
+    (lo, hi)
+}
