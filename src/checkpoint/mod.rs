@@ -89,7 +89,7 @@ pub fn fnv1a64(bytes: &[u8]) -> u64 {
 fn write_synced(path: &Path, bytes: &[u8]) -> Result<()> {
     let tmp = path.with_extension("tmp");
     let io = |e| Error::io(path, e);
-    let result = crate::output::create_file(&tmp).and_then(|mut f| {
+    let result = crate::files::create_file(&tmp).and_then(|mut f| {
         f.write_all(bytes).map_err(io)?;
         f.sync_all().map_err(io)?;
         drop(f);
