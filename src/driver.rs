@@ -819,7 +819,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             None
         };
         let probes = ProbeSet::new(&sim.scene, root.then_some(dir), resumed.is_some())?;
-        let snapshots = output::snapshot::writer_for::<D>(scene.output.format, dir)?;
+        let snapshots = output::writers::writer_for::<D>(scene.output.format, dir)?;
         let fluid = sim.p.kind[..sim.p.n_owned]
             .iter()
             .filter(|k| k.is_integrated())

@@ -13,6 +13,7 @@ pub mod netcdf4;
 pub mod snapshot;
 pub mod volume;
 pub mod vtk;
+pub mod writers;
 
 pub(crate) use crate::files::{create, write_atomic};
 pub use crate::files::{refuse_non_regular, write_file};
