@@ -419,7 +419,13 @@ fn dispatch(cmd: Command) -> Result<i32> {
             compare,
             out,
             field,
-        } => report::command(&runs, compare, out.as_deref(), &field).map(|_| 0),
+        } => {
+            let (_, files) = report::command(&runs, compare, out.as_deref(), &field)?;
+            for f in &files {
+                say(&format!("{}\n", f.display()));
+            }
+            Ok(0)
+        }
     }
 }
 

@@ -819,7 +819,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             None
         };
         let probes = ProbeSet::new(&sim.scene, root.then_some(dir), resumed.is_some())?;
-        let snapshots = output::snapshot::writer_for::<D>(scene.output.format, dir)?;
+        let snapshots = output::writers::writer_for::<D>(scene.output.format, dir)?;
         let fluid = sim.p.kind[..sim.p.n_owned]
             .iter()
             .filter(|k| k.is_integrated())
@@ -1195,8 +1195,13 @@ impl<'a, const D: usize> RankRun<'a, D> {
             }
             None => None,
         };
-        let dir =
-            crate::checkpoint::write(&self.sim, self.comm, self.dir, state, self.scene.checkpoint.keep)?;
+        let dir = crate::checkpoint::write(
+            (&self.sim.p, self.sim.clock(), &self.sim.scene),
+            self.comm,
+            self.dir,
+            state,
+            self.scene.checkpoint.keep,
+        )?;
         self.checkpointed = self.sim.step;
         self.checkpoint_clock = (Instant::now(), t0.elapsed().as_secs_f64());
         if self.stopped_by.is_some() && self.comm.rank() == 0 {

@@ -19,6 +19,7 @@ pub mod decomp;
 pub mod driver;
 pub mod error;
 pub mod exact;
+pub mod files;
 pub mod halo;
 pub mod joblayout;
 pub mod jobscript;

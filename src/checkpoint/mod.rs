@@ -21,7 +21,7 @@ use crate::comm::{Comm, Phase};
 use crate::error::{Error, Location, Result};
 use crate::particles::wire::{Reader, Words};
 use crate::particles::{Particles, Record};
-use crate::sim::Simulation;
+use crate::scene::Scene;
 use crate::Vector;
 use serde::{Deserialize, Serialize};
 use std::fs;
@@ -73,6 +73,19 @@ pub struct Manifest {
     pub run: serde_json::Value,
 }
 
+/// Where a run stands at a step boundary: what a checkpoint records besides the particles.
+/// The caller (the driver, from its simulation) builds it; checkpoints know nothing of the
+/// simulation's other state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Clock {
+    /// Steps taken.
+    pub step: u64,
+    /// Simulated time (s).
+    pub t: f64,
+    /// Time step of the next step (s).
+    pub dt: f64,
+}
+
 /// FNV-1a, 64 bit (Fowler, Noll & Vo): a checksum against torn and flipped bytes.
 pub fn fnv1a64(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
@@ -89,7 +102,7 @@ pub fn fnv1a64(bytes: &[u8]) -> u64 {
 fn write_synced(path: &Path, bytes: &[u8]) -> Result<()> {
     let tmp = path.with_extension("tmp");
     let io = |e| Error::io(path, e);
-    let result = crate::output::create_file(&tmp).and_then(|mut f| {
+    let result = crate::files::create_file(&tmp).and_then(|mut f| {
         f.write_all(bytes).map_err(io)?;
         f.sync_all().map_err(io)?;
         drop(f);
@@ -106,10 +119,10 @@ pub fn dir_of(run: &Path, step: u64) -> PathBuf {
     run.join("checkpoints").join(format!("step-{step:010}"))
 }
 
-/// This rank's part: header, owned records sorted by id, then their accelerations.
-fn encode<const D: usize>(sim: &Simulation<D>) -> Vec<u8> {
-    let p = &sim.p;
-    let order = sim.by_id();
+/// This rank's part: header, owned records of `p` sorted by id, then their accelerations.
+fn encode<const D: usize>(p: &Particles<D>) -> Vec<u8> {
+    let mut order: Vec<usize> = (0..p.n_owned).collect();
+    order.sort_unstable_by_key(|&i| p.id[i]);
     let mut buf = Vec::with_capacity(24 + order.len() * (Record::<D>::words() + D) * 8);
     buf.extend_from_slice(MAGIC);
     buf.extend_from_slice(&FORMAT.to_le_bytes());
@@ -126,19 +139,20 @@ fn encode<const D: usize>(sim: &Simulation<D>) -> Vec<u8> {
     buf
 }
 
-/// Collective: write the checkpoint of the current step under `run` — every rank its part,
-/// then rank 0 the manifest with `state` (the driver's state, rank 0's) — and delete the
+/// Collective: write the checkpoint of step `clock.step` under `run` — every rank its part
+/// (its owned particles `p` with their accelerations), then rank 0 the manifest with the
+/// clock, the resolved `scene` and `state` (the driver's state, rank 0's) — and delete the
 /// oldest beyond `keep`. Returns the checkpoint's directory.
 pub fn write<const D: usize>(
-    sim: &Simulation<D>,
+    (p, clock, scene): (&Particles<D>, Clock, &Scene),
     comm: &dyn Comm,
     run: &Path,
     state: Option<serde_json::Value>,
     keep: usize,
 ) -> Result<PathBuf> {
-    let dir = dir_of(run, sim.step);
+    let dir = dir_of(run, clock.step);
     fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    let bytes = encode(sim);
+    let bytes = encode(p);
     let file = format!("part-{:05}.bin", comm.rank());
     if let Err(e) = write_synced(&dir.join(&file), &bytes) {
         // the checkpoint is incomplete (no manifest will follow): leave no empty directory
@@ -147,7 +161,7 @@ pub fn write<const D: usize>(
     }
     let info = PartInfo {
         file,
-        particles: sim.p.n_owned as u64,
+        particles: p.n_owned as u64,
         bytes: bytes.len() as u64,
         fnv1a64: format!("{:016x}", fnv1a64(&bytes)),
     };
@@ -157,7 +171,7 @@ pub fn write<const D: usize>(
     let infos = infos?;
     if let Ok(step) = std::env::var("HSPH_TEST_ABORT_IN_CHECKPOINT") {
         // test-only: die like kill -9 after the parts, before the manifest
-        if step.parse() == Ok(sim.step) {
+        if step.parse() == Ok(clock.step) {
             std::process::abort();
         }
     }
@@ -173,12 +187,12 @@ pub fn write<const D: usize>(
         hsph_version: env!("CARGO_PKG_VERSION").into(),
         git_commit: env!("HSPH_GIT_COMMIT").into(),
         dimension: D,
-        step: sim.step,
-        t: sim.t,
-        dt: sim.dt,
+        step: clock.step,
+        t: clock.t,
+        dt: clock.dt,
         ranks: comm.size(),
         parts,
-        scene: toml::to_string(&sim.scene).map_err(|e| Error::run(format!("checkpoint scene: {e}")))?,
+        scene: toml::to_string(scene).map_err(|e| Error::run(format!("checkpoint scene: {e}")))?,
         run: state.unwrap_or(serde_json::Value::Null),
     };
     let text = serde_json::to_vec_pretty(&manifest).map_err(|e| Error::run(e.to_string()))?;

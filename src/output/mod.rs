@@ -13,6 +13,10 @@ pub mod netcdf4;
 pub mod snapshot;
 pub mod volume;
 pub mod vtk;
+pub mod writers;
+
+pub(crate) use crate::files::{create, write_atomic};
+pub use crate::files::{refuse_non_regular, write_file};
 
 use crate::comm::TrafficEntry;
 use crate::error::{Error, Result};
@@ -257,19 +261,6 @@ pub fn remove_if_empty(dir: &Path) {
     }
 }
 
-/// Refuse to write over `path` if it is there and is not a regular file (a device such as
-/// `/dev/full`, a FIFO, a directory): hsph never truncates or renames over one.
-pub fn refuse_non_regular(path: &Path) -> Result<()> {
-    match fs::metadata(path) {
-        Ok(m) if !m.is_file() => Err(Error::input(
-            path.display().to_string(),
-            "exists and is not a regular file (a device, FIFO or directory); hsph writes only \
-             regular files: choose another path",
-        )),
-        _ => Ok(()),
-    }
-}
-
 /// UTC time as `YYYYMMDD-HHMMSS` (civil-from-days, no time-zone database needed).
 pub fn timestamp() -> String {
     let secs = std::time::SystemTime::now()
@@ -294,28 +285,6 @@ pub fn timestamp() -> String {
     )
 }
 
-/// Open `path` for writing. The test-only switch `HSPH_TEST_FULL_DISK=SUFFIX` sends a file
-/// whose name ends with SUFFIX to `/dev/full`, so that tests see what a full disk does.
-pub(crate) fn create_file(path: &Path) -> Result<File> {
-    let full = std::env::var("HSPH_TEST_FULL_DISK")
-        .ok()
-        .is_some_and(|suffix| !suffix.is_empty() && path.to_string_lossy().ends_with(&suffix));
-    if !full {
-        refuse_non_regular(path)?;
-    }
-    let target = if full { Path::new("/dev/full") } else { path };
-    let f = if full {
-        fs::OpenOptions::new().write(true).open(target)
-    } else {
-        File::create(target)
-    };
-    f.map_err(|e| Error::io(path, e))
-}
-
-pub(crate) fn create(path: &Path) -> Result<BufWriter<File>> {
-    Ok(BufWriter::new(create_file(path)?))
-}
-
 /// A series file: created afresh with `header` as its first line, or, when `append` (a
 /// restart), the existing file opened for appending.
 pub(crate) fn series(path: &Path, header: &str, append: bool) -> Result<BufWriter<File>> {
@@ -329,38 +298,6 @@ pub(crate) fn series(path: &Path, header: &str, append: bool) -> Result<BufWrite
     let mut f = create(path)?;
     writeln!(f, "{header}").map_err(|e| Error::io(path, e))?;
     Ok(f)
-}
-
-/// Write `bytes` as the whole file `path`, atomically, never over a non-regular file: the one
-/// way commands other than the step loop write a file (plans, reports, charts' markdown,
-/// validation tables, job scripts).
-pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
-    write_atomic(path, |f| f.write_all(bytes))
-}
-
-/// Write a whole file atomically: into `<path>.tmp`, then renamed over `path`. On any failure
-/// the temporary file is removed and `path` is left as it was (never truncated).
-pub(crate) fn write_atomic(
-    path: &Path,
-    write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
-) -> Result<()> {
-    let mut tmp_name = path.file_name().unwrap_or_default().to_os_string();
-    tmp_name.push(".tmp");
-    let tmp = path.with_file_name(tmp_name);
-    refuse_non_regular(path)?;
-    let result = create(&tmp).and_then(|mut f| {
-        write(&mut f)
-            .and_then(|_| f.flush())
-            .and_then(|_| f.get_ref().sync_data().or(Ok(())))
-            .map_err(|e| Error::io(path, e))
-    });
-    match result {
-        Ok(()) => fs::rename(&tmp, path).map_err(|e| Error::io(path, e)),
-        Err(e) => {
-            let _ = fs::remove_file(&tmp);
-            Err(e)
-        }
-    }
 }
 
 /// Writes everything of one run except `summary.json` (see [`write_summary`]).

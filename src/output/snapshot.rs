@@ -1,5 +1,6 @@
 //! The snapshot-writer seam: every snapshot format implements [`SnapshotWriter`] and every rank
-//! holds one. Snapshots are written in parallel: each rank writes the piece it owns (its owned
+//! holds one (made by [`super::writers::writer_for`], which knows the formats; this file names
+//! none of them). Snapshots are written in parallel: each rank writes the piece it owns (its owned
 //! particles in id order) and rank 0 writes the index that names every piece (`.pvtu` + `.pvd`
 //! for VTK, `series.json` for netCDF), so no rank ever holds all particles for output.
 //! Writers read fields through the particle table's columns
@@ -12,7 +13,7 @@
 
 use crate::error::{Error, Result};
 use crate::particles::Particles;
-use crate::scene::{Scene, SnapshotFormat};
+use crate::scene::Scene;
 use std::path::{Path, PathBuf};
 
 /// One rank's share of a snapshot.
@@ -163,25 +164,4 @@ pub trait SnapshotWriter<const D: usize> {
     /// Continue from `state` (from [`SnapshotWriter::state`] of the same format); `clean` on
     /// rank 0 only.
     fn restore(&mut self, state: &serde_json::Value, clean: bool) -> Result<()>;
-}
-
-/// The writer of `format` putting its files under `dir/snapshots` (`dir` is the run
-/// directory), or `None` for `format = "none"`.
-pub fn writer_for<const D: usize>(
-    format: SnapshotFormat,
-    dir: &Path,
-) -> Result<Option<Box<dyn SnapshotWriter<D>>>> {
-    let snaps = dir.join("snapshots");
-    match format {
-        SnapshotFormat::Vtk => Ok(Some(Box::new(super::vtk::VtkSeries::new(&snaps)?))),
-        SnapshotFormat::Netcdf | SnapshotFormat::Netcdf4 => {
-            let flavour = if format == SnapshotFormat::Netcdf {
-                super::netcdf::Flavour::Classic
-            } else {
-                super::netcdf::Flavour::Netcdf4
-            };
-            Ok(Some(Box::new(super::netcdf::NetcdfSeries::new(&snaps, flavour)?)))
-        }
-        SnapshotFormat::None => Ok(None),
-    }
 }

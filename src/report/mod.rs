@@ -30,9 +30,14 @@ pub const RUN_CHARTS: [&str; 4] = [
     "phase_times",
 ];
 
-/// Entry point of `hsph report`: one run (`compare == false`) or several side by side. Prints
-/// the files written and returns the output directory.
-pub fn command(runs: &[PathBuf], compare: bool, out: Option<&Path>, field: &str) -> Result<PathBuf> {
+/// Entry point of `hsph report`: one run (`compare == false`) or several side by side. Returns
+/// the output directory and the files written, in order (the caller prints them).
+pub fn command(
+    runs: &[PathBuf],
+    compare: bool,
+    out: Option<&Path>,
+    field: &str,
+) -> Result<(PathBuf, Vec<PathBuf>)> {
     let (dir, files) = if compare {
         if runs.len() < 2 {
             return Err(Error::input(
@@ -64,10 +69,7 @@ pub fn command(runs: &[PathBuf], compare: bool, out: Option<&Path>, field: &str)
         files.extend(impact::charts(&run.dir, &dir, field)?);
         (dir, files)
     };
-    for f in &files {
-        crate::cli::say(&format!("{}\n", f.display()));
-    }
-    Ok(dir)
+    Ok((dir, files))
 }
 
 fn create_dir(dir: &Path) -> Result<()> {

@@ -252,6 +252,15 @@ impl<const D: usize> Simulation<D> {
             || (self.scene.time.max_steps > 0 && self.step >= self.scene.time.max_steps)
     }
 
+    /// Where the run stands (step, t, dt), as a checkpoint records it.
+    pub fn clock(&self) -> crate::checkpoint::Clock {
+        crate::checkpoint::Clock {
+            step: self.step,
+            t: self.t,
+            dt: self.dt,
+        }
+    }
+
     /// Indices of owned particles sorted by id.
     pub fn by_id(&self) -> Vec<usize> {
         let mut idx: Vec<usize> = (0..self.p.n_owned).collect();
