@@ -7,6 +7,7 @@
 //! - `probes/<name>.csv`, `snapshots/*.vtu` + `snapshots/series.pvd`;
 //! - `summary.json` — written last and atomically: its presence marks a complete run.
 
+pub mod cf;
 pub mod netcdf;
 #[cfg(feature = "netcdf")]
 pub mod netcdf4;

@@ -1,10 +1,10 @@
 //! netCDF-4 snapshot pieces through the system libnetcdf (`netcdf` feature,
-//! `output.format = "netcdf4"`): the layout of [`super::netcdf`] (CF point, dimension
+//! `output.format = "netcdf4"`): the layout of [`super::cf`] (CF point, dimension
 //! `particle`, scalar `time`), with ids as 64-bit unsigned integers and every particle variable
 //! compressed (deflate level 4 with byte shuffle). The file is made under a temporary name and
 //! renamed into place, so a reader never sees half a file.
 
-use super::netcdf::{PieceData, Values};
+use super::cf::{PieceData, Values};
 use crate::error::{Error, Result};
 use std::path::Path;
 
@@ -36,7 +36,7 @@ fn fill(path: &Path, data: &PieceData) -> netcdf::Result<()> {
     }
     {
         let mut t = f.add_variable::<f64>("time", &[])?;
-        for (k, v) in super::netcdf::TIME_ATTRS {
+        for (k, v) in super::cf::TIME_ATTRS {
             t.put_attribute(k, v)?;
         }
         t.put_value(data.t, ..)?;
