@@ -1,4 +1,4 @@
-//! Smoothing kernels W(r, h) and their radial derivatives (methods.md §1b).
+//! Smoothing kernels W(r, h) and their radial derivatives (docs/methods.md §1b).
 //!
 //! `q = r/h`; every kernel is normalised so that ∫W dV = 1 in `D` dimensions (checked
 //! numerically in the tests). Units: W in m⁻ᴰ, dW/dr in m⁻ᴰ⁻¹.
@@ -40,7 +40,7 @@ impl KernelKind {
         }
     }
 
-    /// Normalisation σ_D for h = 1 (methods.md §1b table).
+    /// Normalisation σ_D for h = 1 (docs/methods.md §1b table).
     pub fn sigma(self, dim: usize) -> f64 {
         match (self, dim) {
             (KernelKind::CubicSpline, 2) => 10.0 / (7.0 * PI),

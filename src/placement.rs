@@ -7,7 +7,7 @@
 //! (consecutive ranks share a node). Methods ([`Placement`]):
 //!
 //! - `rank-order`: block `i` on rank `i` (blocks numbered nested x → y → z, z fastest);
-//! - `centre-distance` (seed 000, `methods.md` §4): nodes are filled one at a time, in node
+//! - `centre-distance` (seed 000, `docs/methods.md` §4): nodes are filled one at a time, in node
 //!   order. A node starts with the unassigned block whose centre is smallest in lexicographic
 //!   `(x, y, z)` order, then repeatedly takes the unassigned block whose centre is nearest
 //!   (Euclidean, m) to the centroid (unweighted mean) of the centres of the blocks it already

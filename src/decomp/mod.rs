@@ -1,4 +1,4 @@
-//! Dynamic domain decomposition of seed 000 (`methods.md` §4): dimension-wise factorisation
+//! Dynamic domain decomposition of seed 000 (`docs/methods.md` §4): dimension-wise factorisation
 //! (eq. 5), nested cut planes found by parallel bisection (eq. 6), incremental rebalance.
 //!
 //! Pure functions, no communication. The only collective the method needs — "load left of

@@ -1,4 +1,4 @@
-//! Renormalised density gradient for Antuono's δ-SPH (methods.md §2).
+//! Renormalised density gradient for Antuono's δ-SPH (docs/methods.md §2).
 //!
 //! ⟨∇ρ⟩_i^L = L_i Σ_j (ρ_j − ρ_i) ∇_i W_ij V_j,  L_i = [Σ_j V_j ∇_i W_ij ⊗ (x_j − x_i)]⁻¹,
 //! over fluid neighbours j (V_j = m_j/ρ_j). With this order the gradient of a linear field is

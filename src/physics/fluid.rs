@@ -1,7 +1,7 @@
 //! Rates of change of fluid particles: continuity with δ-SPH diffusion, pressure gradient,
 //! Morris laminar viscosity, Monaghan artificial viscosity, repulsive walls and body force.
 //!
-//! For fluid particle i and neighbours j (methods.md §1–2), with x_ij = x_i − x_j,
+//! For fluid particle i and neighbours j (docs/methods.md §1–2), with x_ij = x_i − x_j,
 //! ∇_i W_ij = (dW/dr) x_ij / r, V_j = m_j/ρ_j:
 //! - continuity (with the δ-SPH term on fluid neighbours j only):
 //!   dρ_i/dt = Σ_j m_j (v_i − v_j)·∇_i W_ij + δ h c0 Σ_j ψ_ij·∇_i W_ij V_j, where
