@@ -563,8 +563,8 @@ impl NeighbourList {
 
     /// Total number of list entries: directed pairs of the gather lists plus, in pair mode,
     /// the pairs of the half lists.
-    pub fn pairs(&self) -> usize {
-        self.before.last().copied().unwrap_or(0) + if self.has_half { self.half.pairs() } else { 0 }
+    pub fn entries(&self) -> usize {
+        self.before.last().copied().unwrap_or(0) + if self.has_half { self.half.len() } else { 0 }
     }
 }
 

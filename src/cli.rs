@@ -1151,8 +1151,8 @@ fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
         let _ = writeln!(w, "  warning: {warning}");
     }
     let _ = writeln!(w, "ghosts      {} (periodic and mirror images)", sim.halo.len());
-    let per = sim.nl.pairs() as f64 / n.max(1) as f64;
-    let _ = if sim.model.pairs {
+    let per = sim.nl.entries() as f64 / n.max(1) as f64;
+    let _ = if sim.pair_mode {
         writeln!(
             w,
             "neighbours  {per:.1} list entries per particle (pair mode: each pair once)"
@@ -1185,7 +1185,7 @@ fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
     );
     let bytes = n * Particles::<D>::bytes_per_particle_carried(sim.p.dropped)
         + sim.halo.len() * Particles::<D>::bytes_per_ghost_carried(sim.p.dropped)
-        + sim.nl.pairs() * 4
+        + sim.nl.entries() * 4
         + sim.cells.order.len() * 8;
     let _ = writeln!(
         w,

@@ -136,6 +136,11 @@ pub fn check_limits(
     use crate::memory::{available, human};
     crate::limits::ranks("--ranks", ranks)?;
     check_probe_sizes(scene)?;
+    let pair_mode = scene.performance.interactions == crate::scene::Interactions::Pairs;
+    crate::with_dim!(scene.dimension, D => crate::physics::passes::check_pair_mode(
+        &crate::physics::Model::<D>::new(scene),
+        pair_mode
+    ))?;
     let n = crate::with_dim!(scene.dimension, D => Ok(crate::scene::lattice::count_particles::<D>(scene)))?;
     let min = if opts.min_particles_per_rank == 0 {
         MIN_PARTICLES_PER_RANK

@@ -106,7 +106,7 @@ fn assert_matches_brute_force<const D: usize>(
         assert_eq!(&got, expect, "{what}: neighbours of particle {i} at {:?}", p.x[i]);
         pairs += got.len();
     }
-    assert_eq!(nl.pairs(), pairs, "{what}: no stray entries");
+    assert_eq!(nl.entries(), pairs, "{what}: no stray entries");
     pairs
 }
 

@@ -27,14 +27,14 @@ fn step_difference<const D: usize>(scene: &Scene) -> (f64, f64, usize) {
         b.advance(&comm).unwrap();
     }
     assert_eq!(a.p.x, b.p.x, "two gather runs of one scene are identical");
-    b.model.pairs = true;
+    b.pair_mode = true;
     a.advance(&comm).unwrap();
     b.advance(&comm).unwrap();
     assert!(
-        b.nl.pairs() < a.nl.pairs() * 7 / 10,
+        b.nl.entries() < a.nl.entries() * 7 / 10,
         "half lists: {} vs {}",
-        b.nl.pairs(),
-        a.nl.pairs()
+        b.nl.entries(),
+        a.nl.entries()
     );
     let (ia, ib) = (a.by_id(), b.by_id());
     let (mut d_rho, mut s_rho, mut d_acc, mut s_acc, mut fluid) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0);

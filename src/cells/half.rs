@@ -115,8 +115,13 @@ impl HalfPairs {
     }
 
     /// Partners listed (pairs), or 0 in lean mode.
-    pub fn pairs(&self) -> usize {
+    pub fn len(&self) -> usize {
         self.pairs
+    }
+
+    /// True if no pair is listed.
+    pub fn is_empty(&self) -> bool {
+        self.pairs == 0
     }
 
     /// Bytes held by the lists.

@@ -65,9 +65,6 @@ pub struct Model<const D: usize> {
     pub c_max: f64,
     /// Particle shifting of fluid particles, if the scene asks for it.
     pub shifting: Option<shifting::Shifting>,
-    /// Fluid pair loops evaluate each pair of owned fluid particles once ([`pairs`]) over half
-    /// lists, instead of gathering over full ones.
-    pub pairs: bool,
 }
 
 impl<const D: usize> Model<D> {
@@ -120,7 +117,6 @@ impl<const D: usize> Model<D> {
             materials,
             c_max,
             shifting,
-            pairs: s.performance.interactions == crate::scene::Interactions::Pairs,
         }
     }
 

@@ -299,7 +299,6 @@ pub fn validate(s: &mut Scene) -> Result<()> {
     validate_probes(s)?;
     validate_checkpoint(&s.checkpoint)?;
     validate_reference(s)?;
-    validate_performance(s)?;
     check_sound_speed(s)?;
     check_step_budget(s)
 }
@@ -399,31 +398,6 @@ pub(crate) fn check_body_names(
         seen.insert(name, k);
     }
     Ok(())
-}
-
-/// `[performance]`: pair mode covers the fluid passes; a scene whose other passes gather over
-/// full lists (solids, shifting) runs in gather mode.
-fn validate_performance(s: &Scene) -> Result<()> {
-    if s.performance.interactions != crate::scene::Interactions::Pairs {
-        return Ok(());
-    }
-    let other = if !s.solids.is_empty() {
-        Some("solid bodies (their passes gather over full neighbour lists)")
-    } else if s.physics.shifting != crate::scene::ShiftingKind::None {
-        Some("physics.shifting (the shift gathers over full neighbour lists)")
-    } else {
-        None
-    };
-    match other {
-        Some(what) => err(
-            "performance.interactions",
-            format!(
-                "interactions = \"pairs\" covers the fluid passes only, and this scene has {what}; \
-                 use interactions = \"gather\""
-            ),
-        ),
-        None => Ok(()),
-    }
 }
 
 /// Dimension, domain, limits and discretisation; returns the kernel support (m).

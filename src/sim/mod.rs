@@ -80,6 +80,10 @@ pub struct Simulation<const D: usize> {
     pub pair_count: u64,
     /// The passes of a step, in order.
     pub schedule: Vec<Pass>,
+    /// Pair mode (`performance.interactions = "pairs"`): the passes with a pair kernel visit
+    /// each pair of owned fluid particles once over half lists instead of gathering over full
+    /// ones. A choice of the step, not of the physics.
+    pub pair_mode: bool,
     /// Particles removed by the outflow rule and not yet reported (the driver drains it).
     pub removed: Vec<outflow::Removal>,
     fresh: Freshness,
@@ -197,12 +201,15 @@ impl<const D: usize> Simulation<D> {
         let (rank, ranks) = (comm.rank(), comm.size());
         debug_assert_eq!(ranks, layout.ranks, "layout resolved for this communicator");
         let model = Model::<D>::new(scene);
+        let pair_mode = scene.performance.interactions == crate::scene::Interactions::Pairs;
+        crate::physics::passes::check_pair_mode(&model, pair_mode)?;
         let space = image_space::<D>(scene);
         let grid = CellGrid::new(&space.min, &space.max, model.kernel.support);
         let boxes = map.boxes();
         let sim = Simulation {
             scene: scene.clone(),
             schedule: schedule(&model),
+            pair_mode,
             model,
             p,
             space,

@@ -10,18 +10,12 @@
 
 use super::timers::Timer;
 use super::Simulation;
-use crate::boundary::{dummy, motion};
-use crate::cells::{HalfView, Neighbours, Wants};
+use crate::boundary::motion;
+use crate::cells::Wants;
 use crate::comm::Comm;
 use crate::error::Result;
 use crate::particles::Fields;
-use crate::particles::Particles;
-use crate::physics::pairs::PairScratch;
-use crate::physics::passes::Pass;
-use crate::physics::solid::dynamics;
-use crate::physics::solid::dynamics::SolidScratch;
-use crate::physics::Model;
-use crate::physics::{delta, fluid, pairs, viscous};
+use crate::physics::passes::{self, Ctx, Pass};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -93,111 +87,44 @@ impl<const D: usize> Simulation<D> {
         Ok(())
     }
 
-    /// One pass: refresh what it needs, run it, mark what it wrote.
+    /// One pass: refresh what it needs, run its row, mark what it wrote.
     fn run_pass(&mut self, pass: Pass, dt: f64, comm: &dyn Comm) -> Result<()> {
         let need = self.fresh.before(pass);
         if !need.is_empty() {
             self.refresh(need, comm)?;
         }
         let t0 = Instant::now();
-        if pass == Pass::Shift {
-            self.shift(dt);
-        } else if pass.pairs() {
-            let (p, model, pair, solid) = (&mut self.p, &self.model, &mut self.pair_scratch, &mut self.solid);
+        let mut c = Ctx {
+            p: &mut self.p,
+            model: &self.model,
+            space: &self.space,
+            dt,
+            pair: &mut self.pair_scratch,
+            solid: &mut self.solid,
+        };
+        if pass.walks_neighbours() {
             let half = self.nl.half(&self.grid, &self.cells);
-            let half = half.as_ref().filter(|_| model.pairs);
+            let half = half.as_ref().filter(|_| self.pair_mode);
             if self.nl.is_lean() {
                 let nb = self.nl.scan(&self.grid, &self.cells);
-                neighbour_pass(pass, p, &nb, half, model, dt, pair, solid);
+                pass.run(&mut c, &nb, half);
             } else {
-                neighbour_pass(pass, p, &self.nl, half, model, dt, pair, solid);
+                pass.run(&mut c, &self.nl, half);
             }
-        } else {
-            match pass {
-                Pass::DensityUpdate => self.update_density(dt),
-                Pass::SolidUpdate => dynamics::update(&mut self.p, &self.model, dt, &self.solid),
-                // nothing to kick at the set-up (dt = 0); skipping keeps −0.0 velocities' bits
-                Pass::Kick if dt > 0.0 => self.half_kick(dt),
-                Pass::Kick => {}
-                _ => unreachable!("{} walks neighbours", pass.name()),
-            }
-        }
-        if pass.pairs() {
-            self.pair_count += self.nl.pairs() as u64;
+            self.pair_count += self.nl.entries() as u64;
             self.timers.add(Timer::Forces, t0);
         } else {
+            pass.run(&mut c, &self.nl, None);
             self.timers.add(Timer::Integrate, t0);
         }
         self.fresh.after(pass);
         Ok(())
     }
 
-    /// ρ += dt dρ/dt for integrated particles (skipped at dt = 0, the set-up), then the EOS.
-    fn update_density(&mut self, dt: f64) {
-        if dt > 0.0 {
-            let n = self.p.n_owned;
-            let (kind, drho) = (&self.p.kind, &self.p.drho);
-            self.p.rho[..n].par_iter_mut().enumerate().for_each(|(i, rho)| {
-                if kind[i].is_fluid() {
-                    *rho += drho[i] * dt;
-                }
-            });
-        }
-        self.update_pressure();
-    }
-
-    /// Particle shifting ([`crate::physics::shifting`]) of owned fluid particles: positions
-    /// moved (wrapped, kept on the fluid side of mirror planes), ρ and v Taylor-corrected, p
-    /// from the EOS. Skipped at dt = 0 (the set-up).
-    fn shift(&mut self, dt: f64) {
-        let Some(s) = self.model.shifting else { return };
-        if dt <= 0.0 {
-            return;
-        }
-        let n = self.p.n_owned;
-        let mut out = vec![crate::physics::shifting::Shift::<D>::default(); n];
-        if self.nl.is_lean() {
-            let nb = self.nl.scan(&self.grid, &self.cells);
-            crate::physics::shifting::shifts(&self.p, &nb, &self.model, &s, &mut out);
-        } else {
-            crate::physics::shifting::shifts(&self.p, &self.nl, &self.model, &s, &mut out);
-        }
-        let space = &self.space;
-        let planes = &space.planes;
-        let p = &mut self.p;
-        let kind = &p.kind;
-        p.x[..n]
-            .par_iter_mut()
-            .zip(p.rho[..n].par_iter_mut())
-            .zip(p.v[..n].par_iter_mut())
-            .enumerate()
-            .for_each(|(i, ((x, rho), v))| {
-                if kind[i].is_fluid() {
-                    let o = &out[i];
-                    let old = *x;
-                    *x += o.dr;
-                    // a shift is not a motion: only the position is reflected at a mirror
-                    let mut ghost_v = *v;
-                    crate::boundary::mirror::bounce_all(planes, &old, x, &mut ghost_v);
-                    space.wrap(x);
-                    *rho += o.drho;
-                    *v += o.dv;
-                }
-            });
-        self.update_pressure();
-    }
-
     /// p = p(ρ) of the particle's material for owned fluid particles (solids: the solid
     /// update).
     pub(super) fn update_pressure(&mut self) {
-        let n = self.p.n_owned;
-        let (kind, mat, rho) = (&self.p.kind, &self.p.mat, &self.p.rho);
-        let materials = &self.model.materials;
-        self.p.p[..n].par_iter_mut().enumerate().for_each(|(i, pi)| {
-            if kind[i].is_fluid() {
-                *pi = materials[mat[i] as usize].pressure(rho[i], 0.0);
-            }
-        });
+        passes::update_pressure(&mut self.p, &self.model.materials);
     }
 
     /// Ghosts (positions and every field), binning and neighbour lists at the current state.
@@ -224,7 +151,7 @@ impl<const D: usize> Simulation<D> {
         let t0 = Instant::now();
         self.bin()?;
         let kind = &self.p.kind;
-        let fluid_lists = if self.model.pairs { Wants::Half } else { Wants::All };
+        let fluid_lists = if self.pair_mode { Wants::Half } else { Wants::All };
         self.nl.build(&self.grid, &self.cells, &self.p, support, |i| {
             let k = kind[i];
             if !k.is_smoothed() {
@@ -277,14 +204,7 @@ impl<const D: usize> Simulation<D> {
 
     /// Half kick of owned integrated particles: v += ½dt a.
     fn half_kick(&mut self, dt: f64) {
-        let n = self.p.n_owned;
-        let h = 0.5 * dt;
-        let (kind, acc) = (&self.p.kind, &self.p.acc);
-        self.p.v[..n].par_iter_mut().enumerate().for_each(|(i, v)| {
-            if kind[i].is_integrated() {
-                *v += acc[i] * h;
-            }
-        });
+        passes::half_kick(&mut self.p, dt);
     }
 
     /// Signal speed of owned solid particle `i` for the time step (m/s): the longitudinal wave
@@ -359,50 +279,5 @@ impl<const D: usize> Simulation<D> {
         } else {
             dt
         })
-    }
-}
-
-/// A pass that walks neighbours (`Pass::pairs`), over stored lists or the list-free scan, in
-/// gather mode, or over the half lists (`half`) in pair mode.
-#[allow(clippy::too_many_arguments)]
-fn neighbour_pass<const D: usize, N: Neighbours>(
-    pass: Pass,
-    p: &mut Particles<D>,
-    nb: &N,
-    half: Option<&HalfView<'_, D>>,
-    model: &Model<D>,
-    dt: f64,
-    pair: &mut PairScratch<D>,
-    solid: &mut SolidScratch<D>,
-) {
-    match (pass, half) {
-        (Pass::DensityGradient, Some(h)) => pairs::renormalised_gradient(p, h, model, pair),
-        (Pass::Continuity, Some(h)) => pairs::continuity(p, h, model, dt, pair),
-        (Pass::ViscousMoment, Some(h)) => pairs::lattice_moment(p, h, model, pair),
-        (Pass::Momentum, Some(h)) => pairs::momentum(p, h, model, pair),
-        _ => gather_pass(pass, p, nb, model, dt, pair.buffer(), solid),
-    }
-}
-
-/// A gather pass (each particle sums over its own list); `buf` is per-particle scratch.
-fn gather_pass<const D: usize, N: Neighbours>(
-    pass: Pass,
-    p: &mut Particles<D>,
-    nb: &N,
-    model: &Model<D>,
-    dt: f64,
-    buf: &mut Vec<f64>,
-    solid: &mut SolidScratch<D>,
-) {
-    match pass {
-        Pass::DensityGradient => delta::renormalised_gradient(p, nb, model, buf),
-        Pass::Continuity => fluid::continuity(p, nb, model, dt, buf),
-        Pass::ViscousMoment => viscous::lattice_moment(p, nb, model, buf),
-        Pass::WallExtrapolation => dummy::extrapolate(p, nb, &model.dummy_walls()),
-        Pass::Momentum => fluid::momentum(p, nb, model, buf),
-        Pass::SolidCorrection => dynamics::correction(p, nb, model),
-        Pass::SolidRates => dynamics::rates(p, nb, model, dt, solid),
-        Pass::SolidMomentum => dynamics::momentum(p, nb, model, solid),
-        _ => unreachable!("{} walks no neighbours", pass.name()),
     }
 }
