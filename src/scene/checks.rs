@@ -1,7 +1,9 @@
 //! The value checks every part of scene validation shares: one wording for a missing,
 //! non-positive or out-of-range number, naming the key, the value, the range and an example.
 
+use super::Domain;
 use crate::error::{Error, Result};
+use crate::limits::MAX_SPEED;
 
 /// An input error at `key`.
 pub(super) fn err<T>(key: impl Into<String>, msg: impl Into<String>) -> Result<T> {
@@ -62,6 +64,171 @@ pub(super) fn in_range(
             num(x),
             num(lo),
             num(hi)
+        ),
+    )
+}
+
+pub(super) fn check_vec(v: &mut Vec<f64>, d: usize, key: &str, empty_is_zero: bool) -> Result<()> {
+    if v.is_empty() && empty_is_zero {
+        *v = vec![0.0; d];
+    }
+    if v.len() != d {
+        return err(
+            key,
+            format!("needs {d} components (dimension = {d}), got {}", v.len()),
+        );
+    }
+    if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+        return err(key, format!("components must be finite numbers, got {x}"));
+    }
+    Ok(())
+}
+
+pub(super) fn check_box(min: &[f64], max: &[f64], key: &str) -> Result<()> {
+    for a in 0..min.len() {
+        if max[a] <= min[a] {
+            return err(
+                format!("{key}.max"),
+                format!(
+                    "max must exceed min on every axis; axis {a}: min {} ≥ max {}",
+                    min[a], max[a]
+                ),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// A vector `v` (in `unit`) whose length, computed without overflow, is at most `max`.
+pub(super) fn length_at_most(
+    v: &[f64],
+    key: &str,
+    max: f64,
+    unit: &str,
+    name: &str,
+    example: &str,
+) -> Result<()> {
+    let len = norm(v);
+    if len <= max {
+        return Ok(());
+    }
+    err(
+        key,
+        format!(
+            "[{}] has length {} {unit}, above the limit of {} {unit} ({name}); e.g. {example}",
+            v.iter().map(|x| num(*x)).collect::<Vec<_>>().join(", "),
+            num(len),
+            num(max)
+        ),
+    )
+}
+
+/// A velocity (m/s) no faster than [`MAX_SPEED`].
+pub(super) fn speed_at_most(v: &[f64], key: &str) -> Result<()> {
+    length_at_most(v, key, MAX_SPEED, "m/s", "MAX_SPEED", "velocity = [1.0, 0.0]")
+}
+
+/// Euclidean length: √(Σ x²) (the bits every earlier version computed), or, where the squares
+/// overflow, the same length without intermediate overflow (`hypot`); NaN stays NaN.
+pub(super) fn norm(v: &[f64]) -> f64 {
+    let n = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    if n.is_finite() {
+        n
+    } else {
+        v.iter().fold(0.0, |n: f64, x| n.hypot(*x))
+    }
+}
+
+/// The face names of a container's `open` list.
+pub fn face(name: &str, dim: usize) -> Option<(usize, bool)> {
+    let axes = ["x", "y", "z"];
+    // strip_suffix, not split_at: a name ending in a multi-byte character must not panic
+    let (ax, up) = match (name.strip_suffix('-'), name.strip_suffix('+')) {
+        (Some(ax), _) => (ax, false),
+        (_, Some(ax)) => (ax, true),
+        _ => return None,
+    };
+    let a = axes.iter().position(|&n| n == ax)?;
+    (a < dim).then_some((a, up))
+}
+
+/// Names in file order, with a set to look them up in O(1) (a scene may hold thousands).
+pub(super) struct Names {
+    pub(super) list: Vec<String>,
+    pub(super) set: std::collections::HashSet<String>,
+}
+
+impl Names {
+    pub(super) fn new<'a>(names: impl Iterator<Item = &'a str>) -> Self {
+        let list: Vec<String> = names.map(String::from).collect();
+        let set = list.iter().cloned().collect();
+        Names { list, set }
+    }
+
+    pub(super) fn contains(&self, name: &str) -> bool {
+        self.set.contains(name)
+    }
+
+    /// The names for a message: all of them, or the first 20 and how many more.
+    pub(super) fn shown(&self) -> String {
+        let mut out = self.list.iter().take(20).cloned().collect::<Vec<_>>().join(", ");
+        if self.list.len() > 20 {
+            out.push_str(&format!(" and {} more", self.list.len() - 20));
+        }
+        out
+    }
+}
+
+/// An unknown material name of body key `k` (exit 2 listing the defined ones).
+pub(super) fn unknown_material(k: &str, name: &str, mat_names: &Names) -> Result<()> {
+    err(
+        format!("{k}.material"),
+        format!("unknown material `{name}`; defined: {}", mat_names.shown()),
+    )
+}
+
+/// A body [min, max] must lie in the domain; `body` is its key, the error names its `min` or
+/// `max`, whichever is out.
+pub(super) fn in_domain(min: &[f64], max: &[f64], body: &str, dom: &Domain) -> Result<()> {
+    let tol = 1e-9 * disc_scale(dom);
+    for a in 0..min.len() {
+        let low = min[a] < dom.min[a] - tol;
+        if low || max[a] > dom.max[a] + tol {
+            return err(
+                format!("{body}.{}", if low { "min" } else { "max" }),
+                format!(
+                    "the body [{:?}, {:?}] lies outside the domain [{:?}, {:?}] on axis {a}; \
+                     enlarge domain.min/domain.max or move the body",
+                    min, max, dom.min, dom.max
+                ),
+            );
+        }
+    }
+    Ok(())
+}
+
+pub(super) fn disc_scale(dom: &Domain) -> f64 {
+    dom.min
+        .iter()
+        .chain(dom.max.iter())
+        .fold(1e-300f64, |m, x| m.max(x.abs()))
+}
+
+/// A probe point must lie in the domain: outside it would read nothing and report zeros.
+pub(super) fn point_in_domain(p: &[f64], key: &str, dom: &Domain) -> Result<()> {
+    let inside = p
+        .iter()
+        .enumerate()
+        .all(|(a, &x)| x >= dom.min[a] && x <= dom.max[a]);
+    if inside {
+        return Ok(());
+    }
+    err(
+        key,
+        format!(
+            "{p:?} lies outside the domain {:?} .. {:?}: a probe there would read nothing; move it \
+             inside",
+            dom.min, dom.max
         ),
     )
 }

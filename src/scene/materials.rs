@@ -8,6 +8,146 @@ use super::*;
 use crate::error::Result;
 use crate::limits::{DENSITY_RANGE, MAX_EOS_CONSTANT, MAX_MODULUS, SOUND_SPEED_RANGE};
 use crate::material::library;
+use serde::{Deserialize, Serialize};
+
+/// What a material is: a weakly compressible fluid or an elastic–plastic solid.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum MaterialKind {
+    /// Weakly compressible fluid (Tait or linear EOS).
+    #[default]
+    Fluid,
+    /// Elastic–plastic solid: Mie–Grüneisen EOS, shear modulus, optional Johnson–Cook
+    /// strength and failure (docs/solids.md).
+    Solid,
+}
+
+/// Strength model of a solid.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum StrengthKind {
+    /// Elastic: no yield.
+    Elastic,
+    /// Johnson–Cook flow stress with radial return.
+    JohnsonCook,
+}
+
+/// A material (`[[material]]`). Fluids give `rho0`, `c0`, `eos`, `gamma`; solids
+/// (`model = "solid"`) give their constants, or `library = "al6061-t6"` and only what they
+/// change (the validator fills the rest from the library, so the resolved scene is explicit).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    /// Name referred to by bodies.
+    pub name: String,
+    /// `fluid` (default) or `solid`.
+    #[serde(default, skip_serializing_if = "is_fluid_kind")]
+    pub model: MaterialKind,
+    /// A solid from the material library (`hsph check` lists them): fills every solid constant
+    /// not given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub library: Option<String>,
+    /// Reference density ρ0 (kg/m³).
+    #[serde(default)]
+    pub rho0: f64,
+    /// Fluids: numerical sound speed c0 (m/s), ≥ 10 × the expected speed. Solids: the bulk
+    /// sound speed, the intercept of the Hugoniot Us = c0 + s·up (m/s).
+    #[serde(default)]
+    pub c0: f64,
+    /// `tait` or `linear`.
+    #[serde(default = "default_eos")]
+    pub eos: EosKind,
+    /// Tait exponent γ (ignored by `linear`).
+    #[serde(default = "default_gamma")]
+    pub gamma: f64,
+    /// Solid: slope s of the Hugoniot Us = c0 + s·up (–).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hugoniot_slope: Option<f64>,
+    /// Solid: Grüneisen coefficient Γ0 (–).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gruneisen: Option<f64>,
+    /// Solid: shear modulus G (Pa).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shear_modulus: Option<f64>,
+    /// Solid: `elastic` or `johnson_cook` (default with a library material).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strength: Option<StrengthKind>,
+    /// Johnson–Cook yield stress A (Pa).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jc_a: Option<f64>,
+    /// Johnson–Cook hardening modulus B (Pa).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jc_b: Option<f64>,
+    /// Johnson–Cook hardening exponent n (–).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jc_n: Option<f64>,
+    /// Johnson–Cook strain-rate coefficient C (–), ε̇0 = 1/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jc_c: Option<f64>,
+    /// Johnson–Cook thermal-softening exponent m (–).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jc_m: Option<f64>,
+    /// Room temperature (K).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub t_room: Option<f64>,
+    /// Melt temperature (K).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub t_melt: Option<f64>,
+    /// Specific heat c_v (J/(kg K)).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub specific_heat: Option<f64>,
+    /// Failure: equivalent plastic strain at which a particle fails (–); none by default.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failure_strain: Option<f64>,
+    /// Failure: spall strength, the tension at which a particle fails (Pa); none by default.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spall_pressure: Option<f64>,
+}
+
+fn is_fluid_kind(k: &MaterialKind) -> bool {
+    *k == MaterialKind::Fluid
+}
+
+impl Material {
+    /// A fluid material with a Tait (γ = 7) or linear EOS.
+    pub fn fluid(name: &str, rho0: f64, c0: f64, eos: EosKind) -> Self {
+        Material {
+            name: name.into(),
+            model: MaterialKind::Fluid,
+            library: None,
+            rho0,
+            c0,
+            eos,
+            gamma: default_gamma(),
+            hugoniot_slope: None,
+            gruneisen: None,
+            shear_modulus: None,
+            strength: None,
+            jc_a: None,
+            jc_b: None,
+            jc_n: None,
+            jc_c: None,
+            jc_m: None,
+            t_room: None,
+            t_melt: None,
+            specific_heat: None,
+            failure_strain: None,
+            spall_pressure: None,
+        }
+    }
+
+    /// True for a solid material.
+    pub fn is_solid(&self) -> bool {
+        self.model == MaterialKind::Solid
+    }
+}
+
+fn default_eos() -> EosKind {
+    EosKind::Tait
+}
+fn default_gamma() -> f64 {
+    7.0
+}
 
 /// `value` must be a finite number > 0 (or ≥ 0 with `allow_zero`).
 fn check(value: Option<f64>, key: &str, example: &str, allow_zero: bool) -> Result<()> {

@@ -1,0 +1,330 @@
+//! Probes (`[[probe]]`): what each kind measures, its keys and their checks. The measuring is
+//! in `crate::probes`.
+
+use super::checks::*;
+use super::*;
+use crate::error::Result;
+
+/// A probe (`[[probe]]`), written to `probes/<name>.csv` on its own clock: every `interval`
+/// seconds of simulated time (default: at the output steps; 0 = every step), buffered and
+/// flushed at output steps. Sensors are documented in `src/probes/sensors.rs`.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, tag = "kind", rename_all = "snake_case")]
+pub enum Probe {
+    /// Pressure transducer at a point, usually on a wall face: the kernel-weighted (Shepard)
+    /// average of the fluid pressure around it (walls excluded), averaged over a sensing face
+    /// of `diameter` across `normal` and over the last `window` seconds: column `p` (Pa).
+    Pressure {
+        /// Probe name (file `probes/<name>.csv`).
+        name: String,
+        /// Centre of the sensing face (m).
+        point: Vec<f64>,
+        /// Diameter of the sensing face (m; 0 = a point).
+        #[serde(default)]
+        diameter: f64,
+        /// Normal of the sensing face (needed when `diameter` > 0; any length).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        normal: Option<Vec<f64>>,
+        /// Averaging window (s; 0 = instantaneous). A windowed sensor samples every step.
+        #[serde(default)]
+        window: f64,
+        /// Seconds between rows (default: the output interval; 0 = every step).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        interval: Option<f64>,
+    },
+    /// Kernel-interpolated velocity at `points` points from `from` to `to`.
+    VelocityLine {
+        /// Probe name.
+        name: String,
+        /// Start (m).
+        from: Vec<f64>,
+        /// End (m).
+        to: Vec<f64>,
+        /// Number of sample points (≥ 2).
+        points: usize,
+        /// Seconds between rows (default: the output interval; 0 = every step).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        interval: Option<f64>,
+    },
+    /// Wave gauge at a station: the elevation (along the last axis) where the continuous water
+    /// column on the bed under `point` ends (interpolated matter fraction ½; spray above it is
+    /// ignored), 0 when dry: column `eta`.
+    Gauge {
+        /// Probe name.
+        name: String,
+        /// A point on the vertical line (m); its last coordinate is ignored.
+        point: Vec<f64>,
+        /// Seconds between rows (default: the output interval; 0 = every step).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        interval: Option<f64>,
+    },
+    /// Front of the main body of fluid along `axis` in `direction`: the extreme coordinate of
+    /// the largest connected group of fluid particles (two particles connect when closer than
+    /// `link`·dx), so that detached drops and spray do not count: column `front` (m).
+    Front {
+        /// Probe name.
+        name: String,
+        /// Axis index (0 = x).
+        #[serde(default)]
+        axis: usize,
+        /// `"+"` (largest coordinate, the default) or `"-"` (smallest).
+        #[serde(default)]
+        direction: Direction,
+        /// Connection distance in units of dx (default 1.5).
+        #[serde(default = "default_link")]
+        link: f64,
+        /// Seconds between rows (default: the output interval; 0 = every step).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        interval: Option<f64>,
+    },
+    /// Force and moment the fluid exerts on the wall `body` (N and N·m; per metre of depth in
+    /// 2D), the same pair forces the walls exert on the fluid, reversed; the moment is about
+    /// `about`: columns `fx, fy[, fz]` then `mz` (2D) or `mx, my, mz` (3D).
+    Force {
+        /// Probe name.
+        name: String,
+        /// Name of a `[[wall]]` with dummy or repulsive particles.
+        body: String,
+        /// Point the moment is taken about (m; default the origin).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        about: Option<Vec<f64>>,
+        /// Averaging window (s; 0 = instantaneous). A windowed sensor samples every step.
+        #[serde(default)]
+        window: f64,
+        /// Seconds between rows (default: the output interval; 0 = every step).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        interval: Option<f64>,
+    },
+    /// The hole a projectile punches through a plate and the debris cloud behind it
+    /// (`probes::hole` states the method): columns `perforated`, `major`, `minor` (m), `angle`
+    /// (degrees), `area` (m²), `centre_u`, `centre_v` (m), `debris` (particles),
+    /// `debris_length`, `debris_width` (m). `summary.json` reports the axes once settled.
+    Hole {
+        /// Probe name.
+        name: String,
+        /// The `[[solid]]` plate.
+        plate: String,
+        /// The `[[solid]]` projectile (its initial velocity is the impact direction).
+        projectile: String,
+        /// Seconds between rows (default: the output interval; 0 = every step).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        interval: Option<f64>,
+    },
+}
+
+/// Which way a front probe looks along its axis.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
+pub enum Direction {
+    /// Towards larger coordinates.
+    #[default]
+    #[serde(rename = "+")]
+    Plus,
+    /// Towards smaller coordinates.
+    #[serde(rename = "-")]
+    Minus,
+}
+
+fn default_link() -> f64 {
+    1.5
+}
+
+impl Probe {
+    /// The probe's name.
+    pub fn name(&self) -> &str {
+        match self {
+            Probe::Pressure { name, .. }
+            | Probe::VelocityLine { name, .. }
+            | Probe::Gauge { name, .. }
+            | Probe::Front { name, .. }
+            | Probe::Force { name, .. }
+            | Probe::Hole { name, .. } => name,
+        }
+    }
+
+    /// Seconds between rows, if set (`None`: at the output steps).
+    pub fn interval(&self) -> Option<f64> {
+        match self {
+            Probe::Pressure { interval, .. }
+            | Probe::VelocityLine { interval, .. }
+            | Probe::Gauge { interval, .. }
+            | Probe::Front { interval, .. }
+            | Probe::Force { interval, .. }
+            | Probe::Hole { interval, .. } => *interval,
+        }
+    }
+
+    /// Averaging window (s; 0 = none).
+    pub fn window(&self) -> f64 {
+        match self {
+            Probe::Pressure { window, .. } | Probe::Force { window, .. } => *window,
+            _ => 0.0,
+        }
+    }
+}
+
+fn validate_probe_kind(
+    k: &str,
+    probe: &mut Probe,
+    d: usize,
+    domain: &Domain,
+    t: &ProbeTargets,
+) -> Result<()> {
+    match probe {
+        Probe::Pressure {
+            point,
+            diameter,
+            normal,
+            ..
+        } => {
+            check_vec(point, d, &format!("{k}.point"), false)?;
+            point_in_domain(point, &format!("{k}.point"), domain)?;
+            if !(*diameter >= 0.0 && diameter.is_finite()) {
+                return err(format!("{k}.diameter"), format!("must be ≥ 0 m, got {diameter}"));
+            }
+            match normal {
+                Some(n) => {
+                    check_vec(n, d, &format!("{k}.normal"), false)?;
+                    if n.iter().all(|c| *c == 0.0) {
+                        return err(
+                            format!("{k}.normal"),
+                            "must not be zero: the wall's normal, e.g. [-1.0, 0.0]",
+                        );
+                    }
+                }
+                None if *diameter > 0.0 && d > 1 => {
+                    return err(
+                        format!("{k}.normal"),
+                        "a sensing face with a diameter needs the wall's normal, e.g. normal = [-1.0, 0.0]",
+                    );
+                }
+                None => {}
+            }
+        }
+        Probe::Gauge { point, .. } => {
+            check_vec(point, d, &format!("{k}.point"), false)?;
+            point_in_domain(point, &format!("{k}.point"), domain)?;
+        }
+        Probe::Hole {
+            plate, projectile, ..
+        } => {
+            for (key, name) in [("plate", &*plate), ("projectile", &*projectile)] {
+                if !t.solids.contains_key(name.as_str()) {
+                    return err(
+                        format!("{k}.{key}"),
+                        format!(
+                            "no [[solid]] body named `{name}`; solids: {}",
+                            t.solid_names.shown()
+                        ),
+                    );
+                }
+            }
+            let pr = t.solids.get(projectile.as_str());
+            if pr.is_some_and(|b| b.velocity.iter().all(|c| *c == 0.0)) {
+                return err(
+                    format!("{k}.projectile"),
+                    format!("`{projectile}` does not move: its velocity is the impact direction"),
+                );
+            }
+        }
+        Probe::VelocityLine { from, to, points, .. } => {
+            check_vec(from, d, &format!("{k}.from"), false)?;
+            check_vec(to, d, &format!("{k}.to"), false)?;
+            point_in_domain(from, &format!("{k}.from"), domain)?;
+            point_in_domain(to, &format!("{k}.to"), domain)?;
+            if *points < 2 {
+                return err(format!("{k}.points"), "needs at least 2 points");
+            }
+            crate::limits::count(
+                &format!("{k}.points"),
+                *points as u64,
+                crate::limits::MAX_PROBE_POINTS,
+            )?;
+        }
+        Probe::Front { axis, link, .. } => {
+            if *axis >= d {
+                return err(format!("{k}.axis"), format!("must be below dimension {d}"));
+            }
+            if !(*link >= 1.0 && link.is_finite()) {
+                return err(
+                    format!("{k}.link"),
+                    format!("must be ≥ 1 (in units of dx; 1.5 is typical), got {link}"),
+                );
+            }
+        }
+        Probe::Force { body, about, .. } => {
+            let Some(w) = t.walls.get(body.as_str()) else {
+                return err(
+                    format!("{k}.body"),
+                    format!(
+                        "no [[wall]] is named `{body}`; the walls are {}",
+                        t.wall_names.shown()
+                    ),
+                );
+            };
+            if w.method == WallMethod::Mirror {
+                return err(
+                    format!("{k}.body"),
+                    format!("wall `{body}` is a mirror, which has no particles to take a force on; use a dummy or repulsive wall"),
+                );
+            }
+            if let Some(a) = about {
+                check_vec(a, d, &format!("{k}.about"), false)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+pub(super) fn validate_probes(s: &mut Scene) -> Result<()> {
+    let t = ProbeTargets {
+        walls: s.walls.iter().map(|w| (w.name.as_str(), w)).collect(),
+        solids: s.solids.iter().map(|b| (b.name.as_str(), b)).collect(),
+        wall_names: Names::new(s.walls.iter().map(|w| w.name.as_str())),
+        solid_names: Names::new(s.solids.iter().map(|b| b.name.as_str())),
+    };
+    let mut seen = std::collections::HashSet::new();
+    for (i, probe) in s.probes.iter_mut().enumerate() {
+        let k = format!("probe[{i}]");
+        let name = probe.name().to_string();
+        if name.is_empty()
+            || !name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        {
+            return err(
+                format!("{k}.name"),
+                format!("`{name}` must be non-empty letters, digits, _ or -"),
+            );
+        }
+        if !seen.insert(name.clone()) {
+            return err(format!("{k}.name"), format!("probe `{name}` is defined twice"));
+        }
+        if let Some(iv) = probe.interval() {
+            if !(iv >= 0.0 && iv.is_finite()) {
+                return err(
+                    format!("{k}.interval"),
+                    format!("must be ≥ 0 s (0 = every step; leave it out for the output interval), got {iv}"),
+                );
+            }
+        }
+        let window = probe.window();
+        if !(window >= 0.0 && window.is_finite()) {
+            return err(
+                format!("{k}.window"),
+                format!("must be ≥ 0 s (0 = no time average), got {window}"),
+            );
+        }
+        validate_probe_kind(&k, probe, s.dimension, &s.domain, &t)?;
+    }
+    Ok(())
+}
+
+/// The keys of probe `i` (named `k`) that depend on its kind.
+/// The bodies probes refer to by name, looked up in O(1) (a scene may hold thousands of
+/// probes and bodies).
+struct ProbeTargets<'s> {
+    walls: std::collections::HashMap<&'s str, &'s WallBody>,
+    solids: std::collections::HashMap<&'s str, &'s FluidBody>,
+    wall_names: Names,
+    solid_names: Names,
+}

@@ -1,0 +1,313 @@
+//! Wall bodies (`[[wall]]`): their shape, boundary method, slip condition and motion law, and
+//! the checks of their keys. A wall method's parameters live here; its particles and passes
+//! in `crate::boundary` and `crate::physics::passes`.
+
+use super::checks::*;
+use super::*;
+use crate::error::Result;
+
+/// Shape of a wall body.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum WallShape {
+    /// A solid block: every lattice site in [min, max) is a wall particle.
+    Block,
+    /// A container around the inner box [min, max): `layers` layers outside each face except
+    /// the faces listed in `open`.
+    Container,
+}
+
+/// Boundary method of a wall.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum WallMethod {
+    /// Fixed dummy particles with pressure and velocity extrapolation (Adami et al. 2012).
+    Dummy,
+    /// Monaghan repulsive particles (Lennard-Jones-like force, Monaghan 1994).
+    Repulsive,
+    /// Mirror (image) particles across the inner faces of a container; no wall particles.
+    Mirror,
+}
+
+impl WallMethod {
+    /// The particle kind the method fills its body with (`None`: mirror walls have no
+    /// particles of their own).
+    pub fn particle_kind(self) -> Option<crate::particles::Kind> {
+        match self {
+            WallMethod::Dummy => Some(crate::particles::Kind::Dummy),
+            WallMethod::Repulsive => Some(crate::particles::Kind::Repulsive),
+            WallMethod::Mirror => None,
+        }
+    }
+}
+
+/// Tangential condition of a wall.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Slip {
+    /// Velocity of the fluid at the wall equals the wall's.
+    NoSlip,
+    /// Only the normal velocity is constrained.
+    FreeSlip,
+}
+
+/// How a no-slip dummy wall shows the fluid its velocity in the laminar viscous term.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum NoSlipMethod {
+    /// Adami et al. (2012): every dummy wall particle carries v_w = 2 u_wall − ṽ_w, ṽ_w the
+    /// kernel-weighted mean of the fluid velocities round it; on a mirror wall, the image's
+    /// reflected velocity v′ = 2 u_wall − v.
+    #[default]
+    Adami,
+    /// Morris et al. (1997): per pair, v_i − v_w = β (v_i − u_wall) with β = 1 + d_w/d_i, the
+    /// depths of the wall (or image) particle and the fluid particle on either side of the
+    /// wall's surface: exact for a linear profile ([`crate::boundary::geometry`],
+    /// [`crate::physics::viscous`]).
+    Morris,
+}
+
+impl NoSlipMethod {
+    /// True for `adami` (left out of a written scene).
+    pub fn is_adami(&self) -> bool {
+        *self == NoSlipMethod::Adami
+    }
+}
+
+/// Prescribed motion law x(t) of a wall (a piston or wave maker).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, tag = "law", rename_all = "snake_case")]
+pub enum Motion {
+    /// x(t) = x0 + A sin(2π t/T + φ).
+    Sine {
+        /// Amplitude vector A (m).
+        amplitude: Vec<f64>,
+        /// Period T (s).
+        period: f64,
+        /// Phase φ (rad).
+        #[serde(default)]
+        phase: f64,
+    },
+    /// x(t) = x0 + u t.
+    ConstantVelocity {
+        /// Velocity u (m/s).
+        velocity: Vec<f64>,
+    },
+    /// A piston wave maker that generates one solitary wave of height `amplitude` on still
+    /// water of `depth` (Goring 1978): see [`crate::boundary::motion`].
+    Solitary {
+        /// Wave height A above still water (m).
+        amplitude: f64,
+        /// Still-water depth h in front of the paddle (m).
+        depth: f64,
+        /// Direction the paddle pushes (and the wave travels); default +x.
+        #[serde(default)]
+        direction: Vec<f64>,
+    },
+}
+
+/// A wall body.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct WallBody {
+    /// Name, unique among all bodies (fluids, solids, walls).
+    pub name: String,
+    /// `block` or `container`.
+    pub shape: WallShape,
+    /// Lower corner (m) of the block, or of the container's inner box.
+    pub min: Vec<f64>,
+    /// Upper corner (m).
+    pub max: Vec<f64>,
+    /// Container wall thickness in particle layers (default: enough to cover the support).
+    #[serde(default)]
+    pub layers: usize,
+    /// Open faces of a container, e.g. `["y+"]` for an open-top tank.
+    #[serde(default)]
+    pub open: Vec<String>,
+    /// `dummy`, `repulsive` or `mirror`.
+    #[serde(default = "default_method")]
+    pub method: WallMethod,
+    /// `no_slip` or `free_slip`.
+    #[serde(default = "default_slip")]
+    pub slip: Slip,
+    /// How a no-slip dummy wall shows the fluid its velocity in the laminar viscous term:
+    /// `adami` (default) or `morris` (Morris et al. 1997's distance ratio).
+    #[serde(default, skip_serializing_if = "NoSlipMethod::is_adami")]
+    pub no_slip: NoSlipMethod,
+    /// Material whose EOS converts extrapolated pressure to density (default: the first).
+    #[serde(default)]
+    pub material: String,
+    /// Surface velocity (m/s) seen by the fluid while the particles stay put (a sliding lid or
+    /// a Couette plate); default zero.
+    #[serde(default)]
+    pub velocity: Vec<f64>,
+    /// Prescribed motion of the particles (a piston); exclusive with `velocity`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion: Option<Motion>,
+}
+
+fn default_method() -> WallMethod {
+    WallMethod::Dummy
+}
+fn default_slip() -> Slip {
+    Slip::NoSlip
+}
+
+/// Walls: box, material, open faces, container layers, motion.
+pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> Result<()> {
+    let d = s.dimension;
+    let dx = s.discretisation.dx;
+    for (i, w) in s.walls.iter_mut().enumerate() {
+        let k = format!("wall[{i}]");
+        check_vec(&mut w.min, d, &format!("{k}.min"), false)?;
+        check_vec(&mut w.max, d, &format!("{k}.max"), false)?;
+        check_box(&w.min, &w.max, &k)?;
+        check_vec(&mut w.velocity, d, &format!("{k}.velocity"), true)?;
+        speed_at_most(&w.velocity, &format!("{k}.velocity"))?;
+        if w.material.is_empty() {
+            w.material = mat_names.list[0].clone();
+        } else if !mat_names.contains(&w.material) {
+            return unknown_material(&k, &w.material, mat_names);
+        }
+        for (j, o) in w.open.iter().enumerate() {
+            if face(o, d).is_none() {
+                let valid: Vec<&str> = ["x-", "x+", "y-", "y+", "z-", "z+"]
+                    .into_iter()
+                    .take(2 * d)
+                    .collect();
+                return err(
+                    format!("{k}.open[{j}]"),
+                    format!("unknown face `{o}`; valid faces: {}", valid.join(", ")),
+                );
+            }
+        }
+        match w.shape {
+            WallShape::Container => {
+                let axes = ["x", "y", "z"];
+                for (a, axis) in axes.iter().enumerate().take(d) {
+                    let closed: Vec<String> = [(false, "-"), (true, "+")]
+                        .iter()
+                        .filter(|(up, _)| !w.open.iter().any(|o| face(o, d) == Some((a, *up))))
+                        .map(|(_, sign)| format!("\"{axis}{sign}\""))
+                        .collect();
+                    if s.domain.periodic[a] && !closed.is_empty() {
+                        return err(
+                            format!("{k}.open"),
+                            format!(
+                                "the container closes face(s) {} across the periodic axis {axis}: \
+                                 fluid could never cross the periodic seam; open them (open = [\"{axis}-\", \"{axis}+\"]) \
+                                 or make axis {axis} non-periodic (domain.periodic)",
+                                closed.join(", ")
+                            ),
+                        );
+                    }
+                }
+                if w.layers == 0 {
+                    w.layers = (support / dx - 1e-9).ceil().max(1.0) as usize;
+                }
+                let mut lo = w.min.clone();
+                let mut hi = w.max.clone();
+                for a in 0..d {
+                    if !w.open.iter().any(|o| face(o, d) == Some((a, false))) {
+                        lo[a] -= w.layers as f64 * dx;
+                    }
+                    if !w.open.iter().any(|o| face(o, d) == Some((a, true))) {
+                        hi[a] += w.layers as f64 * dx;
+                    }
+                }
+                if w.method != WallMethod::Mirror {
+                    in_domain(&lo, &hi, &k, &s.domain)?;
+                }
+            }
+            WallShape::Block => {
+                if w.method == WallMethod::Mirror {
+                    return err(
+                        format!("{k}.method"),
+                        "mirror walls reflect across the inner faces of a container: use \
+                         shape = \"container\", or method = \"dummy\" for a block",
+                    );
+                }
+                if !w.open.is_empty() {
+                    return err(format!("{k}.open"), "only a container has open faces");
+                }
+                in_domain(&w.min, &w.max, &k, &s.domain)?;
+            }
+        }
+        validate_motion(w, &k, d)?;
+        if w.no_slip == crate::scene::NoSlipMethod::Morris
+            && (w.method == WallMethod::Repulsive || w.slip != crate::scene::Slip::NoSlip)
+        {
+            return err(
+                format!("{k}.no_slip"),
+                "`morris` sets the velocity a no-slip dummy or mirror wall shows the fluid: it \
+                 needs method = \"dummy\" or \"mirror\" and slip = \"no_slip\"; remove it, or use \
+                 no_slip = \"adami\"",
+            );
+        }
+    }
+    Ok(())
+}
+
+/// A wall's motion law: not on a mirror wall, not with a surface velocity, valid constants.
+fn validate_motion(w: &mut crate::scene::WallBody, k: &str, d: usize) -> Result<()> {
+    if let Some(m) = &mut w.motion {
+        if w.method == WallMethod::Mirror {
+            return err(
+                format!("{k}.motion"),
+                "mirror walls cannot move (their planes are fixed); use method = \"dummy\" for a \
+                 moving wall",
+            );
+        }
+        if w.velocity.iter().any(|&v| v != 0.0) {
+            return err(
+                format!("{k}.motion"),
+                "a wall has either a surface `velocity` or a `motion` law, not both",
+            );
+        }
+        match m {
+            Motion::Sine {
+                amplitude, period, ..
+            } => {
+                check_vec(amplitude, d, &format!("{k}.motion.amplitude"), false)?;
+                positive(*period, &format!("{k}.motion.period"), "period = 1.0")?;
+            }
+            Motion::ConstantVelocity { velocity } => {
+                check_vec(velocity, d, &format!("{k}.motion.velocity"), false)?;
+                speed_at_most(velocity, &format!("{k}.motion.velocity"))?;
+            }
+            Motion::Solitary {
+                amplitude,
+                depth,
+                direction,
+            } => {
+                positive(*depth, &format!("{k}.motion.depth"), "depth = 0.25")?;
+                positive(*amplitude, &format!("{k}.motion.amplitude"), "amplitude = 0.05")?;
+                if *amplitude > 0.6 * *depth {
+                    return err(
+                        format!("{k}.motion.amplitude"),
+                        format!(
+                            "a solitary wave of A/h = {:.2} exceeds the highest one (A/h ≈ 0.8) \
+                             and Goring's first-order law is meant for A/h ≤ 0.6; for example \
+                             amplitude = {}",
+                            *amplitude / *depth,
+                            0.2 * *depth
+                        ),
+                    );
+                }
+                if direction.is_empty() {
+                    *direction = (0..d).map(|a| if a == 0 { 1.0 } else { 0.0 }).collect();
+                }
+                check_vec(direction, d, &format!("{k}.motion.direction"), false)?;
+                let n = direction.iter().map(|x| x * x).sum::<f64>().sqrt();
+                if n == 0.0 {
+                    return err(
+                        format!("{k}.motion.direction"),
+                        "the direction must not be zero; for example direction = [1.0, 0.0]",
+                    );
+                }
+                direction.iter_mut().for_each(|x| *x /= n);
+            }
+        }
+    }
+    Ok(())
+}
