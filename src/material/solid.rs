@@ -24,6 +24,15 @@ pub struct SolidModel {
 }
 
 impl SolidModel {
+    /// Signal speed of a particle of this material at density ρ (kg/m³) and specific internal
+    /// energy e (J/kg) for the time step (m/s): the longitudinal wave speed √((K + 4G/3)/ρ),
+    /// K = ρc² from the EOS, with no shear once the particle has failed.
+    #[inline]
+    pub fn signal_speed(&self, rho: f64, e: f64, failed: bool) -> f64 {
+        let g = if failed { 0.0 } else { self.shear };
+        super::strength::longitudinal_speed(self.eos.bulk_modulus(rho, e), g, rho)
+    }
+
     /// Largest signal speed of the material at rest, the longitudinal wave speed
     /// √((ρ0c0² + 4G/3)/ρ0) (m/s).
     pub fn c_long0(&self) -> f64 {

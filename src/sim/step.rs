@@ -218,9 +218,7 @@ impl<const D: usize> Simulation<D> {
         let Some(s) = self.model.materials[p.mat[i] as usize].solid() else {
             return 0.0;
         };
-        let g = if p.failed[i] != 0 { 0.0 } else { s.shear };
-        let k = s.eos.bulk_modulus(p.rho[i], p.energy[i]);
-        crate::material::strength::longitudinal_speed(k, g, p.rho[i]) + p.v[i].norm()
+        s.signal_speed(p.rho[i], p.energy[i], p.failed[i] != 0) + p.v[i].norm()
     }
 
     /// The time step for the next step (s): min of CFL·h/max(c0 + |v|max, solid signal
