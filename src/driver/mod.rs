@@ -6,12 +6,16 @@
 //! exits with status 2 before a step is taken.
 
 mod checks;
+mod diagnostics;
 mod launch;
+mod provenance;
+mod traffic;
 
 pub use checks::{check_limits, check_threads, MAX_LOCAL_RANKS, MIN_PARTICLES_PER_RANK};
 pub use launch::{bound_pool, pool, run_scene};
+pub use provenance::{features, provenance};
 
-use crate::comm::{Comm, Phase, TrafficEntry};
+use crate::comm::{Comm, Phase};
 use crate::error::{Error, Result};
 pub use crate::layout::Backend;
 use crate::layout::{LayoutRequest, RunLayout};
@@ -23,11 +27,13 @@ use crate::progress::Progress;
 use crate::reference::Tracker;
 use crate::scene::Scene;
 use crate::sim::{Simulation, Timer, PHASES};
-use crate::topology::{ByteCost, Topology, DEFAULT_COST};
+use crate::topology::{Topology, DEFAULT_COST};
+use diagnostics::{diag_header, diag_row, reduce, Reduced};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+use traffic::{log_traffic, TrafficTotals};
 
 /// A test-only fault: make `rank` fail at `step`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -137,143 +143,6 @@ pub struct RunOutcome {
     pub stopped_by: Option<&'static str>,
 }
 
-/// Cargo features this binary was built with.
-pub fn features() -> Vec<&'static str> {
-    let mut f = Vec::new();
-    if cfg!(feature = "mpi") {
-        f.push("mpi");
-    }
-    if cfg!(feature = "hwloc") {
-        f.push("hwloc");
-    }
-    if cfg!(feature = "netcdf") {
-        f.push("netcdf");
-    }
-    f
-}
-
-/// What built this binary: version, git commit, cargo features and, on the MPI back end, the
-/// MPI library (first line of `MPI_Get_library_version`).
-pub fn provenance(backend: Backend) -> serde_json::Value {
-    #[cfg(feature = "mpi")]
-    let mpi = (backend == Backend::Mpi).then(|| {
-        let v = crate::comm::mpi::MpiComm::library_version();
-        v.lines().next().unwrap_or("").trim().to_string()
-    });
-    #[cfg(not(feature = "mpi"))]
-    let mpi: Option<String> = {
-        let _ = backend;
-        None
-    };
-    json!({
-        "version": env!("CARGO_PKG_VERSION"),
-        "git_commit": env!("HSPH_GIT_COMMIT"),
-        "features": features(),
-        "mpi_library": mpi,
-    })
-}
-
-/// Traffic of every rank since the last call, gathered on rank 0 (collective).
-fn gather_traffic(comm: &dyn Comm) -> Result<Vec<TrafficEntry>> {
-    let mine = comm.end_traffic_step();
-    let mut buf = Vec::with_capacity(mine.len() * 33);
-    for e in &mine {
-        buf.push(Phase::ALL.iter().position(|p| *p == e.phase).unwrap_or(0) as u8);
-        for v in [e.src as u64, e.dst as u64, e.bytes, e.messages] {
-            buf.extend_from_slice(&v.to_le_bytes());
-        }
-    }
-    let prev = comm.set_phase(Phase::Output);
-    let all = comm.all_gather_bytes(buf)?;
-    comm.set_phase(prev);
-    let mut out = Vec::new();
-    for b in all {
-        for rec in b.chunks_exact(33) {
-            let w = |k: usize| u64::from_le_bytes(rec[1 + 8 * k..9 + 8 * k].try_into().expect("8 bytes"));
-            out.push(TrafficEntry {
-                phase: Phase::ALL[rec[0] as usize],
-                src: w(0) as usize,
-                dst: w(1) as usize,
-                bytes: w(2),
-                messages: w(3),
-            });
-        }
-    }
-    Ok(out)
-}
-
-/// Running totals of traffic by phase and by intra/inter node (rank 0).
-#[derive(Debug, Default)]
-struct TrafficTotals {
-    /// Per phase: intra-node bytes, inter-node bytes, messages.
-    by_phase: BTreeMap<&'static str, [u64; 3]>,
-}
-
-impl TrafficTotals {
-    fn add(&mut self, e: &TrafficEntry, nodes: &[usize]) {
-        let t = self.by_phase.entry(e.phase.name()).or_default();
-        if nodes[e.src] == nodes[e.dst] {
-            t[0] += e.bytes;
-        } else {
-            t[1] += e.bytes;
-        }
-        t[2] += e.messages;
-    }
-
-    /// Totals as JSON, with the cost of the traffic under the topology's relative costs per
-    /// byte (intra- vs inter-node): as laid out, and had every byte crossed the network —
-    /// the difference is what keeping neighbours on one node (shared memory) saved.
-    fn json(&self, cost: &ByteCost) -> serde_json::Value {
-        let (intra, inter) = self
-            .by_phase
-            .values()
-            .fold((0, 0), |(a, b), t| (a + t[0], b + t[1]));
-        let phases: serde_json::Map<String, serde_json::Value> = self
-            .by_phase
-            .iter()
-            .map(|(k, t)| {
-                (
-                    k.to_string(),
-                    json!({"intra_node_bytes": t[0], "inter_node_bytes": t[1], "messages": t[2]}),
-                )
-            })
-            .collect();
-        let layout = intra as f64 * cost.intra_node + inter as f64 * cost.inter_node;
-        let all_inter = (intra + inter) as f64 * cost.inter_node;
-        json!({
-            "intra_node_bytes": intra,
-            "inter_node_bytes": inter,
-            "phases": phases,
-            "estimated_cost": {
-                "intra_node_cost_per_byte": cost.intra_node,
-                "inter_node_cost_per_byte": cost.inter_node,
-                "as_laid_out": layout,
-                "if_all_inter_node": all_inter,
-                "saved_fraction": if all_inter > 0.0 { 1.0 - layout / all_inter } else { 0.0 },
-            },
-        })
-    }
-}
-
-/// Gather the traffic since the last call (collective) and, on rank 0 (`writer`), add it to
-/// the totals and append it to `traffic.csv` as of `step`.
-fn log_traffic<const D: usize>(
-    comm: &dyn Comm,
-    writer: Option<&mut RunWriter<D>>,
-    totals: &mut TrafficTotals,
-    node_of: &[usize],
-    step: u64,
-) -> Result<()> {
-    let entries = gather_traffic(comm)?;
-    if let Some(w) = writer {
-        for e in &entries {
-            totals.add(e, node_of);
-        }
-        w.traffic_rows(step, &entries, node_of)?;
-    }
-    Ok(())
-}
-
 /// One rank's whole run on a resolved layout; rank 0's outcome holds the summary (the other
 /// ranks' hold `Null`), every rank's says whether a signal stopped it.
 pub fn run_rank(
@@ -287,82 +156,6 @@ pub fn run_rank(
         let mut run = RankRun::<D>::start(scene, dir, comm, layout.clone(), opts)?;
         run.step_loop()?;
         run.finish()
-    })
-}
-
-/// Header of `diagnostics.csv`.
-fn diag_header() -> String {
-    let mut h = String::from("step,t,wall_s");
-    for p in PHASES {
-        for s in ["min", "mean", "max"] {
-            h.push_str(&format!(",{p}_s_{s}"));
-        }
-    }
-    h.push_str(
-        ",ghosts,remote_ghosts,ghost_fraction,imbalance,migrated,rebalances,particle_steps_per_s,removed",
-    );
-    h
-}
-
-/// Per-rank figures reduced over ranks (collective).
-struct Reduced {
-    /// Per phase: min, mean, max over ranks (s).
-    timers: Vec<[f64; 3]>,
-    ghosts: u64,
-    remote: u64,
-    particles: u64,
-    migrated: u64,
-    /// Per rank: most particles held at once, most ghosts held at once, the process's peak
-    /// RSS (bytes; 0 where unknown; local ranks share one process).
-    high_water: Vec<[u64; 3]>,
-}
-
-impl Reduced {
-    /// Mean seconds of `phase` over ranks.
-    fn mean(&self, phase: Timer) -> f64 {
-        self.timers[phase as usize][1]
-    }
-}
-
-fn reduce<const D: usize>(sim: &Simulation<D>, comm: &dyn Comm, setup_peak: Option<u64>) -> Result<Reduced> {
-    let prev = comm.set_phase(Phase::Output);
-    let mut mine: Vec<u8> = Vec::new();
-    for s in sim.timers.seconds {
-        mine.extend_from_slice(&s.to_le_bytes());
-    }
-    let all = comm.all_gather_bytes(mine)?;
-    let mut counts = [
-        sim.halo.len() as u64,
-        sim.halo.remote() as u64,
-        sim.p.n_owned as u64,
-        sim.balance.migrated,
-    ];
-    comm.all_reduce_sum_u64(&mut counts)?;
-    let mut high = vec![0u64; 3 * comm.size()];
-    high[3 * comm.rank()] = sim.balance.particle_high_water;
-    high[3 * comm.rank() + 1] = sim.balance.ghost_high_water;
-    high[3 * comm.rank() + 2] = crate::memory::peak_rss().max(setup_peak).unwrap_or(0);
-    comm.all_reduce_sum_u64(&mut high)?;
-    comm.set_phase(prev);
-    let timers = (0..PHASES.len())
-        .map(|k| {
-            let (mut lo, mut hi, mut sum) = (f64::INFINITY, 0.0f64, 0.0);
-            for b in &all {
-                let x = f64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes"));
-                lo = lo.min(x);
-                hi = hi.max(x);
-                sum += x;
-            }
-            [lo, sum / all.len() as f64, hi]
-        })
-        .collect();
-    Ok(Reduced {
-        timers,
-        ghosts: counts[0],
-        remote: counts[1],
-        particles: counts[2],
-        migrated: counts[3],
-        high_water: high.chunks(3).map(|c| [c[0], c[1], c[2]]).collect(),
     })
 }
 
@@ -662,26 +455,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             dt: self.sim.dt,
         };
         if let Some(w) = self.writer.as_mut() {
-            let mut row = format!("{},{},{wall:.6}", stamp.step, stamp.t);
-            for t in &r.timers {
-                row.push_str(&format!(",{:.6},{:.6},{:.6}", t[0], t[1], t[2]));
-            }
-            let rate = if wall > 0.0 {
-                r.particles as f64 * stamp.step as f64 / wall
-            } else {
-                0.0
-            };
-            let b = &self.sim.balance;
-            row.push_str(&format!(
-                ",{},{},{:.6},{:.6},{},{},{rate:.1},{}",
-                r.ghosts,
-                r.remote,
-                r.remote as f64 / r.particles.max(1) as f64,
-                b.imbalance,
-                r.migrated,
-                b.rebalance_steps.len(),
-                self.removed
-            ));
+            let row = diag_row(&r, &self.sim, wall, self.removed);
             w.output_step(&stamp, &obs, &row)?;
         }
         if let Some(w) = self.snapshots.as_mut() {
