@@ -2,7 +2,8 @@
 //! ranks start, then every rank's [`run_rank`] (threads of this process, or one MPI rank).
 
 use super::checks::{check_limits, check_threads};
-use super::{run_rank, Backend, RunOptions, RunOutcome};
+use super::rank::run_rank;
+use super::{Backend, RunOptions, RunOutcome};
 use crate::comm::serial::SerialComm;
 use crate::comm::{Comm, Phase};
 use crate::error::{Error, Result};
