@@ -7,6 +7,7 @@ use super::diagnostics::diag_header;
 use super::rank::RankRun;
 use super::traffic::TrafficTotals;
 use super::RunOptions;
+use crate::checkpoint::Manifest;
 use crate::comm::Comm;
 use crate::error::Result;
 use crate::layout::RunLayout;
@@ -15,7 +16,7 @@ use crate::probes::ProbeSet;
 use crate::reference::Tracker;
 use crate::scene::Scene;
 use crate::sim::Simulation;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 impl<'a, const D: usize> RankRun<'a, D> {
@@ -30,16 +31,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
     ) -> Result<Self> {
         let root = comm.rank() == 0;
         let resumed = opts.restart.as_ref();
-        let sim = match resumed {
-            None => Simulation::<D>::with_layout(scene, comm, &layout)?,
-            Some((ck, m)) => {
-                let sim = Simulation::<D>::from_checkpoint(scene, comm, &layout, ck, m)?;
-                if root {
-                    truncate_series(dir, &m.run["series"])?;
-                }
-                sim
-            }
-        };
+        let sim = simulation::<D>(scene, dir, comm, &layout, resumed)?;
         layout.placed(sim.placement);
         // the set-up's peak (each rank builds its own sites), then the step loop's own
         let setup_peak = crate::memory::peak_rss();
@@ -96,18 +88,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         };
         run.report_layout()?;
         if let Some((ck, m)) = resumed {
-            run.restore(&m.run)?;
-            run.checkpointed = m.step;
-            if !run.quiet {
-                eprintln!(
-                    "hsph: continuing from {} (step {}, t = {:.6e} s, written on {} rank(s)) on {} rank(s)",
-                    ck.display(),
-                    m.step,
-                    m.t,
-                    m.ranks,
-                    comm.size()
-                );
-            }
+            run.continue_from(ck, m)?;
         } else {
             // the set-up's traffic (one step's exchanges at the initial positions) is step 0
             run.traffic(0)?;
@@ -119,5 +100,44 @@ impl<'a, const D: usize> RankRun<'a, D> {
             run.output()?;
         }
         Ok(run)
+    }
+
+    /// Continue from the checkpoint `ck` with manifest `m`: the run state restored, said on
+    /// rank 0.
+    fn continue_from(&mut self, ck: &Path, m: &Manifest) -> Result<()> {
+        self.restore(&m.run)?;
+        self.checkpointed = m.step;
+        if !self.quiet {
+            eprintln!(
+                "hsph: continuing from {} (step {}, t = {:.6e} s, written on {} rank(s)) on {} rank(s)",
+                ck.display(),
+                m.step,
+                m.t,
+                m.ranks,
+                self.comm.size()
+            );
+        }
+        Ok(())
+    }
+}
+
+/// The simulation on `layout`: built afresh, or read from the checkpoint of `resumed` (rank 0
+/// then cuts the run's series back to it).
+fn simulation<const D: usize>(
+    scene: &Scene,
+    dir: &Path,
+    comm: &dyn Comm,
+    layout: &RunLayout,
+    resumed: Option<&(PathBuf, Manifest)>,
+) -> Result<Simulation<D>> {
+    match resumed {
+        None => Simulation::<D>::with_layout(scene, comm, layout),
+        Some((ck, m)) => {
+            let sim = Simulation::<D>::from_checkpoint(scene, comm, layout, ck, m)?;
+            if comm.rank() == 0 {
+                truncate_series(dir, &m.run["series"])?;
+            }
+            Ok(sim)
+        }
     }
 }

@@ -6,13 +6,15 @@ use super::provenance::provenance;
 use super::rank::RankRun;
 use super::traffic::log_traffic;
 use super::RunOutcome;
+use crate::comm::Comm;
 use crate::error::{Error, Result};
 use crate::output;
 use crate::output::snapshot::Piece;
-use crate::sim::{Timer, PHASES};
+use crate::sim::{Simulation, Timer, View, PHASES};
 use crate::topology::{Topology, DEFAULT_COST};
 use serde_json::json;
 use std::collections::BTreeMap;
+use std::path::Path;
 
 impl<'a, const D: usize> RankRun<'a, D> {
     /// Final gather, `final.csv` and `summary.json` (rank 0), the closing log lines.
@@ -35,16 +37,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         self.comm.all_reduce_sum_u64(&mut n_fluid)?;
         // final.csv gathered on rank 0 up to `output.gather_limit` particles, else per rank
         let gathered = self.n_total <= self.scene.output.gather_limit;
-        let final_view = if gathered {
-            self.sim.gather(self.comm)?
-        } else {
-            let piece = Piece::new(p, (0.0, 0), (self.comm.rank(), 1), &self.sim.scene);
-            let dir = self.dir.join("final");
-            std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-            let path = dir.join(format!("rank_{:04}.csv", self.comm.rank()));
-            output::write_final(&path, p, &piece.order)?;
-            None
-        };
+        let final_view = final_state(&self.sim, self.comm, self.dir, gathered)?;
         let mut writer = self.writer.take();
         log_traffic(
             self.comm,
@@ -77,6 +70,18 @@ impl<'a, const D: usize> RankRun<'a, D> {
         }
         let summary = self.summary(&r, wall, n_fluid[0] as usize, n_fluid[1] as usize);
         output::write_summary(self.dir, &summary)?;
+        self.closing_lines(&r, wall);
+        Ok(RunOutcome {
+            dir: self.dir.to_path_buf(),
+            summary,
+            errors: std::mem::take(&mut self.tracker.errors),
+            stopped_by: self.stopped_by,
+        })
+    }
+
+    /// The closing log lines (rank 0): why the run stopped early, or its rate and the
+    /// reference's measured values and errors.
+    fn closing_lines(&self, r: &Reduced, wall: f64) {
         if let Some(sig) = self.stopped_by {
             // said even with -q: the run did not finish
             eprintln!(
@@ -102,12 +107,6 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 eprintln!("hsph: error {k} = {:.4} %", v * 100.0);
             }
         }
-        Ok(RunOutcome {
-            dir: self.dir.to_path_buf(),
-            summary,
-            errors: std::mem::take(&mut self.tracker.errors),
-            stopped_by: self.stopped_by,
-        })
     }
 
     /// The settled hole of the scene's hole probe, read back from its file on rank 0 (the
@@ -226,4 +225,24 @@ impl<'a, const D: usize> RankRun<'a, D> {
         summary["hole"] = self.hole_summary();
         summary
     }
+}
+
+/// The final state: gathered on rank 0 for `final.csv` when `gathered` (the view returned
+/// there, `None` elsewhere), else every rank's own `final/rank_NNNN.csv`.
+fn final_state<'s, const D: usize>(
+    sim: &'s Simulation<D>,
+    comm: &dyn Comm,
+    dir: &Path,
+    gathered: bool,
+) -> Result<Option<View<'s, D>>> {
+    if gathered {
+        return sim.gather(comm);
+    }
+    let p = &sim.p;
+    let piece = Piece::new(p, (0.0, 0), (comm.rank(), 1), &sim.scene);
+    let dir = dir.join("final");
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let path = dir.join(format!("rank_{:04}.csv", comm.rank()));
+    output::write_final(&path, p, &piece.order)?;
+    Ok(None)
 }
