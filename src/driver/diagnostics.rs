@@ -1,0 +1,113 @@
+//! Per-rank figures reduced over ranks (phase timers, ghosts, migrations, high-water marks)
+//! and the rows of `diagnostics.csv` made of them; `summary.json` reads the same reduction.
+
+use crate::comm::{Comm, Phase};
+use crate::error::Result;
+use crate::sim::{Simulation, Timer, PHASES};
+
+/// Header of `diagnostics.csv`.
+pub(super) fn diag_header() -> String {
+    let mut h = String::from("step,t,wall_s");
+    for p in PHASES {
+        for s in ["min", "mean", "max"] {
+            h.push_str(&format!(",{p}_s_{s}"));
+        }
+    }
+    h.push_str(
+        ",ghosts,remote_ghosts,ghost_fraction,imbalance,migrated,rebalances,particle_steps_per_s,removed",
+    );
+    h
+}
+
+/// Per-rank figures reduced over ranks (collective).
+pub(super) struct Reduced {
+    /// Per phase: min, mean, max over ranks (s).
+    pub(super) timers: Vec<[f64; 3]>,
+    pub(super) ghosts: u64,
+    pub(super) remote: u64,
+    pub(super) particles: u64,
+    pub(super) migrated: u64,
+    /// Per rank: most particles held at once, most ghosts held at once, the process's peak
+    /// RSS (bytes; 0 where unknown; local ranks share one process).
+    pub(super) high_water: Vec<[u64; 3]>,
+}
+
+impl Reduced {
+    /// Mean seconds of `phase` over ranks.
+    pub(super) fn mean(&self, phase: Timer) -> f64 {
+        self.timers[phase as usize][1]
+    }
+}
+
+/// Reduce this rank's timers, counts and high-water marks over ranks (collective).
+pub(super) fn reduce<const D: usize>(
+    sim: &Simulation<D>,
+    comm: &dyn Comm,
+    setup_peak: Option<u64>,
+) -> Result<Reduced> {
+    let prev = comm.set_phase(Phase::Output);
+    let mut mine: Vec<u8> = Vec::new();
+    for s in sim.timers.seconds {
+        mine.extend_from_slice(&s.to_le_bytes());
+    }
+    let all = comm.all_gather_bytes(mine)?;
+    let mut counts = [
+        sim.halo.len() as u64,
+        sim.halo.remote() as u64,
+        sim.p.n_owned as u64,
+        sim.balance.migrated,
+    ];
+    comm.all_reduce_sum_u64(&mut counts)?;
+    let mut high = vec![0u64; 3 * comm.size()];
+    high[3 * comm.rank()] = sim.balance.particle_high_water;
+    high[3 * comm.rank() + 1] = sim.balance.ghost_high_water;
+    high[3 * comm.rank() + 2] = crate::memory::peak_rss().max(setup_peak).unwrap_or(0);
+    comm.all_reduce_sum_u64(&mut high)?;
+    comm.set_phase(prev);
+    let timers = (0..PHASES.len())
+        .map(|k| {
+            let (mut lo, mut hi, mut sum) = (f64::INFINITY, 0.0f64, 0.0);
+            for b in &all {
+                let x = f64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes"));
+                lo = lo.min(x);
+                hi = hi.max(x);
+                sum += x;
+            }
+            [lo, sum / all.len() as f64, hi]
+        })
+        .collect();
+    Ok(Reduced {
+        timers,
+        ghosts: counts[0],
+        remote: counts[1],
+        particles: counts[2],
+        migrated: counts[3],
+        high_water: high.chunks(3).map(|c| [c[0], c[1], c[2]]).collect(),
+    })
+}
+
+/// A row of `diagnostics.csv` (the columns of [`diag_header`]) at `step`, `t` and `wall`
+/// seconds into the output steps, with `removed` particles so far.
+pub(super) fn diag_row<const D: usize>(r: &Reduced, sim: &Simulation<D>, wall: f64, removed: u64) -> String {
+    let mut row = format!("{},{},{wall:.6}", sim.step, sim.t);
+    for t in &r.timers {
+        row.push_str(&format!(",{:.6},{:.6},{:.6}", t[0], t[1], t[2]));
+    }
+    let rate = if wall > 0.0 {
+        r.particles as f64 * sim.step as f64 / wall
+    } else {
+        0.0
+    };
+    let b = &sim.balance;
+    row.push_str(&format!(
+        ",{},{},{:.6},{:.6},{},{},{rate:.1},{}",
+        r.ghosts,
+        r.remote,
+        r.remote as f64 / r.particles.max(1) as f64,
+        b.imbalance,
+        r.migrated,
+        b.rebalance_steps.len(),
+        removed
+    ));
+    row
+}

@@ -1,0 +1,183 @@
+//! The step loop: steps, removals under `outflow = "remove"`, the reference tracker, output
+//! steps with their traffic, and the stop at a step boundary (signal, wall clock, end).
+
+use super::diagnostics::{diag_row, reduce};
+use super::rank::RankRun;
+use super::traffic::log_traffic;
+use crate::comm::Phase;
+use crate::error::{Error, Result};
+use crate::output;
+use crate::output::snapshot::Piece;
+use crate::progress::Progress;
+use crate::reference::Tracker;
+use crate::sim::Timer;
+use std::time::Instant;
+
+impl<'a, const D: usize> RankRun<'a, D> {
+    /// Steps until the end, with the reference tracker, output steps and progress.
+    pub(super) fn step_loop(&mut self) -> Result<()> {
+        let interval = self.scene.output.interval;
+        let mut progress = Progress::new(self.n_total, self.quiet);
+        self.steps_start = Instant::now();
+        self.checkpoint_clock.0 = Instant::now();
+        let mut last_step = Instant::now();
+        while !self.sim.done() {
+            self.inject_fault();
+            self.sim.advance(self.comm)?;
+            self.report_removals()?;
+            if self.tracker.due(self.scene, self.sim.t) {
+                match &self.sim.gather(self.comm)? {
+                    Some(v) => self.tracker.after_step(v),
+                    None => self.tracker.skip(self.scene, self.sim.t),
+                }
+            }
+            let scheduled = self.sim.t >= self.next_out * (1.0 - 1e-12);
+            let t0 = Instant::now();
+            self.probes.after_step(&self.sim, self.comm, scheduled, false)?;
+            self.sim.timers.add(Timer::Output, t0);
+            if scheduled {
+                crate::probes::advance_past(&mut self.next_out, interval, self.sim.t);
+                self.output()?;
+                self.traffic(self.sim.step)?;
+            }
+            progress.update(self.sim.step, self.sim.t, self.scene.time.t_end);
+            // a step boundary: stop here if any rank has received a stopping signal or is about
+            // to run out of wall-clock time (one collective decides for all)
+            let mut clock = self.wall_clock_flags(&mut last_step);
+            self.stopped_by = crate::signals::agreed_stop_with(self.comm, &mut clock)?;
+            if self.stopped_by.is_none() && clock[0] > 0.0 {
+                self.stopped_by = Some("max-wall");
+            }
+            let end = self.sim.done() && self.scene.checkpoint.scheduled();
+            if self.stopped_by.is_some() || self.checkpoint_due() || end || clock[1] > 0.0 {
+                self.checkpoint()?;
+            }
+            if self.sim.done() && !scheduled {
+                // the last state, off the output schedule: written after the checkpoint, so a
+                // continued run does not keep this row
+                self.probes.after_step(&self.sim, self.comm, true, true)?;
+                self.output()?;
+                self.traffic(self.sim.step)?;
+            }
+            if self.stopped_by.is_some() {
+                break;
+            }
+        }
+        progress.finish();
+        Ok(())
+    }
+
+    /// One output step (collective): observables, reduced diagnostics, every rank's snapshot
+    /// piece; the state is gathered only for a reference that measures the whole flow.
+    pub(super) fn output(&mut self) -> Result<()> {
+        let t0 = Instant::now();
+        let mut obs = self.sim.observables(self.comm)?;
+        [obs.removed_energy, obs.removed_mass] = self.removed_out;
+        let r = reduce(&self.sim, self.comm, self.setup_peak)?;
+        if Tracker::measures_at_output(self.scene) {
+            // both such references (front, cavity) read the fluid alone
+            let fluid = |p: &crate::particles::Particles<D>, i: usize| p.kind[i].is_fluid();
+            if let Some(v) = self.sim.gather_where(self.comm, &fluid)? {
+                self.tracker.at_output(&v);
+            }
+        }
+        let wall = self.loop_start.elapsed().as_secs_f64();
+        let stamp = output::Stamp {
+            step: self.sim.step,
+            t: self.sim.t,
+            dt: self.sim.dt,
+        };
+        if let Some(w) = self.writer.as_mut() {
+            let row = diag_row(&r, &self.sim, wall, self.removed);
+            w.output_step(&stamp, &obs, &row)?;
+        }
+        if let Some(w) = self.snapshots.as_mut() {
+            let sim = &self.sim;
+            let piece = Piece::new(
+                &sim.p,
+                (sim.t, sim.step),
+                (self.comm.rank(), self.comm.size()),
+                &sim.scene,
+            );
+            w.write(&piece, &self.scene.output.fields)?;
+        }
+        // a killed run loses at most the output interval of probe rows
+        self.probes.flush()?;
+        if let Some(w) = self.writer.as_ref() {
+            w.mirror_series(&self.probes.files())?;
+        }
+        self.sim.timers.add(Timer::Output, t0);
+        Ok(())
+    }
+
+    /// Append the traffic since the last call to `traffic.csv` as of `step` (collective).
+    pub(super) fn traffic(&mut self, step: u64) -> Result<()> {
+        log_traffic(
+            self.comm,
+            self.writer.as_mut(),
+            &mut self.totals,
+            &self.layout.node_of,
+            step,
+        )
+    }
+
+    /// Collective, under `outflow = "remove"`: count the particles every rank removed this step,
+    /// log them in `removed.csv` (rank 0, sorted by id) and stop the run once more than
+    /// `domain.max_removed_fraction` of the fluid is gone.
+    fn report_removals(&mut self) -> Result<()> {
+        if self.scene.domain.outflow != crate::scene::Outflow::Remove {
+            return Ok(());
+        }
+        let mine = std::mem::take(&mut self.sim.removed);
+        let prev = self.comm.set_phase(Phase::Other);
+        let mut count = [mine.len() as u64];
+        self.comm.all_reduce_sum_u64(&mut count)?;
+        if count[0] == 0 {
+            self.comm.set_phase(prev);
+            return Ok(());
+        }
+        let bytes: Vec<u8> = mine.iter().flat_map(|r| r.to_bytes()).collect();
+        let all = self.comm.all_gather_bytes(bytes)?;
+        self.comm.set_phase(prev);
+        let mut rows: Vec<_> = all
+            .iter()
+            .flat_map(|b| crate::sim::outflow::Removal::from_bytes(b, D))
+            .collect();
+        rows.sort_by_key(|r| r.id);
+        for r in &rows {
+            self.removed_out[0] += r.energy;
+            self.removed_out[1] += r.mass;
+        }
+        if let Some(w) = self.writer.as_mut() {
+            w.removed_rows(&rows)?;
+            if self.removed == 0 {
+                let r = &rows[0];
+                eprintln!(
+                    "hsph: warning: step {}: particle id {} {} at position {:?} and was removed \
+                     (domain.outflow = \"remove\"; every removal is in removed.csv and counted in summary.json)",
+                    r.step, r.id, r.reason, r.x
+                );
+            }
+        }
+        self.removed += count[0];
+        let limit = self.scene.domain.max_removed_fraction * self.n_fluid as f64;
+        if self.removed as f64 > limit {
+            let r = &rows[0];
+            return Err(Error::run(format!(
+                "step {}, t = {:.6e} s: {} of {} moving (fluid and solid) particles removed ({:.3} %), more than \
+                 domain.max_removed_fraction = {}; among them particle id {} {} at position {:?} \
+                 (see removed.csv; enlarge the domain, check the walls, or raise the fraction)",
+                self.sim.step,
+                self.sim.t,
+                self.removed,
+                self.n_fluid,
+                100.0 * self.removed as f64 / self.n_fluid.max(1) as f64,
+                self.scene.domain.max_removed_fraction,
+                r.id,
+                r.reason,
+                r.x
+            )));
+        }
+        Ok(())
+    }
+}

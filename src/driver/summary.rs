@@ -1,0 +1,248 @@
+//! The end of a run: the final gather and `final.csv`, `summary.json` (figures, timers,
+//! traffic, memory, the settled hole, build provenance) and the closing log lines.
+
+use super::diagnostics::{reduce, Reduced};
+use super::provenance::provenance;
+use super::rank::RankRun;
+use super::traffic::log_traffic;
+use super::RunOutcome;
+use crate::comm::Comm;
+use crate::error::{Error, Result};
+use crate::output;
+use crate::output::snapshot::Piece;
+use crate::sim::{Simulation, Timer, View, PHASES};
+use crate::topology::{Topology, DEFAULT_COST};
+use serde_json::json;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+impl<'a, const D: usize> RankRun<'a, D> {
+    /// Final gather, `final.csv` and `summary.json` (rank 0), the closing log lines.
+    pub(super) fn finish(mut self) -> Result<RunOutcome> {
+        let wall = self.steps_start.elapsed().as_secs_f64();
+        // the step loop's peak, before the final gather adds its copy of the particles
+        self.loop_peak = crate::memory::peak_rss();
+        if self.scene.checkpoint.scheduled() && self.checkpointed != self.sim.step {
+            // a finished run can be continued to a later t_end
+            self.checkpoint()?;
+        }
+        self.probes.flush()?;
+        let r = reduce(&self.sim, self.comm, self.setup_peak)?;
+        let p = &self.sim.p;
+        let kinds = &p.kind[..p.n_owned];
+        let mut n_fluid = [
+            kinds.iter().filter(|k| k.is_fluid()).count() as u64,
+            kinds.iter().filter(|k| k.is_solid()).count() as u64,
+        ];
+        self.comm.all_reduce_sum_u64(&mut n_fluid)?;
+        // final.csv gathered on rank 0 up to `output.gather_limit` particles, else per rank
+        let gathered = self.n_total <= self.scene.output.gather_limit;
+        let final_view = final_state(&self.sim, self.comm, self.dir, gathered)?;
+        let mut writer = self.writer.take();
+        log_traffic(
+            self.comm,
+            writer.as_mut(),
+            &mut self.totals,
+            &self.layout.node_of,
+            self.sim.step,
+        )?;
+        let Some(mut writer) = writer else {
+            return Ok(RunOutcome {
+                dir: self.dir.to_path_buf(),
+                summary: serde_json::Value::Null,
+                errors: BTreeMap::new(),
+                stopped_by: self.stopped_by,
+            });
+        };
+        writer.flush()?;
+        writer.mirror_series(&self.probes.files())?;
+        self.tracker
+            .from_probe_files(self.scene, &self.dir.join("probes"));
+        if let Some(view) = final_view {
+            self.tracker.finish(&view);
+            output::write_final(&self.dir.join("final.csv"), &view.p, &view.by_id())?;
+        } else if self.scene.reference.is_some() {
+            eprintln!(
+                "hsph: warning: {} particles exceed output.gather_limit = {}: the reference errors \
+                 that need the whole final state are not measured",
+                self.n_total, self.scene.output.gather_limit
+            );
+        }
+        let summary = self.summary(&r, wall, n_fluid[0] as usize, n_fluid[1] as usize);
+        output::write_summary(self.dir, &summary)?;
+        self.closing_lines(&r, wall);
+        Ok(RunOutcome {
+            dir: self.dir.to_path_buf(),
+            summary,
+            errors: std::mem::take(&mut self.tracker.errors),
+            stopped_by: self.stopped_by,
+        })
+    }
+
+    /// The closing log lines (rank 0): why the run stopped early, or its rate and the
+    /// reference's measured values and errors.
+    fn closing_lines(&self, r: &Reduced, wall: f64) {
+        if let Some(sig) = self.stopped_by {
+            // said even with -q: the run did not finish
+            eprintln!(
+                "hsph: stopped by {sig} after step {} (t = {:.6e} s of {} s); every CSV is complete up \
+                 to the last output step, final.csv holds this step, summary.json says \"complete\": false; \
+                 results in {}",
+                self.sim.step,
+                self.sim.t,
+                self.scene.time.t_end,
+                self.dir.display()
+            );
+        } else if !self.quiet {
+            let (n, steps) = (r.particles as f64, self.sim.step as f64);
+            eprintln!(
+                "hsph: done: {steps} steps in {wall:.2} s ({:.3e} particle-steps/s); results in {}",
+                n * steps / wall.max(1e-12),
+                self.dir.display()
+            );
+            for (k, v) in &self.tracker.measured {
+                eprintln!("hsph: measured {k} = {v:.6}");
+            }
+            for (k, v) in &self.tracker.errors {
+                eprintln!("hsph: error {k} = {:.4} %", v * 100.0);
+            }
+        }
+    }
+
+    /// The settled hole of the scene's hole probe, read back from its file on rank 0 (the
+    /// whole history, across restarts); null without one.
+    fn hole_summary(&self) -> serde_json::Value {
+        let Some(name) = self.scene.probes.iter().find_map(|p| match p {
+            crate::scene::Probe::Hole { name, .. } => Some(name),
+            _ => None,
+        }) else {
+            return serde_json::Value::Null;
+        };
+        let path = self.dir.join("probes").join(format!("{name}.csv"));
+        let reference = match &self.scene.reference {
+            Some(crate::scene::Reference::Hole { major, minor, source }) => {
+                Some((*major, *minor, source.as_str()))
+            }
+            _ => None,
+        };
+        match std::fs::read_to_string(&path) {
+            Ok(text) => crate::probes::hole::settled(&text, reference),
+            Err(_) => serde_json::Value::Null,
+        }
+    }
+
+    /// `summary.json`.
+    fn summary(&self, r: &Reduced, wall: f64, n_fluid: usize, n_solid: usize) -> serde_json::Value {
+        let sim = &self.sim;
+        let n = r.particles as usize;
+        let steps = sim.step;
+        let mut timers = serde_json::Map::new();
+        for (k, p) in PHASES.iter().enumerate() {
+            timers.insert(
+                format!("{p}_s"),
+                json!({"min": r.timers[k][0], "mean": r.timers[k][1], "max": r.timers[k][2]}),
+            );
+        }
+        let comm_s = r.mean(Timer::Halo) + r.mean(Timer::Migration);
+        let errors: serde_json::Map<String, serde_json::Value> = self
+            .tracker
+            .errors
+            .iter()
+            .map(|(k, v)| (k.clone(), json!(v)))
+            .collect();
+        let per_s = |x: f64| if wall > 0.0 { x / wall } else { 0.0 };
+        let cost = self
+            .layout
+            .topology
+            .as_ref()
+            .map_or(DEFAULT_COST, |t: &Topology| t.cost);
+        let mut summary = json!({
+            "hsph_version": env!("CARGO_PKG_VERSION"),
+            "build": provenance(self.layout.backend),
+            "complete": self.stopped_by.is_none(),
+            "stopped_by": self.stopped_by,
+            "scene": self.scene.name,
+            "dimension": D,
+            "particles": n,
+            "fluid_particles": n_fluid,
+            "solid_particles": n_solid,
+            "wall_particles": n - n_fluid - n_solid,
+            "steps": steps,
+            "t_end": self.scene.time.t_end,
+            "t": sim.t,
+            "wall_s": wall,
+            // a run continued from checkpoints: every segment's wall time up to its checkpoint
+            // plus this one (a segment's steps after its last checkpoint were redone)
+            "wall_s_all_segments": self.earlier.0 + wall,
+            "segments": self.earlier.1 + 1,
+            "particle_steps_per_s": per_s(n as f64 * steps as f64),
+            // list entries visited (pair mode: each owned fluid pair once); the list-free scan
+            // counts none, so it reports none rather than zero
+            "pair_interactions_per_s": if sim.nl.is_lean() {
+                json!(null)
+            } else {
+                json!(per_s(sim.pair_count as f64 * self.comm.size() as f64))
+            },
+            "threads": rayon::current_num_threads(),
+            "ranks": self.comm.size(),
+            "backend": self.layout.backend.name(),
+            "decomposition": sim.map.decomp.factors().to_vec(),
+            "placement": self.layout.placement.name(),
+            "placement_requested": self.layout.requested.name(),
+            "layout_warnings": self.layout.warnings,
+            "nodes": self.layout.nodes(),
+            "traffic": self.totals.json(&cost),
+            "ghost_fraction": r.remote as f64 / n.max(1) as f64,
+            "imbalance": sim.balance.imbalance,
+            "migrations": r.migrated,
+            "migrations_per_step": r.migrated as f64 / steps.max(1) as f64,
+            "removed_particles": self.removed,
+            "removed_fraction": self.removed as f64 / self.n_fluid.max(1) as f64,
+            "outflow": self.scene.domain.outflow,
+            "rebalances": sim.balance.rebalance_steps.len(),
+            "rebalance_steps": sim.balance.rebalance_steps,
+            "max_plane_shift_m": sim.balance.max_plane_shift,
+            "communication_fraction": comm_s / wall.max(1e-12),
+            "balance_fraction": r.mean(Timer::Balance) / wall.max(1e-12),
+            "timers": timers,
+            "errors": errors,
+        });
+        if !self.tracker.measured.is_empty() {
+            summary["measured"] = json!(self.tracker.measured);
+        }
+        // per rank, from the set-up on: O(N/P) with the distributed set-up
+        summary["particle_high_water"] = json!(r.high_water.iter().map(|h| h[0]).collect::<Vec<_>>());
+        summary["ghost_high_water"] = json!(r.high_water.iter().map(|h| h[1]).collect::<Vec<_>>());
+        // each process's peak (under MPI each rank is one; local ranks share one process)
+        summary["peak_rss_bytes_per_rank"] = json!(r.high_water.iter().map(|h| h[2]).collect::<Vec<_>>());
+        // machine dependent, like wall_s: summary.json is not compared across runs
+        let now = crate::memory::peak_rss();
+        summary["peak_rss_bytes"] = json!(now.max(self.setup_peak));
+        summary["setup_peak_rss_bytes"] = json!(self.setup_peak);
+        summary["step_peak_rss_bytes"] = json!(if self.peak_reset { self.loop_peak } else { None });
+        summary["removed_energy"] = json!(self.removed_out[0]);
+        summary["removed_mass"] = json!(self.removed_out[1]);
+        summary["hole"] = self.hole_summary();
+        summary
+    }
+}
+
+/// The final state: gathered on rank 0 for `final.csv` when `gathered` (the view returned
+/// there, `None` elsewhere), else every rank's own `final/rank_NNNN.csv`.
+fn final_state<'s, const D: usize>(
+    sim: &'s Simulation<D>,
+    comm: &dyn Comm,
+    dir: &Path,
+    gathered: bool,
+) -> Result<Option<View<'s, D>>> {
+    if gathered {
+        return sim.gather(comm);
+    }
+    let p = &sim.p;
+    let piece = Piece::new(p, (0.0, 0), (comm.rank(), 1), &sim.scene);
+    let dir = dir.join("final");
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let path = dir.join(format!("rank_{:04}.csv", comm.rank()));
+    output::write_final(&path, p, &piece.order)?;
+    Ok(None)
+}
