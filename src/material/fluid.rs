@@ -10,6 +10,10 @@ pub enum EosKind {
     Tait,
     /// Linear: p = c0² (ρ − ρ0).
     Linear,
+    /// Test-only (proves that an EOS kind is added in this file alone and selected from a
+    /// scene): quadratic, p = ρ0c0²/2 [(ρ/ρ0)² − 1].
+    #[cfg(test)]
+    Toy,
 }
 
 /// A barotropic fluid EOS with its constants (Tait: p = B[(ρ/ρ0)^γ − 1], B = ρ0c0²/γ;
@@ -57,6 +61,11 @@ impl Eos {
                 self.b * (rg - 1.0)
             }
             EosKind::Linear => self.c0 * self.c0 * (rho - self.rho0),
+            #[cfg(test)]
+            EosKind::Toy => {
+                let r = rho / self.rho0;
+                0.5 * self.rho0 * self.c0 * self.c0 * (r * r - 1.0)
+            }
         }
     }
 
@@ -69,6 +78,8 @@ impl Eos {
                 self.b / self.rho0 * ((r.powf(g - 1.0) - 1.0) / (g - 1.0) + 1.0 / r - 1.0)
             }
             EosKind::Linear => self.c0 * self.c0 * (r.ln() + 1.0 / r - 1.0),
+            #[cfg(test)]
+            EosKind::Toy => 0.5 * self.c0 * self.c0 * (r + 1.0 / r - 2.0),
         }
     }
 
@@ -79,6 +90,8 @@ impl Eos {
         match self.kind {
             EosKind::Tait => self.rho0 * (p / self.b + 1.0).max(1e-3).powf(1.0 / self.gamma),
             EosKind::Linear => (self.rho0 + p / (self.c0 * self.c0)).max(1e-3 * self.rho0),
+            #[cfg(test)]
+            EosKind::Toy => self.rho0 * (1.0 + 2.0 * p / (self.rho0 * self.c0 * self.c0)).max(1e-6).sqrt(),
         }
     }
 }
@@ -118,5 +131,47 @@ mod tests {
             assert!((tait.density(tait.pressure(rho)) - rho).abs() < 1e-9);
             assert!((lin.density(lin.pressure(rho)) - rho).abs() < 1e-9);
         }
+    }
+
+    /// A new EOS kind lives in this file alone: the test-only `toy` kind is selected by a scene
+    /// file's `eos = "toy"`, reaches the material model, and the hydrostatic set-up gives the
+    /// deepest water the density whose toy pressure is ρ0 g d.
+    #[test]
+    fn an_eos_kind_added_here_is_selected_by_a_scene_and_reaches_the_set_up() {
+        let text = std::fs::read_to_string("inputs/hydrostatic_2d.toml")
+            .unwrap()
+            .replace("eos = \"tait\"", "eos = \"toy\"");
+        let (scene, _) =
+            crate::scene::load_scene_str(&text, std::path::Path::new("toy.toml"), "toy", &[]).unwrap();
+        let m = scene.materials[0].model();
+        let (rho0, c0) = (scene.materials[0].rho0, scene.materials[0].c0);
+        let rho = 1.01 * rho0;
+        assert!((m.pressure(rho, 0.0) - 0.5 * rho0 * c0 * c0 * (1.01f64 * 1.01 - 1.0)).abs() < 1e-9);
+        assert!((m.density(m.pressure(rho, 0.0)) - rho).abs() < 1e-9 * rho);
+        let e = Eos::new(EosKind::Toy, rho0, c0, 7.0);
+        let n = 20_000;
+        let h = (rho - rho0) / n as f64;
+        let quad: f64 = (0..n)
+            .map(|k| {
+                let s = rho0 + (k as f64 + 0.5) * h;
+                e.pressure(s) / (s * s) * h
+            })
+            .sum();
+        assert!((e.internal_energy(rho) - quad).abs() < 1e-9 * quad);
+        let p = crate::setup::build_particles::<2>(&scene).unwrap();
+        let g = scene.physics.body_force[1].abs();
+        // the set-up's depth runs from the top of the fluid body
+        let deepest = (0..p.n_owned)
+            .filter(|&i| p.kind[i].is_fluid())
+            .min_by(|&a, &b| p.x[a][1].total_cmp(&p.x[b][1]))
+            .unwrap();
+        let depth = scene.fluids[0].max[1] - p.x[deepest][1];
+        let want = m.density(rho0 * g * depth);
+        assert!(p.rho[deepest] > rho0, "the toy EOS compressed the deepest water");
+        assert!(
+            (p.rho[deepest] - want).abs() < 1e-9 * want,
+            "ρ {} against {want} (depth {depth} m)",
+            p.rho[deepest]
+        );
     }
 }
