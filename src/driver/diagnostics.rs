@@ -28,7 +28,7 @@ pub(super) struct Reduced {
     pub(super) particles: u64,
     pub(super) migrated: u64,
     /// Per rank: most particles held at once, most ghosts held at once, the process's peak
-    /// RSS (bytes; 0 where unknown; local ranks share one process).
+    /// RSS (bytes; 0 where unknown; local ranks share one process). Empty unless asked for.
     pub(super) high_water: Vec<[u64; 3]>,
 }
 
@@ -39,36 +39,44 @@ impl Reduced {
     }
 }
 
-/// Reduce this rank's timers, counts and high-water marks over ranks (collective).
+/// Reduce this rank's timers, counts and, with `high_water` (the summary), its high-water marks
+/// over ranks (collective: one all-gather, so an output at every step pays one message round;
+/// the peak RSS is read from `/proc` only when asked).
 pub(super) fn reduce<const D: usize>(
     sim: &Simulation<D>,
     comm: &dyn Comm,
-    setup_peak: Option<u64>,
+    high_water: Option<Option<u64>>,
 ) -> Result<Reduced> {
     let prev = comm.set_phase(Phase::Output);
     let mut mine: Vec<u8> = Vec::new();
     for s in sim.timers.seconds {
         mine.extend_from_slice(&s.to_le_bytes());
     }
-    let all = comm.all_gather_bytes(mine)?;
-    let mut counts = [
+    let counts = [
         sim.halo.len() as u64,
         sim.halo.remote() as u64,
         sim.p.n_owned as u64,
         sim.balance.migrated,
     ];
-    comm.all_reduce_sum_u64(&mut counts)?;
-    let mut high = vec![0u64; 3 * comm.size()];
-    high[3 * comm.rank()] = sim.balance.particle_high_water;
-    high[3 * comm.rank() + 1] = sim.balance.ghost_high_water;
-    high[3 * comm.rank() + 2] = crate::memory::peak_rss().max(setup_peak).unwrap_or(0);
-    comm.all_reduce_sum_u64(&mut high)?;
+    let high = high_water.map(|setup_peak| {
+        [
+            sim.balance.particle_high_water,
+            sim.balance.ghost_high_water,
+            crate::memory::peak_rss().max(setup_peak).unwrap_or(0),
+        ]
+    });
+    for c in counts.iter().chain(high.iter().flatten()) {
+        mine.extend_from_slice(&c.to_le_bytes());
+    }
+    let all = comm.all_gather_bytes(mine)?;
     comm.set_phase(prev);
-    let timers = (0..PHASES.len())
+    let word = |b: &[u8], k: usize| -> [u8; 8] { b[8 * k..8 * k + 8].try_into().expect("8 bytes") };
+    let n = PHASES.len();
+    let timers = (0..n)
         .map(|k| {
             let (mut lo, mut hi, mut sum) = (f64::INFINITY, 0.0f64, 0.0);
             for b in &all {
-                let x = f64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes"));
+                let x = f64::from_le_bytes(word(b, k));
                 lo = lo.min(x);
                 hi = hi.max(x);
                 sum += x;
@@ -76,13 +84,25 @@ pub(super) fn reduce<const D: usize>(
             [lo, sum / all.len() as f64, hi]
         })
         .collect();
+    let count = |k: usize| {
+        all.iter()
+            .map(|b| u64::from_le_bytes(word(b, n + k)))
+            .sum::<u64>()
+    };
+    let high_water = match high {
+        Some(_) => all
+            .iter()
+            .map(|b| std::array::from_fn(|a| u64::from_le_bytes(word(b, n + 4 + a))))
+            .collect(),
+        None => Vec::new(),
+    };
     Ok(Reduced {
         timers,
-        ghosts: counts[0],
-        remote: counts[1],
-        particles: counts[2],
-        migrated: counts[3],
-        high_water: high.chunks(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        ghosts: count(0),
+        remote: count(1),
+        particles: count(2),
+        migrated: count(3),
+        high_water,
     })
 }
 

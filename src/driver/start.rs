@@ -96,8 +96,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         run.banner();
         run.loop_start = Instant::now();
         if resumed.is_none() {
-            run.probes.after_step(&run.sim, comm, true, false)?;
-            run.output()?;
+            run.observe(true, false)?;
         }
         Ok(run)
     }

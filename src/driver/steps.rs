@@ -32,12 +32,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 }
             }
             let scheduled = self.sim.t >= self.next_out * (1.0 - 1e-12);
-            let t0 = Instant::now();
-            self.probes.after_step(&self.sim, self.comm, scheduled, false)?;
-            self.sim.timers.add(Timer::Output, t0);
+            self.observe(scheduled, false)?;
             if scheduled {
                 crate::probes::advance_past(&mut self.next_out, interval, self.sim.t);
-                self.output()?;
                 self.traffic(self.sim.step)?;
             }
             progress.update(self.sim.step, self.sim.t, self.scene.time.t_end);
@@ -55,8 +52,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             if self.sim.done() && !scheduled {
                 // the last state, off the output schedule: written after the checkpoint, so a
                 // continued run does not keep this row
-                self.probes.after_step(&self.sim, self.comm, true, true)?;
-                self.output()?;
+                self.observe(true, true)?;
                 self.traffic(self.sim.step)?;
             }
             if self.stopped_by.is_some() {
@@ -67,20 +63,34 @@ impl<'a, const D: usize> RankRun<'a, D> {
         Ok(())
     }
 
+    /// After a step (collective): the probes, and on an `output` step the reference tracker
+    /// (fed from the probes' gather: one gather per step) and the output step itself.
+    /// `output_only` as in [`crate::probes::ProbeSet::after_step`].
+    pub(super) fn observe(&mut self, output: bool, output_only: bool) -> Result<()> {
+        let t0 = Instant::now();
+        // both such references (front, cavity) read the fluid alone
+        let fluid = output && Tracker::measures_at_output(self.scene);
+        let view = self
+            .probes
+            .after_step(&self.sim, self.comm, (output, output_only), fluid)?;
+        if let (Some(v), true) = (&view, fluid) {
+            self.tracker.at_output(v);
+        }
+        drop(view);
+        self.sim.timers.add(Timer::Output, t0);
+        match output {
+            true => self.output(),
+            false => Ok(()),
+        }
+    }
+
     /// One output step (collective): observables, reduced diagnostics, every rank's snapshot
-    /// piece; the state is gathered only for a reference that measures the whole flow.
-    pub(super) fn output(&mut self) -> Result<()> {
+    /// piece.
+    fn output(&mut self) -> Result<()> {
         let t0 = Instant::now();
         let mut obs = self.sim.observables(self.comm)?;
         [obs.removed_energy, obs.removed_mass] = self.removed_out;
-        let r = reduce(&self.sim, self.comm, self.setup_peak)?;
-        if Tracker::measures_at_output(self.scene) {
-            // both such references (front, cavity) read the fluid alone
-            let fluid = |p: &crate::particles::Particles<D>, i: usize| p.kind[i].is_fluid();
-            if let Some(v) = self.sim.gather_where(self.comm, &fluid)? {
-                self.tracker.at_output(&v);
-            }
-        }
+        let r = reduce(&self.sim, self.comm, None)?;
         let wall = self.loop_start.elapsed().as_secs_f64();
         let stamp = output::Stamp {
             step: self.sim.step,

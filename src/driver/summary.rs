@@ -27,7 +27,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             self.checkpoint()?;
         }
         self.probes.flush()?;
-        let r = reduce(&self.sim, self.comm, self.setup_peak)?;
+        let r = reduce(&self.sim, self.comm, Some(self.setup_peak))?;
         let p = &self.sim.p;
         let kinds = &p.kind[..p.n_owned];
         let mut n_fluid = [

@@ -102,6 +102,7 @@ fn written_to_output(all: Particles<2>) {
         dt: 0.0,
         scene: &scene,
         model: &model,
+        memo: Default::default(),
     };
     let dir = std::env::temp_dir().join(format!("hsph-field-table-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

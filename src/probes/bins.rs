@@ -51,8 +51,11 @@ struct Dense<const D: usize> {
 }
 
 impl<const D: usize> Dense<D> {
-    fn over(cells: &[[i64; D]], items: usize) -> Option<Self> {
-        let first = *cells.first()?;
+    /// The table's box over `cells` (lowest corner, extent per axis), or `None` when it would
+    /// hold more than [`DENSE_PER_ITEM`] cells per particle of `items`.
+    fn bounds<'c>(cells: impl Iterator<Item = &'c [i64; D]>, items: usize) -> Option<([i64; D], [i64; D])> {
+        let mut cells = cells.peekable();
+        let first = **cells.peek()?;
         let (mut lo, mut hi) = (first, first);
         for c in cells {
             for a in 0..D {
@@ -62,19 +65,9 @@ impl<const D: usize> Dense<D> {
         }
         let dims: [i64; D] = std::array::from_fn(|a| hi[a].saturating_sub(lo[a]).saturating_add(1));
         let budget = (DENSE_PER_ITEM * items + 1024) as i64;
-        let total = dims
-            .iter()
+        dims.iter()
             .try_fold(1i64, |n, &d| n.checked_mul(d).filter(|&n| n <= budget))?;
-        let mut dense = Dense {
-            lo,
-            dims,
-            slot: vec![u32::MAX; total as usize],
-        };
-        for (k, c) in cells.iter().enumerate() {
-            let at = dense.linear(*c)?;
-            dense.slot[at] = u32::try_from(k).ok()?;
-        }
-        Some(dense)
+        Some((lo, dims))
     }
 
     fn linear(&self, c: [i64; D]) -> Option<usize> {
@@ -89,6 +82,17 @@ impl<const D: usize> Dense<D> {
         Some(at as usize)
     }
 
+    /// The cell at linear index `l` (the inverse of [`Dense::linear`]).
+    fn cell(&self, mut l: usize) -> [i64; D] {
+        let mut c = [0i64; D];
+        for a in (0..D).rev() {
+            let n = self.dims[a] as usize;
+            c[a] = self.lo[a] + (l % n) as i64;
+            l /= n;
+        }
+        c
+    }
+
     fn find(&self, c: [i64; D]) -> Option<usize> {
         let k = self.slot[self.linear(c)?];
         (k != u32::MAX).then_some(k as usize)
@@ -97,9 +101,23 @@ impl<const D: usize> Dense<D> {
 
 impl<const D: usize> Bins<D> {
     /// Bin the particles `members` (indices into `x`) in cells of side `size` (m).
+    ///
+    /// When the occupied cells' box is small (the usual case) this is a counting sort over the
+    /// box, O(n); otherwise one sort of (cell, index) pairs and lookups by binary search.
     pub fn new(x: &[Vector<D>], size: f64, members: impl Iterator<Item = usize>) -> Self {
         let mut keyed: Vec<([i64; D], usize)> = members.map(|i| (cell_of(&x[i], size), i)).collect();
-        keyed.sort_unstable();
+        let in_order = keyed.windows(2).all(|w| w[0].1 < w[1].1);
+        match Dense::bounds(keyed.iter().map(|(c, _)| c), keyed.len()) {
+            Some((lo, dims)) if in_order => Self::counted(size, &keyed, lo, dims),
+            _ => {
+                keyed.sort_unstable();
+                Self::sorted(size, keyed)
+            }
+        }
+    }
+
+    /// Bins from `keyed` sorted by (cell, index), looked up by binary search.
+    fn sorted(size: f64, keyed: Vec<([i64; D], usize)>) -> Self {
         let (mut cells, mut start) = (Vec::new(), Vec::new());
         for (k, (c, _)) in keyed.iter().enumerate() {
             if cells.last() != Some(c) {
@@ -109,13 +127,59 @@ impl<const D: usize> Bins<D> {
         }
         start.push(keyed.len());
         let items: Vec<usize> = keyed.into_iter().map(|(_, i)| i).collect();
-        let dense = Dense::over(&cells, items.len());
         Bins {
             size,
             cells,
             start,
             items,
-            dense,
+            dense: None,
+        }
+    }
+
+    /// Bins from `keyed` in index order by a stable counting sort over the box (`lo`, `dims`):
+    /// the box's linear order is the cells' lexicographic order, so cells and members come out
+    /// as [`Bins::sorted`] would give them.
+    fn counted(size: f64, keyed: &[([i64; D], usize)], lo: [i64; D], dims: [i64; D]) -> Self {
+        let total = dims.iter().product::<i64>() as usize;
+        let mut dense = Dense {
+            lo,
+            dims,
+            slot: vec![0u32; total],
+        };
+        let linear: Vec<usize> = keyed
+            .iter()
+            .map(|(c, _)| dense.linear(*c).expect("inside the box"))
+            .collect();
+        for &l in &linear {
+            dense.slot[l] += 1;
+        }
+        let (mut cells, mut start) = (Vec::new(), Vec::new());
+        let mut at = 0usize;
+        for l in 0..total {
+            let count = dense.slot[l] as usize;
+            if count == 0 {
+                dense.slot[l] = u32::MAX;
+                continue;
+            }
+            dense.slot[l] = cells.len() as u32;
+            cells.push(dense.cell(l));
+            start.push(at);
+            at += count;
+        }
+        start.push(at);
+        let mut next = start.clone();
+        let mut items = vec![0usize; keyed.len()];
+        for (&l, (_, i)) in linear.iter().zip(keyed) {
+            let k = dense.slot[l] as usize;
+            items[next[k]] = *i;
+            next[k] += 1;
+        }
+        Bins {
+            size,
+            cells,
+            start,
+            items,
+            dense: Some(dense),
         }
     }
 
@@ -187,6 +251,7 @@ mod tests {
                 .collect();
             assert_eq!(got, want, "particle {i}");
         }
+        assert!((0..bins.len().saturating_sub(1)).all(|k| bins.cell(k) < bins.cell(k + 1)));
         let total: usize = (0..bins.len()).map(|k| bins.members(k).len()).sum();
         assert_eq!(total, x.len() - x.len().div_ceil(3));
         for k in 0..bins.len() {

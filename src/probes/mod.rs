@@ -21,7 +21,7 @@ use crate::error::{Error, Result};
 use crate::output::series;
 use crate::particles::Particles;
 use crate::scene::{Probe, Scene};
-use crate::sim::Simulation;
+use crate::sim::{Simulation, View};
 use crate::Vector;
 use std::collections::VecDeque;
 use std::fs::File;
@@ -134,17 +134,17 @@ impl<const D: usize> ProbeSet<D> {
     /// that are due now or average over a window, and write the rows of those that are due.
     /// `output` says this is an output step. With `output_only` (a second call for the same
     /// step: the run's last state, off the output schedule) only the probes on the output clock
-    /// write, and windows are not sampled again.
-    pub fn after_step(
+    /// write, and windows are not sampled again. With `fluid` the gather also takes every fluid
+    /// particle, and the gathered particles are returned (rank 0) for the reference tracker, so
+    /// an output step gathers once. A probe reads the same bits with or without the extra
+    /// particles: each sums over what lies within its reach, in id order.
+    pub fn after_step<'s>(
         &mut self,
-        sim: &Simulation<D>,
+        sim: &'s Simulation<D>,
         comm: &dyn Comm,
-        output: bool,
-        output_only: bool,
-    ) -> Result<()> {
-        if self.probes.is_empty() {
-            return Ok(());
-        }
+        (output, output_only): (bool, bool),
+        fluid: bool,
+    ) -> Result<Option<View<'s, D>>> {
         let t = sim.t;
         let due: Vec<bool> = self
             .clocks
@@ -157,16 +157,18 @@ impl<const D: usize> ProbeSet<D> {
         let sampled: Vec<bool> = (0..self.probes.len())
             .map(|k| due[k] || (!output_only && self.probes[k].window() > 0.0))
             .collect();
-        if !sampled.contains(&true) {
-            return Ok(());
+        if !sampled.contains(&true) && !fluid {
+            return Ok(None);
         }
         let mut regions = Vec::new();
         for k in (0..self.probes.len()).filter(|&k| sampled[k]) {
             regions.push(self.region(k, sim, comm)?);
         }
-        let view = sim.gather_where(comm, &|p, i| regions.iter().any(|r| r.contains(p, i)));
-        let Some(view) = view? else {
-            return Ok(());
+        let keep = |p: &Particles<D>, i: usize| {
+            (fluid && p.kind[i].is_fluid()) || regions.iter().any(|r| r.contains(p, i))
+        };
+        let Some(view) = sim.gather_where(comm, &keep)? else {
+            return Ok(None);
         };
         for k in (0..self.probes.len()).filter(|&k| sampled[k]) {
             let mut values = sample(&view, &self.probes[k], self.walls[k]);
@@ -184,7 +186,7 @@ impl<const D: usize> ProbeSet<D> {
                 }
             }
         }
-        Ok(())
+        Ok(Some(view))
     }
 
     /// Clocks and averaging windows, for a checkpoint.
@@ -268,10 +270,14 @@ impl<const D: usize> ProbeSet<D> {
                         hi[a] = hi[a].max(p.x[i][a]);
                     }
                 }
+                // one collective: the largest coordinate is the smallest of its negation
+                let mut both: Vec<f64> = lo.iter().chain(hi.iter()).copied().collect();
+                both[D..].iter_mut().for_each(|h| *h = -*h);
                 let prev = comm.set_phase(Phase::Output);
-                comm.all_reduce_min_f64(&mut lo)?;
-                comm.all_reduce_max_f64(&mut hi)?;
+                comm.all_reduce_min_f64(&mut both)?;
                 comm.set_phase(prev);
+                lo.copy_from_slice(&both[..D]);
+                hi.iter_mut().zip(&both[D..]).for_each(|(h, b)| *h = -b);
                 Region {
                     body: Some(b),
                     ..around(vec_of(&lo), vec_of(&hi), reach)

@@ -67,7 +67,7 @@ pub fn sample<const D: usize>(v: &View<D>, probe: &Probe, wall: u16) -> Vec<f64>
             plate, projectile, ..
         } => {
             let setup = super::hole::HoleSetup::<D>::of(v.scene, plate, projectile);
-            let ids: Vec<usize> = (0..v.p.n_owned).collect();
+            let ids: Vec<usize> = (0..v.p.n_owned).filter(|&i| v.p.kind[i].is_solid()).collect();
             super::hole::measure(&v.p, &ids, &setup).values()
         }
     }
@@ -199,6 +199,18 @@ fn gauge<const D: usize>(v: &View<D>, point: &[f64]) -> f64 {
 /// its largest (`+`) or smallest (`-`) coordinate along `axis`. Detached drops and spray ahead
 /// of the body are separate groups and do not count. NaN when there is no fluid.
 pub(crate) fn front<const D: usize>(v: &View<D>, axis: usize, dir: Direction, link: f64) -> f64 {
+    // the front probe and the dam-break reference ask for the same front at an output step
+    let key = [
+        0,
+        axis as u64,
+        matches!(dir, Direction::Plus) as u64,
+        link.to_bits(),
+    ];
+    v.memo.get_or(key, || main_body_front(v, axis, dir, link))
+}
+
+/// [`front`], computed.
+fn main_body_front<const D: usize>(v: &View<D>, axis: usize, dir: Direction, link: f64) -> f64 {
     let p = &v.p;
     let bins = Bins::new(&p.x, link, (0..p.n_owned).filter(|&i| p.kind[i].is_fluid()));
     // union–find over particle indices (fluid only take part)

@@ -63,6 +63,26 @@ pub struct View<'a, const D: usize> {
     pub scene: &'a Scene,
     /// Physics constants.
     pub model: &'a Model<D>,
+    /// Figures already computed from these particles (see [`Memo`]).
+    pub memo: Memo,
+}
+
+/// Figures computed from a [`View`] once and read by several consumers — the front probe and
+/// the dam-break reference measure the same front — keyed by the consumer's tag and the
+/// figure's parameters (as bits). Each key is computed at most once.
+#[derive(Debug, Default)]
+pub struct Memo(std::cell::RefCell<Vec<([u64; 4], f64)>>);
+
+impl Memo {
+    /// The value under `key`, computed by `f` the first time.
+    pub fn get_or(&self, key: [u64; 4], f: impl FnOnce() -> f64) -> f64 {
+        if let Some((_, v)) = self.0.borrow().iter().find(|(k, _)| *k == key) {
+            return *v;
+        }
+        let v = f();
+        self.0.borrow_mut().push((key, v));
+        v
+    }
 }
 
 impl<const D: usize> View<'_, D> {
@@ -119,12 +139,25 @@ impl<const D: usize> Simulation<D> {
             vmax = vmax.max(v2.sqrt());
         }
         let per = sums[0].limbs().len();
-        let mut limbs: Vec<i64> = sums.iter().flat_map(|s| s.limbs()).collect();
+        let limbs: Vec<i64> = sums.iter().flat_map(|s| s.limbs()).collect();
+        // one collective (an output at every step pays one message round): every rank's
+        // limbs, summed as integers (wrapping, as the all-reduce did: exact in any order), and its largest speed
+        let mut mine: Vec<u8> = limbs.iter().flat_map(|l| l.to_le_bytes()).collect();
+        mine.extend_from_slice(&vmax.to_le_bytes());
         let prev = comm.set_phase(Phase::Output);
-        comm.all_reduce_sum_i64(&mut limbs)?;
-        let mut mx = [vmax];
-        comm.all_reduce_max_f64(&mut mx)?;
+        let all = comm.all_gather_bytes(mine)?;
         comm.set_phase(prev);
+        let word = |b: &[u8], k: usize| -> [u8; 8] { b[8 * k..8 * k + 8].try_into().expect("8 bytes") };
+        let limbs: Vec<i64> = (0..limbs.len())
+            .map(|k| {
+                all.iter()
+                    .fold(0i64, |s, b| s.wrapping_add(i64::from_le_bytes(word(b, k))))
+            })
+            .collect();
+        let mx = [all
+            .iter()
+            .map(|b| f64::from_le_bytes(word(b, limbs.len())))
+            .fold(0.0f64, f64::max)];
         let value = |k: usize| ExactSum::from_limbs(&limbs[k * per..(k + 1) * per]).value();
         Ok(Observables {
             kinetic_energy: value(0),
@@ -182,6 +215,7 @@ impl<const D: usize> Simulation<D> {
             dt: self.dt,
             scene: &self.scene,
             model: &self.model,
+            memo: Memo::default(),
         }))
     }
 }
