@@ -11,6 +11,13 @@
 //!
 //! Image particles (periodic and mirror) are ghosts: [`images`] holds their geometry and
 //! [`crate::halo`] makes and refreshes them with the other ranks' ghosts.
+//!
+//! A wall method with particles of its own says which particle kind it fills its body with
+//! (`scene::WallMethod::particle_kind`: the kind is how the fluid's pair kernels treat the
+//! particle) and, if the particles' p, ρ and v_w follow the fluid, gives the per-particle
+//! kernel [`update_walls`] dispatches to (one arm below). Adding such a method touches its
+//! file here, this dispatch and its `WallMethod` variant with its key checks in
+//! `scene/walls.rs`; the test-only `toy` method proves it.
 
 pub mod axis_op;
 pub mod dummy;
@@ -20,12 +27,74 @@ pub mod mirror;
 pub mod motion;
 pub mod periodic;
 pub mod repulsive;
+#[cfg(test)]
+mod toy;
 
 pub use images::{AxisOp, ImageSpace};
 pub use mirror::MirrorPlane;
 
-use crate::scene::Scene;
+use crate::cells::Neighbours;
+use crate::kernel::Kernel;
+use crate::material::MaterialModel;
+use crate::particles::Particles;
+use crate::scene::{Scene, WallMethod};
 use crate::Vector;
+use rayon::prelude::*;
+
+/// What wall kernels read besides the particles (the physics model lends it).
+pub struct WallContext<'a, const D: usize> {
+    /// The smoothing kernel.
+    pub kernel: &'a Kernel,
+    /// Material models by material index (the EOS inverse gives ρ_w from p_w).
+    pub materials: &'a [MaterialModel],
+    /// Body force g (m/s²).
+    pub g: Vector<D>,
+    /// Boundary method of each wall body, by body index.
+    pub methods: &'a [WallMethod],
+    /// Acceleration a_w of each wall body (m/s²), by body index.
+    pub wall_acc: &'a [Vector<D>],
+    /// No-slip (`true`) or free-slip walls, by body index.
+    pub no_slip: &'a [bool],
+}
+
+/// True if `method`'s particles take their p, ρ and v_w from the fluid each step (a kernel
+/// in [`update_walls`]).
+pub fn updates(method: WallMethod) -> bool {
+    match method {
+        WallMethod::Dummy => true,
+        #[cfg(test)]
+        WallMethod::Toy => true,
+        WallMethod::Repulsive | WallMethod::Mirror => false,
+    }
+}
+
+/// Set p, ρ and v_w of every owned wall particle whose method [`updates`] them, each by its
+/// wall body's method from its neighbours; other particles keep theirs.
+pub fn update_walls<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, c: &WallContext<D>) {
+    let out: Vec<(f64, f64, Vector<D>)> = {
+        let p = &*p;
+        (0..p.n_owned)
+            .into_par_iter()
+            .map(|w| {
+                let keep = (p.p[w], p.rho[w], p.vw[w]);
+                if !p.kind[w].is_wall() {
+                    return keep;
+                }
+                match c.methods[p.body[w] as usize] {
+                    WallMethod::Dummy => dummy::extrapolated(p, w, nl.iter(w), c),
+                    #[cfg(test)]
+                    WallMethod::Toy => toy::shepard_pressure(p, w, nl.iter(w), c),
+                    WallMethod::Repulsive | WallMethod::Mirror => keep,
+                }
+            })
+            .collect()
+    };
+    for (w, (pw, rw, vw)) in out.into_iter().enumerate() {
+        p.p[w] = pw;
+        p.rho[w] = rw;
+        p.vw[w] = vw;
+    }
+}
 
 /// The periodic box and mirror planes of a scene.
 pub fn image_space<const D: usize>(scene: &Scene) -> ImageSpace<D> {

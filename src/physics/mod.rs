@@ -5,7 +5,7 @@
 //! in [`passes`]; each is a gather loop over owned particles (parallel with rayon, each
 //! particle summing its neighbours in the fixed order of [`crate::cells::NeighbourList`]):
 //! [`delta::renormalised_gradient`] (⟨∇ρ⟩^L for Antuono's δ-SPH), [`fluid::continuity`],
-//! [`crate::boundary::dummy::extrapolate`] (dummy-wall p, ρ, v_w) and [`fluid::momentum`].
+//! [`crate::boundary::update_walls`] (wall particles' p, ρ, v_w) and [`fluid::momentum`].
 //! Materials answer through [`crate::material::MaterialModel`].
 
 pub mod delta;
@@ -51,8 +51,10 @@ pub struct Model<const D: usize> {
     pub g: Vector<D>,
     /// Repulsive wall force (Monaghan 1994).
     pub repulsive: Repulsion,
-    /// True if a wall of the scene uses dummy particles (the extrapolation pass runs).
-    pub has_dummy: bool,
+    /// Boundary method per wall body.
+    pub wall_methods: Vec<WallMethod>,
+    /// True if a wall's particles take p, ρ and v_w from the fluid (the wall pass runs).
+    pub updates_walls: bool,
     /// Slip condition per wall body: true = no-slip.
     pub wall_no_slip: Vec<bool>,
     /// Wall acceleration per wall body (m/s²), updated by the step loop for moving walls.
@@ -68,12 +70,13 @@ pub struct Model<const D: usize> {
 }
 
 impl<const D: usize> Model<D> {
-    /// What dummy walls read to extrapolate onto their particles.
-    pub fn dummy_walls(&self) -> crate::boundary::dummy::DummyWalls<'_, D> {
-        crate::boundary::dummy::DummyWalls {
+    /// What wall kernels read to set their particles' p, ρ and v_w.
+    pub fn wall_context(&self) -> crate::boundary::WallContext<'_, D> {
+        crate::boundary::WallContext {
             kernel: &self.kernel,
             materials: &self.materials,
             g: self.g,
+            methods: &self.wall_methods,
             wall_acc: &self.wall_acc,
             no_slip: &self.wall_no_slip,
         }
@@ -105,7 +108,8 @@ impl<const D: usize> Model<D> {
             nu: s.physics.laminar_viscosity,
             g: Vector::from_fn(|a, _| s.physics.body_force[a]),
             repulsive: Repulsion::new(c_max, s.discretisation.dx),
-            has_dummy: s.walls.iter().any(|w| w.method == WallMethod::Dummy),
+            wall_methods: s.walls.iter().map(|w| w.method).collect(),
+            updates_walls: s.walls.iter().any(|w| crate::boundary::updates(w.method)),
             wall_no_slip: s
                 .walls
                 .iter()

@@ -27,6 +27,11 @@ pub enum WallMethod {
     Repulsive,
     /// Mirror (image) particles across the inner faces of a container; no wall particles.
     Mirror,
+    /// Test only (`crate::boundary::toy`): dummy-like particles holding the Shepard mean of
+    /// the fluid pressure round them, with no body-force term; proves that a wall method is
+    /// its file in `boundary/`, one arm of `boundary::update_walls` and a variant here.
+    #[cfg(test)]
+    Toy,
 }
 
 impl WallMethod {
@@ -37,6 +42,8 @@ impl WallMethod {
             WallMethod::Dummy => Some(crate::particles::Kind::Dummy),
             WallMethod::Repulsive => Some(crate::particles::Kind::Repulsive),
             WallMethod::Mirror => None,
+            #[cfg(test)]
+            WallMethod::Toy => Some(crate::particles::Kind::Dummy),
         }
     }
 }
@@ -235,7 +242,8 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
         }
         validate_motion(w, &k, d)?;
         if w.no_slip == crate::scene::NoSlipMethod::Morris
-            && (w.method == WallMethod::Repulsive || w.slip != crate::scene::Slip::NoSlip)
+            && (!matches!(w.method, WallMethod::Dummy | WallMethod::Mirror)
+                || w.slip != crate::scene::Slip::NoSlip)
         {
             return err(
                 format!("{k}.no_slip"),

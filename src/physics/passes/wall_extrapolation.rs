@@ -1,13 +1,13 @@
-//! p, ρ and v_w of dummy wall particles, extrapolated from the fluid (Adami et al. 2012;
-//! `crate::boundary::dummy`).
+//! p, ρ and v_w of wall particles, extrapolated from the fluid by their wall's method
+//! (dummy walls: Adami et al. 2012, `crate::boundary::dummy`; `crate::boundary::update_walls`).
 
 use super::{geometry, Ctx, Row};
-use crate::boundary::dummy;
+use crate::boundary::update_walls;
 use crate::cells::Neighbours;
 use crate::particles::Fields;
 use crate::physics::Model;
 
-/// Dummy walls' extrapolation.
+/// Wall particles' extrapolation.
 pub struct WallExtrapolation;
 
 impl Row for WallExtrapolation {
@@ -26,10 +26,10 @@ impl Row for WallExtrapolation {
     }
 
     fn runs<const D: usize>(m: &Model<D>) -> bool {
-        m.has_fluid && m.has_dummy
+        m.has_fluid && m.updates_walls
     }
 
     fn gather<const D: usize, N: Neighbours>(c: &mut Ctx<'_, D>, nb: &N) {
-        dummy::extrapolate(c.p, nb, &c.model.dummy_walls());
+        update_walls(c.p, nb, &c.model.wall_context());
     }
 }
