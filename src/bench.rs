@@ -23,6 +23,8 @@ pub struct BenchOptions {
     pub repeat: usize,
     /// `--set` overrides applied to every scene.
     pub overrides: Vec<String>,
+    /// Typed flags applied to every scene (`--interactions`, `--neighbours`).
+    pub flags: crate::scene::SceneFlags,
 }
 
 /// One measured row.
@@ -64,7 +66,8 @@ fn median(mut v: Vec<f64>) -> f64 {
 pub fn run(scenes: &[PathBuf], o: &BenchOptions) -> Result<Vec<BenchRow>> {
     let mut rows = Vec::new();
     for path in scenes {
-        let (scene, _) = load_scene(path, &o.overrides)?;
+        let (mut scene, mut src) = load_scene(path, &o.overrides)?;
+        o.flags.apply(&mut scene, &mut src)?;
         for &t in &o.threads {
             let row = crate::with_dim!(scene.dimension, D => measure::<D>(path, &scene, t, o))?;
             eprintln!(

@@ -197,6 +197,40 @@ fn pairs_mode_refuses_passes_it_does_not_cover() {
     ]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("solid"), "{err}");
+    // the typed flag, not `--set`, is named as the source of the key
+    assert!(
+        err.contains("--interactions: key `performance.interactions`"),
+        "{err}"
+    );
+}
+
+/// Typed flags reach the scene as values and its written text: `--interactions pairs
+/// --neighbours cells` runs in those modes and the run directory's `scene.toml` (what a restart
+/// reads) says so.
+#[test]
+fn typed_flags_reach_the_scene_and_its_written_text() {
+    let dir = std::env::temp_dir().join(format!("hsph-typed-flags-{}", std::process::id()));
+    let out = dir.to_str().unwrap();
+    let (code, _, err) = hsph(&[
+        "run",
+        "inputs/hydrostatic_2d.toml",
+        "--interactions",
+        "pairs",
+        "--neighbours",
+        "cells",
+        "--set",
+        "time.max_steps=2",
+        "--out",
+        out,
+        "--force",
+        "-q",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let text = std::fs::read_to_string(dir.join("scene.toml")).unwrap();
+    let (scene, _) = hsph::scene::load_scene_str(&text, &dir.join("scene.toml"), "x", &[]).unwrap();
+    assert_eq!(scene.performance.interactions, hsph::scene::Interactions::Pairs);
+    assert_eq!(scene.performance.neighbours, hsph::scene::NeighbourMode::Cells);
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// The renormalised viscous operator's lattice moment L_i = −(1/D) Σ_j V_j r W′ at the

@@ -15,8 +15,8 @@ pub use check::check_report;
 use check::{cmd_check, layout_limits};
 use jobscript::{cmd_jobscript, JobArgs};
 use plan::{cmd_model, cmd_plan};
+use run::cmd_run_args;
 pub use run::RunArgs;
-use run::{cmd_run_args, interactions_override};
 
 use crate::affinity::Bind;
 use crate::bench::{self, BenchOptions};
@@ -25,7 +25,7 @@ use crate::error::{Error, Result};
 use crate::layout::{Backend, LayoutRequest, RunLayout};
 use crate::placement::Placement;
 use crate::report;
-use crate::scene::{load_scene, Scene, SceneSource};
+use crate::scene::{load_scene, Scene, SceneFlags, SceneSource};
 use crate::topology::Topology;
 use clap::{Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
@@ -493,13 +493,13 @@ fn parse_memory(s: &str) -> std::result::Result<f64, String> {
         .ok_or_else(|| format!("`{s}` is not a size; e.g. 64G, 512MiB or 1000000 (bytes)"))
 }
 
-/// `hsph bench`: the default scenes unless named, the flags as `--set` overrides.
+/// `hsph bench`: the default scenes unless named, with the `--set` overrides and typed flags.
 fn cmd_bench(
     scenes: Vec<PathBuf>,
     threads: Vec<usize>,
     steps: u64,
     repeat: usize,
-    mut set: Vec<String>,
+    set: Vec<String>,
     interactions: Option<crate::scene::Interactions>,
     neighbours: Option<crate::scene::NeighbourMode>,
 ) -> Result<i32> {
@@ -509,8 +509,6 @@ fn cmd_bench(
     for &t in &threads {
         crate::limits::threads("--threads", t, 1)?;
     }
-    set.extend(interactions_override(interactions));
-    set.extend(neighbours.map(|m| format!("performance.neighbours=\"{}\"", m.name())));
     let scenes = if scenes.is_empty() {
         bench::default_scenes()
     } else {
@@ -521,6 +519,10 @@ fn cmd_bench(
         steps,
         repeat,
         overrides: set,
+        flags: SceneFlags {
+            interactions,
+            neighbours,
+        },
     };
     say(&bench::table(&bench::run(&scenes, &opts)?));
     Ok(0)

@@ -3,8 +3,13 @@
 use super::*;
 
 /// `hsph run`: load the scene, install the signal handlers, run; 3 if a signal stopped it.
-pub(super) fn cmd_run(scene: &std::path::Path, set: &[String], opts: &RunOptions) -> Result<i32> {
-    let (scene, src) = load_scene(scene, set)?;
+pub(super) fn cmd_run(
+    scene: &std::path::Path,
+    (set, flags): (&[String], SceneFlags),
+    opts: &RunOptions,
+) -> Result<i32> {
+    let (mut scene, mut src) = load_scene(scene, set)?;
+    flags.apply(&mut scene, &mut src)?;
     crate::signals::install()?;
     let outcome = driver::run_scene(&scene, opts).map_err(|e| locate(&src, e))?;
     Ok(if outcome.stopped_by.is_some() {
@@ -86,11 +91,6 @@ pub struct RunArgs {
     min_particles_per_rank: usize,
 }
 
-/// The `--set` override of an `--interactions` flag.
-pub(super) fn interactions_override(i: Option<crate::scene::Interactions>) -> Option<String> {
-    i.map(|i| format!("performance.interactions=\"{}\"", i.name()))
-}
-
 /// `hsph run`: a scene, or `--restart` of a checkpoint.
 pub(super) fn cmd_run_args(a: RunArgs) -> Result<i32> {
     let RunArgs {
@@ -101,7 +101,7 @@ pub(super) fn cmd_run_args(a: RunArgs) -> Result<i32> {
         out,
         force,
         threads,
-        mut set,
+        set,
         interactions,
         neighbours,
         backend,
@@ -114,8 +114,10 @@ pub(super) fn cmd_run_args(a: RunArgs) -> Result<i32> {
         max_memory,
         min_particles_per_rank,
     } = a;
-    set.extend(interactions_override(interactions));
-    set.extend(neighbours.map(|m| format!("performance.neighbours=\"{}\"", m.name())));
+    let flags = SceneFlags {
+        interactions,
+        neighbours,
+    };
     check_run_flags(backend, bind, ranks, checkpoint_every_minutes)?;
     let opts = RunOptions {
         out,
@@ -136,8 +138,8 @@ pub(super) fn cmd_run_args(a: RunArgs) -> Result<i32> {
         checkpoint_wall: checkpoint_every_minutes.map(|m| m * 60.0),
     };
     match (scene, restart) {
-        (_, Some(from)) => cmd_restart(&from, &set, opts),
-        (Some(scene), None) => cmd_run(&scene, &set, &opts),
+        (_, Some(from)) => cmd_restart(&from, (&set, flags), opts),
+        (Some(scene), None) => cmd_run(&scene, (&set, flags), &opts),
         (None, None) => Err(Error::input("SCENE", "give a scene file, or --restart DIR")),
     }
 }
@@ -171,12 +173,17 @@ pub(super) fn check_run_flags(
 
 /// `hsph run --restart`: the checkpoint's scene with the allowed `--set` changes, continued
 /// in the checkpoint's run directory.
-pub(super) fn cmd_restart(from: &std::path::Path, set: &[String], mut opts: RunOptions) -> Result<i32> {
+pub(super) fn cmd_restart(
+    from: &std::path::Path,
+    (set, flags): (&[String], SceneFlags),
+    mut opts: RunOptions,
+) -> Result<i32> {
     let ck = crate::checkpoint::locate(from)?;
     let m = crate::checkpoint::manifest(&ck)?;
     let at = ck.join("manifest.json");
     let (original, _) = crate::scene::load_scene_str(&m.scene, &at, "restart", &[])?;
-    let (scene, src) = crate::scene::load_scene_str(&m.scene, &at, &original.name, set)?;
+    let (mut scene, mut src) = crate::scene::load_scene_str(&m.scene, &at, &original.name, set)?;
+    flags.apply(&mut scene, &mut src)?;
     crate::checkpoint::compat::check(&original, &scene)?;
     restart_not_before_start(&scene, &m).map_err(|e| locate(&src, e))?;
     if scene.dimension != m.dimension {

@@ -1,7 +1,7 @@
 //! Reading a scene: file → `--set` overrides → typed [`Scene`] → validation, with every error
 //! located by file, line and dotted key.
 
-use super::Scene;
+use super::{Interactions, NeighbourMode, Scene};
 use crate::error::{Error, Location, Result};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -18,6 +18,58 @@ pub struct SceneSource {
     pub overridden: Vec<String>,
     /// The file's own text, before overrides: line numbers refer to it.
     pub original: String,
+    /// Dotted keys set by typed flags ([`SceneFlags`]), with the flag (their errors name it).
+    pub flagged: Vec<(String, &'static str)>,
+}
+
+/// Typed command-line flags that set scene keys: `--interactions` (`performance.interactions`)
+/// and `--neighbours` (`performance.neighbours`). They reach the scene as values — nothing is
+/// formatted as text and parsed again — and are written into the scene's text, so that the run
+/// directory's `scene.toml` (and a restart from it) keeps them; an error about such a key
+/// names the flag.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SceneFlags {
+    /// `--interactions`.
+    pub interactions: Option<Interactions>,
+    /// `--neighbours`.
+    pub neighbours: Option<NeighbourMode>,
+}
+
+impl SceneFlags {
+    /// Give the flags' values to `scene` and to its text in `src`.
+    pub fn apply(&self, scene: &mut Scene, src: &mut SceneSource) -> Result<()> {
+        let mut given: Vec<(&'static str, &'static str, &'static str)> = Vec::new();
+        if let Some(i) = self.interactions {
+            scene.performance.interactions = i;
+            given.push(("--interactions", "performance.interactions", i.name()));
+        }
+        if let Some(m) = self.neighbours {
+            scene.performance.neighbours = m;
+            given.push(("--neighbours", "performance.neighbours", m.name()));
+        }
+        if given.is_empty() {
+            return Ok(());
+        }
+        let mut doc: DocumentMut = src
+            .text
+            .parse()
+            .map_err(|_| Error::run("the scene's text no longer parses"))?;
+        for (flag, key, value) in given {
+            set_path(doc.as_table_mut(), &parse_path(key), Value::from(value)).map_err(|why| {
+                Error::Input {
+                    at: Some(Location {
+                        file: PathBuf::from(flag),
+                        line: None,
+                    }),
+                    key: key.to_string(),
+                    message: format!("cannot set it: {why}"),
+                }
+            })?;
+            src.flagged.push((key.to_string(), flag));
+        }
+        src.text = doc.to_string();
+        Ok(())
+    }
 }
 
 /// One step of a key path: a table key or an array index.
@@ -101,6 +153,7 @@ pub fn load_scene_str(
         text,
         overridden,
         original: text_in.to_string(),
+        flagged: Vec::new(),
     };
     let mut scene: Scene = toml::from_str(&src.text).map_err(|e| src.serde_error(&e))?;
     if scene.name.is_empty() {
@@ -230,6 +283,12 @@ impl SceneSource {
     /// `--set` for an overridden key, else the file and the line of the key (or of its
     /// nearest existing ancestor) in the file's own text, else `fallback_line`.
     fn location_of(&self, key: &str, fallback_line: Option<usize>) -> Option<Location> {
+        if let Some((_, flag)) = self.flagged.iter().find(|(k, _)| k == key) {
+            return Some(Location {
+                file: PathBuf::from(flag),
+                line: None,
+            });
+        }
         if self.is_overridden(key) {
             return Some(Location {
                 file: PathBuf::from("--set"),

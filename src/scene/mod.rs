@@ -18,7 +18,7 @@ mod walls;
 
 pub use checks::face as face_of;
 pub(crate) use load::{first_line, key_at, line_of, span_of_key};
-pub use load::{load_scene, load_scene_str, SceneSource};
+pub use load::{load_scene, load_scene_str, SceneFlags, SceneSource};
 pub use materials::{Material, MaterialKind, StrengthKind};
 pub use probes::{Direction, Probe};
 pub use reference::Reference;
