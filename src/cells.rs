@@ -295,6 +295,44 @@ pub trait Neighbours: Sync {
     fn iter(&self, i: usize) -> Self::Iter<'_>;
     /// Work of the owned particles before `i`: list entries, or particles without lists.
     fn work_before(&self, i: usize) -> usize;
+    /// True if a pass computes owned particle `i` now: every particle, unless the source is a
+    /// [`Subset`] (the interior while ghosts are in flight, then the rest). A kernel leaves a
+    /// particle it does not visit as it was.
+    #[inline(always)]
+    fn visits(&self, _i: usize) -> bool {
+        true
+    }
+}
+
+/// The neighbours of a part of the owned particles: those whose `mask` entry equals `part`.
+/// Running a pass over `Subset { part: true, .. }` then `Subset { part: false, .. }` gives the
+/// bits of one run over every particle when the pass reads no field it writes
+/// (`physics::passes::Pass::splits`): each particle's sum is its own, in the same order.
+pub struct Subset<'a, N> {
+    /// The neighbour source of every particle.
+    pub all: &'a N,
+    /// Per owned particle: which part it belongs to.
+    pub mask: &'a [bool],
+    /// The part visited.
+    pub part: bool,
+}
+
+impl<N: Neighbours> Neighbours for Subset<'_, N> {
+    type Iter<'b>
+        = N::Iter<'b>
+    where
+        Self: 'b;
+    #[inline(always)]
+    fn iter(&self, i: usize) -> Self::Iter<'_> {
+        self.all.iter(i)
+    }
+    fn work_before(&self, i: usize) -> usize {
+        self.all.work_before(i)
+    }
+    #[inline(always)]
+    fn visits(&self, i: usize) -> bool {
+        self.mask[i] == self.part
+    }
 }
 
 impl Neighbours for NeighbourList {

@@ -77,7 +77,7 @@ pub fn update_walls<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N,
             .into_par_iter()
             .map(|w| {
                 let keep = (p.p[w], p.rho[w], p.vw[w]);
-                if !p.kind[w].is_wall() {
+                if !p.kind[w].is_wall() || !nl.visits(w) {
                     return keep;
                 }
                 match c.methods[p.body[w] as usize] {

@@ -74,6 +74,9 @@ fn renormalised_gradient_with<const D: usize, N: Neighbours>(
 ) {
     let k = &model.kernel;
     out.par_iter_mut().enumerate().for_each(|(i, g)| {
+        if !nl.visits(i) {
+            return;
+        }
         *g = Vector::zeros();
         if !p.kind[i].is_fluid() {
             return;

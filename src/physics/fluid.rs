@@ -53,10 +53,11 @@ pub fn continuity<const D: usize, N: Neighbours>(
         let p = &*p;
         volumes_into(p, vol);
         let vol = &*vol;
-        drho[..n]
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(i, dr)| *dr = continuity_of(p, nl, model, vol, 0.5 * dt, i));
+        drho[..n].par_iter_mut().enumerate().for_each(|(i, dr)| {
+            if nl.visits(i) {
+                *dr = continuity_of(p, nl, model, vol, 0.5 * dt, i);
+            }
+        });
     }
     p.drho = drho;
 }
@@ -79,10 +80,11 @@ pub fn momentum<const D: usize, N: Neighbours>(
             .par_iter_mut()
             .zip(p.p.par_iter().zip(p.rho.par_iter()))
             .for_each(|(q, (&pj, &rj))| *q = pj / (rj * rj));
-        acc[..n]
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(i, a)| *a = momentum_of(p, nl, model, p_rho2, i));
+        acc[..n].par_iter_mut().enumerate().for_each(|(i, a)| {
+            if nl.visits(i) {
+                *a = momentum_of(p, nl, model, p_rho2, i);
+            }
+        });
     }
     p.acc = acc;
 }

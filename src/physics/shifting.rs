@@ -97,9 +97,11 @@ pub fn shifts<const D: usize, N: Neighbours>(
     out: &mut [Shift<D>],
 ) {
     let vol = super::fluid::volumes(p);
-    out.par_iter_mut()
-        .enumerate()
-        .for_each(|(i, o)| *o = shift_of(p, nl, model, s, &vol, i));
+    out.par_iter_mut().enumerate().for_each(|(i, o)| {
+        if nl.visits(i) {
+            *o = shift_of(p, nl, model, s, &vol, i);
+        }
+    });
 }
 
 /// One particle's [`Shift`] (see the module docs).

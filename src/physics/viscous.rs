@@ -204,6 +204,9 @@ pub fn lattice_moment<const D: usize, N: Neighbours>(
         super::fluid::volumes_into(p, vol);
         let (vol, k) = (&*vol, &model.kernel);
         lap[..n].par_iter_mut().enumerate().for_each(|(i, l)| {
+            if !nl.visits(i) {
+                return;
+            }
             *l = 1.0;
             if !p.kind[i].is_fluid() {
                 return;

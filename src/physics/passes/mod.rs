@@ -81,6 +81,14 @@ pub trait Row {
     /// True if a model runs this pass.
     fn runs<const D: usize>(m: &Model<D>) -> bool;
 
+    /// True if the gather kernel may run over a part of the particles and then the rest
+    /// ([`crate::cells::Subset`]: the interior while ghosts are in flight) with the bits of one
+    /// run: it walks neighbours and reads no field it writes (else the second part would read
+    /// what the first wrote).
+    fn splits() -> bool {
+        Self::NEIGHBOURS && !Self::reads().has(Self::writes())
+    }
+
     /// The gather kernel: each owned particle sums over its own neighbours (a pass without
     /// neighbours ignores `nb`).
     fn gather<const D: usize, N: Neighbours>(c: &mut Ctx<'_, D>, nb: &N);
@@ -146,6 +154,11 @@ macro_rules! passes {
             /// [`Row::runs`].
             pub fn runs<const D: usize>(self, m: &Model<D>) -> bool {
                 match self { $(Pass::$variant => <$row>::runs(m),)* }
+            }
+
+            /// [`Row::splits`].
+            pub fn splits(self) -> bool {
+                match self { $(Pass::$variant => <$row>::splits(),)* }
             }
 
             /// Run the pass: its pair kernel over `half` (pair mode) if it has one, else its

@@ -29,6 +29,12 @@ impl Row for WallExtrapolation {
         m.has_fluid && m.updates_walls
     }
 
+    /// It reads p and ρ of fluid particles and writes those of wall particles: never a field
+    /// of a particle it writes, so it splits although the field sets meet.
+    fn splits() -> bool {
+        true
+    }
+
     fn gather<const D: usize, N: Neighbours>(c: &mut Ctx<'_, D>, nb: &N) {
         update_walls(c.p, nb, &c.model.wall_context());
     }

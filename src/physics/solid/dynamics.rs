@@ -114,7 +114,7 @@ pub fn correction<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, m
         let p = &*p;
         let k = &model.kernel;
         out[..n].par_iter_mut().enumerate().for_each(|(i, b)| {
-            if !p.kind[i].is_solid() {
+            if !p.kind[i].is_solid() || !nl.visits(i) {
                 return;
             }
             let xi = p.x[i];
@@ -171,7 +171,9 @@ pub fn rates<const D: usize, N: Neighbours>(
             .zip(scratch.de.par_iter_mut().zip(scratch.rate.par_iter_mut()))
             .enumerate()
             .for_each(|(i, ((dr, ds), (de, rate)))| {
-                (*dr, *ds, *de, *rate) = rates_of(p, nl, model, (c, rs), &visc, half_dt, i);
+                if nl.visits(i) {
+                    (*dr, *ds, *de, *rate) = rates_of(p, nl, model, (c, rs), &visc, half_dt, i);
+                }
             });
     }
     p.drho = drho;
@@ -324,7 +326,7 @@ pub fn momentum<const D: usize, N: Neighbours>(
         let visc = Viscosity::of(model);
         let (sig, rs, c) = (&scratch.sig, &scratch.rs, &scratch.c);
         acc[..n].par_iter_mut().enumerate().for_each(|(i, a)| {
-            if p.kind[i].is_solid() {
+            if p.kind[i].is_solid() && nl.visits(i) {
                 *a = momentum_of(p, nl, model, &visc, (sig, rs, c), w_dp, i);
             }
         });
