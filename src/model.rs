@@ -20,9 +20,19 @@
 //! `P` single-threaded ranks time-sharing `C < P` cores, `max(max_r T_r, Σ_r T_r / C)`.
 //! Efficiency against one rank is `E = a·N / (P·T_step)`.
 //!
-//! Not modelled: memory-bandwidth contention between the ranks of a node, threads inside a
-//! rank, load imbalance that grows during the run (the plan is the initial decomposition),
-//! and output. Units: seconds, bytes, particles.
+//! Threads inside a rank ([`Threads`]) divide its CPU work, `a·n_r + g_cpu·m_r` (with
+//! `g_cpu ≤ g`), by `t·e(t)`: `e(2)` is measured on one rank at 1 and 2 threads, beyond 2
+//! threads it is assumed, pessimistically `e(t) = e(2)^log2(t)` (every doubling loses what
+//! the first did) or optimistically `e(t) = e(2)`. The waits `(g − g_cpu)·m_r` and the
+//! network do not shrink with threads. With the exchange overlapped with the interior
+//! ([`Options::overlap`]) a rank pays only the part of its exchange (waits and network) that
+//! exceeds its interior's compute, the interior being the share `1 − m_r/n_r` of its particles
+//! (a boundary particle per ghost received: an assumption). [`layouts`] ranks the layouts
+//! ranks × threads of nodes of C cores.
+//!
+//! Not modelled: memory-bandwidth contention between the ranks of a node, load imbalance
+//! that grows during the run (the plan is the initial decomposition), and output. Units:
+//! seconds, bytes, particles.
 
 use crate::error::{Error, Result};
 use crate::placement::Placement;
@@ -52,6 +62,63 @@ pub struct Calibration {
     pub per_ghost: f64,
     /// CPU seconds per ghost-step (ranks time-sharing cores).
     pub ghost_cpu: f64,
+    /// Thread efficiency e(2) = T(1 thread) / (2·T(2 threads)) per particle-step of one rank,
+    /// if a 2-thread run was given.
+    pub thread_eff: Option<f64>,
+}
+
+/// Threads per rank and their efficiency e(t) against one thread (`t·e(t)` is a rank's
+/// speed-up on its CPU work).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Threads {
+    /// Threads per rank.
+    pub t: usize,
+    /// e(2), measured.
+    pub e2: f64,
+    /// Beyond 2 threads: e(t) = e(2)^log2(t) if `true`, e(2) if `false`.
+    pub pessimistic: bool,
+}
+
+impl Threads {
+    /// One thread per rank.
+    pub const ONE: Threads = Threads {
+        t: 1,
+        e2: 1.0,
+        pessimistic: true,
+    };
+
+    /// e(t): 1 at one thread, measured at two, assumed beyond.
+    pub fn efficiency(&self) -> f64 {
+        match self.t {
+            0 | 1 => 1.0,
+            2 => self.e2,
+            t if self.pessimistic => self.e2.powf((t as f64).log2()),
+            _ => self.e2,
+        }
+    }
+
+    /// t·e(t).
+    pub fn speedup(&self) -> f64 {
+        self.t.max(1) as f64 * self.efficiency()
+    }
+}
+
+/// How a layout runs: threads per rank, and whether the exchange is overlapped with the
+/// interior's compute.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Options {
+    /// Threads per rank.
+    pub threads: Threads,
+    /// Exchanges hidden behind the interior's compute.
+    pub overlap: bool,
+}
+
+impl Options {
+    /// One thread per rank, no overlap: the engine as it runs today.
+    pub const PLAIN: Options = Options {
+        threads: Threads::ONE,
+        overlap: false,
+    };
 }
 
 /// A measured run: its scene (as run), ranks, threads, nodes, steps and step-loop seconds.
@@ -141,8 +208,37 @@ impl Measured {
     }
 }
 
-/// Per-rank seconds of one step for the layout of `row` on `topo`.
-pub fn rank_times(cal: &Calibration, net: &Network, row: &PlanRow, topo: &Topology) -> Vec<f64> {
+/// One rank's step: its CPU work (divided among its threads), its waits in the exchanges and
+/// its node's network share (s).
+#[derive(Debug, Clone, Copy)]
+struct RankStep {
+    cpu: f64,
+    wait: f64,
+    network: f64,
+    /// Share of the CPU work on particles whose neighbours are all owned.
+    interior: f64,
+}
+
+impl RankStep {
+    /// The step's seconds: compute then exchange, or with `overlap` the exchange less what
+    /// the interior's compute hides.
+    fn total(&self, overlap: bool) -> f64 {
+        let exchange = self.wait + self.network;
+        match overlap {
+            false => self.cpu + exchange,
+            true => self.cpu + (exchange - self.interior * self.cpu).max(0.0),
+        }
+    }
+}
+
+/// Per-rank parts of one step for the layout of `row` on `topo`.
+fn rank_steps(
+    cal: &Calibration,
+    net: &Network,
+    row: &PlanRow,
+    topo: &Topology,
+    th: &Threads,
+) -> Vec<RankStep> {
     let p = row.owned.len();
     let nodes = topo.nodes();
     let (mut out_b, mut in_b) = (vec![0u64; nodes], vec![0u64; nodes]);
@@ -169,22 +265,44 @@ pub fn rank_times(cal: &Calibration, net: &Network, row: &PlanRow, topo: &Topolo
             out_b[n].max(in_b[n]) as f64 / net.bandwidth + lat
         })
         .collect();
+    let g_cpu = cal.ghost_cpu.min(cal.per_ghost);
     (0..p)
-        .map(|r| compute_time(cal, row, r) + net_t[topo.node_of(r)])
+        .map(|r| {
+            let (n, m) = (row.owned[r] as f64, row.ghosts[r] as f64);
+            RankStep {
+                cpu: (cal.per_particle * n + g_cpu * m) / th.speedup(),
+                wait: (cal.per_ghost - g_cpu) * m,
+                network: net_t[topo.node_of(r)],
+                interior: if n > 0.0 { (1.0 - m / n).max(0.0) } else { 0.0 },
+            }
+        })
         .collect()
 }
 
-/// Seconds rank `r` of `row` spends in a step on its owned particles and its ghosts.
-fn compute_time(cal: &Calibration, row: &PlanRow, r: usize) -> f64 {
-    cal.per_particle * row.owned[r] as f64 + cal.per_ghost * row.ghosts[r] as f64
+/// Per-rank seconds of one step for the layout of `row` on `topo` (one thread, no overlap).
+pub fn rank_times(cal: &Calibration, net: &Network, row: &PlanRow, topo: &Topology) -> Vec<f64> {
+    rank_steps(cal, net, row, topo, &Threads::ONE)
+        .iter()
+        .map(|s| s.total(false))
+        .collect()
 }
 
-/// Seconds of a step of `row` on `topo` with `cores` cores (single-threaded ranks): the
-/// slowest rank, or with more ranks than cores the CPU work of a core.
-pub fn step_time(cal: &Calibration, net: &Network, row: &PlanRow, topo: &Topology, cores: usize) -> f64 {
+/// Seconds of a step of `row` on `topo` with `cores` cores: the slowest rank, or with more
+/// threads than cores the CPU work of a core (threads add no core).
+pub fn step_time(
+    cal: &Calibration,
+    net: &Network,
+    row: &PlanRow,
+    topo: &Topology,
+    cores: usize,
+    o: &Options,
+) -> f64 {
     let p = row.owned.len();
-    if p <= cores.max(1) {
-        return rank_times(cal, net, row, topo).into_iter().fold(0.0, f64::max);
+    if p * o.threads.t.max(1) <= cores.max(1) {
+        return rank_steps(cal, net, row, topo, &o.threads)
+            .iter()
+            .map(|s| s.total(o.overlap))
+            .fold(0.0, f64::max);
     }
     let cpu: f64 = (0..p)
         .map(|r| cal.per_particle * row.owned[r] as f64 + cal.ghost_cpu * row.ghosts[r] as f64)
@@ -251,7 +369,31 @@ pub fn calibrate(one: &Measured, many: &[Measured], cores: usize) -> Result<Cali
         per_phase,
         per_ghost,
         ghost_cpu,
+        thread_eff: None,
     })
+}
+
+/// The thread efficiency e(2) from `two`, a run of one rank with 2 threads, against the
+/// one-thread run `one`'s seconds per particle-step.
+pub fn thread_efficiency(one: &Measured, two: &Measured) -> Result<f64> {
+    if two.ranks != 1 || two.threads != 2 {
+        return Err(Error::input(
+            "--two",
+            format!(
+                "{}: needs a run on 1 rank with 2 threads (it had {} × {})",
+                two.dir, two.ranks, two.threads
+            ),
+        ));
+    }
+    let per = |m: &Measured| m.wall / (m.particles * m.steps) as f64;
+    let e = per(one) / (2.0 * per(two));
+    if !(e.is_finite() && e > 0.0) {
+        return Err(Error::input(
+            "--two",
+            format!("{}: no usable step time (wall {} s)", two.dir, two.wall),
+        ));
+    }
+    Ok(e)
 }
 
 /// One prediction.
@@ -267,7 +409,7 @@ pub struct Prediction {
     pub network: f64,
     /// Speed-up against one rank and parallel efficiency.
     pub speedup: f64,
-    /// `speedup / P`.
+    /// `speedup / (P·t)`: against one core.
     pub efficiency: f64,
     /// max/mean owned particles.
     pub imbalance: f64,
@@ -280,30 +422,172 @@ pub fn predict(
     rows: &[PlanRow],
     topo: &Topology,
     cores: usize,
+    o: &Options,
 ) -> Vec<Prediction> {
     rows.iter()
         .map(|row| {
-            let t = rank_times(cal, net, row, topo);
-            let step = step_time(cal, net, row, topo, cores);
+            let parts = rank_steps(cal, net, row, topo, &o.threads);
+            let step = step_time(cal, net, row, topo, cores, o);
             let n: u64 = row.owned.iter().sum();
             let p = row.owned.len() as f64;
-            let compute = (0..row.owned.len())
-                .map(|r| compute_time(cal, row, r))
-                .fold(0.0, f64::max);
             let speedup = cal.per_particle * n as f64 / step;
             Prediction {
                 placement: row.placement,
                 step,
-                compute,
-                network: (0..t.len())
-                    .map(|r| t[r] - compute_time(cal, row, r))
+                compute: parts.iter().map(|s| s.cpu + s.wait).fold(0.0, f64::max),
+                network: parts
+                    .iter()
+                    .map(|s| s.total(o.overlap) - s.cpu - s.wait)
                     .fold(0.0, f64::max),
                 speedup,
-                efficiency: speedup / p,
+                efficiency: speedup / (p * o.threads.t.max(1) as f64),
                 imbalance: row.imbalance,
             }
         })
         .collect()
+}
+
+/// One layout of [`layouts`]: ranks × threads on nodes of C cores.
+#[derive(Debug, Clone)]
+pub struct LayoutRow {
+    /// Particles of the scene.
+    pub particles: u64,
+    /// Ranks in all.
+    pub ranks: usize,
+    /// Threads per rank.
+    pub threads: usize,
+    /// Ghosts received over owned particles.
+    pub ghost_fraction: f64,
+    /// Thread efficiency e(t), pessimistic and optimistic.
+    pub thread_eff: [f64; 2],
+    /// Slowest rank's CPU seconds (pessimistic threads) and exchange seconds (waits and network).
+    pub compute: f64,
+    /// Slowest rank's exchange seconds (waits and network).
+    pub exchange: f64,
+    /// Seconds per step: pessimistic, optimistic threads; pessimistic with overlap.
+    pub step: [f64; 3],
+    /// Efficiency against one core, a·N/(P·t·T), pessimistic and optimistic.
+    pub efficiency: [f64; 2],
+}
+
+/// Every layout ranks × threads (C×1, C/2×2, …, 1×C: the divisors of `cores` C) of `nodes`
+/// nodes of C cores for `scene`, with `placement`: the plan of each rank count and its step.
+pub fn layouts(
+    cal: &Calibration,
+    net: &Network,
+    scene: &Scene,
+    (nodes, cores): (usize, usize),
+    placement: Placement,
+) -> Result<Vec<LayoutRow>> {
+    let e2 = cal.thread_eff.ok_or_else(|| {
+        Error::input(
+            "--two",
+            "ranking layouts with threads needs the thread efficiency: give a run of the \
+             --one run's scene on 1 rank with 2 threads, e.g. --two r1t2",
+        )
+    })?;
+    let mut out = Vec::new();
+    for t in (1..=cores).filter(|t| cores % t == 0) {
+        let per_node = cores / t;
+        let ranks = nodes * per_node;
+        let topo = Topology::from_ranks_per_node(ranks, per_node)?;
+        let row = plan(scene, ranks, &topo, &[placement])?.remove(0);
+        let th = |pessimistic| Threads { t, e2, pessimistic };
+        let at = |pessimistic, overlap| Options {
+            threads: th(pessimistic),
+            overlap,
+        };
+        let step = |o: Options| step_time(cal, net, &row, &topo, ranks * t, &o);
+        let parts = rank_steps(cal, net, &row, &topo, &th(true));
+        let slowest = (0..parts.len())
+            .max_by(|&a, &b| parts[a].total(false).total_cmp(&parts[b].total(false)))
+            .unwrap_or(0);
+        let n: u64 = row.owned.iter().sum();
+        let steps = [
+            step(at(true, false)),
+            step(at(false, false)),
+            step(at(true, true)),
+        ];
+        let eff = |s: f64| cal.per_particle * n as f64 / (s * (ranks * t) as f64);
+        out.push(LayoutRow {
+            particles: n,
+            ranks,
+            threads: t,
+            ghost_fraction: row.ghosts.iter().sum::<u64>() as f64 / n.max(1) as f64,
+            thread_eff: [th(true).efficiency(), th(false).efficiency()],
+            compute: parts.get(slowest).map_or(0.0, |s| s.cpu),
+            exchange: parts.get(slowest).map_or(0.0, |s| s.wait + s.network),
+            step: steps,
+            efficiency: [eff(steps[0]), eff(steps[1])],
+        });
+    }
+    Ok(out)
+}
+
+/// The layouts as a table, the fastest named and why.
+pub fn layouts_text(rows: &[LayoutRow], cores: usize) -> String {
+    let mut s = String::from(
+        "| layout (ranks × threads) | ghost fraction | thread eff. (pess.–opt.) | compute s | exchange s | s/step pess. | s/step opt. | s/step pess., overlap | efficiency pess.–opt. |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "| {} × {} | {:.3} | {:.3}–{:.3} | {:.5} | {:.5} | {:.5} | {:.5} | {:.5} | {:.3}–{:.3} |",
+            r.ranks,
+            r.threads,
+            r.ghost_fraction,
+            r.thread_eff[0],
+            r.thread_eff[1],
+            r.compute,
+            r.exchange,
+            r.step[0],
+            r.step[1],
+            r.step[2],
+            r.efficiency[0],
+            r.efficiency[1]
+        );
+    }
+    let by = |k: usize| {
+        let mut order: Vec<&LayoutRow> = rows.iter().collect();
+        order.sort_by(|a, b| a.step[k].total_cmp(&b.step[k]));
+        order
+    };
+    let (pess, opt) = (by(0), by(1));
+    if let (Some(b), Some(o)) = (pess.first(), opt.first()) {
+        // the reason: against the one-thread layout, or against the runner-up if that is it
+        let other = match rows.first() {
+            Some(flat) if flat.threads != b.threads => Some(flat),
+            _ => pess.get(1).copied(),
+        };
+        let _ = write!(
+            s,
+            "\nfastest on nodes of {cores} cores: {} × {} at {:.5} s/step with pessimistic threads \
+             ({} × {} with optimistic threads).",
+            b.ranks, b.threads, b.step[0], o.ranks, o.threads
+        );
+        if let Some(a) = other {
+            let _ = write!(
+                s,
+                " Against {} × {} ({:.5} s/step): ghost fraction {:.3} instead of {:.3}, exchange \
+                 {:.5} s instead of {:.5} s, compute {:.5} s instead of {:.5} s, thread efficiency \
+                 {:.3} instead of {:.3}.",
+                a.ranks,
+                a.threads,
+                a.step[0],
+                b.ghost_fraction,
+                a.ghost_fraction,
+                b.exchange,
+                a.exchange,
+                b.compute,
+                a.compute,
+                b.thread_eff[0],
+                a.thread_eff[0]
+            );
+        }
+        s.push('\n');
+    }
+    s
 }
 
 /// The calibration as text.
@@ -367,6 +651,7 @@ mod tests {
             per_phase: Vec::new(),
             per_ghost: 2e-6,
             ghost_cpu: 5e-7,
+            thread_eff: None,
         };
         let net = Network {
             bandwidth: 1e9,
@@ -389,12 +674,109 @@ mod tests {
         for (a, b) in t.iter().zip(want) {
             assert!((a - b).abs() < 1e-12, "{t:?}");
         }
-        assert!((step_time(&cal, &net, &r, &topo, 4) - want[1]).abs() < 1e-12);
+        let plain = Options::PLAIN;
+        assert!((step_time(&cal, &net, &r, &topo, 4, &plain) - want[1]).abs() < 1e-12);
         // two cores for four ranks: the CPU work of a core, without waits or network
         let cpu = (5000.0 * 1e-6 + 150.0 * 5e-7) / 2.0;
-        assert!((step_time(&cal, &net, &r, &topo, 2) - cpu).abs() < 1e-12);
+        assert!((step_time(&cal, &net, &r, &topo, 2, &plain) - cpu).abs() < 1e-12);
         // one node: no network at all
         let one = Topology::from_ranks_per_node(4, 4).unwrap();
-        assert!((step_time(&cal, &net, &r, &one, 4) - (2e-3 + 2e-4)).abs() < 1e-12);
+        assert!((step_time(&cal, &net, &r, &one, 4, &plain) - (2e-3 + 2e-4)).abs() < 1e-12);
+    }
+
+    /// e(t): 1, the measured e(2), then e(2)^log2(t) or e(2).
+    #[test]
+    fn thread_efficiency_measured_at_two_assumed_beyond() {
+        let th = |t, pessimistic| Threads {
+            t,
+            e2: 0.9,
+            pessimistic,
+        };
+        assert_eq!(th(1, true).efficiency(), 1.0);
+        assert_eq!(th(2, true).efficiency(), 0.9);
+        assert_eq!(th(2, false).efficiency(), 0.9);
+        assert!((th(4, true).efficiency() - 0.81).abs() < 1e-12);
+        assert!((th(8, true).efficiency() - 0.729).abs() < 1e-12);
+        assert_eq!(th(8, false).efficiency(), 0.9);
+        assert!((th(4, true).speedup() - 3.24).abs() < 1e-12);
+    }
+
+    /// Threads divide a rank's CPU work, not its waits or the network; an overlapped
+    /// exchange costs only what exceeds the interior's compute.
+    #[test]
+    fn threads_and_overlap_by_hand() {
+        let cal = Calibration {
+            per_particle: 1e-6,
+            per_phase: Vec::new(),
+            per_ghost: 2e-6,
+            ghost_cpu: 5e-7,
+            thread_eff: Some(0.8),
+        };
+        let net = Network {
+            bandwidth: 1e9,
+            latency: 0.0,
+        };
+        // two ranks on two nodes, 1 MB each way
+        let mut bytes = vec![0u64; 4];
+        bytes[1] = 1_000_000;
+        bytes[2] = 1_000_000;
+        let r = row(vec![1000, 1000], vec![100, 100], bytes);
+        let topo = Topology::from_ranks_per_node(2, 1).unwrap();
+        let two = Options {
+            threads: Threads {
+                t: 2,
+                e2: 0.8,
+                pessimistic: true,
+            },
+            overlap: false,
+        };
+        let cpu = (1000.0 * 1e-6 + 100.0 * 5e-7) / 1.6;
+        let exchange = 100.0 * 1.5e-6 + 1e-3;
+        let t = step_time(&cal, &net, &r, &topo, 4, &two);
+        assert!((t - (cpu + exchange)).abs() < 1e-12, "{t}");
+        // overlapped: the interior (1 − 100/1000 of the work) hides 0.9·cpu of the exchange
+        let over = step_time(&cal, &net, &r, &topo, 4, &Options { overlap: true, ..two });
+        assert!((over - (cpu + exchange - 0.9 * cpu)).abs() < 1e-12, "{over}");
+        // one thread, no overlap: the bulk-synchronous model as before
+        let plain = step_time(&cal, &net, &r, &topo, 2, &Options::PLAIN);
+        assert!((plain - (1e-3 + 2e-4 + 1e-3)).abs() < 1e-12, "{plain}");
+    }
+
+    /// Ranking the layouts of a 4-core node: with threads as good as ranks (e(2) = 1) and a
+    /// cost per ghost, one rank of 4 threads (no ghosts) is fastest; with threads worth
+    /// nothing (e(2) = 0.5) four ranks of one thread are.
+    #[test]
+    fn layouts_rank_ranks_against_threads() {
+        let (scene, _) = load_scene(Path::new("inputs/hydrostatic_2d.toml"), &[]).unwrap();
+        let net = Network {
+            bandwidth: 1e9,
+            latency: 1e-6,
+        };
+        let cal = |e2| Calibration {
+            per_particle: 1e-6,
+            per_phase: Vec::new(),
+            per_ghost: 2e-6,
+            ghost_cpu: 5e-7,
+            thread_eff: Some(e2),
+        };
+        let fastest = |e2| {
+            let rows = layouts(&cal(e2), &net, &scene, (1, 4), Placement::RankOrder).unwrap();
+            let got: Vec<(usize, usize)> = rows.iter().map(|r| (r.ranks, r.threads)).collect();
+            assert_eq!(got, vec![(4, 1), (2, 2), (1, 4)]);
+            assert_eq!(rows[2].ghost_fraction, 0.0);
+            assert!(rows[0].ghost_fraction > rows[1].ghost_fraction);
+            let b = rows
+                .iter()
+                .min_by(|a, b| a.step[0].total_cmp(&b.step[0]))
+                .unwrap();
+            (b.ranks, b.threads)
+        };
+        assert_eq!(fastest(1.0), (1, 4));
+        assert_eq!(fastest(0.5), (4, 1));
+        let none = Calibration {
+            thread_eff: None,
+            ..cal(1.0)
+        };
+        assert!(layouts(&none, &net, &scene, (1, 4), Placement::RankOrder).is_err());
     }
 }

@@ -114,15 +114,15 @@ fn an_overlap_found_by_one_rank_is_every_ranks_input_error() {
 fn the_model_reproduces_its_calibration_and_refuses_bad_runs() {
     // three short runs of the 2D dam break: 1, 2 and 4 ranks of 1 thread
     let dir = common::temp_dir("so-model");
-    let run = |ranks: &str| {
-        let out = dir.join(format!("r{ranks}"));
+    let run_at = |ranks: &str, threads: &str| {
+        let out = dir.join(format!("r{ranks}t{threads}"));
         let path = common::repo_path("inputs/dam_break_2d.toml");
         let (code, _, err) = common::hsph(&[
             "run",
             path.to_str().unwrap(),
             "-q",
             "--threads",
-            "1",
+            threads,
             "--ranks",
             ranks,
             "--set",
@@ -133,6 +133,7 @@ fn the_model_reproduces_its_calibration_and_refuses_bad_runs() {
         assert_eq!(code, 0, "{err}");
         out.to_str().unwrap().to_string()
     };
+    let run = |ranks: &str| run_at(ranks, "1");
     let (r1, r2, r4) = (run("1"), run("2"), run("4"));
     let (code, out, err) = common::hsph(&["model", "--one", &r1, "--many", &r2, &r4, "--check", &r1, &r4]);
     assert_eq!(code, 0, "{err}");
@@ -148,6 +149,28 @@ fn the_model_reproduces_its_calibration_and_refuses_bad_runs() {
     let (code, _, err) = common::hsph(&["model", "--one", &r2, "--many", &r4, "--check", &r1]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--one") && err.contains("1 rank"), "{err}");
+    // threads: a run with two threads is checked once e(2) is measured, and reproduced when
+    // it is the run that measured it; a layout ranking names the fastest of a node's layouts
+    let t2 = run_at("1", "2");
+    let (code, _, err) = common::hsph(&["model", "--one", &r1, "--many", &r2, "--check", &t2]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--two"), "{err}");
+    let (code, out, err) =
+        common::hsph(&["model", "--one", &r1, "--many", &r2, "--two", &t2, "--check", &t2]);
+    assert_eq!(code, 0, "{err}");
+    let line = out.lines().find(|l| l.starts_with(&format!("| {t2} "))).unwrap();
+    assert!(line.ends_with("| +0.0 % |"), "{out}");
+    let scene = common::repo_path("inputs/dam_break_2d.toml");
+    let args = ["model", scene.to_str().unwrap(), "--one", &r1, "--many", &r2];
+    let (code, _, err) = common::hsph(&[&args[..], &["--layouts", "4"]].concat());
+    assert_eq!(code, 2, "{err}");
+    let (code, out, err) =
+        common::hsph(&[&args[..], &["--two", &t2, "--layouts", "4", "--nodes", "2"]].concat());
+    assert_eq!(code, 0, "{err}");
+    for layout in ["| 8 × 1 |", "| 4 × 2 |", "| 2 × 4 |"] {
+        assert!(out.contains(layout), "{layout}: {out}");
+    }
+    assert!(out.contains("fastest on nodes of 4 cores"), "{out}");
 }
 
 #[test]

@@ -148,7 +148,10 @@ Examples:
   hsph run inputs/dam_break_3d_bench.toml --threads 1 --ranks 2 --out r2
   hsph model inputs/dam_break_3d.toml --one r1 --many r2 --ranks 96 --ranks-per-node 24 \\
       --set discretisation.dx=0.0035
-  hsph model --one r1 --many r2 r4 --check r8     measured runs against the model")]
+  hsph model --one r1 --many r2 r4 --check r8     measured runs against the model
+  hsph run inputs/dam_break_3d_bench.toml --threads 2 --out r1t2
+  hsph model inputs/dam_break_3d.toml --one r1 --many r2 --two r1t2 --layouts 24 --nodes 4 \\
+      --set discretisation.dx=0.0035                 which ranks × threads of 4 nodes of 24 cores")]
     Model {
         /// Scene file (TOML) to predict; optional with --check.
         scene: Option<PathBuf>,
@@ -159,6 +162,24 @@ Examples:
         /// and cost per ghost, fitted).
         #[arg(long, value_name = "DIR", num_args = 1.., required = true)]
         many: Vec<PathBuf>,
+        /// A finished run of the --one run's scene on 1 rank with 2 threads (the thread
+        /// efficiency e(2); beyond 2 threads assumed, pessimistic and optimistic).
+        #[arg(long, value_name = "DIR")]
+        two: Option<PathBuf>,
+        /// Threads per rank to predict (more than 1 needs --two).
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+        /// Predict with every exchange overlapped with the interior's compute (a rank pays
+        /// only the exchange that exceeds it).
+        #[arg(long)]
+        overlap: bool,
+        /// Rank every layout ranks × threads of nodes of C cores (C×1, C/2×2, …, 1×C) and
+        /// name the fastest (needs --two).
+        #[arg(long, value_name = "C", requires = "scene")]
+        layouts: Option<usize>,
+        /// Nodes of the --layouts ranking.
+        #[arg(long, default_value_t = 1)]
+        nodes: usize,
         /// Ranks to predict.
         #[arg(long, default_value_t = 1)]
         ranks: usize,
@@ -374,6 +395,11 @@ fn dispatch(cmd: Command) -> Result<i32> {
             scene,
             one,
             many,
+            two,
+            threads,
+            overlap,
+            layouts,
+            nodes,
             ranks,
             ranks_per_node,
             cores,
@@ -383,9 +409,10 @@ fn dispatch(cmd: Command) -> Result<i32> {
             set,
         } => cmd_model(
             scene.as_deref(),
-            (&one, &many),
-            (ranks, ranks_per_node, cores),
-            (bandwidth, latency),
+            (&one, &many, two.as_deref()),
+            (ranks, ranks_per_node, cores, threads),
+            (bandwidth, latency, overlap),
+            (layouts, nodes),
             &check,
             &set,
         ),
