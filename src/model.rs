@@ -450,6 +450,8 @@ pub fn predict(
 /// One layout of [`layouts`]: ranks × threads on nodes of C cores.
 #[derive(Debug, Clone)]
 pub struct LayoutRow {
+    /// Placement of the ranks on the nodes.
+    pub placement: Placement,
     /// Particles of the scene.
     pub particles: u64,
     /// Ranks in all.
@@ -471,13 +473,14 @@ pub struct LayoutRow {
 }
 
 /// Every layout ranks × threads (C×1, C/2×2, …, 1×C: the divisors of `cores` C) of `nodes`
-/// nodes of C cores for `scene`, with `placement`: the plan of each rank count and its step.
+/// nodes of C cores for `scene`, under each of `placements`: the plan of each rank count and
+/// its step.
 pub fn layouts(
     cal: &Calibration,
     net: &Network,
     scene: &Scene,
     (nodes, cores): (usize, usize),
-    placement: Placement,
+    placements: &[Placement],
 ) -> Result<Vec<LayoutRow>> {
     let e2 = cal.thread_eff.ok_or_else(|| {
         Error::input(
@@ -491,51 +494,66 @@ pub fn layouts(
         let per_node = cores / t;
         let ranks = nodes * per_node;
         let topo = Topology::from_ranks_per_node(ranks, per_node)?;
-        let row = plan(scene, ranks, &topo, &[placement])?.remove(0);
-        let th = |pessimistic| Threads { t, e2, pessimistic };
-        let at = |pessimistic, overlap| Options {
-            threads: th(pessimistic),
-            overlap,
-        };
-        let step = |o: Options| step_time(cal, net, &row, &topo, ranks * t, &o);
-        let parts = rank_steps(cal, net, &row, &topo, &th(true));
-        let slowest = (0..parts.len())
-            .max_by(|&a, &b| parts[a].total(false).total_cmp(&parts[b].total(false)))
-            .unwrap_or(0);
-        let n: u64 = row.owned.iter().sum();
-        let steps = [
-            step(at(true, false)),
-            step(at(false, false)),
-            step(at(true, true)),
-        ];
-        let eff = |s: f64| cal.per_particle * n as f64 / (s * (ranks * t) as f64);
-        out.push(LayoutRow {
-            particles: n,
-            ranks,
-            threads: t,
-            ghost_fraction: row.ghosts.iter().sum::<u64>() as f64 / n.max(1) as f64,
-            thread_eff: [th(true).efficiency(), th(false).efficiency()],
-            compute: parts.get(slowest).map_or(0.0, |s| s.cpu),
-            exchange: parts.get(slowest).map_or(0.0, |s| s.wait + s.network),
-            step: steps,
-            efficiency: [eff(steps[0]), eff(steps[1])],
-        });
+        for row in plan(scene, ranks, &topo, placements)? {
+            out.push(layout_row(
+                cal,
+                net,
+                &row,
+                &topo,
+                Threads {
+                    t,
+                    e2,
+                    pessimistic: true,
+                },
+            ));
+        }
     }
     Ok(out)
+}
+
+/// One layout's figures: `th` pessimistic, and the same threads optimistic.
+fn layout_row(cal: &Calibration, net: &Network, row: &PlanRow, topo: &Topology, th: Threads) -> LayoutRow {
+    let (ranks, t) = (row.owned.len(), th.t);
+    let opt = Threads {
+        pessimistic: false,
+        ..th
+    };
+    let at = |threads, overlap| Options { threads, overlap };
+    let step = |o: Options| step_time(cal, net, row, topo, ranks * t, &o);
+    let parts = rank_steps(cal, net, row, topo, &th);
+    let slowest = (0..parts.len())
+        .max_by(|&a, &b| parts[a].total(false).total_cmp(&parts[b].total(false)))
+        .unwrap_or(0);
+    let n: u64 = row.owned.iter().sum();
+    let steps = [step(at(th, false)), step(at(opt, false)), step(at(th, true))];
+    let eff = |s: f64| cal.per_particle * n as f64 / (s * (ranks * t) as f64);
+    LayoutRow {
+        placement: row.placement,
+        particles: n,
+        ranks,
+        threads: t,
+        ghost_fraction: row.ghosts.iter().sum::<u64>() as f64 / n.max(1) as f64,
+        thread_eff: [th.efficiency(), opt.efficiency()],
+        compute: parts.get(slowest).map_or(0.0, |s| s.cpu),
+        exchange: parts.get(slowest).map_or(0.0, |s| s.wait + s.network),
+        step: steps,
+        efficiency: [eff(steps[0]), eff(steps[1])],
+    }
 }
 
 /// The layouts as a table, the fastest named and why.
 pub fn layouts_text(rows: &[LayoutRow], cores: usize) -> String {
     let mut s = String::from(
-        "| layout (ranks × threads) | ghost fraction | thread eff. (pess.–opt.) | compute s | exchange s | s/step pess. | s/step opt. | s/step pess., overlap | efficiency pess.–opt. |\n\
-         |---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| layout (ranks × threads) | placement | ghost fraction | thread eff. (pess.–opt.) | compute s | exchange s | s/step pess. | s/step opt. | s/step pess., overlap | efficiency pess.–opt. |\n\
+         |---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "| {} × {} | {:.3} | {:.3}–{:.3} | {:.5} | {:.5} | {:.5} | {:.5} | {:.5} | {:.3}–{:.3} |",
+            "| {} × {} | {} | {:.3} | {:.3}–{:.3} | {:.5} | {:.5} | {:.5} | {:.5} | {:.5} | {:.3}–{:.3} |",
             r.ranks,
             r.threads,
+            r.placement.name(),
             r.ghost_fraction,
             r.thread_eff[0],
             r.thread_eff[1],
@@ -556,24 +574,31 @@ pub fn layouts_text(rows: &[LayoutRow], cores: usize) -> String {
     let (pess, opt) = (by(0), by(1));
     if let (Some(b), Some(o)) = (pess.first(), opt.first()) {
         // the reason: against the one-thread layout, or against the runner-up if that is it
-        let other = match rows.first() {
-            Some(flat) if flat.threads != b.threads => Some(flat),
-            _ => pess.get(1).copied(),
-        };
+        let flat = rows
+            .iter()
+            .find(|r| r.threads == 1 && r.placement == b.placement && b.threads != 1);
+        let other = flat.or_else(|| pess.iter().copied().find(|r| r.threads != b.threads));
         let _ = write!(
             s,
-            "\nfastest on nodes of {cores} cores: {} × {} at {:.5} s/step with pessimistic threads \
-             ({} × {} with optimistic threads).",
-            b.ranks, b.threads, b.step[0], o.ranks, o.threads
+            "\nfastest on nodes of {cores} cores: {} × {} ({}) at {:.5} s/step with pessimistic \
+             threads ({} × {} ({}) with optimistic threads).",
+            b.ranks,
+            b.threads,
+            b.placement.name(),
+            b.step[0],
+            o.ranks,
+            o.threads,
+            o.placement.name()
         );
         if let Some(a) = other {
             let _ = write!(
                 s,
-                " Against {} × {} ({:.5} s/step): ghost fraction {:.3} instead of {:.3}, exchange \
+                " Against {} × {} ({}, {:.5} s/step): ghost fraction {:.3} instead of {:.3}, exchange \
                  {:.5} s instead of {:.5} s, compute {:.5} s instead of {:.5} s, thread efficiency \
                  {:.3} instead of {:.3}.",
                 a.ranks,
                 a.threads,
+                a.placement.name(),
                 a.step[0],
                 b.ghost_fraction,
                 a.ghost_fraction,
@@ -760,7 +785,7 @@ mod tests {
             thread_eff: Some(e2),
         };
         let fastest = |e2| {
-            let rows = layouts(&cal(e2), &net, &scene, (1, 4), Placement::RankOrder).unwrap();
+            let rows = layouts(&cal(e2), &net, &scene, (1, 4), &[Placement::RankOrder]).unwrap();
             let got: Vec<(usize, usize)> = rows.iter().map(|r| (r.ranks, r.threads)).collect();
             assert_eq!(got, vec![(4, 1), (2, 2), (1, 4)]);
             assert_eq!(rows[2].ghost_fraction, 0.0);
@@ -777,6 +802,6 @@ mod tests {
             thread_eff: None,
             ..cal(1.0)
         };
-        assert!(layouts(&none, &net, &scene, (1, 4), Placement::RankOrder).is_err());
+        assert!(layouts(&none, &net, &scene, (1, 4), &[Placement::RankOrder]).is_err());
     }
 }

@@ -127,15 +127,9 @@ pub(super) fn cmd_model(
         crate::limits::count("--layouts", c as u64, crate::limits::MAX_THREADS as u64)?;
         crate::limits::count("--nodes", nodes as u64, crate::limits::MAX_RANKS as u64)?;
         layout_limits(&scene, &src, nodes.saturating_mul(c))?;
-        let rows = crate::model::layouts(
-            &cal,
-            &net,
-            &scene,
-            (nodes, c),
-            crate::placement::Placement::default(),
-        )?;
+        let rows = crate::model::layouts(&cal, &net, &scene, (nodes, c), &PlanPlacement::All.methods())?;
         say(&format!(
-            "{}: {} particles, every layout of {nodes} node(s) of {c} cores; network {bandwidth} GB/s, {latency} µs\n",
+            "{}: {} particles, every layout of {nodes} node(s) of {c} cores under every placement; network {bandwidth} GB/s, {latency} µs\n",
             scene.name,
             rows.first().map_or(0, |r| r.particles)
         ));
