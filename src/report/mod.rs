@@ -214,6 +214,17 @@ pub fn run_markdown(run: &Run, charts: &[(&str, &str)]) -> String {
         );
     }
     let _ = writeln!(w, "Run directory: `{}`\n", run.dir.display());
+    summary_table(&mut w, run);
+    traffic_per_phase(&mut w, run);
+    time_per_phase(&mut w, run);
+    charts_section(&mut w, run, charts);
+    w
+}
+
+/// The run's figures, one row each: layout, speed, balance, communication, traffic.
+fn summary_table(w: &mut String, run: &Run) {
+    let s = &run.summary;
+    let text = |k: &str| s.get(k).and_then(|v| v.as_str()).unwrap_or("—").to_string();
     let _ = writeln!(w, "| quantity | value |\n|---|---|");
     let mut row = |k: &str, v: String| {
         let _ = writeln!(w, "| {k} | {v} |");
@@ -304,6 +315,11 @@ pub fn run_markdown(run: &Run, charts: &[(&str, &str)]) -> String {
             "not recorded (no traffic.csv, no `traffic` in summary.json)".into(),
         ),
     }
+}
+
+/// Bytes and messages per phase of the step, intra- and inter-node.
+fn traffic_per_phase(w: &mut String, run: &Run) {
+    let s = &run.summary;
     if let Some(phases) = s
         .get("traffic")
         .and_then(|t| t.get("phases"))
@@ -328,6 +344,10 @@ pub fn run_markdown(run: &Run, charts: &[(&str, &str)]) -> String {
             );
         }
     }
+}
+
+/// Seconds per phase over ranks.
+fn time_per_phase(w: &mut String, run: &Run) {
     let totals = run.phase_totals();
     if !totals.is_empty() {
         let _ = writeln!(w, "\n## Time per phase (over ranks)\n");
@@ -339,6 +359,10 @@ pub fn run_markdown(run: &Run, charts: &[(&str, &str)]) -> String {
             let _ = writeln!(w, "| {p} | {lo:.4} | {mean:.4} | {hi:.4} |");
         }
     }
+}
+
+/// The charts, and why a missing one is missing.
+fn charts_section(w: &mut String, run: &Run, charts: &[(&str, &str)]) {
     let _ = writeln!(w, "\n## Charts\n");
     if run.traffic.is_none() {
         let _ = writeln!(
@@ -360,7 +384,6 @@ pub fn run_markdown(run: &Run, charts: &[(&str, &str)]) -> String {
             "### {caption}\n\n![{caption}]({stem}.png)\n\n[{stem}.svg]({stem}.svg)\n"
         );
     }
-    w
 }
 
 /// One row of the comparison table.

@@ -175,57 +175,14 @@ fn validate_probe_kind(
             diameter,
             normal,
             ..
-        } => {
-            check_vec(point, d, &format!("{k}.point"), false)?;
-            point_in_domain(point, &format!("{k}.point"), domain)?;
-            if !(*diameter >= 0.0 && diameter.is_finite()) {
-                return err(format!("{k}.diameter"), format!("must be ≥ 0 m, got {diameter}"));
-            }
-            match normal {
-                Some(n) => {
-                    check_vec(n, d, &format!("{k}.normal"), false)?;
-                    if n.iter().all(|c| *c == 0.0) {
-                        return err(
-                            format!("{k}.normal"),
-                            "must not be zero: the wall's normal, e.g. [-1.0, 0.0]",
-                        );
-                    }
-                }
-                None if *diameter > 0.0 && d > 1 => {
-                    return err(
-                        format!("{k}.normal"),
-                        "a sensing face with a diameter needs the wall's normal, e.g. normal = [-1.0, 0.0]",
-                    );
-                }
-                None => {}
-            }
-        }
+        } => check_pressure(k, (point, *diameter, normal), d, domain),
         Probe::Gauge { point, .. } => {
             check_vec(point, d, &format!("{k}.point"), false)?;
-            point_in_domain(point, &format!("{k}.point"), domain)?;
+            point_in_domain(point, &format!("{k}.point"), domain)
         }
         Probe::Hole {
             plate, projectile, ..
-        } => {
-            for (key, name) in [("plate", &*plate), ("projectile", &*projectile)] {
-                if !t.solids.contains_key(name.as_str()) {
-                    return err(
-                        format!("{k}.{key}"),
-                        format!(
-                            "no [[solid]] body named `{name}`; solids: {}",
-                            t.solid_names.shown()
-                        ),
-                    );
-                }
-            }
-            let pr = t.solids.get(projectile.as_str());
-            if pr.is_some_and(|b| b.velocity.iter().all(|c| *c == 0.0)) {
-                return err(
-                    format!("{k}.projectile"),
-                    format!("`{projectile}` does not move: its velocity is the impact direction"),
-                );
-            }
-        }
+        } => check_hole(k, plate, projectile, t),
         Probe::VelocityLine { from, to, points, .. } => {
             check_vec(from, d, &format!("{k}.from"), false)?;
             check_vec(to, d, &format!("{k}.to"), false)?;
@@ -238,7 +195,7 @@ fn validate_probe_kind(
                 &format!("{k}.points"),
                 *points as u64,
                 crate::limits::MAX_PROBE_POINTS,
-            )?;
+            )
         }
         Probe::Front { axis, link, .. } => {
             if *axis >= d {
@@ -250,27 +207,90 @@ fn validate_probe_kind(
                     format!("must be ≥ 1 (in units of dx; 1.5 is typical), got {link}"),
                 );
             }
+            Ok(())
         }
-        Probe::Force { body, about, .. } => {
-            let Some(w) = t.walls.get(body.as_str()) else {
+        Probe::Force { body, about, .. } => check_force(k, body, about, d, t),
+    }
+}
+
+/// A pressure transducer: its point in the domain, a diameter ≥ 0, and a non-zero normal when
+/// it has a sensing face.
+fn check_pressure(
+    k: &str,
+    (point, diameter, normal): (&mut Vec<f64>, f64, &mut Option<Vec<f64>>),
+    d: usize,
+    domain: &Domain,
+) -> Result<()> {
+    check_vec(point, d, &format!("{k}.point"), false)?;
+    point_in_domain(point, &format!("{k}.point"), domain)?;
+    if !(diameter >= 0.0 && diameter.is_finite()) {
+        return err(format!("{k}.diameter"), format!("must be ≥ 0 m, got {diameter}"));
+    }
+    match normal {
+        Some(n) => {
+            check_vec(n, d, &format!("{k}.normal"), false)?;
+            if n.iter().all(|c| *c == 0.0) {
                 return err(
-                    format!("{k}.body"),
-                    format!(
-                        "no [[wall]] is named `{body}`; the walls are {}",
-                        t.wall_names.shown()
-                    ),
-                );
-            };
-            if w.method == WallMethod::Mirror {
-                return err(
-                    format!("{k}.body"),
-                    format!("wall `{body}` is a mirror, which has no particles to take a force on; use a dummy or repulsive wall"),
+                    format!("{k}.normal"),
+                    "must not be zero: the wall's normal, e.g. [-1.0, 0.0]",
                 );
             }
-            if let Some(a) = about {
-                check_vec(a, d, &format!("{k}.about"), false)?;
-            }
         }
+        None if diameter > 0.0 && d > 1 => {
+            return err(
+                format!("{k}.normal"),
+                "a sensing face with a diameter needs the wall's normal, e.g. normal = [-1.0, 0.0]",
+            );
+        }
+        None => {}
+    }
+    Ok(())
+}
+
+/// A hole probe: its plate and projectile are solid bodies, and the projectile moves (its
+/// velocity is the impact direction).
+fn check_hole(k: &str, plate: &str, projectile: &str, t: &ProbeTargets) -> Result<()> {
+    for (key, name) in [("plate", plate), ("projectile", projectile)] {
+        if !t.solids.contains_key(name) {
+            return err(
+                format!("{k}.{key}"),
+                format!(
+                    "no [[solid]] body named `{name}`; solids: {}",
+                    t.solid_names.shown()
+                ),
+            );
+        }
+    }
+    let pr = t.solids.get(projectile);
+    if pr.is_some_and(|b| b.velocity.iter().all(|c| *c == 0.0)) {
+        return err(
+            format!("{k}.projectile"),
+            format!("`{projectile}` does not move: its velocity is the impact direction"),
+        );
+    }
+    Ok(())
+}
+
+/// A force probe: its body is a wall with particles (not a mirror), its moment point a
+/// vector of the dimension.
+fn check_force(k: &str, body: &str, about: &mut Option<Vec<f64>>, d: usize, t: &ProbeTargets) -> Result<()> {
+    let Some(w) = t.walls.get(body) else {
+        return err(
+            format!("{k}.body"),
+            format!(
+                "no [[wall]] is named `{body}`; the walls are {}",
+                t.wall_names.shown()
+            ),
+        );
+    };
+    if w.method == WallMethod::Mirror {
+        return err(
+            format!("{k}.body"),
+            format!("wall `{body}` is a mirror, which has no particles to take a force on; use a dummy or repulsive wall"),
+        );
+    }
+    if let Some(a) = about {
+        check_vec(a, d, &format!("{k}.about"), false)?;
     }
     Ok(())
 }

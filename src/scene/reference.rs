@@ -101,43 +101,11 @@ pub(super) fn validate_reference(s: &Scene) -> Result<()> {
     let Some(r) = &s.reference else { return Ok(()) };
     let times = match r {
         Reference::Poiseuille { gap, times } | Reference::Couette { gap, times, .. } => {
-            positive(*gap, "reference.gap", "gap = 1e-3")?;
-            if let Reference::Couette { v0, .. } = r {
-                in_range(
-                    *v0,
-                    "reference.v0",
-                    (-MAX_SPEED, MAX_SPEED),
-                    "m/s",
-                    "MAX_SPEED",
-                    "v0 = 2.5e-5",
-                )?;
-            }
-            if s.physics.laminar_viscosity <= 0.0 {
-                return err(
-                    "physics.laminar_viscosity",
-                    "the Poiseuille/Couette references need a laminar viscosity ν > 0",
-                );
-            }
+            check_channel(s, r, *gap)?;
             times.as_slice()
         }
         Reference::TaylorGreen { speed, length, times } => {
-            positive(*speed, "reference.speed", "speed = 1.0")?;
-            in_range(
-                *speed,
-                "reference.speed",
-                (0.0, MAX_SPEED),
-                "m/s",
-                "MAX_SPEED",
-                "speed = 1.0",
-            )?;
-            positive(*length, "reference.length", "length = 1.0")?;
-            if s.dimension != 2 || s.domain.periodic.iter().take(2).any(|p| !p) {
-                return err(
-                    "reference",
-                    "the Taylor–Green reference is a 2D vortex in a box periodic in x and y: \
-                     dimension = 2 and domain.periodic = [true, true]",
-                );
-            }
+            check_taylor_green(s, *speed, *length)?;
             times.as_slice()
         }
         Reference::Hydrostatic { surface, bottom } => {
@@ -156,28 +124,7 @@ pub(super) fn validate_reference(s: &Scene) -> Result<()> {
             size,
             origin,
         } => {
-            if ![1, 100, 400, 1000].contains(re) {
-                return err(
-                    "reference.re",
-                    format!(
-                        "the cavity references are Ghia, Ghia & Shin's tables for Re = 100, 400 and 1000 \
-                         and a Stokes solution for Re = 1, not {re}; use re = 100"
-                    ),
-                );
-            }
-            positive(*size, "reference.size", "size = 1.0")?;
-            if !(lid_speed.is_finite() && *lid_speed != 0.0) {
-                return err(
-                    "reference.lid_speed",
-                    "must be a non-zero speed (m/s), e.g. lid_speed = 1.0",
-                );
-            }
-            if s.dimension != 2 || origin.len() != 2 {
-                return err(
-                    "reference",
-                    "the cavity reference is 2D: dimension = 2 and origin = [x, y]",
-                );
-            }
+            check_cavity(s, *re, (*lid_speed, *size), origin)?;
             &[]
         }
         Reference::SolitaryWave {
@@ -207,6 +154,79 @@ pub(super) fn validate_reference(s: &Scene) -> Result<()> {
                 format!("must lie in (0, time.t_end = {}], got {t}", s.time.t_end),
             );
         }
+    }
+    Ok(())
+}
+
+/// Poiseuille and Couette start-ups: a positive gap (m), a plate speed within the limits
+/// (Couette), a laminar viscosity.
+fn check_channel(s: &Scene, r: &Reference, gap: f64) -> Result<()> {
+    positive(gap, "reference.gap", "gap = 1e-3")?;
+    if let Reference::Couette { v0, .. } = r {
+        in_range(
+            *v0,
+            "reference.v0",
+            (-MAX_SPEED, MAX_SPEED),
+            "m/s",
+            "MAX_SPEED",
+            "v0 = 2.5e-5",
+        )?;
+    }
+    if s.physics.laminar_viscosity <= 0.0 {
+        return err(
+            "physics.laminar_viscosity",
+            "the Poiseuille/Couette references need a laminar viscosity ν > 0",
+        );
+    }
+    Ok(())
+}
+
+/// The Taylor–Green vortex: a speed (m/s) and length (m), in a 2D box periodic in x and y.
+fn check_taylor_green(s: &Scene, speed: f64, length: f64) -> Result<()> {
+    positive(speed, "reference.speed", "speed = 1.0")?;
+    in_range(
+        speed,
+        "reference.speed",
+        (0.0, MAX_SPEED),
+        "m/s",
+        "MAX_SPEED",
+        "speed = 1.0",
+    )?;
+    positive(length, "reference.length", "length = 1.0")?;
+    if s.dimension != 2 || s.domain.periodic.iter().take(2).any(|p| !p) {
+        return err(
+            "reference",
+            "the Taylor–Green reference is a 2D vortex in a box periodic in x and y: \
+             dimension = 2 and domain.periodic = [true, true]",
+        );
+    }
+    Ok(())
+}
+
+/// The lid-driven cavity: a Reynolds number with a table, a size (m), a non-zero lid speed
+/// (m/s), 2D.
+fn check_cavity(s: &Scene, re: u32, (lid_speed, size): (f64, f64), origin: &[f64]) -> Result<()> {
+    if ![1, 100, 400, 1000].contains(&re) {
+        return err(
+            "reference.re",
+            format!(
+                "the cavity references are Ghia, Ghia & Shin's tables for Re = 100, 400 and 1000 \
+                 and a Stokes solution for Re = 1, not {re}; use re = 100"
+            ),
+        );
+    }
+    positive(size, "reference.size", "size = 1.0")?;
+    if !(lid_speed.is_finite() && lid_speed != 0.0) {
+        return err(
+            "reference.lid_speed",
+            "must be a non-zero speed (m/s), e.g. lid_speed = 1.0",
+        );
+    }
+    if s.dimension != 2 || origin.len() != 2 {
+        return err(
+            "reference",
+            "the cavity reference is 2D: dimension = 2 and origin = [x, y]",
+        );
     }
     Ok(())
 }
