@@ -14,7 +14,7 @@ mod run;
 pub use check::check_report;
 use check::{cmd_check, layout_limits};
 use jobscript::{cmd_jobscript, JobArgs};
-use plan::{cmd_model, cmd_plan};
+use plan::{cmd_model, cmd_plan, ModelArgs};
 use run::cmd_run_args;
 pub use run::RunArgs;
 
@@ -152,56 +152,7 @@ Examples:
   hsph run inputs/dam_break_3d_bench.toml --threads 2 --out r1t2
   hsph model inputs/dam_break_3d.toml --one r1 --many r2 --two r1t2 --layouts 24 --nodes 4 \\
       --set discretisation.dx=0.0035                 which ranks × threads of 4 nodes of 24 cores")]
-    Model {
-        /// Scene file (TOML) to predict; optional with --check.
-        scene: Option<PathBuf>,
-        /// A finished run directory on 1 rank with 1 thread (cost per particle-step).
-        #[arg(long, value_name = "DIR")]
-        one: PathBuf,
-        /// Finished run directories on 2 or more ranks of 1 thread on this machine (contention
-        /// and cost per ghost, fitted).
-        #[arg(long, value_name = "DIR", num_args = 1.., required = true)]
-        many: Vec<PathBuf>,
-        /// A finished run of the --one run's scene on 1 rank with 2 threads (the thread
-        /// efficiency e(2); beyond 2 threads assumed, pessimistic and optimistic).
-        #[arg(long, value_name = "DIR")]
-        two: Option<PathBuf>,
-        /// Threads per rank to predict (more than 1 needs --two).
-        #[arg(long, default_value_t = 1)]
-        threads: usize,
-        /// Predict with every exchange overlapped with the interior's compute (a rank pays
-        /// only the exchange that exceeds it).
-        #[arg(long)]
-        overlap: bool,
-        /// Rank every layout ranks × threads of nodes of C cores (C×1, C/2×2, …, 1×C) and
-        /// name the fastest (needs --two).
-        #[arg(long, value_name = "C", requires = "scene")]
-        layouts: Option<usize>,
-        /// Nodes of the --layouts ranking.
-        #[arg(long, default_value_t = 1)]
-        nodes: usize,
-        /// Ranks to predict.
-        #[arg(long, default_value_t = 1)]
-        ranks: usize,
-        /// Ranks per node of the prediction (0: one node).
-        #[arg(long, value_name = "K", default_value_t = 0)]
-        ranks_per_node: usize,
-        /// Cores the predicted ranks share (0: one per rank); measured runs use this machine's.
-        #[arg(long, default_value_t = 0)]
-        cores: usize,
-        /// Network bandwidth of one node (GB/s).
-        #[arg(long, value_name = "GB_PER_S", default_value_t = 12.5)]
-        bandwidth: f64,
-        /// Network latency of one message (µs).
-        #[arg(long, value_name = "MICROSECONDS", default_value_t = 1.5)]
-        latency: f64,
-        /// Finished run directories to compare with the model's prediction.
-        #[arg(long, value_name = "DIR", num_args = 1..)]
-        check: Vec<PathBuf>,
-        /// Override a scene key of the predicted scene (repeatable).
-        #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
-        set: Vec<String>,
-    },
+    Model(ModelArgs),
     /// Validate a scene and print what a run would do, without running it.
     #[command(after_help = "Example:\n  hsph check inputs/dam_break_3d.toml --set discretisation.dx=0.01")]
     Check {
@@ -391,31 +342,7 @@ fn dispatch(cmd: Command) -> Result<i32> {
                 out.as_deref(),
             )
         }
-        Command::Model {
-            scene,
-            one,
-            many,
-            two,
-            threads,
-            overlap,
-            layouts,
-            nodes,
-            ranks,
-            ranks_per_node,
-            cores,
-            bandwidth,
-            latency,
-            check,
-            set,
-        } => cmd_model(
-            scene.as_deref(),
-            (&one, &many, two.as_deref()),
-            (ranks, ranks_per_node, cores, threads),
-            (bandwidth, latency, overlap),
-            (layouts, nodes),
-            &check,
-            &set,
-        ),
+        Command::Model(a) => cmd_model(a),
         Command::Validate {
             cases,
             sweep,
