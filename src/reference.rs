@@ -383,7 +383,6 @@ impl Tracker {
             return;
         };
         let (l, u) = (*size, *lid_speed);
-        let k = &sim.model.kernel;
         let p = &sim.p;
         let fluid: Vec<usize> = (0..p.n_owned).filter(|&i| p.kind[i].is_fluid()).collect();
         // velocity component `c` at the point (x, y) (m), Shepard-weighted
@@ -392,8 +391,8 @@ impl Tracker {
             for &i in &fluid {
                 let (dx, dy) = (p.x[i][0] - x, p.x[i][1] - y);
                 let r = (dx * dx + dy * dy).sqrt();
-                if r < k.support {
-                    let w = k.w(r) * p.mass[i] / p.rho[i];
+                if r < sim.model.kernel.support {
+                    let w = sim.model.pair_kernel(p, i, i).w(r) * p.mass[i] / p.rho[i];
                     num += w * p.v[i][c];
                     den += w;
                 }

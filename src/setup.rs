@@ -71,7 +71,17 @@ pub fn dropped_fields(s: &Scene) -> Fields {
     } else {
         Fields::LAP
     };
-    solid.or(lap)
+    let level = if s.refine.is_empty() {
+        Fields::LEVEL
+    } else {
+        Fields::NONE
+    };
+    let h = if crate::scene::refine::finest_h(s) == 0 {
+        Fields::H
+    } else {
+        Fields::NONE
+    };
+    solid.or(lap).or(level).or(h)
 }
 
 /// Build every particle of a scene (sorted by id): [`SiteSource::build`] over the whole
@@ -125,6 +135,10 @@ struct Source<const D: usize> {
 pub struct SiteSource<'s, const D: usize> {
     scene: &'s Scene,
     lat: Lattice<D>,
+    /// The lattice of each refinement level 1..=finest (`[[refine]]`; empty without).
+    fine: Vec<Lattice<D>>,
+    /// Spacings and smoothing lengths of the levels (a refined scene only).
+    sizes: Option<crate::kernel::sizes::Sizes>,
     sources: Vec<Source<D>>,
 }
 
@@ -211,16 +225,31 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                 },
             });
         }
+        let fine = (1..=crate::scene::refine::finest(s))
+            .map(|l| Lattice::<D>::at_level(s, l))
+            .collect();
+        let sizes = (!s.refine.is_empty()).then(|| {
+            let d = &s.discretisation;
+            crate::kernel::sizes::Sizes::new(
+                d.kernel,
+                d.dx,
+                d.h_over_dx,
+                crate::scene::refine::finest_h(s) as u16,
+            )
+        });
         Ok(SiteSource {
             scene: s,
             lat,
+            fine,
+            sizes,
             sources,
         })
     }
 
-    /// Exclusive bound of the particles' ids: the number of lattice sites.
+    /// Exclusive bound of the particles' ids: the number of sites of every level's lattice.
     pub fn id_bound(&self) -> u64 {
-        self.lat.n.iter().product()
+        let last = self.fine.last().unwrap_or(&self.lat);
+        last.offset + last.sites()
     }
 
     /// Lattice spacing dx (m).
@@ -234,8 +263,11 @@ impl<'s, const D: usize> SiteSource<'s, D> {
     }
 
     /// Visit every site claimed by source `j` whose centre lies in the box `[min, max)`:
-    /// `(id, centre)`.
-    fn each_claimed(&self, j: usize, min: &[f64], max: &[f64], mut f: impl FnMut(u64, Vector<D>)) {
+    /// `(id, centre, level, h)` (h: the smoothing length, set only in a refined scene). A
+    /// body's coarse sites come first, then those of each refinement
+    /// level (`crate::scene::refine`: the fine sites subdivide the cells of the coarse sites
+    /// whose centres lie in a region of their level).
+    fn each_claimed(&self, j: usize, min: &[f64], max: &[f64], mut f: impl FnMut(u64, Vector<D>, u16, f64)) {
         let src = &self.sources[j];
         let lo: Vec<f64> = (0..D).map(|a| src.min[a].max(min[a])).collect();
         let hi: Vec<f64> = (0..D).map(|a| src.max[a].min(max[a])).collect();
@@ -246,20 +278,47 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                 } else {
                     &self.scene.fluids[*body]
                 };
+                if self.fine.is_empty() {
+                    self.lat.for_each_in(&lo, &hi, |_, id, x| {
+                        if b.contains(x.as_slice()) {
+                            f(id, x, 0, 0.0)
+                        }
+                    });
+                    return;
+                }
+                let region_at = |x: &[f64]| crate::scene::refine::region_at(self.scene, &b.name, x);
+                let sizes = self.sizes.as_ref().expect("a refined scene has sizes");
                 self.lat.for_each_in(&lo, &hi, |_, id, x| {
-                    if b.contains(x.as_slice()) {
-                        f(id, x)
+                    if b.contains(x.as_slice()) && region_at(x.as_slice()).is_none() {
+                        f(id, x, 0, sizes.h[0])
                     }
                 });
-            }
-            Claim::Wall { inner, .. } => self.lat.for_each_in(&lo, &hi, |idx, id, x| {
-                let inside = inner
-                    .as_ref()
-                    .is_some_and(|r| idx.iter().zip(r).all(|(i, (l, h))| i >= l && i < h));
-                if !inside {
-                    f(id, x)
+                for (lat, level) in self.fine.iter().zip(1u32..) {
+                    let coarse =
+                        |i: u64, a: usize| self.lat.origin[a] + ((i >> level) as f64 + 0.5) * self.lat.dx;
+                    lat.for_each_in(&lo, &hi, |idx, id, x| {
+                        let parent: Vec<f64> = (0..D).map(|a| coarse(idx[a], a)).collect();
+                        let Some(r) = region_at(&parent).filter(|r| r.level == level) else {
+                            return;
+                        };
+                        if b.contains(x.as_slice()) {
+                            let h = r.smoothing_length(x.as_slice(), sizes.h[0], sizes.h[level as usize]);
+                            f(id, x, level as u16, h)
+                        }
+                    });
                 }
-            }),
+            }
+            Claim::Wall { inner, .. } => {
+                let h_scene = self.sizes.as_ref().map_or(0.0, |z| z.h[0]);
+                self.lat.for_each_in(&lo, &hi, |idx, id, x| {
+                    let inside = inner
+                        .as_ref()
+                        .is_some_and(|r| idx.iter().zip(r).all(|(i, (l, h))| i >= l && i < h));
+                    if !inside {
+                        f(id, x, 0, h_scene)
+                    }
+                })
+            }
         }
     }
 
@@ -268,7 +327,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
     pub fn for_each(&self, layers: std::ops::Range<u64>, mut f: impl FnMut(u64, &Vector<D>, Kind)) {
         let (min, max) = self.layer_box(layers);
         for (j, src) in self.sources.iter().enumerate() {
-            self.each_claimed(j, &min, &max, |id, x| f(id, &x, src.kind));
+            self.each_claimed(j, &min, &max, |id, x, _, _| f(id, &x, src.kind));
         }
     }
 
@@ -290,11 +349,16 @@ impl<'s, const D: usize> SiteSource<'s, D> {
         (min, max)
     }
 
-    /// The record of the site `id` at `x` claimed by source `j`.
-    fn record(&self, j: usize, id: u64, x: Vector<D>) -> Result<Record<D>> {
+    /// The record of the site `id` at `x` of refinement level `level` and smoothing length `h`
+    /// claimed by source `j`.
+    fn record(&self, j: usize, id: u64, x: Vector<D>, (level, h): (u16, f64)) -> Result<Record<D>> {
         let src = &self.sources[j];
-        let vol = self.lat.dx.powi(D as i32);
-        Ok(match &src.claim {
+        let dx = match level {
+            0 => self.lat.dx,
+            l => self.fine[l as usize - 1].dx,
+        };
+        let vol = dx.powi(D as i32);
+        let mut r = match &src.claim {
             Claim::Body {
                 e,
                 v,
@@ -318,7 +382,10 @@ impl<'s, const D: usize> SiteSource<'s, D> {
             Claim::Wall { rho0, v, .. } => {
                 Record::new(id, src.kind, src.index, src.mat, x, *v, rho0 * vol, *rho0)
             }
-        })
+        };
+        r.level = level;
+        r.h = h;
+        Ok(r)
     }
 
     /// The particles of the sites in the box `region` (`None`: everywhere) for which
@@ -339,11 +406,11 @@ impl<'s, const D: usize> SiteSource<'s, D> {
         let mut label: Vec<u32> = Vec::new();
         let mut bad = None;
         for j in 0..self.sources.len() {
-            self.each_claimed(j, min, max, |id, x| {
+            self.each_claimed(j, min, max, |id, x, level, h| {
                 if !keep(id, &x) {
                     return;
                 }
-                match self.record(j, id, x) {
+                match self.record(j, id, x, (level, h)) {
                     Ok(r) => {
                         p.push_owned(r);
                         label.push(j as u32);

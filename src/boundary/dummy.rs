@@ -18,8 +18,8 @@ pub fn extrapolated<const D: usize>(
     w: usize,
     neighbours: impl Iterator<Item = u32>,
     c: &WallContext<D>,
+    kern: impl crate::kernel::sizes::PairKernel,
 ) -> (f64, f64, Vector<D>) {
-    let k = c.kernel;
     let body = p.body[w] as usize;
     let mat = &c.materials[p.mat[w] as usize];
     let u_wall = p.v[w];
@@ -32,7 +32,7 @@ pub fn extrapolated<const D: usize>(
             continue;
         }
         let r_wf = p.x[w] - p.x[f];
-        let wgt = k.w(r_wf.norm());
+        let wgt = kern.of(&p.h, w, f).w(r_wf.norm());
         sw += wgt;
         sp += p.p[f] * wgt;
         srx += r_wf * (p.rho[f] * wgt);

@@ -45,6 +45,8 @@ use rayon::prelude::*;
 pub struct WallContext<'a, const D: usize> {
     /// The smoothing kernel.
     pub kernel: &'a Kernel,
+    /// The kernels of pairs of sizes, in a scene of several (`[[refine]]`).
+    pub sizes: Option<&'a crate::kernel::sizes::Sizes>,
     /// Material models by material index (the EOS inverse gives ρ_w from p_w).
     pub materials: &'a [MaterialModel],
     /// Body force g (m/s²).
@@ -73,21 +75,24 @@ pub fn updates(method: WallMethod) -> bool {
 pub fn update_walls<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, c: &WallContext<D>) {
     let out: Vec<(f64, f64, Vector<D>)> = {
         let p = &*p;
-        (0..p.n_owned)
-            .into_par_iter()
-            .map(|w| {
-                let keep = (p.p[w], p.rho[w], p.vw[w]);
-                if !p.kind[w].is_wall() || !nl.visits(w) {
-                    return keep;
-                }
-                match c.methods[p.body[w] as usize] {
-                    WallMethod::Dummy => dummy::extrapolated(p, w, nl.iter(w), c),
-                    #[cfg(test)]
-                    WallMethod::Toy => toy::shepard_pressure(p, w, nl.iter(w), c),
-                    WallMethod::Repulsive | WallMethod::Mirror => keep,
-                }
-            })
-            .collect()
+        let sizes = c.sizes.filter(|s| s.varies_h);
+        crate::with_pair_kernel!(sizes, *c.kernel, D, kern => {
+            (0..p.n_owned)
+                .into_par_iter()
+                .map(|w| {
+                    let keep = (p.p[w], p.rho[w], p.vw[w]);
+                    if !p.kind[w].is_wall() || !nl.visits(w) {
+                        return keep;
+                    }
+                    match c.methods[p.body[w] as usize] {
+                        WallMethod::Dummy => dummy::extrapolated(p, w, nl.iter(w), c, kern),
+                        #[cfg(test)]
+                        WallMethod::Toy => toy::shepard_pressure(p, w, nl.iter(w), c),
+                        WallMethod::Repulsive | WallMethod::Mirror => keep,
+                    }
+                })
+                .collect()
+        })
     };
     for (w, (pw, rw, vw)) in out.into_iter().enumerate() {
         p.p[w] = pw;

@@ -29,7 +29,8 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Version of the checkpoint layout.
-pub const FORMAT: u32 = 1;
+/// 2: records carry the refinement level (issue 35).
+pub const FORMAT: u32 = 2;
 /// First bytes of a part file.
 const MAGIC: &[u8; 8] = b"HSPHPART";
 

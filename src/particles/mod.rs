@@ -190,6 +190,13 @@ particle_table! {
         mat / MAT: u16 {
             image: Same, csv: None, snapshot: None, unit: "1", long_name: "material index",
         }
+        /// Refinement level ℓ (`[[refine]]`): spacing dx / 2^ℓ, smoothing length
+        /// (h/dx)·dx / 2^ℓ, mass ρ (dx / 2^ℓ)^D at set-up; held only by refined scenes (every
+        /// particle of another scene is of level 0).
+        level / LEVEL: u16 {
+            image: Same, csv: Some("level"), snapshot: Some("level"), unit: "1",
+            long_name: "refinement level (spacing dx/2^level)",
+        }
         /// Position x (m).
         x / X: Vector<D> {
             image: Position, csv: Some(""), snapshot: None, unit: "m", long_name: "position",
@@ -202,6 +209,13 @@ particle_table! {
         /// Mass m (kg; kg/m in 2D).
         mass / MASS: f64 {
             image: Same, csv: Some("mass"), snapshot: Some("mass"), unit: "kg", long_name: "mass",
+        }
+        /// Smoothing length h_i (m) of a refined scene's particle (`[[refine]]`): its level's
+        /// in the core of a region, rising to the scene's over the region's transition band;
+        /// held only by refined scenes (elsewhere every particle has the scene's h).
+        h / H: f64 {
+            image: Same, csv: Some("h"), snapshot: Some("smoothing_length"), unit: "m",
+            long_name: "smoothing length",
         }
         /// Density ρ (kg/m³). For dummy walls: from the extrapolated pressure.
         rho / RHO: f64 {

@@ -90,8 +90,9 @@ fn a_field_added_in_the_table_travels_everywhere() {
 
 /// `final.csv` has a `tag` column and snapshots a `tag` array, with the values.
 fn written_to_output(all: Particles<2>) {
-    // a fluid scene's store: the solid fields dropped, so no solid columns
-    let all = all.dropping(Fields::SOLID);
+    // a fluid scene's store of one size: the solid and refinement fields dropped, so no
+    // such columns
+    let all = all.dropping(Fields::SOLID.or(Fields::LEVEL).or(Fields::H));
     let (scene, _) =
         crate::scene::load_scene(std::path::Path::new("inputs/hydrostatic_2d.toml"), &[]).unwrap();
     let model = Model::<2>::new(&scene);
@@ -140,20 +141,26 @@ fn written_to_output(all: Particles<2>) {
 
 #[test]
 fn record_layout_and_byte_counts_follow_the_table() {
-    // id, key, kind|body|mat packed in one word, x, v, mass, rho, p, vw, grad_rho, lap, the solids'
-    // stress and correction (upper triangles), energy, plastic strain and the failure flag (a
-    // word of its own), and the test-only tag
+    // id, key, kind|body|mat|level packed in one word, x, v, mass, h, rho, p, vw, grad_rho, lap,
+    // the solids' stress and correction (upper triangles), energy, plastic strain and the
+    // failure flag (a word of its own), and the test-only tag
     let solid = |d: usize| d * (d + 1) + 3;
-    assert_eq!(Record::<2>::words(), 3 + 2 + 2 + 3 + 2 + 2 + 1 + solid(2) + 1);
-    assert_eq!(Record::<3>::words(), 3 + 3 + 3 + 3 + 3 + 3 + 1 + solid(3) + 1);
-    // a fluid-only run carries none of the solid fields, a run with Morris's viscous operator
-    // no lattice moment
-    let fluid_only = Fields::SOLID.or(Fields::LAP);
+    assert_eq!(Record::<2>::words(), 3 + 2 + 2 + 4 + 2 + 2 + 1 + solid(2) + 1);
+    assert_eq!(Record::<3>::words(), 3 + 3 + 3 + 4 + 3 + 3 + 1 + solid(3) + 1);
+    // a fluid-only run of one size carries none of the solid fields nor level and h, a run
+    // with Morris's viscous operator no lattice moment
+    let one_size = Fields::LEVEL.or(Fields::H);
+    let fluid_only = Fields::SOLID.or(Fields::LAP).or(one_size);
     assert_eq!(Record::<2>::words_carried(fluid_only), 3 + 2 + 2 + 3 + 2 + 2 + 1);
     assert_eq!(Record::<3>::words_carried(fluid_only), 3 + 3 + 3 + 3 + 3 + 3 + 1);
     assert_eq!(
-        Record::<2>::words_carried(Fields::SOLID),
+        Record::<2>::words_carried(Fields::SOLID.or(one_size)),
         3 + 2 + 2 + 3 + 2 + 2 + 1 + 1
+    );
+    // a refined fluid scene adds h (its level shares the packed word)
+    assert_eq!(
+        Record::<2>::words_carried(Fields::SOLID.or(Fields::LAP)),
+        3 + 2 + 2 + 4 + 2 + 2 + 1
     );
     assert_eq!(Particles::<3>::field_words(Fields::RHO.or(Fields::P)), 2);
     assert_eq!(
@@ -162,14 +169,19 @@ fn record_layout_and_byte_counts_follow_the_table() {
     );
     assert_eq!(Particles::<2>::field_words(Fields::GRAD_RHO), 2);
     // shared: 8 + 8 + 1 + 2 + 2 + 4·8·D + 4·8 (+ 8 tag); owned-only: 8 + 8·D; solids add two
-    // D×D tensors, two f64 and a u16
+    // D×D tensors, two f64 and a u16; refinement a u16 level and an f64 h
     let shared = |d: usize| 8 + 8 + 1 + 2 + 2 + 4 * 8 * d + 4 * 8 + 8;
     let solid = |d: usize| 2 * 8 * d * d + 2 * 8 + 2;
-    assert_eq!(Particles::<2>::bytes_per_ghost_carried(Fields::SOLID), shared(2));
-    assert_eq!(Particles::<2>::bytes_per_ghost(), shared(2) + solid(2));
+    let sizes = 2 + 8;
+    let one_size = Fields::LEVEL.or(Fields::H);
+    assert_eq!(
+        Particles::<2>::bytes_per_ghost_carried(Fields::SOLID.or(one_size)),
+        shared(2)
+    );
+    assert_eq!(Particles::<2>::bytes_per_ghost(), shared(2) + solid(2) + sizes);
     assert_eq!(
         Particles::<3>::bytes_per_particle(),
-        shared(3) + solid(3) + 8 + 24
+        shared(3) + solid(3) + sizes + 8 + 24
     );
     let names: Vec<&str> = Particles::<2>::field_table().iter().map(|m| m.name).collect();
     assert_eq!(names.last(), Some(&"tag"));

@@ -72,37 +72,38 @@ fn renormalised_gradient_with<const D: usize, N: Neighbours>(
     vol: &[f64],
     out: &mut [Vector<D>],
 ) {
-    let k = &model.kernel;
-    out.par_iter_mut().enumerate().for_each(|(i, g)| {
-        if !nl.visits(i) {
-            return;
-        }
-        *g = Vector::zeros();
-        if !p.kind[i].is_fluid() {
-            return;
-        }
-        // −Σ_j V_j f_ij x_ij ⊗ x_ij is symmetric: accumulate the upper triangle only
-        let mut a = [[0.0f64; D]; D];
-        let mut s = Vector::<D>::zeros();
-        let (xi, fi) = (p.x[i], f[i]);
-        for j in nl.iter(i) {
-            let j = j as usize;
-            if !p.kind[j].is_fluid() {
-                continue;
+    crate::with_pair_kernel!(model.varying(), model.kernel, D, kern => {
+        out.par_iter_mut().enumerate().for_each(|(i, g)| {
+            if !nl.visits(i) {
+                return;
             }
-            let xij = xi - p.x[j];
-            // ∇_i W_ij V_j = x_ij (1/r) dW/dr V_j
-            let w = k.dw_dr_over_r(xij.norm()) * vol[j];
-            for r in 0..D {
-                let wr = xij[r] * w;
-                for c in r..D {
-                    a[r][c] -= wr * xij[c]; // ∇W ⊗ (x_j − x_i)
+            *g = Vector::zeros();
+            if !p.kind[i].is_fluid() {
+                return;
+            }
+            // −Σ_j V_j f_ij x_ij ⊗ x_ij is symmetric: accumulate the upper triangle only
+            let mut a = [[0.0f64; D]; D];
+            let mut s = Vector::<D>::zeros();
+            let (xi, fi) = (p.x[i], f[i]);
+            for j in nl.iter(i) {
+                let j = j as usize;
+                if !p.kind[j].is_fluid() {
+                    continue;
                 }
+                let xij = xi - p.x[j];
+                // ∇_i W_ij V_j = x_ij (1/r) dW/dr V_j
+                let w = kern.of(&p.h, i, j).dw_dr_over_r(xij.norm()) * vol[j];
+                for r in 0..D {
+                    let wr = xij[r] * w;
+                    for c in r..D {
+                        a[r][c] -= wr * xij[c]; // ∇W ⊗ (x_j − x_i)
+                    }
+                }
+                s += xij * (w * (f[j] - fi));
             }
-            s += xij * (w * (f[j] - fi));
-        }
-        let m = Matrix::<D>::from_fn(|r, c| if r <= c { a[r][c] } else { a[c][r] });
-        *g = inverse_or_identity(&m) * s;
+            let m = Matrix::<D>::from_fn(|r, c| if r <= c { a[r][c] } else { a[c][r] });
+            *g = inverse_or_identity(&m) * s;
+        })
     });
 }
 

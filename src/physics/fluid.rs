@@ -31,6 +31,7 @@ use super::Model;
 use crate::cells::Neighbours;
 use crate::particles::{Kind, Particles};
 
+use crate::kernel::sizes::PairKernel;
 use crate::scene::DensityDiffusion;
 use crate::Vector;
 use rayon::prelude::*;
@@ -53,10 +54,12 @@ pub fn continuity<const D: usize, N: Neighbours>(
         let p = &*p;
         volumes_into(p, vol);
         let vol = &*vol;
-        drho[..n].par_iter_mut().enumerate().for_each(|(i, dr)| {
-            if nl.visits(i) {
-                *dr = continuity_of(p, nl, model, vol, 0.5 * dt, i);
-            }
+        crate::with_pair_kernel!(model.varying(), model.kernel, D, k => {
+            drho[..n].par_iter_mut().enumerate().for_each(|(i, dr)| {
+                if nl.visits(i) {
+                    *dr = continuity_of(p, nl, model, k, vol, 0.5 * dt, i);
+                }
+            })
         });
     }
     p.drho = drho;
@@ -80,10 +83,12 @@ pub fn momentum<const D: usize, N: Neighbours>(
             .par_iter_mut()
             .zip(p.p.par_iter().zip(p.rho.par_iter()))
             .for_each(|(q, (&pj, &rj))| *q = pj / (rj * rj));
-        acc[..n].par_iter_mut().enumerate().for_each(|(i, a)| {
-            if nl.visits(i) {
-                *a = momentum_of(p, nl, model, p_rho2, i);
-            }
+        crate::with_pair_kernel!(model.varying(), model.kernel, D, k => {
+            acc[..n].par_iter_mut().enumerate().for_each(|(i, a)| {
+                if nl.visits(i) {
+                    *a = momentum_of(p, nl, model, k, p_rho2, i);
+                }
+            })
         });
     }
     p.acc = acc;
@@ -122,7 +127,13 @@ pub fn diffusion_term<const D: usize, N: Neighbours>(
             continue;
         }
         let xij = p.x[i] - p.x[j];
-        let f = k.dw_dr_over_r(xij.norm());
+        let kij = model.pair_kernel(p, i, j);
+        let f = kij.dw_dr_over_r(xij.norm());
+        let coef = if model.varying().is_none() {
+            coef
+        } else {
+            model.delta * kij.h * model.materials[p.mat[i] as usize].c0()
+        };
         s += coef * psi_dot_grad(p, antuono, i, j, &xij, f) * (p.mass[j] / p.rho[j]);
     }
     s
@@ -158,10 +169,11 @@ pub(crate) fn psi_dot_grad<const D: usize>(
 /// dt: +3.4 % in 0.14 s for a 2 m/s Taylor–Green vortex at CFL 0.2, +1.5 % at 0.1, +0.7 % at
 /// 0.05 (docs/equations.md §2.1). One kernel evaluation serves both terms.
 #[inline]
-fn continuity_of<const D: usize, N: Neighbours>(
+fn continuity_of<const D: usize, N: Neighbours, K: PairKernel>(
     p: &Particles<D>,
     nl: &N,
     model: &Model<D>,
+    kern: K,
     vol: &[f64],
     half_dt: f64,
     i: usize,
@@ -186,10 +198,16 @@ fn continuity_of<const D: usize, N: Neighbours>(
         // walls enter with their own (prescribed) velocity
         let vij = vi - p.v[j];
         let mid = xij - vij * half_dt;
-        let f = k.dw_dr_over_r(mid.norm());
+        let kij = kern.of(&p.h, i, j);
+        let f = kij.dw_dr_over_r(mid.norm());
         drho += p.mass[j] * (f * vij.dot(&mid));
         if diffusion && kind_j.is_fluid() {
-            drho += delta_coef * psi_dot_grad(p, antuono, i, j, &mid, f) * vol[j];
+            let coef = if K::VARIES {
+                model.delta * kij.h * c0
+            } else {
+                delta_coef
+            };
+            drho += coef * psi_dot_grad(p, antuono, i, j, &mid, f) * vol[j];
         }
     }
     drho
@@ -198,10 +216,11 @@ fn continuity_of<const D: usize, N: Neighbours>(
 /// dv_i/dt: pressure gradient, Monaghan artificial viscosity, Morris laminar viscosity,
 /// Monaghan repulsive wall force and the body force.
 #[inline]
-fn momentum_of<const D: usize, N: Neighbours>(
+fn momentum_of<const D: usize, N: Neighbours, K: PairKernel>(
     p: &Particles<D>,
     nl: &N,
     model: &Model<D>,
+    kern: K,
     p_rho2: &[f64],
     i: usize,
 ) -> Vector<D> {
@@ -216,7 +235,7 @@ fn momentum_of<const D: usize, N: Neighbours>(
         if p.kind[j].is_solid() {
             continue;
         }
-        acc += pair_acceleration(p, model, &terms, p_rho2[j], j);
+        acc += pair_acceleration(p, model, kern, &terms, p_rho2[j], j);
     }
     acc + model.g
 }
@@ -237,6 +256,10 @@ pub struct PairTerms<const D: usize> {
     pub(crate) eta2: f64,
     /// Lattice moment L_i (–) if the viscous operator is renormalised, else 1.
     pub(crate) lap: f64,
+    /// −2 α c0 of particle i's material (m/s): `av_coef` over h, for pairs of two sizes.
+    pub(crate) av_c0: f64,
+    /// Index of particle i.
+    pub(crate) i: usize,
 }
 
 impl<const D: usize> PairTerms<D> {
@@ -252,6 +275,8 @@ impl<const D: usize> PairTerms<D> {
             av_coef: -2.0 * model.alpha * c0 * h,
             eta2: 0.01 * h * h,
             lap: if model.viscous.renormalised { p.lap[i] } else { 1.0 },
+            av_c0: -2.0 * model.alpha * c0,
+            i,
         }
     }
 }
@@ -262,9 +287,10 @@ impl<const D: usize> PairTerms<D> {
 /// repulsive force for a repulsive wall j. `pj_term` is p_j/ρ_j² (m⁵ kg⁻¹ s⁻²). The force
 /// probe sums m_i times this over a wall's particles, reversed.
 #[inline(always)]
-pub fn pair_acceleration<const D: usize>(
+pub fn pair_acceleration<const D: usize, K: PairKernel>(
     p: &Particles<D>,
     model: &Model<D>,
+    kern: K,
     terms: &PairTerms<D>,
     pj_term: f64,
     j: usize,
@@ -279,7 +305,13 @@ pub fn pair_acceleration<const D: usize>(
             .acceleration(&xij, r2, r)
             .unwrap_or_else(Vector::zeros);
     }
-    let f = model.kernel.dw_dr_over_r(r);
+    let k = kern.of(&p.h, terms.i, j);
+    let (av_coef, eta2) = if K::VARIES {
+        (terms.av_c0 * k.h, 0.01 * k.h * k.h)
+    } else {
+        (terms.av_coef, terms.eta2)
+    };
+    let f = k.dw_dr_over_r(r);
     let (rhoi, mj, rhoj) = (terms.rho, p.mass[j], p.rho[j]);
     let dummy = kind_j == Kind::Dummy;
     // viscous terms see the extrapolated velocity of dummy walls
@@ -291,7 +323,7 @@ pub fn pair_acceleration<const D: usize>(
     }
     let vx = vij.dot(&xij);
     if model.alpha > 0.0 && vx < 0.0 {
-        pij += terms.av_coef * vx / ((r2 + terms.eta2) * (rhoi + rhoj));
+        pij += av_coef * vx / ((r2 + eta2) * (rhoi + rhoj));
     }
     let mut acc = xij * (-f * mj * pij);
     if model.nu > 0.0 {

@@ -17,8 +17,10 @@ pub mod solid;
 pub mod viscous;
 
 use crate::boundary::repulsive::Repulsion;
+use crate::kernel::sizes::Sizes;
 use crate::kernel::Kernel;
 use crate::material::MaterialModel;
+use crate::particles::Particles;
 use crate::scene::{DensityDiffusion, Scene, WallMethod};
 use crate::Vector;
 
@@ -67,6 +69,9 @@ pub struct Model<const D: usize> {
     pub c_max: f64,
     /// Particle shifting of fluid particles, if the scene asks for it.
     pub shifting: Option<shifting::Shifting>,
+    /// Kernels of pairs of particle sizes, if the scene has refinement regions (`None`: every
+    /// particle has the size of `kernel`).
+    pub sizes: Option<Sizes>,
 }
 
 impl<const D: usize> Model<D> {
@@ -74,6 +79,7 @@ impl<const D: usize> Model<D> {
     pub fn wall_context(&self) -> crate::boundary::WallContext<'_, D> {
         crate::boundary::WallContext {
             kernel: &self.kernel,
+            sizes: self.sizes.as_ref(),
             materials: &self.materials,
             g: self.g,
             methods: &self.wall_methods,
@@ -121,7 +127,56 @@ impl<const D: usize> Model<D> {
             materials,
             c_max,
             shifting,
+            sizes: (!s.refine.is_empty()).then(|| {
+                let finest_h = crate::scene::refine::finest_h(s) as u16;
+                Sizes::new(s.discretisation.kernel, dx, s.discretisation.h_over_dx, finest_h)
+            }),
         }
+    }
+
+    /// The kernel of the pair (i, j): the scene's, or for particles of several sizes the
+    /// kernel of their mean smoothing length ([`crate::kernel::sizes`]).
+    #[inline(always)]
+    pub fn pair_kernel(&self, p: &Particles<D>, i: usize, j: usize) -> Kernel {
+        match self.varying() {
+            None => self.kernel,
+            Some(s) => s.kernel::<D>(p.h[i], p.h[j]),
+        }
+    }
+
+    /// W_ij(Δp_ij) of the pair (i, j) whose kernel is `k` (m⁻ᴰ): `uniform` (the caller's
+    /// W(dx)) for particles of one size, else W_ij at the pair's mean spacing.
+    #[inline(always)]
+    pub fn pair_w_dp(&self, p: &Particles<D>, i: usize, j: usize, k: &Kernel, uniform: f64) -> f64 {
+        match &self.sizes {
+            None => uniform,
+            Some(s) => k.w(s.spacing(p.level[i], p.level[j])),
+        }
+    }
+
+    /// Refinement level of particle `i` (0 for a scene of one size).
+    #[inline(always)]
+    pub fn level(&self, p: &Particles<D>, i: usize) -> u16 {
+        if self.sizes.is_some() {
+            p.level[i]
+        } else {
+            0
+        }
+    }
+
+    /// Smallest smoothing length of the scene (m): the time step's length scale.
+    pub fn h_min(&self) -> f64 {
+        match &self.sizes {
+            None => self.kernel.h,
+            Some(s) => s.h[s.finest_h as usize],
+        }
+    }
+
+    /// The sizes of a scene whose particles' smoothing lengths differ (a region with
+    /// `smoothing_length = "level"`), else `None`: every pair then takes `kernel`.
+    #[inline(always)]
+    pub fn varying(&self) -> Option<&Sizes> {
+        self.sizes.as_ref().filter(|s| s.varies_h)
     }
 
     /// Names of the physics this model runs (for `hsph check` and logs).
@@ -132,6 +187,16 @@ impl<const D: usize> Model<D> {
             self.kernel.h,
             self.kernel.support
         )];
+        if let Some(s) = &self.sizes {
+            v.push(if s.varies_h {
+                format!(
+                    "particles of several sizes: pairs take the kernel of their mean h, h from {:.4e} m (time step from it)",
+                    s.h[s.finest_h as usize]
+                )
+            } else {
+                "particles of several spacings, one h (refinement regions with the scene's h)".into()
+            });
+        }
         if self.has_fluid {
             v.push("continuity equation + EOS (weakly compressible)".into());
         }

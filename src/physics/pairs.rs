@@ -25,6 +25,7 @@ use super::delta::inverse_or_identity;
 use super::fluid::{pair_acceleration, psi_dot_grad, PairTerms};
 use super::Model;
 use crate::cells::{HalfView, Window};
+use crate::kernel::sizes::PairKernel;
 use crate::particles::Kind;
 use crate::particles::Particles;
 use crate::scene::DensityDiffusion;
@@ -99,14 +100,17 @@ pub fn continuity<const D: usize>(
     s: &mut PairScratch<D>,
 ) {
     s.volumes(p);
-    let pass = Continuity {
-        p: &*p,
-        half,
-        model,
-        vol: &s.vol,
-        half_dt: 0.5 * dt,
-    };
-    run_homes(half, &mut s.flat, 1, 0.0, &pass);
+    crate::with_pair_kernel!(model.varying(), model.kernel, D, k => {
+        let pass = Continuity {
+            kern: k,
+            p: &*p,
+            half,
+            model,
+            vol: &s.vol,
+            half_dt: 0.5 * dt,
+        };
+        run_homes(half, &mut s.flat, 1, 0.0, &pass);
+    });
     let n = p.n_owned;
     let (acc, kind) = (&s.flat, &p.kind);
     p.drho[..n].par_iter_mut().enumerate().for_each(|(i, d)| {
@@ -119,7 +123,9 @@ pub fn continuity<const D: usize>(
 }
 
 /// The continuity pass's inputs.
-struct Continuity<'a, 'h, const D: usize> {
+struct Continuity<'a, 'h, const D: usize, K> {
+    /// The kernel of each pair.
+    kern: K,
     p: &'a Particles<D>,
     half: &'a HalfView<'h, D>,
     model: &'a Model<D>,
@@ -129,7 +135,7 @@ struct Continuity<'a, 'h, const D: usize> {
     half_dt: f64,
 }
 
-impl<const D: usize> Home<f64> for Continuity<'_, '_, D> {
+impl<const D: usize, K: PairKernel> Home<f64> for Continuity<'_, '_, D, K> {
     /// Home slot k's pairs (walls enter with their own velocity, solids and repulsive walls
     /// not at all).
     #[inline]
@@ -160,11 +166,15 @@ impl<const D: usize> Home<f64> for Continuity<'_, '_, D> {
             let xab = xa - p.x[b];
             let vab = va - p.v[b];
             let mid = xab - vab * self.half_dt;
-            let f = kern.dw_dr_over_r(mid.norm());
+            let kab = self.kern.of(&p.h, a, b);
+            let f = kab.dw_dr_over_r(mid.norm());
             let vdot = f * vab.dot(&mid);
+            // δ h c0 with the pair's mean h where particles have several sizes
+            let sized = |m: u16| model.delta * kab.h * model.materials[m as usize].c0();
             if fluid_a {
                 da += p.mass[b] * vdot;
                 if diffusion && fluid_b {
+                    let coef_a = if K::VARIES { sized(p.mat[a]) } else { coef_a };
                     da += coef_a * psi_dot_grad(p, antuono, a, b, &mid, f) * vol[b];
                 }
             }
@@ -172,7 +182,9 @@ impl<const D: usize> Home<f64> for Continuity<'_, '_, D> {
                 let r = w.one(t);
                 *r += ma * vdot;
                 if diffusion && fluid_a {
-                    let coef_b = if p.mat[b] == p.mat[a] {
+                    let coef_b = if K::VARIES {
+                        sized(p.mat[b])
+                    } else if p.mat[b] == p.mat[a] {
                         coef_a
                     } else {
                         coef(p.mat[b])
@@ -200,13 +212,16 @@ pub fn momentum<const D: usize>(
         .par_iter_mut()
         .zip(p.p.par_iter().zip(p.rho.par_iter()))
         .for_each(|(q, (&pj, &rj))| *q = pj / (rj * rj));
-    let pass = Momentum {
-        p: &*p,
-        half,
-        model,
-        p_rho2: &s.p_rho2,
-    };
-    run_homes(half, &mut s.vector, 1, Vector::zeros(), &pass);
+    crate::with_pair_kernel!(model.varying(), model.kernel, D, k => {
+        let pass = Momentum {
+            kern: k,
+            p: &*p,
+            half,
+            model,
+            p_rho2: &s.p_rho2,
+        };
+        run_homes(half, &mut s.vector, 1, Vector::zeros(), &pass);
+    });
     let n = p.n_owned;
     let (acc, kind, g) = (&s.vector, &p.kind, model.g);
     p.acc[..n].par_iter_mut().enumerate().for_each(|(i, a)| {
@@ -219,7 +234,9 @@ pub fn momentum<const D: usize>(
 }
 
 /// The momentum pass's inputs.
-struct Momentum<'a, 'h, const D: usize> {
+struct Momentum<'a, 'h, const D: usize, K> {
+    /// The kernel of each pair.
+    kern: K,
     p: &'a Particles<D>,
     half: &'a HalfView<'h, D>,
     model: &'a Model<D>,
@@ -227,7 +244,7 @@ struct Momentum<'a, 'h, const D: usize> {
     p_rho2: &'a [f64],
 }
 
-impl<const D: usize> Home<Vector<D>> for Momentum<'_, '_, D> {
+impl<const D: usize, K: PairKernel> Home<Vector<D>> for Momentum<'_, '_, D, K> {
     /// Home slot k's pairs.
     #[inline]
     fn home<I: Iterator<Item = u32>>(&self, k: usize, w: &mut Window<'_, Vector<D>>, partners: I) {
@@ -240,7 +257,7 @@ impl<const D: usize> Home<Vector<D>> for Momentum<'_, '_, D> {
                 let t = t as usize;
                 let b = order[t] as usize;
                 let tb = PairTerms::of(p, model, b, p_rho2[b]);
-                *w.one(t) += pair_acceleration(p, model, &tb, p_rho2[a], a);
+                *w.one(t) += pair_acceleration(p, model, self.kern, &tb, p_rho2[a], a);
             }
             return;
         }
@@ -250,11 +267,11 @@ impl<const D: usize> Home<Vector<D>> for Momentum<'_, '_, D> {
             let t = t as usize;
             let b = order[t] as usize;
             if p.kind[b].is_fluid() {
-                let (d_a, d_b) = fluid_pair(p, model, &ta, p_rho2, a, b);
+                let (d_a, d_b) = fluid_pair(p, model, self.kern, &ta, p_rho2, a, b);
                 sum += d_a;
                 *w.one(t) += d_b;
             } else {
-                sum += pair_acceleration(p, model, &ta, p_rho2[b], b);
+                sum += pair_acceleration(p, model, self.kern, &ta, p_rho2[b], b);
             }
         }
         *w.one(k) += sum;
@@ -264,9 +281,10 @@ impl<const D: usize> Home<Vector<D>> for Momentum<'_, '_, D> {
 /// Both sides of the momentum pair of fluid particles i (`ti`) and j: (dv_i, dv_j) without
 /// the body force, each computed as [`pair_acceleration`] computes it from its side.
 #[inline(always)]
-fn fluid_pair<const D: usize>(
+fn fluid_pair<const D: usize, K: PairKernel>(
     p: &Particles<D>,
     model: &Model<D>,
+    kern: K,
     ti: &PairTerms<D>,
     p_rho2: &[f64],
     i: usize,
@@ -274,7 +292,13 @@ fn fluid_pair<const D: usize>(
 ) -> (Vector<D>, Vector<D>) {
     let xij = ti.x - p.x[j];
     let r2 = xij.norm_squared();
-    let f = model.kernel.dw_dr_over_r(r2.sqrt());
+    let k = kern.of(&p.h, i, j);
+    let (av_i, eta2) = if K::VARIES {
+        (ti.av_c0 * k.h, 0.01 * k.h * k.h)
+    } else {
+        (ti.av_coef, ti.eta2)
+    };
+    let f = k.dw_dr_over_r(r2.sqrt());
     let (rhoi, rhoj) = (ti.rho, p.rho[j]);
     let (mi, mj) = (p.mass[i], p.mass[j]);
     let vij = ti.v - p.v[j];
@@ -283,12 +307,12 @@ fn fluid_pair<const D: usize>(
     let vx = vij.dot(&xij);
     if model.alpha > 0.0 && vx < 0.0 {
         let av_j = if p.mat[j] == p.mat[i] {
-            ti.av_coef
+            av_i
         } else {
-            -2.0 * model.alpha * model.materials[p.mat[j] as usize].c0() * model.kernel.h
+            -2.0 * model.alpha * model.materials[p.mat[j] as usize].c0() * k.h
         };
-        let den = (r2 + ti.eta2) * (rhoi + rhoj);
-        pi += ti.av_coef * vx / den;
+        let den = (r2 + eta2) * (rhoi + rhoj);
+        pi += av_i * vx / den;
         pj += av_j * vx / den;
     }
     let mut a_i = xij * (-f * mj * pi);
@@ -332,13 +356,15 @@ pub fn renormalised_gradient<const D: usize>(
     let m = D * (D + 1) / 2;
     let stride = m + D;
     s.volumes(p);
-    let pass = Gradient {
-        p: &*p,
-        half,
-        model,
-        vol: &s.vol,
-    };
-    run_homes(half, &mut s.flat, stride, 0.0, &pass);
+    crate::with_pair_kernel!(model.varying(), model.kernel, D, k => {
+        let pass = Gradient {
+            kern: k,
+            p: &*p,
+            half,
+            vol: &s.vol,
+        };
+        run_homes(half, &mut s.flat, stride, 0.0, &pass);
+    });
     let n = p.n_owned;
     let (acc, kind) = (&s.flat, &p.kind);
     p.grad_rho[..n].par_iter_mut().enumerate().for_each(|(i, g)| {
@@ -360,15 +386,16 @@ pub fn renormalised_gradient<const D: usize>(
 }
 
 /// The gradient pass's inputs.
-struct Gradient<'a, 'h, const D: usize> {
+struct Gradient<'a, 'h, const D: usize, K> {
+    /// The kernel of each pair.
+    kern: K,
     p: &'a Particles<D>,
     half: &'a HalfView<'h, D>,
-    model: &'a Model<D>,
     /// V_j of every particle (m³).
     vol: &'a [f64],
 }
 
-impl<const D: usize> Home<f64> for Gradient<'_, '_, D> {
+impl<const D: usize, K: PairKernel> Home<f64> for Gradient<'_, '_, D, K> {
     /// Home slot k's pairs (fluid pairs only).
     #[inline]
     fn home<I: Iterator<Item = u32>>(&self, k: usize, w: &mut Window<'_, f64>, partners: I) {
@@ -379,7 +406,6 @@ impl<const D: usize> Home<f64> for Gradient<'_, '_, D> {
             return;
         }
         let m = D * (D + 1) / 2;
-        let kern = &self.model.kernel;
         let (xa, rhoa) = (p.x[a], p.rho[a]);
         let mut mat = [[0.0f64; D]; D];
         let mut sa = Vector::<D>::zeros();
@@ -390,7 +416,7 @@ impl<const D: usize> Home<f64> for Gradient<'_, '_, D> {
                 continue;
             }
             let xab = xa - p.x[b];
-            let f = kern.dw_dr_over_r(xab.norm());
+            let f = self.kern.of(&p.h, a, b).dw_dr_over_r(xab.norm());
             let wa = f * vol[b];
             for r in 0..D {
                 let wr = xab[r] * wa;
@@ -433,13 +459,15 @@ pub fn lattice_moment<const D: usize>(
     s: &mut PairScratch<D>,
 ) {
     s.volumes(p);
-    let pass = Moment {
-        p: &*p,
-        half,
-        model,
-        vol: &s.vol,
-    };
-    run_homes(half, &mut s.flat, 1, 0.0, &pass);
+    crate::with_pair_kernel!(model.varying(), model.kernel, D, k => {
+        let pass = Moment {
+            kern: k,
+            p: &*p,
+            half,
+            vol: &s.vol,
+        };
+        run_homes(half, &mut s.flat, 1, 0.0, &pass);
+    });
     let n = p.n_owned;
     let (acc, kind) = (&s.flat, &p.kind);
     p.lap[..n].par_iter_mut().enumerate().for_each(|(i, l)| {
@@ -452,15 +480,16 @@ pub fn lattice_moment<const D: usize>(
 }
 
 /// The lattice-moment pass's inputs.
-struct Moment<'a, 'h, const D: usize> {
+struct Moment<'a, 'h, const D: usize, K> {
+    /// The kernel of each pair.
+    kern: K,
     p: &'a Particles<D>,
     half: &'a HalfView<'h, D>,
-    model: &'a Model<D>,
     /// V_j of every particle (m³).
     vol: &'a [f64],
 }
 
-impl<const D: usize> Home<f64> for Moment<'_, '_, D> {
+impl<const D: usize, K: PairKernel> Home<f64> for Moment<'_, '_, D, K> {
     /// Home slot k's pairs: Σ V r² (1/r) W′ over smoothed partners, to each fluid side.
     #[inline]
     fn home<I: Iterator<Item = u32>>(&self, k: usize, w: &mut Window<'_, f64>, partners: I) {
@@ -471,7 +500,6 @@ impl<const D: usize> Home<f64> for Moment<'_, '_, D> {
             return;
         }
         let fluid_a = p.kind[a].is_fluid();
-        let kern = &self.model.kernel;
         let xa = p.x[a];
         let mut sa = 0.0;
         for t in partners {
@@ -481,7 +509,7 @@ impl<const D: usize> Home<f64> for Moment<'_, '_, D> {
                 continue;
             }
             let r2 = (xa - p.x[b]).norm_squared();
-            let g = r2 * kern.dw_dr_over_r(r2.sqrt());
+            let g = r2 * self.kern.of(&p.h, a, b).dw_dr_over_r(r2.sqrt());
             if fluid_a {
                 sa += vol[b] * g;
             }

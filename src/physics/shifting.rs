@@ -97,18 +97,21 @@ pub fn shifts<const D: usize, N: Neighbours>(
     out: &mut [Shift<D>],
 ) {
     let vol = super::fluid::volumes(p);
-    out.par_iter_mut().enumerate().for_each(|(i, o)| {
-        if nl.visits(i) {
-            *o = shift_of(p, nl, model, s, &vol, i);
-        }
+    crate::with_pair_kernel!(model.varying(), model.kernel, D, kern => {
+        out.par_iter_mut().enumerate().for_each(|(i, o)| {
+            if nl.visits(i) {
+                *o = shift_of(p, nl, model, kern, s, &vol, i);
+            }
+        })
     });
 }
 
 /// One particle's [`Shift`] (see the module docs).
-fn shift_of<const D: usize, N: Neighbours>(
+fn shift_of<const D: usize, N: Neighbours, K: crate::kernel::sizes::PairKernel>(
     p: &Particles<D>,
     nl: &N,
     model: &Model<D>,
+    kern: K,
     s: &Shifting,
     vol: &[f64],
     i: usize,
@@ -116,7 +119,6 @@ fn shift_of<const D: usize, N: Neighbours>(
     if !p.kind[i].is_fluid() {
         return Shift::default();
     }
-    let k = &model.kernel;
     let (xi, rhoi, vi) = (p.x[i], p.rho[i], p.v[i]);
     let mut push = Vector::<D>::zeros(); // Σ [1 + R (W/W(Δx))ⁿ] ∇W V
     let mut grad_c = Vector::<D>::zeros(); // Σ ∇W V
@@ -127,11 +129,12 @@ fn shift_of<const D: usize, N: Neighbours>(
         let j = j as usize;
         let xij = xi - p.x[j];
         let r = xij.norm();
+        let k = kern.of(&p.h, i, j);
         if r <= 0.0 || r >= k.support {
             continue;
         }
         let g = xij * (k.dw_dr_over_r(r) * vol[j]); // ∇_i W_ij V_j
-        let ratio = k.w(r) / s.w_dx;
+        let ratio = k.w(r) / model.pair_w_dp(p, i, j, &k, s.w_dx);
         push += g * (1.0 + R * ratio.powi(N));
         grad_c += g;
         div_r -= xij.dot(&g);
@@ -149,14 +152,21 @@ fn shift_of<const D: usize, N: Neighbours>(
     if div_r < SURFACE * d {
         return Shift::default();
     }
-    let mut dr = push * -s.coefficient;
+    // β(2h_i)² and the cap ∝ Δp_i follow particle i's size (1 in a scene of one size)
+    let scale = 1.0 / f64::from(1u32 << model.level(p, i));
+    let hs = match model.varying() {
+        None => 1.0,
+        Some(_) => p.h[i] / model.kernel.h,
+    };
+    let mut dr = push * -(s.coefficient * hs * hs);
     if div_r < NEAR_SURFACE * d && grad_c.norm() > 0.0 {
         let n = grad_c.normalize();
         dr -= n * n.dot(&dr);
     }
     let len = dr.norm();
-    if len > s.cap {
-        dr *= s.cap / len;
+    let cap = s.cap * scale;
+    if len > cap {
+        dr *= cap / len;
     }
     let dv = Vector::<D>::from_fn(|a, _| (0..D).map(|b| grad_v[a][b] * dr[b]).sum());
     Shift {

@@ -202,25 +202,27 @@ pub fn lattice_moment<const D: usize, N: Neighbours>(
     {
         let p = &*p;
         super::fluid::volumes_into(p, vol);
-        let (vol, k) = (&*vol, &model.kernel);
-        lap[..n].par_iter_mut().enumerate().for_each(|(i, l)| {
-            if !nl.visits(i) {
-                return;
-            }
-            *l = 1.0;
-            if !p.kind[i].is_fluid() {
-                return;
-            }
-            let mut s = 0.0;
-            for j in nl.iter(i) {
-                let j = j as usize;
-                if !p.kind[j].is_smoothed() || p.kind[j].is_solid() {
-                    continue;
+        let vol = &*vol;
+        crate::with_pair_kernel!(model.varying(), model.kernel, D, kern => {
+            lap[..n].par_iter_mut().enumerate().for_each(|(i, l)| {
+                if !nl.visits(i) {
+                    return;
                 }
-                let r2 = (p.x[i] - p.x[j]).norm_squared();
-                s += vol[j] * r2 * k.dw_dr_over_r(r2.sqrt());
-            }
-            *l = moment_of::<D>(s);
+                *l = 1.0;
+                if !p.kind[i].is_fluid() {
+                    return;
+                }
+                let mut s = 0.0;
+                for j in nl.iter(i) {
+                    let j = j as usize;
+                    if !p.kind[j].is_smoothed() || p.kind[j].is_solid() {
+                        continue;
+                    }
+                    let r2 = (p.x[i] - p.x[j]).norm_squared();
+                    s += vol[j] * r2 * kern.of(&p.h, i, j).dw_dr_over_r(r2.sqrt());
+                }
+                *l = moment_of::<D>(s);
+            })
         });
     }
     p.lap = lap;

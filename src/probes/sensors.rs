@@ -76,15 +76,16 @@ pub fn sample<const D: usize>(v: &View<D>, probe: &Probe, wall: u16) -> Vec<f64>
 /// Shepard interpolation of `f` over the fluid particles at `at`; `None` where no fluid
 /// particle is within the kernel support.
 fn shepard<const D: usize>(v: &View<D>, at: &Vector<D>, f: &dyn Fn(usize) -> Vector<D>) -> Option<Vector<D>> {
-    let (p, k) = (&v.p, &v.model.kernel);
+    let p = &v.p;
     let (mut sw, mut s) = (0.0, Vector::<D>::zeros());
     for i in 0..p.n_owned {
         if !p.kind[i].is_fluid() {
             continue;
         }
         let r = (at - p.x[i]).norm();
-        if r < k.support {
-            let w = k.w(r) * p.mass[i] / p.rho[i];
+        // within the largest support, each particle's own kernel (zero beyond its support)
+        if r < v.model.kernel.support {
+            let w = v.model.pair_kernel(p, i, i).w(r) * p.mass[i] / p.rho[i];
             sw += w;
             s += f(i) * w;
         }
@@ -151,7 +152,6 @@ fn pressure<const D: usize>(v: &View<D>, centre: &Vector<D>, diameter: f64, n: &
 /// (φ < ½ at dx/2 above the bed) is dry and reads 0.
 fn gauge<const D: usize>(v: &View<D>, point: &[f64]) -> f64 {
     let p = &v.p;
-    let k = &v.model.kernel;
     let dx = v.scene.discretisation.dx;
     let up = D - 1;
     // the columns within half a spacing, both of them when the gauge sits exactly between two
@@ -167,7 +167,8 @@ fn gauge<const D: usize>(v: &View<D>, point: &[f64]) -> f64 {
         let mut s = 0.0;
         for i in 0..p.n_owned {
             let r = (at - p.x[i]).norm();
-            if r < k.support {
+            if r < v.model.kernel.support {
+                let k = v.model.pair_kernel(p, i, i);
                 let share = match (p.kind[i].is_fluid(), p.x[i][up].partial_cmp(&z)) {
                     (true, _) | (false, Some(std::cmp::Ordering::Less)) => 1.0,
                     (false, Some(std::cmp::Ordering::Equal)) => 0.5,
@@ -293,7 +294,9 @@ fn force<const D: usize>(v: &View<D>, wall: u16, about: &Vector<D>) -> Vec<f64> 
         near.sort_unstable();
         let terms = PairTerms::of(p, model, i, p_rho2(i));
         for &j in &near {
-            let fj = pair_acceleration(p, model, &terms, p_rho2(j), j) * -p.mass[i];
+            let fj = crate::with_pair_kernel!(model.varying(), model.kernel, D, k => {
+                pair_acceleration(p, model, k, &terms, p_rho2(j), j)
+            }) * -p.mass[i];
             f += fj;
             let r = p.x[j] - about;
             if D == 2 {

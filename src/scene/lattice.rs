@@ -17,6 +17,8 @@ pub struct Lattice<const D: usize> {
     pub dx: f64,
     /// Sites per axis.
     pub n: [u64; D],
+    /// Id of the first site: the sites of the coarser levels come first (0 at level 0).
+    pub offset: u64,
 }
 
 impl<const D: usize> Lattice<D> {
@@ -31,7 +33,27 @@ impl<const D: usize> Lattice<D> {
             origin: Vector::from_fn(|a, _| s.domain.min[a]),
             dx,
             n,
+            offset: 0,
         }
+    }
+
+    /// The lattice of refinement level `level` (`[[refine]]`): spacing dx / 2^level, 2^level
+    /// times the sites per axis, nested in the scene's (site i's cell lies in the cell of
+    /// coarse site i >> level), its ids after those of every coarser level: id = Σ_{l<level}
+    /// (sites of level l) + index. Ids stay unique and fixed by the scene alone.
+    pub fn at_level(s: &Scene, level: u32) -> Self {
+        let mut lat = Lattice::new(s);
+        for _ in 0..level {
+            lat.offset += lat.sites();
+            lat.dx *= 0.5;
+            lat.n = lat.n.map(|n| 2 * n);
+        }
+        lat
+    }
+
+    /// Number of sites.
+    pub fn sites(&self) -> u64 {
+        self.n.iter().product()
     }
 
     /// Site index range `[lo, hi)` along `axis` whose centres lie in `[min, max)`.
@@ -54,6 +76,7 @@ impl<const D: usize> Lattice<D> {
             for (na, ia) in self.n.iter().zip(&idx) {
                 id = id * na + ia;
             }
+            let id = self.offset + id;
             let x = Vector::from_fn(|a, _| self.origin[a] + (idx[a] as f64 + 0.5) * self.dx);
             f(&idx, id, x);
             // odometer, last axis fastest
@@ -73,9 +96,11 @@ impl<const D: usize> Lattice<D> {
     }
 }
 
-/// Exclusive bound of the particle ids of `s`: the number of sites of its lattice.
+/// Exclusive bound of the particle ids of `s`: the number of sites of its lattices, from the
+/// scene's to its finest refinement level (at most 585 times the scene's in 3D; validation
+/// bounds the scene's lattice so that `id << IMAGE_BITS` fits in 64 bits).
 pub fn id_bound<const D: usize>(s: &Scene) -> u64 {
-    Lattice::<D>::new(s).n.iter().product()
+    Lattice::<D>::at_level(s, super::refine::finest(s) + 1).offset
 }
 
 /// Number of particles the scene's bodies hold, counted from the lattice ranges without
@@ -128,7 +153,9 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
     );
     for (key, f) in bodies {
         let r = ranges(&f.min, &f.max);
-        let n = sites(&r);
+        // an upper bound where regions refine the body: their fine sites are added, the
+        // coarse ones they replace not subtracted
+        let n = sites(&r) + fine_sites::<D>(s, f);
         // of the box's sites the one nearest the centre (per axis, so nearest overall) is
         // inside a sphere or cylinder if any is
         let builds = n > 0
@@ -173,6 +200,22 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
         });
     }
     out
+}
+
+/// The sites of the refinement levels of body `f`: of each region refining it, the sites of
+/// the region's level in the box the two share.
+fn fine_sites<const D: usize>(s: &Scene, f: &super::FluidBody) -> u64 {
+    let mut n = 0;
+    for r in s.refine.iter().filter(|r| r.applies_to(&f.name)) {
+        let lat = Lattice::<D>::at_level(s, r.level);
+        n += (0..D)
+            .map(|a| {
+                let (lo, hi) = lat.range(a, f.min[a].max(r.min[a]), f.max[a].min(r.max[a]));
+                hi.saturating_sub(lo)
+            })
+            .product::<u64>();
+    }
+    n
 }
 
 /// Every body builds at least one particle at the scene's dx: one that builds none is an

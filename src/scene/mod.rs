@@ -13,6 +13,7 @@ mod materials;
 mod models;
 mod probes;
 mod reference;
+pub mod refine;
 mod validate;
 mod walls;
 
@@ -61,6 +62,9 @@ pub struct Scene {
     /// Walls (`[[wall]]`).
     #[serde(default, rename = "wall")]
     pub walls: Vec<WallBody>,
+    /// Refinement regions (`[[refine]]`): bodies built at dx / 2^level inside them.
+    #[serde(default, rename = "refine", skip_serializing_if = "Vec::is_empty")]
+    pub refine: Vec<refine::Refine>,
     /// Time integration.
     pub time: Time,
     /// Output schedule and snapshot fields.

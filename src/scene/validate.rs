@@ -17,7 +17,7 @@ use crate::limits::{
 /// Check a vector key has `d` components, all finite; fill an empty one with zeros if allowed.
 /// A sphere's or cylinder's box from its centre, radius (and axis and length); a resolved
 /// scene already holds it, any other box is an error; no such keys on a block.
-fn sphere_box(f: &mut crate::scene::FluidBody, k: &str, d: usize) -> Result<()> {
+pub(super) fn sphere_box(f: &mut crate::scene::FluidBody, k: &str, d: usize) -> Result<()> {
     use crate::scene::BodyShape;
     if f.shape == BodyShape::Block {
         if !f.centre.is_empty() || f.radius != 0.0 || f.axis.is_some() || f.length != 0.0 {
@@ -198,6 +198,7 @@ pub fn validate(s: &mut Scene) -> Result<()> {
     let mat_names = Names::new(s.materials.iter().map(|m| m.name.as_str()));
     validate_fluids(s, &mat_names)?;
     validate_walls(s, &mat_names, support)?;
+    super::refine::validate_refine(s)?;
     validate_time_output(s)?;
     check_particle_count(s)?;
     crate::with_dim!(s.dimension, D => super::lattice::check_bodies_build::<D>(s))?;
@@ -615,6 +616,14 @@ fn check_particle_count(s: &Scene) -> Result<()> {
     let mut key = "fluid";
     for f in s.fluids.iter().chain(&s.solids) {
         n += sites_in(&f.min, &f.max, dx);
+        // the fine sites of every region refining it (the coarse ones left out stay counted)
+        for r in s.refine.iter().filter(|r| r.applies_to(&f.name)) {
+            let lo: Vec<f64> = (0..f.min.len()).map(|a| f.min[a].max(r.min[a])).collect();
+            let hi: Vec<f64> = (0..f.min.len()).map(|a| f.max[a].min(r.max[a])).collect();
+            if (0..lo.len()).all(|a| lo[a] < hi[a]) {
+                n += sites_in(&lo, &hi, dx / f64::from(1u32 << r.level));
+            }
+        }
     }
     for w in &s.walls {
         let grow = if w.shape == WallShape::Container {
@@ -780,7 +789,8 @@ pub fn dt_upper_bound(s: &Scene) -> (f64, String) {
     if t.dt > 0.0 {
         return (t.dt, "the fixed time.dt".to_string());
     }
-    let h = s.discretisation.h_over_dx * s.discretisation.dx;
+    // the finest particles' h where regions refine the scene
+    let h = s.discretisation.h_over_dx * s.discretisation.dx / f64::from(1u32 << super::refine::finest_h(s));
     let mut c: f64 = 0.0;
     if !s.fluids.is_empty() {
         c = s.materials.iter().fold(0.0, |m, x| m.max(x.c0));

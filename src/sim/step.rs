@@ -226,7 +226,8 @@ impl<const D: usize> Simulation<D> {
     /// and 0.125 h²/ν, or the scene's fixed dt; never past t_end.
     pub fn next_dt(&self, comm: &dyn Comm) -> Result<f64> {
         let n = self.p.n_owned;
-        let h = self.model.kernel.h;
+        // the smallest particles set the step where there are several sizes
+        let h = self.model.h_min();
         let dt = if self.scene.time.dt > 0.0 {
             self.scene.time.dt
         } else {

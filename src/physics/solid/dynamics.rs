@@ -29,6 +29,8 @@
 //! Johnson–Cook surface, computes p(ρ, e) and applies the failure criteria. Units: SI.
 
 use crate::cells::Neighbours;
+use crate::kernel::sizes::PairKernel;
+use crate::kernel::Kernel;
 use crate::material::strength::{jaumann_rate, radial_return, rate_and_spin, temperature};
 use crate::particles::Particles;
 use crate::physics::Model;
@@ -62,6 +64,8 @@ struct Viscosity {
     beta: f64,
     h: f64,
     eta2: f64,
+    /// Particles of several sizes: h and η² are the pair kernel's.
+    sized: bool,
 }
 
 impl Viscosity {
@@ -72,16 +76,24 @@ impl Viscosity {
             beta: model.beta,
             h,
             eta2: 0.01 * h * h,
+            sized: model.varying().is_some(),
         }
     }
 
-    /// Π_ij (m⁵ kg⁻¹ s⁻²) for a pair approaching (v_ij·x_ij < 0), else 0.
+    /// Π_ij (m⁵ kg⁻¹ s⁻²) for a pair approaching (v_ij·x_ij < 0), else 0; `k` is the pair's
+    /// kernel (its h is the pair's mean where particles have several sizes).
     #[inline(always)]
-    fn pi(&self, vx: f64, r2: f64, ci: f64, cj: f64, rhoi: f64, rhoj: f64) -> f64 {
+    #[allow(clippy::too_many_arguments)]
+    fn pi(&self, k: &Kernel, vx: f64, r2: f64, ci: f64, cj: f64, rhoi: f64, rhoj: f64) -> f64 {
         if vx >= 0.0 {
             return 0.0;
         }
-        let mu = self.h * vx / (r2 + self.eta2);
+        let (h, eta2) = if self.sized {
+            (k.h, 0.01 * k.h * k.h)
+        } else {
+            (self.h, self.eta2)
+        };
+        let mu = h * vx / (r2 + eta2);
         (-self.alpha * 0.5 * (ci + cj) * mu + self.beta * mu * mu) / (0.5 * (rhoi + rhoj))
     }
 }
@@ -112,30 +124,31 @@ pub fn correction<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, m
     let mut out = std::mem::take(&mut p.correction);
     {
         let p = &*p;
-        let k = &model.kernel;
-        out[..n].par_iter_mut().enumerate().for_each(|(i, b)| {
-            if !p.kind[i].is_solid() || !nl.visits(i) {
-                return;
-            }
-            let xi = p.x[i];
-            let mut m = Tensor::<D>::zeros();
-            for j in nl.iter(i) {
-                let j = j as usize;
-                if !p.kind[j].is_solid() {
-                    continue;
+        crate::with_pair_kernel!(model.varying(), model.kernel, D, kern => {
+            out[..n].par_iter_mut().enumerate().for_each(|(i, b)| {
+                if !p.kind[i].is_solid() || !nl.visits(i) {
+                    return;
                 }
-                let xij = xi - p.x[j];
-                let f = k.dw_dr_over_r(xij.norm());
-                m += (xij * xij.transpose()) * (p.mass[j] * f);
-            }
-            m *= -1.0 / p.rho[i];
-            // a well-conditioned M only: sparse neighbourhoods (a correction of more than 10×)
-            // keep the plain gradient
-            // symmetric to the last bit: ghosts receive the upper triangle only
-            b.0 = match m.try_inverse() {
-                Some(inv) if inv.amax() <= 10.0 => symmetric(&inv),
-                _ => Tensor::identity(),
-            };
+                let xi = p.x[i];
+                let mut m = Tensor::<D>::zeros();
+                for j in nl.iter(i) {
+                    let j = j as usize;
+                    if !p.kind[j].is_solid() {
+                        continue;
+                    }
+                    let xij = xi - p.x[j];
+                    let f = kern.of(&p.h, i, j).dw_dr_over_r(xij.norm());
+                    m += (xij * xij.transpose()) * (p.mass[j] * f);
+                }
+                m *= -1.0 / p.rho[i];
+                // a well-conditioned M only: sparse neighbourhoods (a correction of more than 10×)
+                // keep the plain gradient
+                // symmetric to the last bit: ghosts receive the upper triangle only
+                b.0 = match m.try_inverse() {
+                    Some(inv) if inv.amax() <= 10.0 => symmetric(&inv),
+                    _ => Tensor::identity(),
+                };
+            })
         });
     }
     p.correction = out;
@@ -165,26 +178,30 @@ pub fn rates<const D: usize, N: Neighbours>(
         let (c, rs) = (&scratch.c, &scratch.rs[..]);
         let visc = Viscosity::of(model);
         let half_dt = 0.5 * dt;
-        drho[..n]
-            .par_iter_mut()
-            .zip(scratch.ds.par_iter_mut())
-            .zip(scratch.de.par_iter_mut().zip(scratch.rate.par_iter_mut()))
-            .enumerate()
-            .for_each(|(i, ((dr, ds), (de, rate)))| {
-                if nl.visits(i) {
-                    (*dr, *ds, *de, *rate) = rates_of(p, nl, model, (c, rs), &visc, half_dt, i);
-                }
-            });
+        crate::with_pair_kernel!(model.varying(), model.kernel, D, kern => {
+            drho[..n]
+                .par_iter_mut()
+                .zip(scratch.ds.par_iter_mut())
+                .zip(scratch.de.par_iter_mut().zip(scratch.rate.par_iter_mut()))
+                .enumerate()
+                .for_each(|(i, ((dr, ds), (de, rate)))| {
+                    if nl.visits(i) {
+                        (*dr, *ds, *de, *rate) = rates_of(p, nl, model, kern, (c, rs), &visc, half_dt, i);
+                    }
+                })
+        });
     }
     p.drho = drho;
 }
 
 /// (S1)–(S4) for owned particle `i`: (dρ/dt, dS/dt, de/dt, equivalent strain rate).
 #[inline]
-fn rates_of<const D: usize, N: Neighbours>(
+#[allow(clippy::too_many_arguments)]
+fn rates_of<const D: usize, N: Neighbours, K: PairKernel>(
     p: &Particles<D>,
     nl: &N,
     model: &Model<D>,
+    kern: K,
     (c, rs): (&[f64], &[Tensor<D>]),
     visc: &Viscosity,
     half_dt: f64,
@@ -197,14 +214,13 @@ fn rates_of<const D: usize, N: Neighbours>(
     let Some(solid) = model.materials[p.mat[i] as usize].solid() else {
         return zero;
     };
-    let k = &model.kernel;
     let (xi, vi, rhoi) = (p.x[i], p.v[i], p.rho[i]);
     let bi = p.correction[i].0;
     let mut grad = Tensor::<D>::zeros(); // Σ m_j v_ij ⊗ ∇W
     let mut visc_work = 0.0; // Σ m_j Π_ij v_ij·∇W
     let mut stress_work = 0.0; // Σ m_j v_ij·(R_i + R_j) f_ijⁿ ∇W
     let stress_art = model.artificial_stress > 0.0;
-    let w_dp = k.w(model.dx);
+    let w_dp = model.kernel.w(model.dx);
     for j in nl.iter(i) {
         let j = j as usize;
         if !p.kind[j].is_solid() {
@@ -214,13 +230,14 @@ fn rates_of<const D: usize, N: Neighbours>(
         let vij = vi - p.v[j];
         let mid = xij - vij * half_dt;
         let r2 = mid.norm_squared();
+        let k = kern.of(&p.h, i, j);
         let gw = mid * k.dw_dr_over_r(r2.sqrt());
         let mj = p.mass[j];
         grad += (vij * mj) * gw.transpose();
-        let pi = visc.pi(vij.dot(&mid), r2, c[i], c[j], rhoi, p.rho[j]);
+        let pi = visc.pi(&k, vij.dot(&mid), r2, c[i], c[j], rhoi, p.rho[j]);
         visc_work += mj * pi * vij.dot(&gw);
         if stress_art {
-            let f = k.w(r2.sqrt()) / w_dp;
+            let f = k.w(r2.sqrt()) / model.pair_w_dp(p, i, j, &k, w_dp);
             let f2 = f * f;
             stress_work += mj * (f2 * f2) * vij.dot(&((rs[i] + rs[j]) * gw));
         }
@@ -255,6 +272,7 @@ pub fn update<const D: usize>(p: &mut Particles<D>, model: &Model<D>, dt: f64, s
     let drho = &p.drho[..n];
     let mass = &p.mass[..n];
     let w0 = model.kernel.w(0.0);
+    let own_h = &p.h;
     let mut out = std::mem::take(&mut p.stress);
     p.rho[..n]
         .par_iter_mut()
@@ -282,6 +300,10 @@ pub fn update<const D: usize>(p: &mut Particles<D>, model: &Model<D>, dt: f64, s
                 // never below the particle's own kernel contribution m W(0), the density an
                 // isolated particle has by summation: a receding pair of debris particles
                 // otherwise drives its continuity density to 0 (L ∝ 1/ρ) and the run to NaN
+                let w0 = match model.varying() {
+                    None => w0,
+                    Some(z) => z.kernel::<D>(own_h[i], own_h[i]).w(0.0),
+                };
                 *rho = rho.max(mass[i] * w0);
                 *e += dt * scratch.de[i];
                 // the Jaumann rate is symmetric only up to rounding: keep S symmetric to the
@@ -325,10 +347,12 @@ pub fn momentum<const D: usize, N: Neighbours>(
         let p = &*p;
         let visc = Viscosity::of(model);
         let (sig, rs, c) = (&scratch.sig, &scratch.rs, &scratch.c);
-        acc[..n].par_iter_mut().enumerate().for_each(|(i, a)| {
-            if p.kind[i].is_solid() && nl.visits(i) {
-                *a = momentum_of(p, nl, model, &visc, (sig, rs, c), w_dp, i);
-            }
+        crate::with_pair_kernel!(model.varying(), model.kernel, D, kern => {
+            acc[..n].par_iter_mut().enumerate().for_each(|(i, a)| {
+                if p.kind[i].is_solid() && nl.visits(i) {
+                    *a = momentum_of(p, nl, model, kern, &visc, (sig, rs, c), w_dp, i);
+                }
+            })
         });
     }
     p.acc = acc;
@@ -370,16 +394,17 @@ fn stress_terms<const D: usize>(
 
 /// Eq. (S5) for owned solid particle `i`.
 #[inline]
-fn momentum_of<const D: usize, N: Neighbours>(
+#[allow(clippy::too_many_arguments)]
+fn momentum_of<const D: usize, N: Neighbours, K: PairKernel>(
     p: &Particles<D>,
     nl: &N,
     model: &Model<D>,
+    kern: K,
     visc: &Viscosity,
     (sig, rs, c): (&[Tensor<D>], &[Tensor<D>], &[f64]),
     w_dp: f64,
     i: usize,
 ) -> Vector<D> {
-    let k = &model.kernel;
     let (xi, vi, rhoi) = (p.x[i], p.v[i], p.rho[i]);
     let stress_art = model.artificial_stress > 0.0;
     let sig_bi = sig[i];
@@ -392,14 +417,15 @@ fn momentum_of<const D: usize, N: Neighbours>(
         let xij = xi - p.x[j];
         let r2 = xij.norm_squared();
         let r = r2.sqrt();
+        let k = kern.of(&p.h, i, j);
         let gw = xij * k.dw_dr_over_r(r);
         let vij = vi - p.v[j];
-        let pi = visc.pi(vij.dot(&xij), r2, c[i], c[j], rhoi, p.rho[j]);
+        let pi = visc.pi(&k, vij.dot(&xij), r2, c[i], c[j], rhoi, p.rho[j]);
         // corrected stress terms (the duals of the corrected velocity gradient), plain
         // viscosity and artificial stress
         let mut t = sig_bi + sig[j] - Tensor::<D>::identity() * pi;
         if stress_art {
-            let f = k.w(r) / w_dp;
+            let f = k.w(r) / model.pair_w_dp(p, i, j, &k, w_dp);
             let f2 = f * f;
             t += (rs[i] + rs[j]) * (f2 * f2);
         }
@@ -462,15 +488,20 @@ mod tests {
 
     #[test]
     fn viscosity_is_zero_for_receding_pairs_and_matches_the_formula_for_approaching() {
-        let v = Viscosity {
-            alpha: 1.0,
-            beta: 2.0,
-            h: 0.1,
-            eta2: 1e-4,
-        };
-        assert_eq!(v.pi(0.5, 0.01, 10.0, 10.0, 1.0, 1.0), 0.0);
-        let mu = 0.1 * -0.5 / (0.01 + 1e-4);
-        let want = -10.0 * mu + 2.0 * mu * mu;
-        assert!((v.pi(-0.5, 0.01, 8.0, 12.0, 0.5, 1.5) - want).abs() < 1e-12);
+        let k = Kernel::new(crate::kernel::KernelKind::WendlandC2, 0.1, 3);
+        for sized in [false, true] {
+            // with particles of several sizes h and η² come from the pair's kernel (h = 0.1)
+            let v = Viscosity {
+                alpha: 1.0,
+                beta: 2.0,
+                h: if sized { 7.0 } else { 0.1 },
+                eta2: 1e-4,
+                sized,
+            };
+            assert_eq!(v.pi(&k, 0.5, 0.01, 10.0, 10.0, 1.0, 1.0), 0.0);
+            let mu = 0.1 * -0.5 / (0.01 + 1e-4);
+            let want = -10.0 * mu + 2.0 * mu * mu;
+            assert!((v.pi(&k, -0.5, 0.01, 8.0, 12.0, 0.5, 1.5) - want).abs() < 1e-12);
+        }
     }
 }

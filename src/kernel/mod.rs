@@ -3,6 +3,8 @@
 //! `q = r/h`; every kernel is normalised so that ∫W dV = 1 in `D` dimensions (checked
 //! numerically in the tests). Units: W in m⁻ᴰ, dW/dr in m⁻ᴰ⁻¹.
 
+pub mod sizes;
+
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 

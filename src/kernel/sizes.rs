@@ -1,0 +1,151 @@
+//! Particles of several sizes (issue 35, `[[refine]]`): the kernel of a pair of particles of
+//! different smoothing lengths.
+//!
+//! A particle of level ℓ has spacing Δp_ℓ = dx / 2^ℓ (its mass ρ Δp_ℓ^D) and a smoothing
+//! length h_i of its own: h_ℓ = (h/dx) Δp_ℓ in the core of its region, rising linearly to the
+//! scene's h over the region's transition band, so that h is continuous where the spacing
+//! jumps (docs/refinement.md §1). A pair (i, j) is evaluated with one kernel of the **mean
+//! smoothing length** h_ij = (h_i + h_j) / 2:
+//!
+//! - W_ij = W(|x_ij|, h_ij) is symmetric in i and j, so ∇_i W_ij = −∇_j W_ij: every pairwise
+//!   force stays antisymmetric and linear momentum is conserved to round-off across a size
+//!   interface (mass is carried by the particles and never changes);
+//! - one kernel evaluation per pair (the mean of the two kernels, the other symmetric form,
+//!   takes two), and for two particles of one h it is that h's kernel, bit for bit;
+//! - zeroth-order consistency: Σ_j V_j ∇_i W_ij vanishes in a uniform lattice of any spacing
+//!   and stays small where the spacing jumps under a continuous h (the transition band puts
+//!   the jump in h elsewhere and spreads it); a jump of h itself would break it by a large
+//!   fraction of a free surface's value (measured in docs/refinement.md §1), which is why h
+//!   is not simply the spacing's.
+//!
+//! Terms that scale with a length (artificial viscosity α h_ij c0, δ-SPH δ h_ij c0, shifting's
+//! β(2h)²) use the pair's or the particle's h; the artificial stress's reference W_ij(Δp_ij)
+//! the mean spacing of the pair. The cell grid stays that of the largest support, so every
+//! pair within any pair's support is listed; the kernel is zero beyond the pair's support.
+
+use super::{Kernel, KernelKind};
+
+/// Levels a scene may hold: 0 (the scene's dx) to [`crate::scene::refine::MAX_LEVEL`] (3).
+pub const LEVELS: usize = 4;
+
+/// What the passes need to know of a scene's particle sizes.
+#[derive(Debug, Clone)]
+pub struct Sizes {
+    /// The kernel's family.
+    pub kind: KernelKind,
+    /// Spacing Δp_ℓ per level (m).
+    pub dx: [f64; LEVELS],
+    /// Smoothing length h_ℓ of the core of each level (m).
+    pub h: [f64; LEVELS],
+    /// Finest level whose particles take its own h (0: every particle has the scene's h).
+    pub finest_h: u16,
+    /// Some particles' h differs from the scene's (`finest_h` > 0): pairs take the kernel of
+    /// their mean h.
+    pub varies_h: bool,
+}
+
+impl Sizes {
+    /// The sizes of kernel `kind`, the scene's spacing `dx` (m) and `h_over_dx`, with levels
+    /// up to `finest_h` taking their own h.
+    pub fn new(kind: KernelKind, dx: f64, h_over_dx: f64, finest_h: u16) -> Self {
+        Sizes {
+            kind,
+            dx: std::array::from_fn(|l| dx / f64::from(1u32 << l)),
+            h: std::array::from_fn(|l| h_over_dx * dx / f64::from(1u32 << l)),
+            finest_h,
+            varies_h: finest_h > 0,
+        }
+    }
+
+    /// The kernel of a pair of smoothing lengths `hi`, `hj` (m): W(r, (h_i + h_j)/2).
+    #[inline(always)]
+    pub fn kernel<const D: usize>(&self, hi: f64, hj: f64) -> Kernel {
+        Kernel::new(self.kind, 0.5 * (hi + hj), D)
+    }
+
+    /// The mean spacing of a pair of levels (m).
+    #[inline(always)]
+    pub fn spacing(&self, li: u16, lj: u16) -> f64 {
+        0.5 * (self.dx[li as usize] + self.dx[lj as usize])
+    }
+}
+
+/// How a pass finds the kernel of each pair, chosen once per pass ([`OneKernel`] or
+/// [`MeanH`]) and monomorphised, so that a scene of one size pays nothing per pair for
+/// particles of several. `h` is the particles' smoothing-length field (empty, and never read,
+/// in a scene of one size).
+pub trait PairKernel: Copy + Send + Sync {
+    /// True if pairs may differ in h (terms scaling with h take the pair's).
+    const VARIES: bool;
+    /// The kernel of the pair (i, j).
+    fn of(&self, h: &[f64], i: usize, j: usize) -> Kernel;
+}
+
+/// One kernel for every pair (a scene of one smoothing length).
+#[derive(Debug, Clone, Copy)]
+pub struct OneKernel(pub Kernel);
+
+impl PairKernel for OneKernel {
+    const VARIES: bool = false;
+    #[inline(always)]
+    fn of(&self, _h: &[f64], _i: usize, _j: usize) -> Kernel {
+        self.0
+    }
+}
+
+/// The kernel of the pair's mean smoothing length, W(r, (h_i + h_j)/2).
+#[derive(Debug, Clone, Copy)]
+pub struct MeanH<'a> {
+    /// The scene's sizes.
+    pub sizes: &'a Sizes,
+    /// Dimension (2 or 3).
+    pub dim: usize,
+}
+
+impl PairKernel for MeanH<'_> {
+    const VARIES: bool = true;
+    #[inline(always)]
+    fn of(&self, h: &[f64], i: usize, j: usize) -> Kernel {
+        Kernel::new(self.sizes.kind, 0.5 * (h[i] + h[j]), self.dim)
+    }
+}
+
+/// `with_pair_kernel!(sizes, kernel, dim, k => body)`: `body` with `k` the [`PairKernel`] of a
+/// scene (`sizes`: `Option<&Sizes>` of a scene whose h varies, `kernel` its one [`Kernel`]),
+/// compiled once per case.
+#[macro_export]
+macro_rules! with_pair_kernel {
+    ($sizes:expr, $kernel:expr, $dim:expr, $k:ident => $body:expr) => {{
+        #[allow(unused_imports)]
+        use $crate::kernel::sizes::PairKernel as _;
+        match $sizes {
+            None => {
+                let $k = $crate::kernel::sizes::OneKernel($kernel);
+                $body
+            }
+            Some(s) => {
+                let $k = $crate::kernel::sizes::MeanH { sizes: s, dim: $dim };
+                $body
+            }
+        }
+    }};
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The pair kernel is symmetric and, for one h, that h's kernel bit for bit.
+    #[test]
+    fn pair_kernels_are_symmetric_and_exact_for_one_size() {
+        let s = Sizes::new(KernelKind::WendlandC2, 0.01, 1.3, 3);
+        for (a, b) in [(0.013, 0.0065), (0.0091, 0.013), (0.0013, 0.0017)] {
+            assert_eq!(s.kernel::<2>(a, b).w(0.004), s.kernel::<2>(b, a).w(0.004));
+            assert_eq!(s.kernel::<3>(a, b).dw_dr(0.002), s.kernel::<3>(b, a).dw_dr(0.002));
+            let own = Kernel::new(KernelKind::WendlandC2, a, 2);
+            assert_eq!(s.kernel::<2>(a, a).w(0.003).to_bits(), own.w(0.003).to_bits());
+        }
+        assert!((s.h[1] - 0.0065).abs() < 1e-15 && (s.h[3] - 0.001625).abs() < 1e-15);
+        assert!((s.spacing(0, 1) - 0.0075).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,278 @@
+//! Refinement regions (`[[refine]]`): where bodies are built with particles of a finer spacing
+//! dx / 2^level (issue 35, docs/refinement.md).
+//!
+//! A lattice site of the scene's spacing (a *coarse* site) whose centre lies in a region of
+//! level ℓ is not built; the 2^(ℓ·D) sites of the level-ℓ lattice that subdivide its cell are
+//! built instead, each kept if it lies in the body. Regions therefore replace whole coarse
+//! cells, so the fine particles tile exactly the cells the coarse ones leave, whatever the
+//! region's shape.
+
+use super::checks::{err, in_domain};
+use super::{BodyShape, FluidBody, Scene};
+use crate::error::Result;
+use serde::{Deserialize, Serialize};
+
+/// Finest level a region may ask for (spacing dx / 8).
+pub const MAX_LEVEL: u32 = 3;
+
+/// One refinement region.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Refine {
+    /// Shape of the region: `block` ([min, max)), `sphere` (a disc in 2D) or `cylinder` (3D),
+    /// with the keys of a body of that shape.
+    #[serde(default)]
+    pub shape: BodyShape,
+    /// Lower corner (m); for a sphere or cylinder, set from centre and radius.
+    #[serde(default)]
+    pub min: Vec<f64>,
+    /// Upper corner (m); for a sphere or cylinder, set from centre and radius.
+    #[serde(default)]
+    pub max: Vec<f64>,
+    /// Centre of a sphere or cylinder (m).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub centre: Vec<f64>,
+    /// Radius of a sphere or cylinder (m).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub radius: f64,
+    /// Axis of a cylinder: 0, 1 or 2.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<usize>,
+    /// Length of a cylinder along its axis (m).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub length: f64,
+    /// Level ℓ ∈ 1..=3: particles of spacing dx / 2^ℓ.
+    pub level: u32,
+    /// Names of the fluid and solid bodies the region refines (empty: every fluid and solid).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub bodies: Vec<String>,
+    /// Width (m) of the band inside the region's boundary over which the particles' smoothing
+    /// length falls from the scene's h to the level's (default: one kernel support of the
+    /// scene's h, κh). h stays continuous where the spacing jumps (docs/refinement.md §1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transition: Option<f64>,
+    /// The smoothing length of the region's particles: `scene` (default: the scene's h, so
+    /// the region holds more, lighter particles per kernel and h never jumps) or `level` (the
+    /// level's h, (h/dx)·dx/2^level, reached over `transition`: finer features resolved at a
+    /// smaller time step, with the spurious currents a varying h brings where the pressure is
+    /// high; docs/refinement.md §1).
+    #[serde(default)]
+    pub smoothing_length: RegionH,
+}
+
+/// Which smoothing length a refinement region's particles take.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum RegionH {
+    /// The scene's h.
+    #[default]
+    Scene,
+    /// The level's h.
+    Level,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
+impl Refine {
+    /// The region's geometry as a body of its shape (the shape tests are a body's).
+    fn as_body(&self) -> FluidBody {
+        FluidBody {
+            name: String::new(),
+            material: String::new(),
+            shape: self.shape,
+            min: self.min.clone(),
+            max: self.max.clone(),
+            centre: self.centre.clone(),
+            radius: self.radius,
+            axis: self.axis,
+            length: self.length,
+            velocity: Vec::new(),
+            hydrostatic: false,
+            velocity_field: None,
+            pressure_field: None,
+            clamped: false,
+        }
+    }
+
+    /// True if the point `x` (m) lies in the region.
+    pub fn contains(&self, x: &[f64]) -> bool {
+        let in_box = (0..x.len()).all(|a| x[a] >= self.min[a] && x[a] < self.max[a]);
+        in_box && self.as_body().contains(x)
+    }
+
+    /// True if the region refines the body named `name`.
+    pub fn applies_to(&self, name: &str) -> bool {
+        self.bodies.is_empty() || self.bodies.iter().any(|b| b == name)
+    }
+}
+
+/// The region refining the coarse site at `x` of body `name`, if any (validation refuses two
+/// regions of different levels that could both hold a site; of several of one level the
+/// first).
+pub fn region_at<'s>(s: &'s Scene, name: &str, x: &[f64]) -> Option<&'s Refine> {
+    s.refine.iter().find(|r| r.applies_to(name) && r.contains(x))
+}
+
+impl Refine {
+    /// Distance (m) from `x` inside the region to its boundary (≤ 0 outside).
+    pub fn depth(&self, x: &[f64]) -> f64 {
+        let d = x.len();
+        let to_box = (0..d)
+            .map(|a| (x[a] - self.min[a]).min(self.max[a] - x[a]))
+            .fold(f64::INFINITY, f64::min);
+        match self.shape {
+            BodyShape::Block => to_box,
+            BodyShape::Sphere => {
+                let r2: f64 = (0..d).map(|a| (x[a] - self.centre[a]).powi(2)).sum();
+                self.radius - r2.sqrt()
+            }
+            BodyShape::Cylinder => {
+                let axis = self.axis.unwrap_or(2);
+                let r2: f64 = (0..d)
+                    .filter(|&a| a != axis)
+                    .map(|a| (x[a] - self.centre[a]).powi(2))
+                    .sum();
+                (self.radius - r2.sqrt()).min(0.5 * self.length - (x[axis] - self.centre[axis]).abs())
+            }
+        }
+    }
+
+    /// Smoothing length (m) of a particle of this region's level at `x`: `h_fine` at a depth
+    /// of at least the transition band, rising linearly to `h_scene` at the boundary.
+    pub fn smoothing_length(&self, x: &[f64], h_scene: f64, h_fine: f64) -> f64 {
+        if self.smoothing_length == RegionH::Scene {
+            return h_scene;
+        }
+        let band = self.transition.unwrap_or(0.0);
+        if band <= 0.0 {
+            return h_fine;
+        }
+        let t = (1.0 - self.depth(x) / band).clamp(0.0, 1.0);
+        h_fine + (h_scene - h_fine) * t
+    }
+}
+
+/// The finest level whose particles take their level's h (0: every particle has the scene's).
+pub fn finest_h(s: &Scene) -> u32 {
+    (s.refine.iter().filter(|r| r.smoothing_length == RegionH::Level))
+        .map(|r| r.level)
+        .max()
+        .unwrap_or(0)
+}
+
+/// The finest level of the scene (0 without regions).
+pub fn finest(s: &Scene) -> u32 {
+    s.refine.iter().map(|r| r.level).max().unwrap_or(0)
+}
+
+/// Check every region: its level, shape keys and box, inside the domain, the bodies it names
+/// (fluids or solids of the scene), and no two regions of different levels for one body that
+/// overlap.
+pub fn validate_refine(s: &mut Scene) -> Result<()> {
+    let d = s.dimension;
+    let bodies: Vec<String> = s.fluids.iter().chain(&s.solids).map(|b| b.name.clone()).collect();
+    let walls: Vec<&str> = s.walls.iter().map(|w| w.name.as_str()).collect();
+    for (i, r) in s.refine.iter_mut().enumerate() {
+        let k = format!("refine[{i}]");
+        if !(1..=MAX_LEVEL).contains(&r.level) {
+            return err(
+                format!("{k}.level"),
+                format!(
+                    "must be 1, 2 or 3 (spacing dx/2, dx/4 or dx/8), got {}; e.g. level = 1",
+                    r.level
+                ),
+            );
+        }
+        let mut g = r.as_body();
+        super::validate::sphere_box(&mut g, &k, d)?;
+        super::checks::check_vec(&mut g.min, d, &format!("{k}.min"), false)?;
+        super::checks::check_vec(&mut g.max, d, &format!("{k}.max"), false)?;
+        super::checks::check_box(&g.min, &g.max, &k)?;
+        (r.min, r.max, r.axis) = (g.min, g.max, g.axis);
+        in_domain(&r.min, &r.max, &k, &s.domain)?;
+        let support =
+            s.discretisation.kernel.support_factor() * s.discretisation.h_over_dx * s.discretisation.dx;
+        match r.transition {
+            None => r.transition = Some(support),
+            Some(w) if !(w >= 0.0 && w.is_finite()) => {
+                return err(
+                    format!("{k}.transition"),
+                    format!("must be a width ≥ 0 (m), got {w}; e.g. transition = {support} (one kernel support, the default)"),
+                )
+            }
+            Some(_) => {}
+        }
+        for (j, b) in r.bodies.iter().enumerate() {
+            if bodies.contains(b) {
+                continue;
+            }
+            let what = if walls.contains(&b.as_str()) {
+                format!("`{b}` is a wall: walls keep the scene's spacing dx;")
+            } else {
+                format!("no fluid or solid body is named `{b}`;")
+            };
+            return err(
+                format!("{k}.bodies[{j}]"),
+                format!(
+                    "{what} name fluid or solid bodies ({}), or leave out `bodies` for all of them",
+                    bodies.join(", ")
+                ),
+            );
+        }
+    }
+    check_overlaps(s)
+}
+
+/// Two regions of different levels that refine one body may not overlap: the level of a site
+/// would be ambiguous. Blocks and spheres are tested exactly; a cylinder by its box.
+fn check_overlaps(s: &Scene) -> Result<()> {
+    for (j, b) in s.refine.iter().enumerate() {
+        for (i, a) in s.refine[..j].iter().enumerate() {
+            if a.level == b.level || !overlap(a, b) {
+                continue;
+            }
+            let shared = s
+                .fluids
+                .iter()
+                .chain(&s.solids)
+                .find(|f| a.applies_to(&f.name) && b.applies_to(&f.name));
+            if let Some(f) = shared {
+                return err(
+                    format!("refine[{j}]"),
+                    format!(
+                        "overlaps refine[{i}] (level {} against {}) on body `{}`: a site's level \
+                         would be ambiguous; separate the regions, give them one level, or list \
+                         different `bodies`",
+                        b.level, a.level, f.name
+                    ),
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// True if two validated regions may share a point.
+fn overlap(a: &Refine, b: &Refine) -> bool {
+    let d = a.min.len();
+    let boxes = (0..d).all(|k| a.min[k] < b.max[k] && b.min[k] < a.max[k]);
+    if !boxes {
+        return false;
+    }
+    let dist2 = |c: &[f64], r: &Refine| -> f64 {
+        (0..d)
+            .map(|k| (c[k] - c[k].clamp(r.min[k], r.max[k])).powi(2))
+            .sum()
+    };
+    match (a.shape, b.shape) {
+        (BodyShape::Sphere, BodyShape::Sphere) => {
+            let c2: f64 = (0..d).map(|k| (a.centre[k] - b.centre[k]).powi(2)).sum();
+            c2 < (a.radius + b.radius).powi(2)
+        }
+        (BodyShape::Sphere, BodyShape::Block) => dist2(&a.centre, b) < a.radius * a.radius,
+        (BodyShape::Block, BodyShape::Sphere) => dist2(&b.centre, a) < b.radius * b.radius,
+        _ => true,
+    }
+}

@@ -1,0 +1,375 @@
+//! Particles of several sizes (issue 35, docs/refinement.md): refinement regions replace the
+//! scene's lattice cells by their 2^D children at set-up (volume and ids exact), momentum is
+//! conserved to round-off across the size interface with either smoothing length, a refined
+//! run gives the same bits on any number of ranks and threads and after a restart, still water
+//! stays still, and bad refinement input is exit 2 naming the key.
+
+mod common;
+
+use common::cli::{assert_input_error, hsph_in};
+use common::Rng;
+use hsph::comm::serial::SerialComm;
+use hsph::particles::Kind;
+use hsph::scene::{load_scene, load_scene_str, Scene};
+use hsph::sim::Simulation;
+use hsph::Vector;
+use std::collections::BTreeSet;
+use std::path::Path;
+
+/// A periodic box of fluid (no walls, no body force) with a refined region in its middle:
+/// `shape` "block" or "sphere", `h` "scene" or "level".
+fn box_scene(dim: usize, shape: &str, h: &str) -> String {
+    let n = if dim == 2 { 24.0 } else { 16.0 };
+    let dx = 1.0 / 64.0;
+    let l = n * dx;
+    let v = |x: f64| vec![format!("{x:?}"); dim].join(", ");
+    let region = match shape {
+        "block" => format!("min = [{}]\nmax = [{}]", v(0.3 * l), v(0.7 * l)),
+        _ => format!(
+            "shape = \"sphere\"\ncentre = [{}]\nradius = {:?}",
+            v(0.5 * l),
+            0.25 * l
+        ),
+    };
+    format!(
+        r#"
+dimension = {dim}
+[domain]
+min = [{zero}]
+max = [{lmax}]
+periodic = [{per}]
+[discretisation]
+dx = {dx:?}
+h_over_dx = 1.3
+[[material]]
+name = "water"
+rho0 = 1000.0
+c0 = 20.0
+[physics]
+density_diffusion = "antuono"
+delta = 0.1
+artificial_viscosity = 0.05
+laminar_viscosity = 1e-3
+[[fluid]]
+name = "f"
+material = "water"
+min = [{zero}]
+max = [{lmax}]
+[[refine]]
+{region}
+level = 1
+smoothing_length = "{h}"
+[time]
+t_end = 1.0
+"#,
+        zero = v(0.0),
+        lmax = v(l),
+        per = vec!["true"; dim].join(", "),
+    )
+}
+
+fn scene_of(text: &str) -> Scene {
+    load_scene_str(text, Path::new("refined.toml"), "refined", &[])
+        .unwrap()
+        .0
+}
+
+/// The set-up replaces every coarse cell whose centre lies in the region by its 2^D children
+/// of 1/2^D of the mass: the same total volume (Σ m/ρ) as the uniform scene to round-off, ids
+/// unique and below the id bound, levels and h as asked.
+fn check_set_up<const D: usize>(shape: &str, h: &str) {
+    let text = box_scene(D, shape, h);
+    let refined = scene_of(&text);
+    let cut = text.find("[[refine]]").unwrap();
+    let uniform = scene_of(&(text[..cut].to_string() + "[time]\nt_end = 1.0\n"));
+    let p = hsph::setup::build_particles::<D>(&refined).unwrap();
+    let q = hsph::setup::build_particles::<D>(&uniform).unwrap();
+    let n = p.n_owned;
+    let fine = (0..n).filter(|&i| p.level[i] == 1).count();
+    let coarse_left = n - fine;
+    assert_eq!(fine % (1 << D), 0, "{shape}: {fine} fine particles");
+    assert_eq!(
+        coarse_left + fine / (1 << D),
+        q.n_owned,
+        "{shape}: cells replaced by children"
+    );
+    assert!(fine > 0 && coarse_left > 0);
+    let vol = |p: &hsph::particles::Particles<D>| (0..p.n_owned).map(|i| p.mass[i] / p.rho[i]).sum::<f64>();
+    let (a, b) = (vol(&p), vol(&q));
+    assert!((a - b).abs() <= 1e-12 * b, "{shape}: volume {a} against {b}");
+    let ids: BTreeSet<u64> = p.id[..n].iter().copied().collect();
+    assert_eq!(ids.len(), n, "{shape}: ids unique");
+    let bound = hsph::scene::lattice::id_bound::<D>(&refined);
+    assert!(*ids.last().unwrap() < bound);
+    let m0 = q.mass[0];
+    let h0 = refined.discretisation.h_over_dx * refined.discretisation.dx;
+    for i in 0..n {
+        let (want_m, level) = if p.level[i] == 1 {
+            (m0 / (1 << D) as f64, 1)
+        } else {
+            (m0, 0)
+        };
+        assert!((p.mass[i] - want_m).abs() <= 1e-12 * m0, "{shape}: mass of {i}");
+        if h == "level" {
+            // the level's h in the core, the scene's at the boundary, never outside [h/2, h]
+            assert!(p.h[i] <= h0 && p.h[i] >= 0.5 * h0 - 1e-15, "{}", p.h[i]);
+            if level == 0 {
+                assert_eq!(p.h[i], h0);
+            }
+        }
+    }
+    if h == "level" {
+        assert!(
+            (0..n).any(|i| p.h[i] == 0.5 * h0),
+            "{shape}: no particle with the level's h"
+        );
+        assert!(
+            (0..n).any(|i| p.level[i] == 1 && p.h[i] > 0.5 * h0),
+            "{shape}: no transition"
+        );
+    }
+}
+
+#[test]
+fn set_up_replaces_coarse_cells_by_their_children() {
+    for shape in ["block", "sphere"] {
+        for h in ["scene", "level"] {
+            check_set_up::<2>(shape, h);
+            check_set_up::<3>(shape, h);
+        }
+    }
+}
+
+/// Random velocities and a ±1 % density perturbation; rates recomputed.
+fn perturb<const D: usize>(sim: &mut Simulation<D>, seed: u64) {
+    let mut rng = Rng(seed);
+    for i in 0..sim.p.n_owned {
+        if sim.p.kind[i] == Kind::Fluid {
+            sim.p.v[i] = Vector::<D>::from_fn(|_, _| rng.range(-0.3, 0.3));
+            sim.p.rho[i] *= 1.0 + rng.range(-0.01, 0.01);
+        }
+    }
+    sim.compute_density_rate(&SerialComm::new()).unwrap();
+}
+
+/// Largest per-step |ΔP|∞ / Σ m|v| over `steps` steps of a perturbed refined box; the mass
+/// is checked unchanged to the bit.
+fn momentum_drift<const D: usize>(shape: &str, h: &str, steps: usize) -> f64 {
+    let comm = SerialComm::new();
+    let mut sim = Simulation::<D>::new(&scene_of(&box_scene(D, shape, h)), &comm).unwrap();
+    perturb(&mut sim, 7 + D as u64);
+    let m0 = sim.observables(&comm).unwrap().mass;
+    let mut worst = 0.0f64;
+    for _ in 0..steps {
+        let before = sim.observables(&comm).unwrap().momentum;
+        sim.advance(&comm).unwrap();
+        let obs = sim.observables(&comm).unwrap();
+        let scale: f64 = (0..sim.p.n_owned)
+            .map(|i| sim.p.mass[i] * sim.p.v[i].norm())
+            .sum();
+        let rel = (obs.momentum - before).amax() / scale;
+        assert!(
+            rel <= 1e-12,
+            "{D}D {shape} h = {h}: step {} changed the momentum by {rel:e}",
+            sim.step
+        );
+        assert_eq!(obs.mass.to_bits(), m0.to_bits(), "{D}D {shape}: mass changed");
+        worst = worst.max(rel);
+    }
+    worst
+}
+
+#[test]
+fn momentum_is_conserved_across_the_size_interface() {
+    for h in ["level", "scene"] {
+        let w2 = momentum_drift::<2>("block", h, 40);
+        let w3 = momentum_drift::<3>("sphere", h, 15);
+        eprintln!("h = {h}: worst per-step |ΔP|/Σm|v| 2D {w2:.2e}, 3D {w3:.2e}");
+    }
+}
+
+/// A small refined dam break (inputs/dam_break_2d.toml, 40 steps): walls, gravity, a refined
+/// block across the lower middle of the water column.
+fn dam(h: &str) -> Scene {
+    let path = common::repo_path("inputs/dam_break_2d.toml");
+    let text = std::fs::read_to_string(&path).unwrap()
+        + &format!(
+            "\n[[refine]]\nmin = [0.03, 0.0]\nmax = [0.11, 0.15]\nlevel = 1\nsmoothing_length = \"{h}\"\n"
+        );
+    let sets = [
+        "time.max_steps=40".to_string(),
+        "output.format=\"none\"".to_string(),
+    ];
+    load_scene_str(&text, &path, "dam_break_2d", &sets).unwrap().0
+}
+
+#[test]
+fn a_refined_run_gives_the_same_bits_on_any_layout() {
+    for h in ["level", "scene"] {
+        let s = dam(h);
+        let base = common::run_layout(&s, 1, 1, &format!("refined-{h}-1"));
+        let read = |d: &Path, f: &str| std::fs::read(d.join(f)).unwrap();
+        let fin = read(&base, "final.csv");
+        assert!(
+            String::from_utf8_lossy(&fin).lines().any(|l| l.contains(",1,")),
+            "no level-1 particle"
+        );
+        for (ranks, threads) in [(1, 2), (3, 1), (8, 1), (3, 2)] {
+            let d = common::run_layout(&s, ranks, threads, &format!("refined-{h}-{ranks}-{threads}"));
+            for f in ["final.csv", "timeseries.csv"] {
+                assert!(
+                    read(&d, f) == read(&base, f),
+                    "h = {h}: {f} differs on {ranks} ranks × {threads} threads"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_refined_run_restarts_to_the_uninterrupted_bits() {
+    let dir = common::temp_dir("refined-restart");
+    let scene = dir.join("scene.toml");
+    let text = std::fs::read_to_string(common::repo_path("inputs/hydrostatic_2d_refined.toml")).unwrap();
+    std::fs::write(&scene, text).unwrap();
+    let s = scene.to_str().unwrap();
+    let run = |out: &str, extra: &[&str]| {
+        let mut args = vec!["run", s, "-q", "--out", out, "--set", "time.max_steps=60"];
+        args.extend(extra);
+        let o = hsph_in(&dir, &args);
+        assert_eq!(o.status.code(), Some(0), "{}", common::cli::stderr(&o));
+    };
+    run("whole", &[]);
+    run("legs", &["--ranks", "3", "--set", "checkpoint.every_steps=25"]);
+    // continue from step 50 (the checkpoints kept: 50 and 60) on 2 ranks, over the files the
+    // first leg wrote beyond it
+    let cp = dir.join("legs/checkpoints/step-0000000050");
+    assert!(cp.join("manifest.json").is_file());
+    let o = hsph_in(
+        &dir,
+        &["run", "--restart", cp.to_str().unwrap(), "-q", "--ranks", "2"],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", common::cli::stderr(&o));
+    for f in ["final.csv", "timeseries.csv"] {
+        let a = std::fs::read(dir.join("whole").join(f)).unwrap();
+        let b = std::fs::read(dir.join("legs").join(f)).unwrap();
+        assert!(a == b, "{f} of the restarted run differs");
+    }
+}
+
+/// The shipped still-water scene with a refined box, over 1 s (70 acoustic periods): speeds
+/// below 1 % of sqrt(gH), no fluid pair closer than half the fine spacing, no particle in a
+/// wall, and the pressure error of docs/validation.md §2 within 2 % of ρ0 g H (measured:
+/// 1.39 %, against 1.01 % for the uniform tank at dx and 0.67 % at dx/2; docs/refinement.md §2).
+#[test]
+fn still_water_with_a_refined_box_stays_still() {
+    let s = load_scene(&common::repo_path("inputs/hydrostatic_2d_refined.toml"), &[])
+        .unwrap()
+        .0;
+    let out = common::run_layout(&s, 1, 2, "refined-still");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let e = |k: &str| summary["errors"][k].as_f64().unwrap();
+    let (ev, ep) = (e("max_speed_over_sqrt_gh"), e("pressure_linf_below_mid_depth"));
+    eprintln!(
+        "refined still water: speed {:.3} %, pressure {:.3} %",
+        100.0 * ev,
+        100.0 * ep
+    );
+    assert!(ev < 0.01, "max speed {:.3} % of sqrt(gH)", 100.0 * ev);
+    assert!(ep <= 0.02, "pressure error {:.3} %", 100.0 * ep);
+    assert_eq!(e("fluid_in_walls_fraction"), 0.0);
+    // closest pair of fluid particles, by brute force over final.csv
+    let text = std::fs::read_to_string(out.join("final.csv")).unwrap();
+    let mut lines = text.lines();
+    let cols: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let at = |name: &str| cols.iter().position(|c| *c == name).unwrap();
+    let (kx, ky, kk, kl) = (at("x"), at("y"), at("kind"), at("level"));
+    let mut pts = Vec::new();
+    let mut fine = 0;
+    for l in lines {
+        let v: Vec<&str> = l.split(',').collect();
+        if v[kk] == "0" {
+            pts.push((v[kx].parse::<f64>().unwrap(), v[ky].parse::<f64>().unwrap()));
+            fine += usize::from(v[kl] == "1");
+        }
+    }
+    assert_eq!(fine, 1200, "the box holds 20 × 15 cells of four particles");
+    let mut closest = f64::INFINITY;
+    for (i, a) in pts.iter().enumerate() {
+        for b in &pts[i + 1..] {
+            closest = closest.min(((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)).sqrt());
+        }
+    }
+    let half_fine = 0.25 * s.discretisation.dx;
+    assert!(
+        closest > half_fine,
+        "closest fluid pair {closest} m ≤ half the fine spacing {half_fine} m"
+    );
+}
+
+#[test]
+fn bad_refinement_input_is_exit_2_naming_the_key() {
+    let dir = common::temp_dir("refine-bad");
+    let scene = common::repo_path("inputs/hydrostatic_2d_refined.toml");
+    let s = scene.to_str().unwrap();
+    let refused = |sets: &[&str], needles: &[&str]| {
+        let mut args = vec!["check", s];
+        for x in sets {
+            args.extend(["--set", x]);
+        }
+        assert_input_error(&hsph_in(&dir, &args), needles);
+    };
+    refused(&["refine.0.level=0"], &["--set", "refine[0].level", "1, 2 or 3"]);
+    refused(&["refine.0.level=4"], &["refine[0].level", "got 4"]);
+    refused(
+        &["refine.0.max=[0.7, 2.0]"],
+        &["refine[0].max", "outside the domain"],
+    );
+    refused(
+        &["refine.0.min=[-5.0, 0.1]"],
+        &["refine[0].min", "outside the domain"],
+    );
+    refused(
+        &["refine.0.bodies=[\"tank\"]"],
+        &["refine[0].bodies[0]", "is a wall", "water"],
+    );
+    refused(
+        &["refine.0.bodies=[\"sea\"]"],
+        &["refine[0].bodies[0]", "no fluid or solid body", "water"],
+    );
+    refused(&["refine.0.transition=-1.0"], &["refine[0].transition", "≥ 0"]);
+    refused(
+        &["refine.0.smoothing_length=\"half\""],
+        &["smoothing_length", "scene", "level"],
+    );
+    // a second region of another level overlapping the first, for the same body
+    let text = std::fs::read_to_string(&scene).unwrap()
+        + "\n[[refine]]\nshape = \"sphere\"\ncentre = [0.7, 0.4]\nradius = 0.05\nlevel = 2\n";
+    let two = dir.join("two.toml");
+    std::fs::write(&two, &text).unwrap();
+    let o = hsph_in(&dir, &["check", two.to_str().unwrap()]);
+    assert_input_error(
+        &o,
+        &[
+            "refine[1]",
+            "overlaps refine[0]",
+            "level 2 against 1",
+            "water",
+            "two.toml",
+        ],
+    );
+    // the same sphere moved away is accepted; of one level, overlapping is accepted too
+    let apart = text.replace("centre = [0.7, 0.4]", "centre = [0.85, 0.3]");
+    std::fs::write(&two, apart).unwrap();
+    assert_eq!(
+        hsph_in(&dir, &["check", two.to_str().unwrap()]).status.code(),
+        Some(0)
+    );
+    let same = text.replace("level = 2", "level = 1");
+    std::fs::write(&two, same).unwrap();
+    assert_eq!(
+        hsph_in(&dir, &["check", two.to_str().unwrap()]).status.code(),
+        Some(0)
+    );
+}
