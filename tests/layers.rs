@@ -18,6 +18,8 @@ const LAYERS: &[&[&str]] = &[
         "progress",
         "joblayout",
         "with_dim",
+        // the pair-kernel dispatcher of kernel::sizes (macro_export puts it at the crate root)
+        "with_pair_kernel",
     ],
     &["limits", "particles", "decomp", "affinity", "material"],
     // input: what a run is asked to do, and files

@@ -232,3 +232,67 @@ pub(super) fn point_in_domain(p: &[f64], key: &str, dom: &Domain) -> Result<()> 
         ),
     )
 }
+
+/// A sphere's or cylinder's box from its centre, radius (and axis and length); a resolved
+/// scene already holds it, any other box is an error; no such keys on a block.
+pub(super) fn sphere_box(f: &mut super::FluidBody, k: &str, d: usize) -> Result<()> {
+    use super::BodyShape;
+    if f.shape == BodyShape::Block {
+        if !f.centre.is_empty() || f.radius != 0.0 || f.axis.is_some() || f.length != 0.0 {
+            return err(
+                format!("{k}.shape"),
+                "`centre`, `radius`, `axis` and `length` belong to `shape = \"sphere\"` or \"cylinder\"; a block takes min and max",
+            );
+        }
+        return Ok(());
+    }
+    check_vec(&mut f.centre, d, &format!("{k}.centre"), false)?;
+    if !(f.radius > 0.0 && f.radius.is_finite()) {
+        return err(
+            format!("{k}.radius"),
+            format!(
+                "needs a positive radius (m), got {}; e.g. radius = 0.05",
+                f.radius
+            ),
+        );
+    }
+    let mut half: Vec<f64> = vec![f.radius; d];
+    if f.shape == BodyShape::Cylinder {
+        if d != 3 {
+            return err(
+                format!("{k}.shape"),
+                "a cylinder needs a 3D scene; in 2D a disc is `shape = \"sphere\"`, a rectangle a block",
+            );
+        }
+        let axis = f.axis.unwrap_or(2);
+        if axis >= d {
+            return err(
+                format!("{k}.axis"),
+                format!("must be 0, 1 or 2 (x, y, z), got {axis}"),
+            );
+        }
+        if !(f.length > 0.0 && f.length.is_finite()) {
+            return err(
+                format!("{k}.length"),
+                format!(
+                    "a cylinder needs a positive length (m) along its axis, got {}",
+                    f.length
+                ),
+            );
+        }
+        f.axis = Some(axis);
+        half[axis] = 0.5 * f.length;
+    } else if f.axis.is_some() || f.length != 0.0 {
+        return err(format!("{k}.axis"), "`axis` and `length` belong to a cylinder");
+    }
+    let lo: Vec<f64> = (0..d).map(|a| f.centre[a] - half[a]).collect();
+    let hi: Vec<f64> = (0..d).map(|a| f.centre[a] + half[a]).collect();
+    if (!f.min.is_empty() && f.min != lo) || (!f.max.is_empty() && f.max != hi) {
+        return err(
+            format!("{k}.min"),
+            "the box of a sphere or cylinder comes from its centre, radius and length: leave out min and max",
+        );
+    }
+    (f.min, f.max) = (lo, hi);
+    Ok(())
+}

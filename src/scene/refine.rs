@@ -186,7 +186,7 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
             );
         }
         let mut g = r.as_body();
-        super::validate::sphere_box(&mut g, &k, d)?;
+        super::checks::sphere_box(&mut g, &k, d)?;
         super::checks::check_vec(&mut g.min, d, &format!("{k}.min"), false)?;
         super::checks::check_vec(&mut g.max, d, &format!("{k}.max"), false)?;
         super::checks::check_box(&g.min, &g.max, &k)?;

@@ -24,16 +24,20 @@ pub struct Variant {
     pub no_slip: &'static str,
     /// `physics.shifting` (`none` or `delta_plus`).
     pub shifting: &'static str,
+    /// Refinement (`none`; `scene` or `level`: the case's refined scene, whose region's
+    /// particles keep the scene's h or take their level's; docs/refinement.md).
+    pub refine: &'static str,
 }
 
 impl Variant {
     /// Short name used in the CSV and the charts, e.g. `quintic_spline-h1.0-dummy-none`, with
     /// `-renorm` appended for the renormalised viscous operator, `-morriswall` for Morris's
-    /// no-slip, `-shift` for δ⁺ shifting and `-pairs` for pair mode.
+    /// no-slip, `-shift` for δ⁺ shifting, `-pairs` for pair mode and `-refine` (`-refineh`)
+    /// for the refined scene with the scene's (the level's) h.
     pub fn name(&self) -> String {
         let suffix = |on: bool, s: &'static str| if on { s } else { "" };
         format!(
-            "{}-h{:.1}-{}-{}{}{}{}{}",
+            "{}-h{:.1}-{}-{}{}{}{}{}{}",
             self.kernel.name(),
             self.h_over_dx,
             self.walls,
@@ -42,7 +46,21 @@ impl Variant {
             suffix(self.no_slip == "morris", "-morriswall"),
             suffix(self.shifting == "delta_plus", "-shift"),
             suffix(self.interactions == "pairs", "-pairs"),
+            match self.refine {
+                "scene" => "-refine",
+                "level" => "-refineh",
+                _ => "",
+            },
         )
+    }
+
+    /// This variant on the case's refined scene, its region's particles with the scene's
+    /// (`"scene"`) or their level's (`"level"`) smoothing length.
+    fn refined(&self, refine: &'static str) -> Self {
+        Variant {
+            refine,
+            ..self.clone()
+        }
     }
 
     /// This variant with the renormalised viscous operator and Morris's no-slip walls.
@@ -79,6 +97,9 @@ pub struct Case {
     pub scene: &'static str,
     /// The scene (file, text) the `mirror` wall variants start from, if the case has them.
     pub mirror: Option<(&'static str, &'static str)>,
+    /// The scene (file, text) the refinement variants start from, if the case has them, and
+    /// the overrides that make their runs comparable with the uniform ones.
+    pub refined: Option<(&'static str, &'static str, &'static [&'static str])>,
     /// Key of `summary.json`'s `errors` that is the case's error.
     pub error_key: &'static str,
     /// What that error measures.
@@ -98,8 +119,9 @@ pub struct Case {
 impl Case {
     /// The scene (file, text) variant `v` starts from.
     pub fn scene_for(&self, v: &Variant) -> (&'static str, &'static str) {
-        match self.mirror {
-            Some(m) if v.walls == "mirror" => m,
+        match (self.mirror, self.refined) {
+            (Some(m), _) if v.walls == "mirror" => m,
+            (_, Some((file, text, _))) if v.refine != "none" => (file, text),
             _ => (self.file, self.scene),
         }
     }
@@ -112,6 +134,10 @@ impl Case {
         o.push(format!("performance.interactions=\"{}\"", v.interactions));
         if v.shifting != "none" {
             o.push(format!("physics.shifting=\"{}\"", v.shifting));
+        }
+        if let (Some((_, _, sets)), true) = (self.refined, v.refine != "none") {
+            o.extend(sets.iter().map(|s| s.to_string()));
+            o.push(format!("refine[0].smoothing_length=\"{}\"", v.refine));
         }
         o
     }
@@ -229,6 +255,7 @@ fn channel_default() -> Variant {
         viscous: "morris",
         no_slip: "adami",
         shifting: "none",
+        refine: "none",
     }
 }
 
@@ -241,6 +268,7 @@ fn poiseuille() -> Case {
             "inputs/poiseuille_2d_mirror.toml",
             include_str!("../../inputs/poiseuille_2d_mirror.toml"),
         )),
+        refined: None,
         error_key: "velocity_linf_t*",
         norm: "max over the gap of |u − u_exact| / u_max at the last reference time (t = 2 s; Morris et al. 1997)",
         resolutions: &[10, 20, 25, 40],
@@ -293,6 +321,7 @@ fn hydrostatic_default() -> Variant {
         viscous: "morris",
         no_slip: "adami",
         shifting: "none",
+        refine: "none",
     }
 }
 
@@ -302,6 +331,12 @@ fn hydrostatic() -> Case {
         file: "inputs/hydrostatic_2d.toml",
         scene: include_str!("../../inputs/hydrostatic_2d.toml"),
         mirror: None,
+        // the refined tank runs as long as the uniform one
+        refined: Some((
+            "inputs/hydrostatic_2d_refined.toml",
+            include_str!("../../inputs/hydrostatic_2d_refined.toml"),
+            &["time.t_end=0.5"],
+        )),
         error_key: "pressure_linf_below_mid_depth",
         norm: "max below mid-depth of |p − ρ g d| / (ρ g H) at t_end",
         resolutions: &[10, 20, 25, 40],
@@ -330,6 +365,8 @@ fn hydrostatic() -> Case {
                 });
             }
             out.push(hydrostatic_default().in_pairs());
+            // a box at dx/2 in the middle (docs/refinement.md §2), both smoothing lengths
+            out.extend(["scene", "level"].map(|r| hydrostatic_default().refined(r)));
             out
         },
         overrides: hydrostatic_overrides,
@@ -372,6 +409,7 @@ fn cavity_default() -> Variant {
         viscous: "morris",
         no_slip: "adami",
         shifting: "none",
+        refine: "none",
     }
 }
 
@@ -381,6 +419,7 @@ fn cavity() -> Case {
         file: "inputs/cavity_re100.toml",
         scene: include_str!("../../inputs/cavity_re100.toml"),
         mirror: None,
+        refined: None,
         error_key: "cavity_linf",
         norm: "max over Ghia et al.'s 15 + 15 interior centreline points of |u − u_Ghia| and |v − v_Ghia|, in lid-speed units, at t = 30 L/U (Re = 100)",
         resolutions: &[20, 40, 60],
@@ -442,6 +481,30 @@ mod tests {
             }
             assert_eq!(case.scene_for(&case.default).0, case.file);
         }
+    }
+
+    #[test]
+    fn refinement_variants_start_from_the_refined_scene_for_as_long() {
+        let case = find("hydrostatic").unwrap();
+        let refined: Vec<Variant> = (case.sweep)()
+            .into_iter()
+            .filter(|v| v.refine != "none")
+            .collect();
+        assert_eq!(refined.len(), 2);
+        for v in &refined {
+            let (file, text) = case.scene_for(v);
+            assert_eq!(file, "inputs/hydrostatic_2d_refined.toml");
+            assert!(text.contains("[[refine]]"));
+            let sets = case.sets(20, v);
+            assert!(sets.contains(&"time.t_end=0.5".to_string()), "{sets:?}");
+            let h = format!("refine[0].smoothing_length=\"{}\"", v.refine);
+            assert!(sets.contains(&h), "{sets:?}");
+        }
+        assert_eq!(refined[1].name(), format!("{}-refineh", case.default.name()));
+        // the other variants start from the uniform scene and set no refinement
+        let sets = case.sets(20, &case.default);
+        assert!(sets.iter().all(|s| !s.contains("refine")), "{sets:?}");
+        assert_eq!(case.scene_for(&case.default).0, case.file);
     }
 
     #[test]
