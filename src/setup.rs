@@ -228,20 +228,11 @@ impl<'s, const D: usize> SiteSource<'s, D> {
         let fine = (1..=crate::scene::refine::finest(s))
             .map(|l| Lattice::<D>::at_level(s, l))
             .collect();
-        let sizes = (!s.refine.is_empty()).then(|| {
-            let d = &s.discretisation;
-            crate::kernel::sizes::Sizes::new(
-                d.kernel,
-                d.dx,
-                d.h_over_dx,
-                crate::scene::refine::finest_h(s) as u16,
-            )
-        });
         Ok(SiteSource {
             scene: s,
             lat,
             fine,
-            sizes,
+            sizes: crate::scene::refine::sizes(s),
             sources,
         })
     }

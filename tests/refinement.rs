@@ -373,3 +373,42 @@ fn bad_refinement_input_is_exit_2_naming_the_key() {
         Some(0)
     );
 }
+
+/// Load balance by cost: with `balance.load = "pairs"` a refined particle weighs its
+/// neighbours, so the refined tank on 3 ranks along x (the middle one holding most of the
+/// refined box), split first by particle counts, is rebalanced (at least once, threshold 1.05)
+/// to within 1.1 in pairs, while the bits stay those of one rank.
+#[test]
+fn pairs_load_balances_a_refined_tank() {
+    let overrides: Vec<String> = [
+        "time.max_steps=30",
+        "balance.load=\"pairs\"",
+        "balance.check_every=5",
+        "balance.threshold=1.05",
+    ]
+    .map(String::from)
+    .to_vec();
+    let s = load_scene(
+        &common::repo_path("inputs/hydrostatic_2d_refined.toml"),
+        &overrides,
+    )
+    .unwrap()
+    .0;
+    let one = common::run_layout(&s, 1, 1, "refined-balance-1");
+    let three = common::run_layout(&s, 3, 1, "refined-balance-3");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(three.join("summary.json")).unwrap()).unwrap();
+    let imbalance = summary["imbalance"].as_f64().unwrap();
+    assert!(summary["rebalances"].as_u64().unwrap() >= 1, "{summary}");
+    assert!(imbalance <= 1.1, "pair imbalance {imbalance} after rebalancing");
+    // particles held per rank (owned and ghosts, high water), for the log
+    let held: Vec<u64> = summary["particle_high_water"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect();
+    eprintln!("pairs-balanced refined tank: imbalance {imbalance:.3}, particles held {held:?}");
+    let read = |d: &Path| std::fs::read(d.join("final.csv")).unwrap();
+    assert!(read(&one) == read(&three), "final.csv differs on 3 ranks");
+}

@@ -127,10 +127,7 @@ impl<const D: usize> Model<D> {
             materials,
             c_max,
             shifting,
-            sizes: (!s.refine.is_empty()).then(|| {
-                let finest_h = crate::scene::refine::finest_h(s) as u16;
-                Sizes::new(s.discretisation.kernel, dx, s.discretisation.h_over_dx, finest_h)
-            }),
+            sizes: crate::scene::refine::sizes(s),
         }
     }
 

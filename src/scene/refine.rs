@@ -162,6 +162,13 @@ pub fn finest_h(s: &Scene) -> u32 {
         .unwrap_or(0)
 }
 
+/// The particle sizes of a scene with refinement regions (`None` without).
+pub fn sizes(s: &Scene) -> Option<crate::kernel::sizes::Sizes> {
+    let d = &s.discretisation;
+    (!s.refine.is_empty())
+        .then(|| crate::kernel::sizes::Sizes::new(d.kernel, d.dx, d.h_over_dx, finest_h(s) as u16))
+}
+
 /// The finest level of the scene (0 without regions).
 pub fn finest(s: &Scene) -> u32 {
     s.refine.iter().map(|r| r.level).max().unwrap_or(0)
