@@ -288,7 +288,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                     let coarse =
                         |i: u64, a: usize| self.lat.origin[a] + ((i >> level) as f64 + 0.5) * self.lat.dx;
                     lat.for_each_in(&lo, &hi, |idx, id, x| {
-                        let parent: Vec<f64> = (0..D).map(|a| coarse(idx[a], a)).collect();
+                        let parent: [f64; D] = std::array::from_fn(|a| coarse(idx[a], a));
                         let Some(r) = region_at(&parent).filter(|r| r.level == level) else {
                             return;
                         };
