@@ -278,38 +278,75 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                     return;
                 }
                 let region_at = |x: &[f64]| crate::scene::refine::region_at(self.scene, &b.name, x);
-                let sizes = self.sizes.as_ref().expect("a refined scene has sizes");
+                let h0 = self.sizes.as_ref().expect("a refined scene has sizes").h[0];
                 self.lat.for_each_in(&lo, &hi, |_, id, x| {
                     if b.contains(x.as_slice()) && region_at(x.as_slice()).is_none() {
-                        f(id, x, 0, sizes.h[0])
+                        f(id, x, 0, h0)
                     }
                 });
-                for (lat, level) in self.fine.iter().zip(1u32..) {
-                    let coarse =
-                        |i: u64, a: usize| self.lat.origin[a] + ((i >> level) as f64 + 0.5) * self.lat.dx;
-                    lat.for_each_in(&lo, &hi, |idx, id, x| {
-                        let parent: [f64; D] = std::array::from_fn(|a| coarse(idx[a], a));
-                        let Some(r) = region_at(&parent).filter(|r| r.level == level) else {
-                            return;
-                        };
-                        if b.contains(x.as_slice()) {
-                            let h = r.smoothing_length(x.as_slice(), sizes.h[0], sizes.h[level as usize]);
-                            f(id, x, level as u16, h)
-                        }
-                    });
-                }
+                self.each_fine(&b.name, &lo, &hi, |_, x| b.contains(x.as_slice()), &mut f);
             }
             Claim::Wall { inner, .. } => {
                 let h_scene = self.sizes.as_ref().map_or(0.0, |z| z.h[0]);
+                // only dummy walls are refined (a repulsive wall's force has the range dx)
+                let refined = !self.fine.is_empty() && src.kind == Kind::Dummy;
+                let name = &self.scene.walls[src.index as usize].name;
+                let outer: Vec<(u64, u64)> = (0..D)
+                    .map(|a| self.lat.range(a, src.min[a], src.max[a]))
+                    .collect();
+                // the wall claims the coarse site of lattice index `idx`
+                let claims = |idx: &[u64]| {
+                    idx.iter().zip(&outer).all(|(i, (l, h))| i >= l && i < h)
+                        && !inner
+                            .as_ref()
+                            .is_some_and(|r| idx.iter().zip(r).all(|(i, (l, h))| i >= l && i < h))
+                };
+                let region_at = |x: &[f64]| {
+                    refined
+                        .then(|| crate::scene::refine::region_at(self.scene, name, x))
+                        .flatten()
+                };
                 self.lat.for_each_in(&lo, &hi, |idx, id, x| {
-                    let inside = inner
-                        .as_ref()
-                        .is_some_and(|r| idx.iter().zip(r).all(|(i, (l, h))| i >= l && i < h));
-                    if !inside {
+                    if claims(idx) && region_at(x.as_slice()).is_none() {
                         f(id, x, 0, h_scene)
                     }
-                })
+                });
+                if refined {
+                    self.each_fine(name, &lo, &hi, |parent, _| claims(parent), &mut f);
+                }
             }
+        }
+    }
+
+    /// Visit the sites of the refinement levels of body `name` whose centres lie in
+    /// `[lo, hi)`: a site of level ℓ is visited if the coarse site whose cell it subdivides
+    /// (lattice index `parent`) lies in a region of level ℓ refining the body and `keep(parent,
+    /// centre)` holds.
+    fn each_fine(
+        &self,
+        name: &str,
+        lo: &[f64],
+        hi: &[f64],
+        keep: impl Fn(&[u64], &Vector<D>) -> bool,
+        f: &mut impl FnMut(u64, Vector<D>, u16, f64),
+    ) {
+        let sizes = self.sizes.as_ref().expect("a refined scene has sizes");
+        for (lat, level) in self.fine.iter().zip(1u32..) {
+            lat.for_each_in(lo, hi, |idx, id, x| {
+                let parent: [u64; D] = std::array::from_fn(|a| idx[a] >> level);
+                let centre: [f64; D] =
+                    std::array::from_fn(|a| self.lat.origin[a] + (parent[a] as f64 + 0.5) * self.lat.dx);
+                let Some(r) =
+                    crate::scene::refine::region_at(self.scene, name, &centre).filter(|r| r.level == level)
+                else {
+                    return;
+                };
+                if keep(&parent, &x) {
+                    let dom = (&self.scene.domain.min[..], &self.scene.domain.max[..]);
+                    let h = r.smoothing_length(x.as_slice(), dom, sizes.h[0], sizes.h[level as usize]);
+                    f(id, x, level as u16, h)
+                }
+            });
         }
     }
 

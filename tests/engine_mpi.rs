@@ -141,6 +141,16 @@ fn mpi_runs_give_the_local_back_ends_bits() {
             "tests/data/dam_break_3d_small.toml",
             vec!["time.t_end=0.05", "balance.check_every=5"],
         ),
+        // particles of several sizes (issue 35): the level and h fields travel in halos and
+        // migrations, refined plates with the level's h, and a refined box with the scene's
+        (
+            "inputs/poiseuille_2d_refined.toml",
+            vec!["time.t_end=0.05", "reference.times=[0.05]"],
+        ),
+        (
+            "inputs/hydrostatic_2d_refined.toml",
+            vec!["time.t_end=0.05", "balance.check_every=5"],
+        ),
         // the oblique impact (issue 12), coarse: halos carry the solid fields under MPI too
         (
             "inputs/impact_oblique_45.toml",

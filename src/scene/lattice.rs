@@ -155,7 +155,7 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
         let r = ranges(&f.min, &f.max);
         // an upper bound where regions refine the body: their fine sites are added, the
         // coarse ones they replace not subtracted
-        let n = sites(&r) + fine_sites::<D>(s, f);
+        let n = sites(&r) + fine_sites::<D>(s, &f.name, &f.min, &f.max);
         // of the box's sites the one nearest the centre (per axis, so nearest overall) is
         // inside a sphere or cylinder if any is
         let builds = n > 0
@@ -182,12 +182,18 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
         if w.method.particle_kind().is_none() {
             continue;
         }
-        let n = match w.shape {
-            WallShape::Block => sites(&ranges(&w.min, &w.max)),
+        let (n, outer) = match w.shape {
+            WallShape::Block => (sites(&ranges(&w.min, &w.max)), (w.min.clone(), w.max.clone())),
             WallShape::Container => {
                 let (lo, hi) = container_outer(w, D, dx);
-                sites(&ranges(&lo, &hi)).saturating_sub(sites(&ranges(&w.min, &w.max)))
+                let n = sites(&ranges(&lo, &hi)).saturating_sub(sites(&ranges(&w.min, &w.max)));
+                (n, (lo, hi))
             }
+        };
+        // refined dummy walls: an upper bound, as for bodies (the regions' sites of the box)
+        let n = match w.method {
+            super::WallMethod::Dummy => n + fine_sites::<D>(s, &w.name, &outer.0, &outer.1),
+            _ => n,
         };
         let open = |a: usize, up: bool| w.open.iter().any(|o| super::face_of(o, D) == Some((a, up)));
         out.push(BodySites {
@@ -202,15 +208,15 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
     out
 }
 
-/// The sites of the refinement levels of body `f`: of each region refining it, the sites of
-/// the region's level in the box the two share.
-fn fine_sites<const D: usize>(s: &Scene, f: &super::FluidBody) -> u64 {
+/// The sites of the refinement levels of the body `name` of box `[min, max)`: of each region
+/// refining it, the sites of the region's level in the box the two share.
+fn fine_sites<const D: usize>(s: &Scene, name: &str, min: &[f64], max: &[f64]) -> u64 {
     let mut n = 0;
-    for r in s.refine.iter().filter(|r| r.applies_to(&f.name)) {
+    for r in s.refine.iter().filter(|r| r.applies_to(name)) {
         let lat = Lattice::<D>::at_level(s, r.level);
         n += (0..D)
             .map(|a| {
-                let (lo, hi) = lat.range(a, f.min[a].max(r.min[a]), f.max[a].min(r.max[a]));
+                let (lo, hi) = lat.range(a, min[a].max(r.min[a]), max[a].min(r.max[a]));
                 hi.saturating_sub(lo)
             })
             .product::<u64>();

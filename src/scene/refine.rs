@@ -43,7 +43,9 @@ pub struct Refine {
     pub length: f64,
     /// Level ℓ ∈ 1..=3: particles of spacing dx / 2^ℓ.
     pub level: u32,
-    /// Names of the fluid and solid bodies the region refines (empty: every fluid and solid).
+    /// Names of the fluid and solid bodies and dummy walls the region refines (empty: every
+    /// one of them). A fluid refined beside a wall needs the wall refined too: a dummy wall's
+    /// extrapolation mirrors the fluid's spacing (docs/refinement.md §3).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub bodies: Vec<String>,
     /// Width (m) of the band inside the region's boundary over which the particles' smoothing
@@ -116,12 +118,25 @@ pub fn region_at<'s>(s: &'s Scene, name: &str, x: &[f64]) -> Option<&'s Refine> 
 }
 
 impl Refine {
-    /// Distance (m) from `x` inside the region to its boundary (≤ 0 outside).
-    pub fn depth(&self, x: &[f64]) -> f64 {
+    /// Distance (m) from `x` inside the region to its boundary (≤ 0 outside). A block's faces
+    /// at or beyond the domain's bounds `dom` (min, max) are not counted: no coarse particle
+    /// lies beyond them (a band across a periodic axis has no interface there).
+    pub fn depth(&self, x: &[f64], dom: (&[f64], &[f64])) -> f64 {
         let d = x.len();
-        let to_box = (0..d)
-            .map(|a| (x[a] - self.min[a]).min(self.max[a] - x[a]))
-            .fold(f64::INFINITY, f64::min);
+        let face = |a: usize| {
+            let lo = if self.min[a] <= dom.0[a] {
+                f64::INFINITY
+            } else {
+                x[a] - self.min[a]
+            };
+            let hi = if self.max[a] >= dom.1[a] {
+                f64::INFINITY
+            } else {
+                self.max[a] - x[a]
+            };
+            lo.min(hi)
+        };
+        let to_box = (0..d).map(face).fold(f64::INFINITY, f64::min);
         match self.shape {
             BodyShape::Block => to_box,
             BodyShape::Sphere => {
@@ -140,8 +155,9 @@ impl Refine {
     }
 
     /// Smoothing length (m) of a particle of this region's level at `x`: `h_fine` at a depth
-    /// of at least the transition band, rising linearly to `h_scene` at the boundary.
-    pub fn smoothing_length(&self, x: &[f64], h_scene: f64, h_fine: f64) -> f64 {
+    /// of at least the transition band, rising linearly to `h_scene` at the boundary (the
+    /// region's faces inside the domain `dom`, [`Refine::depth`]).
+    pub fn smoothing_length(&self, x: &[f64], dom: (&[f64], &[f64]), h_scene: f64, h_fine: f64) -> f64 {
         if self.smoothing_length == RegionH::Scene {
             return h_scene;
         }
@@ -149,7 +165,7 @@ impl Refine {
         if band <= 0.0 {
             return h_fine;
         }
-        let t = (1.0 - self.depth(x) / band).clamp(0.0, 1.0);
+        let t = (1.0 - self.depth(x, dom) / band).clamp(0.0, 1.0);
         h_fine + (h_scene - h_fine) * t
     }
 }
@@ -179,7 +195,7 @@ pub fn finest(s: &Scene) -> u32 {
 /// overlap.
 pub fn validate_refine(s: &mut Scene) -> Result<()> {
     let d = s.dimension;
-    let bodies: Vec<String> = s.fluids.iter().chain(&s.solids).map(|b| b.name.clone()).collect();
+    let bodies = refinable(s);
     let walls: Vec<&str> = s.walls.iter().map(|w| w.name.as_str()).collect();
     for (i, r) in s.refine.iter_mut().enumerate() {
         let k = format!("refine[{i}]");
@@ -216,20 +232,32 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
                 continue;
             }
             let what = if walls.contains(&b.as_str()) {
-                format!("`{b}` is a wall: walls keep the scene's spacing dx;")
+                format!(
+                    "`{b}` is a wall without dummy particles (repulsive walls keep the scene's \
+                     spacing, their force has the range dx; mirror walls have no particles);"
+                )
             } else {
-                format!("no fluid or solid body is named `{b}`;")
+                format!("no fluid, solid or dummy wall is named `{b}`;")
             };
             return err(
                 format!("{k}.bodies[{j}]"),
                 format!(
-                    "{what} name fluid or solid bodies ({}), or leave out `bodies` for all of them",
+                    "{what} name fluids, solids or dummy walls ({}), or leave out `bodies` for \
+                     all of them",
                     bodies.join(", ")
                 ),
             );
         }
     }
     check_overlaps(s)
+}
+
+/// The names of the bodies a region may refine: fluids, solids and dummy walls.
+fn refinable(s: &Scene) -> Vec<String> {
+    let dummy = s.walls.iter().filter(|w| w.method == super::WallMethod::Dummy);
+    (s.fluids.iter().chain(&s.solids).map(|b| b.name.clone()))
+        .chain(dummy.map(|w| w.name.clone()))
+        .collect()
 }
 
 /// Two regions of different levels that refine one body may not overlap: the level of a site
@@ -240,11 +268,9 @@ fn check_overlaps(s: &Scene) -> Result<()> {
             if a.level == b.level || !overlap(a, b) {
                 continue;
             }
-            let shared = s
-                .fluids
-                .iter()
-                .chain(&s.solids)
-                .find(|f| a.applies_to(&f.name) && b.applies_to(&f.name));
+            let shared = refinable(s)
+                .into_iter()
+                .find(|f| a.applies_to(f) && b.applies_to(f));
             if let Some(f) = shared {
                 return err(
                     format!("refine[{j}]"),
@@ -252,7 +278,7 @@ fn check_overlaps(s: &Scene) -> Result<()> {
                         "overlaps refine[{i}] (level {} against {}) on body `{}`: a site's level \
                          would be ambiguous; separate the regions, give them one level, or list \
                          different `bodies`",
-                        b.level, a.level, f.name
+                        b.level, a.level, f
                     ),
                 );
             }
