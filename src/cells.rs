@@ -256,6 +256,13 @@ pub struct NeighbourList {
     wants: Vec<u8>,
     /// Support radius squared (m²) of the last build.
     r2max: f64,
+    /// Particles of several smoothing lengths: half the kernel support per unit h (κ/2), 0 in
+    /// a scene of one h. A pair of several sizes is listed only within its own support,
+    /// |x_ij| < κ (h_i + h_j)/2 (the support of its mean-h kernel), so a fine particle's list
+    /// does not hold the coarse support's candidates (docs/refinement.md §1).
+    reach_per_h: f64,
+    /// κ h_i / 2 of every particle in cell order (like `xs`; empty in a scene of one h).
+    reach: Vec<f64>,
     /// Pair mode's half lists (built when some owned particle wants [`Wants::Half`]).
     half: HalfPairs,
     /// True if the last build made half lists.
@@ -349,7 +356,8 @@ impl Neighbours for NeighbourList {
 /// Append to `list` the candidates of one stencil row (`ord`, positions `xr`, fluid flags
 /// `fr`) that are neighbours of particle `i` at `xa` for a list of kind `MODE`.
 #[inline(always)]
-fn scan_row<const D: usize, const MODE: u8>(
+#[allow(clippy::too_many_arguments)]
+fn scan_row<const D: usize, const MODE: u8, const SIZED: bool>(
     list: &mut Vec<u32>,
     xa: &[f64; D],
     i: usize,
@@ -357,6 +365,7 @@ fn scan_row<const D: usize, const MODE: u8>(
     ord: &[u32],
     xr: &[f64],
     fr: &[u8],
+    (ri, rr): (f64, &[f64]),
 ) {
     // branch-free append: write every candidate, advance on a hit
     let w = list.len();
@@ -370,9 +379,15 @@ fn scan_row<const D: usize, const MODE: u8>(
             d2 += d * d;
         }
         let ju = j as usize;
+        let near = if SIZED {
+            let s = ri + rr[k];
+            d2 < s * s
+        } else {
+            d2 < r2max
+        };
         let keep = match MODE {
-            ALL => (d2 < r2max) & (ju != i),
-            _ => (d2 < r2max) & (ju != i) & (fr[k] != 0),
+            ALL => near & (ju != i),
+            _ => near & (ju != i) & (fr[k] != 0),
         };
         out[m] = j;
         m += keep as usize;
@@ -414,7 +429,8 @@ impl NeighbourList {
             self.build_half(any_half, grid, cells, p);
             return;
         }
-        let (xs, fluid, fluid_start) = (&self.xs, &self.fluid, &self.fluid_start);
+        let (xs, fluid, fluid_start, reach) = (&self.xs, &self.fluid, &self.fluid_start, &self.reach);
+        let sized = !reach.is_empty();
         // row offsets: 3^(D-1) offsets of the leading axes, lexicographic
         let rows = 3usize.pow(D as u32 - 1);
         let nchunks = n.div_ceil(CHUNK);
@@ -453,10 +469,24 @@ impl NeighbourList {
                         let s = cells.start[c0] as usize;
                         let e = cells.start[c1] as usize;
                         let (ord, xr, fr) = (&cells.order[s..e], &xs[s * D..e * D], &fluid[s..e]);
-                        match want {
-                            Wants::All => scan_row::<D, ALL>(list, &xa, i, r2max, ord, xr, fr),
-                            Wants::Fluid => scan_row::<D, FLUID>(list, &xa, i, r2max, ord, xr, fr),
-                            Wants::Half | Wants::Nothing => {}
+                        let r = match sized {
+                            true => (reach[cells.slot[i] as usize], &reach[s..e]),
+                            false => (0.0, &reach[..]),
+                        };
+                        match (want, sized) {
+                            (Wants::All, false) => {
+                                scan_row::<D, ALL, false>(list, &xa, i, r2max, ord, xr, fr, r)
+                            }
+                            (Wants::All, true) => {
+                                scan_row::<D, ALL, true>(list, &xa, i, r2max, ord, xr, fr, r)
+                            }
+                            (Wants::Fluid, false) => {
+                                scan_row::<D, FLUID, false>(list, &xa, i, r2max, ord, xr, fr, r)
+                            }
+                            (Wants::Fluid, true) => {
+                                scan_row::<D, FLUID, true>(list, &xa, i, r2max, ord, xr, fr, r)
+                            }
+                            (Wants::Half | Wants::Nothing, _) => {}
                         }
                     }
                 }
@@ -488,6 +518,12 @@ impl NeighbourList {
                     *f = p.kind[j as usize].is_fluid() as u8;
                 }
             });
+        self.reach.clear();
+        if self.reach_per_h > 0.0 {
+            let k = self.reach_per_h;
+            self.reach
+                .extend(cells.order.iter().map(|&j| k * p.h[j as usize]));
+        }
         let nc = cells.start.len() - 1;
         self.fluid_start.clear();
         self.fluid_start.reserve(nc + 1);
@@ -549,6 +585,13 @@ impl NeighbourList {
             lean: true,
             ..Default::default()
         }
+    }
+
+    /// Lists for particles of several smoothing lengths (`Particles::h`): a pair is kept
+    /// within its own support κ (h_i + h_j)/2; `half_support_per_h` = κ/2.
+    pub fn with_sizes(mut self, half_support_per_h: f64) -> Self {
+        self.reach_per_h = half_support_per_h;
+        self
     }
 
     /// True in lean mode (no stored lists).
@@ -638,6 +681,7 @@ impl<const D: usize> Neighbours for CellScan<'_, D> {
         ScanIter {
             scan: self,
             xa,
+            ri: nl.reach.get(k).copied().unwrap_or(0.0),
             i,
             mode,
             c,
@@ -657,6 +701,8 @@ impl<const D: usize> Neighbours for CellScan<'_, D> {
 pub struct ScanIter<'b, const D: usize> {
     scan: &'b CellScan<'b, D>,
     xa: [f64; D],
+    /// κ h_i / 2 (particles of several sizes; 0 otherwise).
+    ri: f64,
     i: usize,
     mode: u8,
     c: [usize; D],
@@ -706,9 +752,13 @@ impl<const D: usize> Iterator for ScanIter<'_, D> {
                 }
                 let j = order[k];
                 let ju = j as usize;
+                let near = match nl.reach.get(k) {
+                    Some(r) => d2 < (self.ri + r) * (self.ri + r),
+                    None => d2 < nl.r2max,
+                };
                 let keep = match self.mode {
-                    ALL => (d2 < nl.r2max) & (ju != self.i),
-                    _ => (d2 < nl.r2max) & (ju != self.i) & (nl.fluid[k] != 0),
+                    ALL => near & (ju != self.i),
+                    _ => near & (ju != self.i) & (nl.fluid[k] != 0),
                 };
                 if keep {
                     return Some(j);

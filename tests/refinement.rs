@@ -229,6 +229,29 @@ fn a_refined_run_gives_the_same_bits_on_any_layout() {
                 );
             }
         }
+        // lists kept within each pair's own support: the list-free scan finds the same pairs
+        // (same bits), and pair mode keeps its own bits on any layout
+        let mut lean = s.clone();
+        lean.performance.neighbours = hsph::scene::NeighbourMode::Cells;
+        let d = common::run_layout(&lean, 3, 2, &format!("refined-{h}-lean"));
+        assert!(
+            read(&d, "final.csv") == fin,
+            "h = {h}: the list-free scan differs"
+        );
+        let mut pairs = s.clone();
+        pairs.performance.interactions = hsph::scene::Interactions::Pairs;
+        let one = common::run_layout(&pairs, 1, 1, &format!("refined-{h}-pairs-1"));
+        for (lean, ranks, threads) in [(false, 3, 2), (true, 8, 1)] {
+            let mut q = pairs.clone();
+            if lean {
+                q.performance.neighbours = hsph::scene::NeighbourMode::Cells;
+            }
+            let d = common::run_layout(&q, ranks, threads, &format!("refined-{h}-pairs-{ranks}-{lean}"));
+            assert!(
+                read(&d, "final.csv") == read(&one, "final.csv"),
+                "h = {h}: pair mode differs on {ranks} × {threads} (lean {lean})"
+            );
+        }
     }
 }
 

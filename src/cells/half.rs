@@ -237,6 +237,7 @@ impl<'a, const D: usize> HalfView<'a, D> {
         let mut it = HalfScan {
             view: *self,
             xa: [0.0; D],
+            ra: self.nl.reach.get(k).copied().unwrap_or(0.0),
             fa: self.half.flags[k],
             k,
             c: [0; D],
@@ -271,6 +272,7 @@ impl<'a, const D: usize> HalfView<'a, D> {
             return;
         }
         let (fl, xs, r2max, cells) = (&self.half.flags, &self.nl.xs, self.nl.r2max, self.cells);
+        let reach = &self.nl.reach;
         for row in 0..it.rows {
             let Some((c0, c1)) = self.grid.stencil_run(&it.c, row) else {
                 continue;
@@ -292,7 +294,11 @@ impl<'a, const D: usize> HalfView<'a, D> {
                     d2 += d * d;
                 }
                 let both = it.fa | fb;
-                let keep = (d2 < r2max) & (fb & ELIGIBLE != 0) & (both & FLUID != 0) & (both & OWNED != 0);
+                let near = match reach.get(t) {
+                    Some(r) => d2 < (it.ra + r) * (it.ra + r),
+                    None => d2 < r2max,
+                };
+                let keep = near & (fb & ELIGIBLE != 0) & (both & FLUID != 0) & (both & OWNED != 0);
                 out[m] = t as u32;
                 m += keep as usize;
             }
@@ -384,6 +390,8 @@ impl<'a, const D: usize> HalfView<'a, D> {
 pub struct HalfScan<'a, const D: usize> {
     view: HalfView<'a, D>,
     xa: [f64; D],
+    /// κ h / 2 of the home (particles of several sizes; 0 otherwise).
+    ra: f64,
     fa: u8,
     k: usize,
     c: [usize; D],
@@ -423,6 +431,7 @@ impl<const D: usize> Iterator for HalfScan<'_, D> {
         let fl = &self.view.half.flags;
         let xs = &self.view.nl.xs;
         let r2max = self.view.nl.r2max;
+        let reach = &self.view.nl.reach;
         loop {
             while self.t < self.e {
                 let t = self.t;
@@ -434,7 +443,11 @@ impl<const D: usize> Iterator for HalfScan<'_, D> {
                     d2 += d * d;
                 }
                 let both = self.fa | fb;
-                if (d2 < r2max) & (fb & ELIGIBLE != 0) & (both & FLUID != 0) & (both & OWNED != 0) {
+                let near = match reach.get(t) {
+                    Some(r) => d2 < (self.ra + r) * (self.ra + r),
+                    None => d2 < r2max,
+                };
+                if near & (fb & ELIGIBLE != 0) & (both & FLUID != 0) & (both & OWNED != 0) {
                     return Some(t as u32);
                 }
             }

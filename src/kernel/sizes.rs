@@ -20,8 +20,9 @@
 //!
 //! Terms that scale with a length (artificial viscosity α h_ij c0, δ-SPH δ h_ij c0, shifting's
 //! β(2h)²) use the pair's or the particle's h; the artificial stress's reference W_ij(Δp_ij)
-//! the mean spacing of the pair. The cell grid stays that of the largest support, so every
-//! pair within any pair's support is listed; the kernel is zero beyond the pair's support.
+//! the mean spacing of the pair. The cell grid stays that of the largest support; the
+//! neighbour lists keep a pair only within its own support κ (h_i + h_j)/2
+//! (`crate::cells::NeighbourList::with_sizes`), beyond which its kernel is zero.
 
 use super::{Kernel, KernelKind};
 

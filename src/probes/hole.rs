@@ -39,8 +39,12 @@ pub struct HoleSetup<const D: usize> {
     pub direction: Vector<D>,
     /// Projectile radius (m): the hole seed is searched within it of the aim point.
     pub radius: f64,
-    /// Lattice spacing (m).
+    /// Spacing of the plate's finest particles (m): the scene's dx, or dx / 2^ℓ where a
+    /// region of level ℓ refines the plate (`[[refine]]`), so the hole is measured at the
+    /// resolution of the particles that open it.
     pub dx: f64,
+    /// The scene's lattice spacing (m): a particle of level ℓ has spacing `coarse` / 2^ℓ.
+    pub coarse: f64,
     /// Plate extent in the plane: lower and upper corners (m).
     pub lo: Vector<D>,
     /// Upper corner.
@@ -55,6 +59,10 @@ impl<const D: usize> HoleSetup<D> {
     pub fn of(scene: &Scene, plate: &str, projectile: &str) -> Self {
         let index = |name: &str| scene.solids.iter().position(|b| b.name == name).unwrap_or(0);
         let pl = &scene.solids[index(plate)];
+        let finest = (scene.refine.iter().filter(|r| r.applies_to(plate)))
+            .map(|r| r.level)
+            .max()
+            .unwrap_or(0);
         let pr = &scene.solids[index(projectile)];
         let vec_of = |x: &[f64]| Vector::<D>::from_fn(|a, _| x.get(a).copied().unwrap_or(0.0));
         let (lo, hi) = (vec_of(&pl.min), vec_of(&pl.max));
@@ -91,7 +99,8 @@ impl<const D: usize> HoleSetup<D> {
             aim,
             direction,
             radius,
-            dx: scene.discretisation.dx,
+            dx: scene.discretisation.dx / f64::from(1u32 << finest),
+            coarse: scene.discretisation.dx,
             lo,
             hi,
         }
@@ -312,6 +321,21 @@ impl Grid {
             .then(|| b as usize * self.nu + a as usize)
     }
 
+    /// Mark every cell the in-plane square of half-side `half` centred at `x` overlaps.
+    fn fill_square<const D: usize>(&self, x: &Vector<D>, half: f64, full: &mut [bool]) {
+        let range = |a: usize, o: f64, n: usize| {
+            let lo = ((x[a] - half - o) / self.cell).floor().max(0.0) as usize;
+            let hi = ((x[a] + half - o) / self.cell).ceil().min(n as f64).max(0.0) as usize;
+            lo..hi
+        };
+        let rv = self.v.map_or(0..1, |v| range(v, self.v0, self.nv));
+        for b in rv {
+            for a in range(self.u, self.u0, self.nu) {
+                full[b * self.nu + a] = true;
+            }
+        }
+    }
+
     /// In-plane centre of cell `c` (m).
     fn centre(&self, c: usize) -> (f64, f64) {
         let (a, b) = (c % self.nu, c / self.nu);
@@ -354,10 +378,17 @@ fn occupancy<const D: usize>(p: &Particles<D>, ids: &[usize], s: &HoleSetup<D>, 
     let mut full = vec![false; grid.nu * grid.nv];
     for &i in ids {
         let x = &p.x[i];
-        if p.kind[i].is_solid() && p.body[i] == s.plate && (x[s.normal] - s.mid).abs() <= band {
-            if let Some(c) = grid.cell_of(x) {
-                full[c] = true;
-            }
+        if !(p.kind[i].is_solid() && p.body[i] == s.plate && (x[s.normal] - s.mid).abs() <= band) {
+            continue;
+        }
+        // a particle coarser than the plate's finest (a refined plate) fills the cells its
+        // own square of side `spacing` overlaps, so the cells, sized for the finest, see no
+        // gap between coarse particles
+        let spacing = s.coarse / f64::from(1u32 << p.level.get(i).copied().unwrap_or(0));
+        if spacing > 1.01 * s.dx {
+            grid.fill_square(x, 0.5 * spacing, &mut full);
+        } else if let Some(c) = grid.cell_of(x) {
+            full[c] = true;
         }
     }
     full
@@ -535,6 +566,7 @@ mod tests {
             direction: Vector::<3>::new(0.0, 0.0, -1.0),
             radius: 1e-3,
             dx,
+            coarse: dx,
             lo: Vector::<3>::new(-15e-3, -15e-3, 0.0),
             hi: Vector::<3>::new(15e-3, 15e-3, 0.4e-3),
         };

@@ -206,6 +206,16 @@ impl<const D: usize> Simulation<D> {
         let space = image_space::<D>(scene);
         let grid = CellGrid::new(&space.min, &space.max, model.kernel.support);
         let boxes = map.boxes();
+        let nl = if scene.performance.neighbours == crate::scene::NeighbourMode::Cells {
+            NeighbourList::lean()
+        } else {
+            NeighbourList::default()
+        };
+        // several smoothing lengths: each pair listed within its own support
+        let nl = match model.sizes.as_ref().is_some_and(|z| z.varies_h) {
+            true => nl.with_sizes(0.5 * model.kernel.support / model.kernel.h),
+            false => nl,
+        };
         let sim = Simulation {
             scene: scene.clone(),
             schedule: schedule(&model),
@@ -215,11 +225,7 @@ impl<const D: usize> Simulation<D> {
             space,
             grid,
             cells: CellList::default(),
-            nl: if scene.performance.neighbours == crate::scene::NeighbourMode::Cells {
-                NeighbourList::lean()
-            } else {
-                NeighbourList::default()
-            },
+            nl,
             halo: HaloPlan::default(),
             map,
             boxes,
