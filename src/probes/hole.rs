@@ -592,4 +592,72 @@ mod tests {
         let all: Vec<usize> = (0..filled.n_owned).collect();
         assert!(!measure(&filled, &all, &s).perforated);
     }
+
+    /// A refined plate (`[[refine]]`): fine particles (spacing dx, level 1) in a disc of
+    /// radius 3 mm, coarse ones (2 dx, level 0) beyond, and a circular hole of radius 4 mm
+    /// opened into the coarse part. Measured at the fine spacing (cells of 1.5 dx), the coarse
+    /// particles fill the cells their squares cover: the hole's axes are the circle's within
+    /// two cells.
+    #[test]
+    fn a_hole_in_a_refined_plate_is_measured_at_the_fine_spacing() {
+        let dx = 0.1e-3;
+        let (r_hole, r_disc) = (4.0e-3, 3.0e-3);
+        let mut p = Particles::<3>::default();
+        let mut id = 0;
+        let mut put = |x: Vector<3>, level: u16, p: &mut Particles<3>| {
+            let mut r = Record::new(id, Kind::Solid, 1, 0, x, Vector::zeros(), 1.0, 1.0);
+            r.level = level;
+            p.push_owned(r);
+            id += 1;
+        };
+        // coarse lattice (2 dx): sites outside the disc; fine (dx): sites of the disc's cells
+        for i in -75..75 {
+            for j in -75..75 {
+                for k in 0..2 {
+                    let c = Vector::<3>::new(
+                        (i as f64 + 0.5) * 2.0 * dx,
+                        (j as f64 + 0.5) * 2.0 * dx,
+                        (k as f64 + 0.5) * 2.0 * dx,
+                    );
+                    if c[0].hypot(c[1]) >= r_disc {
+                        if c[0].hypot(c[1]) >= r_hole {
+                            put(c, 0, &mut p);
+                        }
+                        continue;
+                    }
+                    for o in 0..8 {
+                        let off = |b: usize| if o >> b & 1 == 1 { 0.5 } else { -0.5 } * dx;
+                        let x = c + Vector::<3>::new(off(0), off(1), off(2));
+                        if x[0].hypot(x[1]) >= r_hole {
+                            put(x, 1, &mut p);
+                        }
+                    }
+                }
+            }
+        }
+        let ids: Vec<usize> = (0..p.n_owned).collect();
+        let s = HoleSetup::<3> {
+            plate: 1,
+            normal: 2,
+            mid: 0.2e-3,
+            thickness: 0.4e-3,
+            aim: Vector::<3>::new(0.0, 0.0, 0.2e-3),
+            direction: Vector::<3>::new(0.0, 0.0, -1.0),
+            radius: 1e-3,
+            dx,
+            coarse: 2.0 * dx,
+            lo: Vector::<3>::new(-15e-3, -15e-3, 0.0),
+            hi: Vector::<3>::new(15e-3, 15e-3, 0.4e-3),
+        };
+        let h = measure(&p, &ids, &s);
+        assert!(h.perforated, "{h:?}");
+        let cell = 1.5 * dx;
+        assert!((h.major - 2.0 * r_hole).abs() < 2.0 * cell, "{h:?}");
+        assert!((h.minor - 2.0 * r_hole).abs() < 2.0 * cell, "{h:?}");
+        // the same particles counted as fine (each filling its own cell only): the gaps
+        // between the coarse particles join the hole to the grid's edge, no hole is found
+        let mut flat = p.clone();
+        flat.level.iter_mut().for_each(|l| *l = 1);
+        assert!(!measure(&flat, &ids, &s).perforated);
+    }
 }
