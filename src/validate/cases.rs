@@ -189,6 +189,11 @@ fn channel_overrides(n: u32, v: &Variant, mirrors: usize) -> Vec<String> {
         }
         return o;
     }
+    if v.refine != "none" {
+        // the refined scene's bands span the channel's length at every resolution
+        o.push(format!("refine[0].max=[{x:e},0.2e-3]"));
+        o.push(format!("refine[1].max=[{x:e},1.08e-3]"));
+    }
     o.extend([
         format!("wall[0].min=[0.0,{:e}]", -t),
         format!("wall[0].max=[{x:e},0.0]"),
@@ -234,6 +239,25 @@ fn channel_sweep() -> Vec<Variant> {
     out
 }
 
+/// Poiseuille's sweep: the channel's, and the refined bands (the shipped refined scene: the
+/// level's h, renormalised operator; docs/refinement.md §3).
+fn poiseuille_sweep() -> Vec<Variant> {
+    let mut out = channel_sweep();
+    out.push(
+        Variant {
+            viscous: "renormalised",
+            ..channel_default()
+        }
+        .refined("level"),
+    );
+    out
+}
+
+/// Couette's sweep (no refined scene).
+fn couette_sweep() -> Vec<Variant> {
+    channel_sweep()
+}
+
 /// `base` first, then `base` with each (kernel, h/dx) of `pairs`.
 fn with_kernels(base: Variant, pairs: &[(KernelKind, f64)]) -> Vec<Variant> {
     let mut out = vec![base.clone()];
@@ -268,12 +292,17 @@ fn poiseuille() -> Case {
             "inputs/poiseuille_2d_mirror.toml",
             include_str!("../../inputs/poiseuille_2d_mirror.toml"),
         )),
-        refined: None,
+        // bands of dx/2 along both plates, the plates refined with them (docs/refinement.md §3)
+        refined: Some((
+            "inputs/poiseuille_2d_refined.toml",
+            include_str!("../../inputs/poiseuille_2d_refined.toml"),
+            &[],
+        )),
         error_key: "velocity_linf_t*",
         norm: "max over the gap of |u − u_exact| / u_max at the last reference time (t = 2 s; Morris et al. 1997)",
         resolutions: &[10, 20, 25, 40],
         default: channel_default(),
-        sweep: channel_sweep,
+        sweep: poiseuille_sweep,
         overrides: |n, v| channel_overrides(n, v, 1),
         length: 1.0e-3,
     }
@@ -289,6 +318,8 @@ fn couette() -> Case {
             include_str!("../../inputs/couette_2d_mirror.toml"),
         )),
         overrides: |n, v| channel_overrides(n, v, 2),
+        refined: None,
+        sweep: couette_sweep,
         error_key: "velocity_linf_t*",
         norm: "max over the gap of |u − u_exact| / v0 at t = 2 s (Morris et al. 1997)",
         ..poiseuille()
@@ -480,6 +511,35 @@ mod tests {
                 assert_eq!(sets.iter().filter(|s| s.contains("no_slip")).count(), want);
             }
             assert_eq!(case.scene_for(&case.default).0, case.file);
+        }
+    }
+
+    #[test]
+    fn poiseuille_refined_bands_load_at_every_resolution_spanning_the_channel() {
+        let case = find("poiseuille").unwrap();
+        let refined: Vec<Variant> = (case.sweep)()
+            .into_iter()
+            .filter(|v| v.refine != "none")
+            .collect();
+        assert_eq!(refined.len(), 1);
+        let v = &refined[0];
+        assert_eq!(v.name(), "quintic_spline-h1.0-dummy-none-renorm-refineh");
+        let (file, text) = case.scene_for(v);
+        assert_eq!(file, "inputs/poiseuille_2d_refined.toml");
+        for &n in case.resolutions {
+            let sets = case.sets(n, v);
+            let s = crate::scene::load_scene_str(text, std::path::Path::new(file), "p", &sets)
+                .unwrap_or_else(|e| panic!("n = {n}: {e}"))
+                .0;
+            assert_eq!(s.refine.len(), 2);
+            for r in &s.refine {
+                assert_eq!(r.max[0], s.domain.max[0], "n = {n}: a band spans the channel");
+                assert_eq!(r.smoothing_length, crate::scene::refine::RegionH::Level);
+            }
+            assert_eq!(
+                s.physics.viscous_operator,
+                crate::scene::ViscousOperator::Renormalised
+            );
         }
     }
 
