@@ -395,6 +395,50 @@ fn scan_row<const D: usize, const MODE: u8, const SIZED: bool>(
     list.truncate(w + m);
 }
 
+/// Append particle i's neighbours (`want`: all, or fluid only) to `list`, scanning its
+/// stencil rows; `view` is the build's cell-order copy (positions, fluid flags, fluid counts
+/// per cell, κh per particle when h varies).
+#[allow(clippy::too_many_arguments)]
+fn list_particle<const D: usize>(
+    list: &mut Vec<u32>,
+    grid: &CellGrid<D>,
+    cells: &CellList,
+    p: &Particles<D>,
+    i: usize,
+    want: Wants,
+    (xs, fluid, fluid_start, reach): (&[f64], &[u8], &[u32], &[f64]),
+    r2max: f64,
+) {
+    let sized = !reach.is_empty();
+    // row offsets: 3^(D-1) offsets of the leading axes, lexicographic
+    let rows = 3usize.pow(D as u32 - 1);
+    let mut xa = [0.0f64; D];
+    xa.copy_from_slice(p.x[i].as_slice());
+    let c = grid.coords_of(cells.cell[i] as usize);
+    for row in 0..rows {
+        let Some((c0, c1)) = grid.stencil_run(&c, row) else {
+            continue;
+        };
+        if want == Wants::Fluid && fluid_start[c1] == fluid_start[c0] {
+            continue;
+        }
+        let s = cells.start[c0] as usize;
+        let e = cells.start[c1] as usize;
+        let (ord, xr, fr) = (&cells.order[s..e], &xs[s * D..e * D], &fluid[s..e]);
+        let r = match sized {
+            true => (reach[cells.slot[i] as usize], &reach[s..e]),
+            false => (0.0, reach),
+        };
+        match (want, sized) {
+            (Wants::All, false) => scan_row::<D, ALL, false>(list, &xa, i, r2max, ord, xr, fr, r),
+            (Wants::All, true) => scan_row::<D, ALL, true>(list, &xa, i, r2max, ord, xr, fr, r),
+            (Wants::Fluid, false) => scan_row::<D, FLUID, false>(list, &xa, i, r2max, ord, xr, fr, r),
+            (Wants::Fluid, true) => scan_row::<D, FLUID, true>(list, &xa, i, r2max, ord, xr, fr, r),
+            (Wants::Half | Wants::Nothing, _) => {}
+        }
+    }
+}
+
 impl NeighbourList {
     /// Build the list of each owned particle i with the neighbours `wants(i)` asks for.
     ///
@@ -429,10 +473,12 @@ impl NeighbourList {
             self.build_half(any_half, grid, cells, p);
             return;
         }
-        let (xs, fluid, fluid_start, reach) = (&self.xs, &self.fluid, &self.fluid_start, &self.reach);
-        let sized = !reach.is_empty();
-        // row offsets: 3^(D-1) offsets of the leading axes, lexicographic
-        let rows = 3usize.pow(D as u32 - 1);
+        let (xs, fluid, fluid_start, reach) = (
+            &self.xs[..],
+            &self.fluid[..],
+            &self.fluid_start[..],
+            &self.reach[..],
+        );
         let nchunks = n.div_ceil(CHUNK);
         self.chunks.resize_with(nchunks, Vec::new);
         self.offset.resize(n, 0);
@@ -456,39 +502,16 @@ impl NeighbourList {
                     if want == Wants::Nothing {
                         continue;
                     }
-                    let mut xa = [0.0f64; D];
-                    xa.copy_from_slice(p.x[i].as_slice());
-                    let c = grid.coords_of(cells.cell[i] as usize);
-                    for row in 0..rows {
-                        let Some((c0, c1)) = grid.stencil_run(&c, row) else {
-                            continue;
-                        };
-                        if want == Wants::Fluid && fluid_start[c1] == fluid_start[c0] {
-                            continue;
-                        }
-                        let s = cells.start[c0] as usize;
-                        let e = cells.start[c1] as usize;
-                        let (ord, xr, fr) = (&cells.order[s..e], &xs[s * D..e * D], &fluid[s..e]);
-                        let r = match sized {
-                            true => (reach[cells.slot[i] as usize], &reach[s..e]),
-                            false => (0.0, &reach[..]),
-                        };
-                        match (want, sized) {
-                            (Wants::All, false) => {
-                                scan_row::<D, ALL, false>(list, &xa, i, r2max, ord, xr, fr, r)
-                            }
-                            (Wants::All, true) => {
-                                scan_row::<D, ALL, true>(list, &xa, i, r2max, ord, xr, fr, r)
-                            }
-                            (Wants::Fluid, false) => {
-                                scan_row::<D, FLUID, false>(list, &xa, i, r2max, ord, xr, fr, r)
-                            }
-                            (Wants::Fluid, true) => {
-                                scan_row::<D, FLUID, true>(list, &xa, i, r2max, ord, xr, fr, r)
-                            }
-                            (Wants::Half | Wants::Nothing, _) => {}
-                        }
-                    }
+                    list_particle(
+                        list,
+                        grid,
+                        cells,
+                        p,
+                        i,
+                        want,
+                        (xs, fluid, fluid_start, reach),
+                        r2max,
+                    );
                 }
                 any_half
             })

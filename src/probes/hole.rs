@@ -524,6 +524,24 @@ mod tests {
         assert!((v["t_s"].as_f64().unwrap() - 10e-6).abs() < 1e-12);
     }
 
+    /// The set-up of a 0.4 mm plate (body 1) in z ∈ [0, 0.4 mm], ±15 mm across, hit along
+    /// −z at its centre; `dx` its finest spacing, `coarse` the scene's.
+    fn plate_setup(dx: f64, coarse: f64) -> HoleSetup<3> {
+        HoleSetup::<3> {
+            plate: 1,
+            normal: 2,
+            mid: 0.2e-3,
+            thickness: 0.4e-3,
+            aim: Vector::<3>::new(0.0, 0.0, 0.2e-3),
+            direction: Vector::<3>::new(0.0, 0.0, -1.0),
+            radius: 1e-3,
+            dx,
+            coarse,
+            lo: Vector::<3>::new(-15e-3, -15e-3, 0.0),
+            hi: Vector::<3>::new(15e-3, 15e-3, 0.4e-3),
+        }
+    }
+
     /// A plate of lattice particles with an elliptical hole (semi-axes a, b, rotated by θ),
     /// plus debris behind it: the measured axes are those of the ellipse within a cell.
     #[test]
@@ -557,19 +575,7 @@ mod tests {
             id += 1;
         }
         let ids: Vec<usize> = (0..p.n_owned).collect();
-        let s = HoleSetup::<3> {
-            plate: 1,
-            normal: 2,
-            mid: 0.2e-3,
-            thickness: 0.4e-3,
-            aim: Vector::<3>::new(0.0, 0.0, 0.2e-3),
-            direction: Vector::<3>::new(0.0, 0.0, -1.0),
-            radius: 1e-3,
-            dx,
-            coarse: dx,
-            lo: Vector::<3>::new(-15e-3, -15e-3, 0.0),
-            hi: Vector::<3>::new(15e-3, 15e-3, 0.4e-3),
-        };
+        let s = plate_setup(dx, dx);
         let h = measure(&p, &ids, &s);
         assert!(h.perforated);
         let cell = 1.5 * dx;
@@ -636,19 +642,7 @@ mod tests {
             }
         }
         let ids: Vec<usize> = (0..p.n_owned).collect();
-        let s = HoleSetup::<3> {
-            plate: 1,
-            normal: 2,
-            mid: 0.2e-3,
-            thickness: 0.4e-3,
-            aim: Vector::<3>::new(0.0, 0.0, 0.2e-3),
-            direction: Vector::<3>::new(0.0, 0.0, -1.0),
-            radius: 1e-3,
-            dx,
-            coarse: 2.0 * dx,
-            lo: Vector::<3>::new(-15e-3, -15e-3, 0.0),
-            hi: Vector::<3>::new(15e-3, 15e-3, 0.4e-3),
-        };
+        let s = plate_setup(dx, 2.0 * dx);
         let h = measure(&p, &ids, &s);
         assert!(h.perforated, "{h:?}");
         let cell = 1.5 * dx;
