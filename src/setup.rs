@@ -359,6 +359,25 @@ impl<'s, const D: usize> SiteSource<'s, D> {
         }
     }
 
+    /// Visit every site of the layers `layers` along x with its load in the initial split:
+    /// `(id, centre, load)`, the load 1, or in a refined scene with `balance.load = "pairs"`
+    /// the site's expected pairs ([`crate::kernel::sizes::Sizes::site_load`]).
+    pub fn for_each_load(&self, layers: std::ops::Range<u64>, mut f: impl FnMut(u64, &Vector<D>, u64)) {
+        let sizes = self
+            .sizes
+            .as_ref()
+            .filter(|_| self.scene.balance.load == crate::scene::LoadKind::Pairs);
+        let (min, max) = self.layer_box(layers);
+        for (j, src) in self.sources.iter().enumerate() {
+            let wall = src.kind.is_wall();
+            // a repulsive wall lists no neighbours
+            let z = sizes.filter(|_| src.kind.is_smoothed());
+            self.each_claimed(j, &min, &max, |id, x, level, h| {
+                f(id, &x, z.map_or(1, |z| z.site_load::<D>(level, h, wall)))
+            });
+        }
+    }
+
     /// The box of the layers `layers` along x, unbounded along the other axes.
     fn layer_box(&self, layers: std::ops::Range<u64>) -> (Vec<f64>, Vec<f64>) {
         let edge = |i: u64| self.lat.origin[0] + i as f64 * self.lat.dx;
@@ -497,6 +516,12 @@ impl<const D: usize> Cloud<D> for LayerShare<'_, '_, D> {
         let a = self.layers.start + k as u64 * self.step();
         let b = (a + self.step()).min(self.layers.end);
         self.src.for_each(a..b, |id, x, kind| f(x, id, kind.is_fluid()));
+    }
+
+    fn visit_loads(&self, k: usize, mut f: impl FnMut(&Vector<D>, u64, u64)) {
+        let a = self.layers.start + k as u64 * self.step();
+        let b = (a + self.step()).min(self.layers.end);
+        self.src.for_each_load(a..b, |id, x, w| f(x, id, w));
     }
 }
 

@@ -293,6 +293,11 @@ pub trait Cloud<const D: usize>: Sync {
     fn parts(&self) -> usize;
     /// Visit the particles of part `k`.
     fn visit(&self, k: usize, f: impl FnMut(&Vector<D>, u64, bool));
+    /// Visit the particles of part `k` with the load each adds to the initial split
+    /// (`(position, id, load)`; 1 unless the cloud knows better).
+    fn visit_loads(&self, k: usize, mut f: impl FnMut(&Vector<D>, u64, u64)) {
+        self.visit(k, |x, id, _| f(x, id, 1));
+    }
 }
 
 /// Stored particles as a [`Cloud`]: positions, ids and whether each is fluid.
@@ -303,6 +308,8 @@ pub struct Points<'a, const D: usize> {
     pub id: &'a [u64],
     /// Fluid flags (`None`: none is fluid).
     pub fluid: Option<&'a [bool]>,
+    /// Load of each particle in the initial split (`None`: 1 each).
+    pub load: Option<&'a [u64]>,
 }
 
 /// Particles per part of [`Points`].
@@ -317,6 +324,13 @@ impl<const D: usize> Cloud<D> for Points<'_, D> {
         let r = k * POINTS_PART..((k + 1) * POINTS_PART).min(self.x.len());
         for i in r {
             f(&self.x[i], self.id[i], self.fluid.is_some_and(|fl| fl[i]));
+        }
+    }
+
+    fn visit_loads(&self, k: usize, mut f: impl FnMut(&Vector<D>, u64, u64)) {
+        let r = k * POINTS_PART..((k + 1) * POINTS_PART).min(self.x.len());
+        for i in r {
+            f(&self.x[i], self.id[i], self.load.map_or(1, |l| l[i]));
         }
     }
 }

@@ -69,6 +69,27 @@ impl Sizes {
     pub fn spacing(&self, li: u16, lj: u16) -> f64 {
         0.5 * (self.dx[li as usize] + self.dx[lj as usize])
     }
+
+    /// The load of a particle of level `level` and smoothing length `h` (m) in a `D`-dimensional
+    /// scene, for the initial split under `balance.load = "pairs"` (issue 35): 1 + its expected
+    /// list length. A body's particle lists the sites of its own spacing Δp_ℓ within its
+    /// support, V_D(κh) / Δp_ℓ^D (V_2(r) = π r², V_3(r) = 4/3 π r³): with the scene's h a
+    /// particle of level ℓ weighs about 2^(ℓD) coarse ones, with its level's h about one (its
+    /// lists keep a pair within the pair's own support), more in the transition band where h
+    /// rises. A dummy wall particle (`wall`) lists only the fluid in its support: over a wall as
+    /// thick as the support that is on average the share of a support beyond a plane at a
+    /// uniformly distributed distance, 2/(3π) in 2D and 3/16 in 3D. A function of the site
+    /// alone, so every rank weighs a particle alike.
+    pub fn site_load<const D: usize>(&self, level: u16, h: f64, wall: bool) -> u64 {
+        use std::f64::consts::PI;
+        let r = self.kind.support_factor() * h / self.dx[level as usize];
+        let (v, beyond_face) = if D == 2 {
+            (PI * r * r, 2.0 / (3.0 * PI))
+        } else {
+            (4.0 / 3.0 * PI * r * r * r, 3.0 / 16.0)
+        };
+        1 + (if wall { beyond_face * v } else { v }).round() as u64
+    }
 }
 
 /// How a pass finds the kernel of each pair, chosen once per pass ([`OneKernel`] or
@@ -135,6 +156,7 @@ macro_rules! with_pair_kernel {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::PI;
 
     /// The pair kernel is symmetric and, for one h, that h's kernel bit for bit.
     #[test]
@@ -148,5 +170,26 @@ mod tests {
         }
         assert!((s.h[1] - 0.0065).abs() < 1e-15 && (s.h[3] - 0.001625).abs() < 1e-15);
         assert!((s.spacing(0, 1) - 0.0075).abs() < 1e-15);
+    }
+
+    /// The initial split's load of a site: 1 + π (κh/Δp)² sites in 2D (h = 2 dx, κ = 2:
+    /// 1 + round(16π) = 51); a fine particle with the scene's h lists 2^(ℓD) times as many,
+    /// one with its level's h as many; a dummy wall particle 2/(3π) of them (3D: 3/16).
+    #[test]
+    fn site_loads_count_the_sites_in_the_support() {
+        let s = Sizes::new(KernelKind::WendlandC2, 0.02, 2.0, 1);
+        assert_eq!(s.site_load::<2>(0, s.h[0], false), 51);
+        assert_eq!(s.site_load::<2>(1, s.h[0], false), 1 + (64.0 * PI).round() as u64);
+        assert_eq!(s.site_load::<2>(1, s.h[1], false), 51);
+        assert_eq!(
+            s.site_load::<2>(0, s.h[0], true),
+            1 + (16.0 * PI * 2.0 / (3.0 * PI)).round() as u64
+        );
+        let v3 = 4.0 / 3.0 * PI * 64.0;
+        assert_eq!(s.site_load::<3>(0, s.h[0], false), 1 + v3.round() as u64);
+        assert_eq!(
+            s.site_load::<3>(0, s.h[0], true),
+            1 + (v3 * 3.0 / 16.0).round() as u64
+        );
     }
 }

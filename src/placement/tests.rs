@@ -117,6 +117,7 @@ fn volumes_of(pts: &[V3], d: &Decomposition<3>, support: f64) -> PairVolumes {
         x: pts,
         id: &id,
         fluid: None,
+        load: None,
     };
     halo_volumes(&cloud, d, support)
 }

@@ -242,7 +242,8 @@ pub struct Balance {
     #[serde(default = "default_threshold")]
     pub threshold: f64,
     /// What a particle weighs: `particles` (1 each) or `pairs` (1 + its neighbour count,
-    /// from the last neighbour search; the initial split uses particle counts).
+    /// from the last neighbour search; the initial split uses particle counts, or in a
+    /// refined scene each site's expected neighbour count from its spacing and h).
     #[serde(default)]
     pub load: LoadKind,
     /// Relative speed of each rank (empty: all equal); target loads are proportional.

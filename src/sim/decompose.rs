@@ -159,7 +159,8 @@ fn extents<const D: usize, C: Cloud<D>>(cloud: &C, comm: &dyn Comm) -> Result<(V
 
 /// Blocks of the particles of `cloud` (each rank's share, counts summed over `comm`): the
 /// factorisation of the cloud's extents (eq. 5 of seed 000) and cut planes balanced on
-/// particle counts (eq. 6), splitting layers by id below `id_bound` where a layer holds more
+/// the particles' loads (eq. 6; counts, or in a refined scene with `balance.load = "pairs"`
+/// each site's expected pairs, [`crate::kernel::sizes::Sizes::site_load`]), splitting layers by id below `id_bound` where a layer holds more
 /// than a block's share. Counting is split over rayon tasks and summed as integers, so the
 /// result depends on neither the thread count nor the rank count.
 pub fn balanced_blocks<const D: usize, C: Cloud<D>>(
@@ -185,7 +186,7 @@ pub fn balanced_blocks<const D: usize, C: Cloud<D>>(
         let mut counts = fold_parts(
             cloud,
             || stage.counter(),
-            |c, k| cloud.visit(k, |x, id, _| c.add(x, id, 1)),
+            |c, k| cloud.visit_loads(k, |x, id, w| c.add(x, id, w)),
             |a, b| a.merge(b),
         )
         .finish();

@@ -161,14 +161,28 @@ impl<const D: usize> Simulation<D> {
         let mut p = share.dropping(crate::setup::dropped_fields(scene));
         let loaded = p.n_owned;
         let space = image_space::<D>(scene);
-        let support = Model::<D>::new(scene).kernel.support;
         let bound = crate::scene::lattice::id_bound::<D>(scene);
         let n = p.n_owned;
+        let model = Model::<D>::new(scene);
+        // a refined scene balanced on pairs weighs each particle as the set-up did
+        let load: Option<Vec<u64>> = (model.sizes.as_ref())
+            .filter(|_| scene.balance.load == crate::scene::LoadKind::Pairs)
+            .map(|z| {
+                let h = |i: usize| if z.varies_h { p.h[i] } else { z.h[0] };
+                (0..n)
+                    .map(|i| match p.kind[i].is_smoothed() {
+                        true => z.site_load::<D>(p.level[i], h(i), p.kind[i].is_wall()),
+                        false => 1,
+                    })
+                    .collect()
+            });
         let cloud = crate::decomp::Points {
             x: &p.x[..n],
             id: &p.id[..n],
             fluid: None,
+            load: load.as_deref(),
         };
+        let support = model.kernel.support;
         let (map, placement) = rank_map(&cloud, (&space.min, &space.max), bound, layout, support, comm)?;
         let accs = crate::halo::route_to_owners(&p, acc, &map, comm)?;
         crate::halo::migrate(&mut p, &map, &map.boxes(), comm)?;
