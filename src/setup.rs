@@ -8,7 +8,7 @@ use crate::decomp::Cloud;
 use crate::error::{Error, Result};
 use crate::material::MaterialModel;
 use crate::particles::{Fields, Kind, Particles, Record};
-use crate::scene::lattice::{container_outer, Lattice};
+use crate::scene::lattice::{block_core, container_outer, Lattice};
 use crate::scene::{Scene, WallShape};
 use crate::Vector;
 
@@ -204,9 +204,16 @@ impl<'s, const D: usize> SiteSource<'s, D> {
             };
             let mat = mat_index(&w.material);
             let (min, max, inner) = match w.shape {
-                WallShape::Block => (w.min.clone(), w.max.clone(), None),
+                WallShape::Block => {
+                    // a dummy block is its shell: its core reaches no fluid
+                    let r: Vec<(u64, u64)> = (0..D).map(|a| lat.range(a, w.min[a], w.max[a])).collect();
+                    let core = w
+                        .shell_rows(s.discretisation.support(), dx)
+                        .and_then(|k| block_core(&r, k));
+                    (w.min.clone(), w.max.clone(), core)
+                }
                 WallShape::Container => {
-                    let (lo, hi) = container_outer(w, s.dimension, dx);
+                    let (lo, hi) = container_outer(s, w);
                     let inner = (0..D).map(|a| lat.range(a, w.min[a], w.max[a])).collect();
                     (lo, hi, Some(inner))
                 }
@@ -653,5 +660,144 @@ t_end = 0.01
             }
         }
         assert!(empty > 50 && full > 50, "{empty} empty, {full} built");
+    }
+
+    /// A tank (a dummy container asking 6 layers) with a dummy block in the water, in 2D and
+    /// 3D, for kernels whose support is 2.4, 2.6, 3 and 3.46 spacings.
+    fn tank(d: usize, kernel: &str, h_over_dx: f64) -> Scene {
+        let v = |x: f64| {
+            vec![x; d]
+                .iter()
+                .map(f64::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let (blo, bhi) = (vec!["0.5"; d].join(", "), vec!["0.95"; d].join(", "));
+        scene(&format!(
+            r#"
+dimension = {d}
+[domain]
+min = [{dmin}]
+max = [{dmax}]
+[discretisation]
+dx = 0.05
+h_over_dx = {h_over_dx}
+kernel = "{kernel}"
+[[material]]
+name = "w"
+rho0 = 1000.0
+c0 = 10.0
+[[fluid]]
+name = "water"
+material = "w"
+min = [{fmin}]
+max = [{water}]
+[[wall]]
+name = "tank"
+shape = "container"
+min = [{fmin}]
+max = [{fmax}]
+layers = 6
+[[wall]]
+name = "pillar"
+shape = "block"
+min = [{blo}]
+max = [{bhi}]
+[time]
+t_end = 0.01
+"#,
+            dmin = v(-0.5),
+            dmax = v(2.0),
+            fmin = v(0.0),
+            fmax = v(1.5),
+            water = v(0.4),
+        ))
+    }
+
+    /// Dummy walls are built where fluid can reach them and nowhere else: against a brute-force
+    /// walk over every site of the walls' boxes, no site within the support κh of the water's
+    /// side is missing (the container's inner box, the pillar's outside), no built site lies
+    /// more than κh + dx/2 beyond it along an axis, and `hsph check`'s count equals the build.
+    #[test]
+    fn dummy_walls_are_built_within_reach_of_the_fluid_only() {
+        for d in [2, 3] {
+            for (kernel, h_over_dx) in [
+                ("cubic_spline", 1.2),
+                ("wendland_c2", 1.3),
+                ("quintic_spline", 1.0),
+                ("cubic_spline", 3f64.sqrt()),
+            ] {
+                let s = tank(d, kernel, h_over_dx);
+                crate::with_dim!(d, D => {
+                    walls_against_oracle::<D>(&s);
+                    Ok::<_, Error>(())
+                })
+                .unwrap();
+            }
+        }
+    }
+
+    /// A wall site's (Euclidean distance to the water's side, largest distance along an axis)
+    /// in m, or `None` for a site on the water's side.
+    type Side<'a> = &'a dyn Fn(&[f64]) -> Option<(f64, f64)>;
+
+    fn walls_against_oracle<const D: usize>(s: &Scene) {
+        let (dx, support) = (s.discretisation.dx, s.discretisation.support());
+        let p = SiteSource::<D>::new(s).unwrap().build(None, |_, _| true).unwrap();
+        let built: std::collections::HashSet<u64> = p.id[..p.n_owned].iter().copied().collect();
+        assert_eq!(
+            crate::scene::lattice::count_particles::<D>(s),
+            p.n_owned as u64,
+            "count against build"
+        );
+        let lat = Lattice::<D>::new(s);
+        let (tank, pillar) = (&s.walls[0], &s.walls[1]);
+        let asked = tank.layers as f64 * dx;
+        let outer_lo: Vec<f64> = tank.min.iter().map(|x| x - asked).collect();
+        let outer_hi: Vec<f64> = tank.max.iter().map(|x| x + asked).collect();
+        let rows = crate::scene::rows_reaching(support, dx);
+        assert!(
+            rows < tank.layers && (rows as f64 - 0.5) * dx < support && (rows as f64 + 0.5) * dx >= support
+        );
+        let (mut kept, mut dropped) = (0, 0);
+        let mut walk = |lo: &[f64], hi: &[f64], side: Side| {
+            lat.for_each_in(lo, hi, |_, id, x| {
+                // (Euclidean distance to the water's side, largest distance along an axis)
+                let Some((dist, axis)) = side(x.as_slice()) else {
+                    return;
+                };
+                if dist < support {
+                    assert!(
+                        built.contains(&id),
+                        "a site {dist} m from the water is missing at {x:?}"
+                    );
+                }
+                if built.contains(&id) {
+                    assert!(
+                        axis < support + 0.5 * dx + 1e-12,
+                        "a site {axis} m deep is built at {x:?}"
+                    );
+                    kept += 1;
+                } else {
+                    dropped += 1;
+                }
+            })
+        };
+        // the container's sites: outside the inner box, inside the asked outer box
+        walk(&outer_lo, &outer_hi, &|x| {
+            let out: Vec<f64> = (0..D)
+                .map(|a| (tank.min[a] - x[a]).max(x[a] - tank.max[a]).max(0.0))
+                .collect();
+            let axis = out.iter().copied().fold(0.0, f64::max);
+            (axis > 0.0).then(|| (out.iter().map(|o| o * o).sum::<f64>().sqrt(), axis))
+        });
+        // the pillar's sites: depth below its nearest face
+        walk(&pillar.min, &pillar.max, &|x| {
+            let depth = (0..D)
+                .map(|a| (x[a] - pillar.min[a]).min(pillar.max[a] - x[a]))
+                .fold(f64::INFINITY, f64::min);
+            Some((depth, depth))
+        });
+        assert!(kept > 0 && dropped > 0, "{kept} kept, {dropped} dropped");
     }
 }

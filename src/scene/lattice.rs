@@ -183,9 +183,16 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
             continue;
         }
         let (n, outer) = match w.shape {
-            WallShape::Block => (sites(&ranges(&w.min, &w.max)), (w.min.clone(), w.max.clone())),
+            WallShape::Block => {
+                let r = ranges(&w.min, &w.max);
+                let core = w
+                    .shell_rows(s.discretisation.support(), dx)
+                    .and_then(|k| block_core(&r, k))
+                    .map_or(0, |c| sites(&c));
+                (sites(&r) - core, (w.min.clone(), w.max.clone()))
+            }
             WallShape::Container => {
-                let (lo, hi) = container_outer(w, D, dx);
+                let (lo, hi) = container_outer(s, w);
                 let n = sites(&ranges(&lo, &hi)).saturating_sub(sites(&ranges(&w.min, &w.max)));
                 (n, (lo, hi))
             }
@@ -206,6 +213,14 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
         });
     }
     out
+}
+
+/// The lattice ranges of a block wall's core, the sites more than `rows` rows inside every
+/// face (`None` if it has none): a dummy block is built as the shell around it.
+pub(crate) fn block_core(r: &[(u64, u64)], rows: u64) -> Option<Vec<(u64, u64)>> {
+    r.iter()
+        .map(|&(lo, hi)| (hi > lo + 2 * rows).then_some((lo + rows, hi - rows)))
+        .collect()
 }
 
 /// The sites of the refinement levels of the body `name` of box `[min, max)`: of each region
@@ -502,18 +517,20 @@ fn sphere_warnings<const D: usize>(s: &Scene) -> Vec<String> {
     out
 }
 
-/// The outer box of a container wall: its inner box grown by `layers` spacings on every closed
-/// face (open faces stay at the inner box).
-pub(crate) fn container_outer(w: &super::WallBody, d: usize, dx: f64) -> (Vec<f64>, Vec<f64>) {
+/// The outer box of a container wall: its inner box grown by its built layers
+/// ([`super::WallBody::built_layers`]) on every closed face (open faces stay at the inner box).
+pub(crate) fn container_outer(s: &Scene, w: &super::WallBody) -> (Vec<f64>, Vec<f64>) {
+    let (d, dx) = (s.dimension, s.discretisation.dx);
+    let layers = w.built_layers(s.discretisation.support(), dx);
     let mut lo = w.min.clone();
     let mut hi = w.max.clone();
     for a in 0..d {
         let open = |up| w.open.iter().any(|o| super::face_of(o, d) == Some((a, up)));
         if !open(false) {
-            lo[a] -= w.layers as f64 * dx;
+            lo[a] -= layers as f64 * dx;
         }
         if !open(true) {
-            hi[a] += w.layers as f64 * dx;
+            hi[a] += layers as f64 * dx;
         }
     }
     (lo, hi)

@@ -24,7 +24,7 @@ pub use materials::{Material, MaterialKind, StrengthKind};
 pub use probes::{Direction, Probe};
 pub use reference::Reference;
 pub use validate::{dt_upper_bound, expected_speed, validate};
-pub use walls::{Motion, NoSlipMethod, Slip, WallBody, WallMethod, WallShape};
+pub use walls::{rows_reaching, Motion, NoSlipMethod, Slip, WallBody, WallMethod, WallShape};
 
 use crate::kernel::KernelKind;
 use serde::{Deserialize, Serialize};
@@ -327,6 +327,13 @@ pub struct Discretisation {
     /// `wendland_c2`, `cubic_spline` or `quintic_spline`.
     #[serde(default = "default_kernel")]
     pub kernel: KernelKind,
+}
+
+impl Discretisation {
+    /// The kernel support κh of the scene's spacing (m).
+    pub fn support(&self) -> f64 {
+        self.kernel.support_factor() * self.h_over_dx * self.dx
+    }
 }
 
 fn default_h_over_dx() -> f64 {

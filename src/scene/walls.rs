@@ -125,7 +125,9 @@ pub struct WallBody {
     pub min: Vec<f64>,
     /// Upper corner (m).
     pub max: Vec<f64>,
-    /// Container wall thickness in particle layers (default: enough to cover the support).
+    /// Container wall thickness in particle layers (default: enough to cover the support; a
+    /// dummy wall builds at most the rows within the support of fluid at its face,
+    /// [`rows_reaching`]).
     #[serde(default)]
     pub layers: usize,
     /// Open faces of a container, e.g. `["y+"]` for an open-top tank.
@@ -151,6 +153,32 @@ pub struct WallBody {
     /// Prescribed motion of the particles (a piston); exclusive with `velocity`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub motion: Option<Motion>,
+}
+
+/// Rows of a dummy wall that reach the fluid: the rows k = 1, 2, … whose centres, (k − ½) dx
+/// beyond the wall's face, lie within the support κh (m) of a fluid particle at the face,
+/// (k − ½) dx < κh. A fluid particle's first row sits dx/2 inside the face, so this keeps half
+/// a spacing of margin; a deeper row is in no fluid particle's support, takes part in no sum
+/// (a dummy wall particle lists fluid only) and is not built.
+pub fn rows_reaching(support: f64, dx: f64) -> usize {
+    (1..).find(|&k| (k as f64 - 0.5) * dx >= support).unwrap_or(1) - 1
+}
+
+impl WallBody {
+    /// Layers of a container built (`layers`, a dummy wall's at most [`rows_reaching`]).
+    pub fn built_layers(&self, support: f64, dx: f64) -> usize {
+        match self.method {
+            WallMethod::Dummy => self.layers.min(rows_reaching(support, dx).max(1)),
+            _ => self.layers,
+        }
+    }
+
+    /// Rows kept inside each face of a dummy block wall ([`rows_reaching`]: its core is in no
+    /// fluid particle's support and is not built); `None` for other walls.
+    pub fn shell_rows(&self, support: f64, dx: f64) -> Option<u64> {
+        (self.shape == WallShape::Block && self.method == WallMethod::Dummy)
+            .then(|| rows_reaching(support, dx).max(1) as u64)
+    }
 }
 
 fn default_method() -> WallMethod {
@@ -210,7 +238,10 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
                     }
                 }
                 if w.layers == 0 {
-                    w.layers = (support / dx - 1e-9).ceil().max(1.0) as usize;
+                    w.layers = match w.method {
+                        WallMethod::Dummy => rows_reaching(support, dx).max(1),
+                        _ => (support / dx - 1e-9).ceil().max(1.0) as usize,
+                    };
                 }
                 let mut lo = w.min.clone();
                 let mut hi = w.max.clone();
