@@ -368,12 +368,12 @@ fn migration_conserves_ids_mass_momentum_and_energy_exactly() {
         for i in 0..sim.p.n_owned {
             sim.p.x[i] += hsph::Vector::<2>::new(0.03, 0.02);
         }
-        let before = sim.gather(comm)?.map(|v| v.p);
+        let before = sim.gather(comm)?.map(|v| v.p.into_owned());
         let o0 = sim.observables(comm)?;
         sim.p.truncate_ghosts();
         let sent = hsph::halo::migrate(&mut sim.p, &sim.map, &sim.boxes, comm)?;
         let o1 = sim.observables(comm)?;
-        let after = sim.gather(comm)?.map(|v| v.p);
+        let after = sim.gather(comm)?.map(|v| v.p.into_owned());
         let mine_ok = (0..sim.p.n_owned).all(|i| sim.map.owner(&sim.p.x[i], sim.p.id[i]) == comm.rank());
         Ok((before, after, sent, mine_ok, o0, o1))
     })
@@ -423,4 +423,53 @@ fn corner_eighth_cloud_stays_balanced_on_8_ranks() {
     let h = &hist[0].1;
     assert!(h.len() >= 2, "decomposition and at least one rebalance: {h:?}");
     assert!(h.iter().all(|&x| x <= 1.05), "max/mean loads {h:?}");
+}
+
+/// The final gather of a lone rank lends its table (put in id order, ghosts dropped) instead of
+/// copying it, and that table is the state the copying gather gives and the state 4 ranks
+/// gather, bit for bit (the dam break after 20 steps).
+#[test]
+fn a_lone_rank_lends_its_settled_table_to_the_final_view() {
+    let s = scene("inputs/dam_break_2d.toml", &[]);
+    let steps = |sim: &mut Simulation<2>, comm: &dyn Comm| -> hsph::error::Result<()> {
+        for _ in 0..20 {
+            sim.advance(comm)?;
+        }
+        Ok(())
+    };
+    let four = run_local(4, 1, |comm| {
+        let mut sim = Simulation::<2>::new(&s, comm)?;
+        steps(&mut sim, comm)?;
+        Ok(sim.gather(comm)?.map(|v| v.p.into_owned()))
+    })
+    .unwrap();
+    let four = four[0].as_ref().unwrap();
+    let one = run_local(1, 1, |comm| {
+        let mut sim = Simulation::<2>::new(&s, comm)?;
+        steps(&mut sim, comm)?;
+        let copied = sim.gather(comm)?.unwrap().p;
+        assert!(
+            matches!(copied, std::borrow::Cow::Owned(_)),
+            "the table is in cell order: a copy"
+        );
+        let copied = copied.into_owned();
+        sim.settle_for_gather();
+        let lent = sim.gather(comm)?.unwrap().p;
+        assert!(
+            matches!(lent, std::borrow::Cow::Borrowed(t) if std::ptr::eq(t, &sim.p)),
+            "the settled table must be lent"
+        );
+        Ok((copied, lent.into_owned()))
+    })
+    .unwrap();
+    let (copied, lent) = &one[0];
+    for (name, t) in [("lent", lent), ("4 ranks", four)] {
+        assert_eq!(t.n_owned, copied.n_owned, "{name}");
+        assert_eq!(t.len(), t.n_owned, "{name}: ghosts in a view");
+        assert_eq!(t.id, copied.id, "{name}");
+        assert_eq!(t.x, copied.x, "{name}");
+        assert_eq!(t.v, copied.v, "{name}");
+        assert_eq!(t.rho, copied.rho, "{name}");
+        assert_eq!(t.p, copied.p, "{name}");
+    }
 }

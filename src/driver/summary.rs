@@ -37,6 +37,10 @@ impl<'a, const D: usize> RankRun<'a, D> {
         self.comm.all_reduce_sum_u64(&mut n_fluid)?;
         // final.csv gathered on rank 0 up to `output.gather_limit` particles, else per rank
         let gathered = self.n_total <= self.scene.output.gather_limit;
+        if gathered {
+            // one rank lends its table to the final view instead of copying it
+            self.sim.settle_for_gather();
+        }
         let final_view = final_state(&self.sim, self.comm, self.dir, gathered)?;
         let mut writer = self.writer.take();
         log_traffic(

@@ -97,7 +97,7 @@ fn written_to_output(all: Particles<2>) {
         crate::scene::load_scene(std::path::Path::new("inputs/hydrostatic_2d.toml"), &[]).unwrap();
     let model = Model::<2>::new(&scene);
     let view = View {
-        p: all,
+        p: std::borrow::Cow::Owned(all),
         t: 0.0,
         step: 0,
         dt: 0.0,

@@ -10,6 +10,7 @@ use crate::particles::Particles;
 use crate::physics::Model;
 use crate::scene::Scene;
 use crate::Vector;
+use std::borrow::Cow;
 
 /// Tag of the output gather.
 const TAG_GATHER: Tag = 110;
@@ -51,8 +52,9 @@ const SCALARS: usize = 4;
 /// The whole state gathered on rank 0 for output: every owned particle of every rank, sorted by
 /// id, no ghosts. Field names follow [`Simulation`] so output code reads either alike.
 pub struct View<'a, const D: usize> {
-    /// Every particle, sorted by id.
-    pub p: Particles<D>,
+    /// Every particle, sorted by id: a copy, or the table of a lone rank that
+    /// [`Simulation::settle_for_gather`] put in id order, lent.
+    pub p: Cow<'a, Particles<D>>,
     /// Simulated time (s).
     pub t: f64,
     /// Steps taken.
@@ -174,7 +176,38 @@ impl<const D: usize> Simulation<D> {
     /// Gather every owned particle of every rank on rank 0, sorted by id (`None` on the other
     /// ranks). Collective: every rank must call it.
     pub fn gather(&self, comm: &dyn Comm) -> Result<Option<View<'_, D>>> {
+        let p = &self.p;
+        if self.ranks == 1 && p.len() == p.n_owned && p.id.is_sorted() {
+            // the table is the view: no copy (a whole run's memory peak on one rank)
+            return Ok(Some(self.view(Cow::Borrowed(p))));
+        }
         self.gather_where(comm, &|_, _| true)
+    }
+
+    /// At the end of a run on one rank: drop the ghosts and put the owned particles in id
+    /// order, so that [`Simulation::gather`] lends the table instead of copying it. The
+    /// neighbour lists and cells no longer match the table afterwards: no step may follow.
+    pub fn settle_for_gather(&mut self) {
+        if self.ranks != 1 {
+            return;
+        }
+        self.p.truncate_ghosts();
+        let mut perm: Vec<usize> = (0..self.p.n_owned).collect();
+        perm.sort_unstable_by_key(|&i| self.p.id[i]);
+        self.p.permute_owned(&perm);
+    }
+
+    /// A view of the particles `p` (sorted by id) at this step.
+    fn view<'s>(&'s self, p: Cow<'s, Particles<D>>) -> View<'s, D> {
+        View {
+            p,
+            t: self.t,
+            step: self.step,
+            dt: self.dt,
+            scene: &self.scene,
+            model: &self.model,
+            memo: Memo::default(),
+        }
     }
 
     /// Gather on rank 0, sorted by id, the owned particles of every rank that `keep` selects
@@ -186,11 +219,14 @@ impl<const D: usize> Simulation<D> {
     ) -> Result<Option<View<'_, D>>> {
         let mut all = Particles::<D>::without(self.p.dropped);
         if self.ranks == 1 {
-            let kept: Vec<usize> = (0..self.p.n_owned).filter(|&i| keep(&self.p, i)).collect();
+            // pushed in id order: no permutation (and no second copy of a field) after
+            let mut kept: Vec<usize> = (0..self.p.n_owned).filter(|&i| keep(&self.p, i)).collect();
+            kept.sort_unstable_by_key(|&i| self.p.id[i]);
             all.reserve(kept.len());
             for i in kept {
                 all.push_owned(self.p.record(i));
             }
+            return Ok(Some(self.view(Cow::Owned(all))));
         } else {
             let prev = comm.set_phase(Phase::Output);
             let mine = pack_owned_where(&self.p, keep);
@@ -208,14 +244,6 @@ impl<const D: usize> Simulation<D> {
         let mut perm: Vec<usize> = (0..all.n_owned).collect();
         perm.sort_unstable_by_key(|&i| all.id[i]);
         all.permute_owned(&perm);
-        Ok(Some(View {
-            p: all,
-            t: self.t,
-            step: self.step,
-            dt: self.dt,
-            scene: &self.scene,
-            model: &self.model,
-            memo: Memo::default(),
-        }))
+        Ok(Some(self.view(Cow::Owned(all))))
     }
 }
