@@ -90,6 +90,15 @@ pub fn build_particles<const D: usize>(s: &Scene) -> Result<Particles<D>> {
     SiteSource::<D>::new(s)?.build(None, |_, _| true)
 }
 
+/// [`crate::kernel::sizes::Sizes::site_load`] of a particle of kind `kind`: a repulsive wall
+/// particle lists no neighbours (load 1), a dummy one only fluid.
+pub fn particle_load<const D: usize>(z: &crate::kernel::sizes::Sizes, kind: Kind, level: u16, h: f64) -> u64 {
+    match kind.is_smoothed() {
+        true => z.site_load::<D>(level, h, kind.is_wall()),
+        false => 1,
+    }
+}
+
 /// What a body does with the sites of its box.
 enum Claim<const D: usize> {
     /// A fluid or solid body: the sites inside its shape, with hydrostatic density along −ĝ
@@ -197,21 +206,14 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                 },
             });
         }
-        let dx = s.discretisation.dx;
         for (b, w) in s.walls.iter().enumerate() {
             let Some(kind) = w.method.particle_kind() else {
                 continue;
             };
             let mat = mat_index(&w.material);
             let (min, max, inner) = match w.shape {
-                WallShape::Block => {
-                    // a dummy block is its shell: its core reaches no fluid
-                    let r: Vec<(u64, u64)> = (0..D).map(|a| lat.range(a, w.min[a], w.max[a])).collect();
-                    let core = w
-                        .shell_rows(s.discretisation.support(), dx)
-                        .and_then(|k| block_core(&r, k));
-                    (w.min.clone(), w.max.clone(), core)
-                }
+                // a dummy block is its shell: its core reaches no fluid
+                WallShape::Block => (w.min.clone(), w.max.clone(), block_core(s, w, &lat)),
                 WallShape::Container => {
                     let (lo, hi) = container_outer(s, w);
                     let inner = (0..D).map(|a| lat.range(a, w.min[a], w.max[a])).collect();
@@ -376,11 +378,12 @@ impl<'s, const D: usize> SiteSource<'s, D> {
             .filter(|_| self.scene.balance.load == crate::scene::LoadKind::Pairs);
         let (min, max) = self.layer_box(layers);
         for (j, src) in self.sources.iter().enumerate() {
-            let wall = src.kind.is_wall();
-            // a repulsive wall lists no neighbours
-            let z = sizes.filter(|_| src.kind.is_smoothed());
             self.each_claimed(j, &min, &max, |id, x, level, h| {
-                f(id, &x, z.map_or(1, |z| z.site_load::<D>(level, h, wall)))
+                f(
+                    id,
+                    &x,
+                    sizes.map_or(1, |z| particle_load::<D>(z, src.kind, level, h)),
+                )
             });
         }
     }
@@ -512,6 +515,12 @@ impl<'a, 's, const D: usize> LayerShare<'a, 's, D> {
     fn step(&self) -> u64 {
         (self.layers.end - self.layers.start).div_ceil(64).max(1)
     }
+
+    /// The layers of part `k`.
+    fn part(&self, k: usize) -> std::ops::Range<u64> {
+        let a = self.layers.start + k as u64 * self.step();
+        a..(a + self.step()).min(self.layers.end)
+    }
 }
 
 impl<const D: usize> Cloud<D> for LayerShare<'_, '_, D> {
@@ -520,15 +529,12 @@ impl<const D: usize> Cloud<D> for LayerShare<'_, '_, D> {
     }
 
     fn visit(&self, k: usize, mut f: impl FnMut(&Vector<D>, u64, bool)) {
-        let a = self.layers.start + k as u64 * self.step();
-        let b = (a + self.step()).min(self.layers.end);
-        self.src.for_each(a..b, |id, x, kind| f(x, id, kind.is_fluid()));
+        self.src
+            .for_each(self.part(k), |id, x, kind| f(x, id, kind.is_fluid()));
     }
 
     fn visit_loads(&self, k: usize, mut f: impl FnMut(&Vector<D>, u64, u64)) {
-        let a = self.layers.start + k as u64 * self.step();
-        let b = (a + self.step()).min(self.layers.end);
-        self.src.for_each_load(a..b, |id, x, w| f(x, id, w));
+        self.src.for_each_load(self.part(k), |id, x, w| f(x, id, w));
     }
 }
 

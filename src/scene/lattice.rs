@@ -184,12 +184,11 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
         }
         let (n, outer) = match w.shape {
             WallShape::Block => {
-                let r = ranges(&w.min, &w.max);
-                let core = w
-                    .shell_rows(s.discretisation.support(), dx)
-                    .and_then(|k| block_core(&r, k))
-                    .map_or(0, |c| sites(&c));
-                (sites(&r) - core, (w.min.clone(), w.max.clone()))
+                let core = block_core(s, w, &lat).map_or(0, |c| sites(&c));
+                (
+                    sites(&ranges(&w.min, &w.max)) - core,
+                    (w.min.clone(), w.max.clone()),
+                )
             }
             WallShape::Container => {
                 let (lo, hi) = container_outer(s, w);
@@ -215,11 +214,20 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
     out
 }
 
-/// The lattice ranges of a block wall's core, the sites more than `rows` rows inside every
-/// face (`None` if it has none): a dummy block is built as the shell around it.
-pub(crate) fn block_core(r: &[(u64, u64)], rows: u64) -> Option<Vec<(u64, u64)>> {
-    r.iter()
-        .map(|&(lo, hi)| (hi > lo + 2 * rows).then_some((lo + rows, hi - rows)))
+/// The lattice ranges (of `lat`, the scene's lattice) of wall `w`'s core: for a dummy block,
+/// the sites more than [`super::WallBody::shell_rows`] rows inside every face (`None` for other
+/// walls or a block too thin to have one). A dummy block is built as the shell around it.
+pub(crate) fn block_core<const D: usize>(
+    s: &Scene,
+    w: &super::WallBody,
+    lat: &Lattice<D>,
+) -> Option<Vec<(u64, u64)>> {
+    let rows = w.shell_rows(s.discretisation.support(), s.discretisation.dx)?;
+    (0..D)
+        .map(|a| {
+            let (lo, hi) = lat.range(a, w.min[a], w.max[a]);
+            (hi > lo + 2 * rows).then_some((lo + rows, hi - rows))
+        })
         .collect()
 }
 

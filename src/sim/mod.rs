@@ -170,10 +170,7 @@ impl<const D: usize> Simulation<D> {
             .map(|z| {
                 let h = |i: usize| if z.varies_h { p.h[i] } else { z.h[0] };
                 (0..n)
-                    .map(|i| match p.kind[i].is_smoothed() {
-                        true => z.site_load::<D>(p.level[i], h(i), p.kind[i].is_wall()),
-                        false => 1,
-                    })
+                    .map(|i| crate::setup::particle_load::<D>(z, p.kind[i], p.level[i], h(i)))
                     .collect()
             });
         let cloud = crate::decomp::Points {
