@@ -210,6 +210,41 @@ impl CellList {
     }
 }
 
+impl CellList {
+    /// The interior of the owned particles (the first `n_owned`) into `interior`: `true` for a
+    /// particle no ghost can be a neighbour of, because no cell of its 3ᴰ stencil holds a ghost
+    /// (the cell edge is at least the support, so every neighbour lies in the stencil). Such a
+    /// particle can be computed while the ghosts' fields are in flight. `near` is scratch, one
+    /// flag per cell.
+    pub fn mark_interior<const D: usize>(
+        &self,
+        grid: &CellGrid<D>,
+        n_owned: usize,
+        near: &mut Vec<bool>,
+        interior: &mut Vec<bool>,
+    ) {
+        near.clear();
+        near.resize(grid.len(), false);
+        let rows = 3usize.pow(D as u32 - 1);
+        let mut last = usize::MAX;
+        for &c in &self.cell[n_owned..] {
+            // ghosts arrive in runs from one source, often of one cell
+            if c as usize == last {
+                continue;
+            }
+            last = c as usize;
+            let cc = grid.coords_of(last);
+            for row in 0..rows {
+                if let Some((c0, c1)) = grid.stencil_run(&cc, row) {
+                    near[c0..c1].fill(true);
+                }
+            }
+        }
+        interior.clear();
+        interior.extend(self.cell[..n_owned].iter().map(|&c| !near[c as usize]));
+    }
+}
+
 /// Which neighbours a particle's list holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Wants {

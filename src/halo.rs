@@ -16,7 +16,7 @@
 //! anyway: every gather loop sums neighbours by global cell and key.
 
 use crate::boundary::images::{images_of, is_plain, AxisOp, ImageSpace};
-use crate::comm::{Comm, Phase, Tag};
+use crate::comm::{Comm, Pending, Phase, Tag};
 use crate::decomp::{fold_parts, Cloud, Decomposition};
 use crate::error::{Error, Result};
 use crate::particles::wire::{Reader, Words};
@@ -347,16 +347,43 @@ impl<const D: usize> HaloPlan<D> {
         fields: Fields,
         comm: &dyn Comm,
     ) -> Result<()> {
+        let pending = self.start_refresh(p, space, fields, comm)?;
+        self.finish_refresh(p, fields, pending, comm)
+    }
+
+    /// The first half of [`HaloPlan::refresh`]: pack and send the current `fields` of every
+    /// planned ghost. Until [`HaloPlan::finish_refresh`] the ghosts keep their old copies and
+    /// the owned particles' `fields` must not change.
+    pub fn start_refresh(
+        &self,
+        p: &Particles<D>,
+        space: &ImageSpace<D>,
+        fields: Fields,
+        comm: &dyn Comm,
+    ) -> Result<Pending> {
         let prev = comm.set_phase(Phase::Halo);
         let words = Particles::<D>::field_words(fields);
-        let sends = {
-            let p = &*p;
-            self.pack(words, |buf, e| {
-                let i = e.src as usize;
-                p.put_fields(i, fields, &space.image(p.id[i], &e.ops), &mut Words::new(buf));
-            })
-        };
-        let msgs = comm.exchange(sends, &self.sources(), TAG_REFRESH)?;
+        let sends = self.pack(words, |buf, e| {
+            let i = e.src as usize;
+            p.put_fields(i, fields, &space.image(p.id[i], &e.ops), &mut Words::new(buf));
+        });
+        let pending = comm.start_exchange(sends, &self.sources(), TAG_REFRESH);
+        comm.set_phase(prev);
+        pending
+    }
+
+    /// The second half of [`HaloPlan::refresh`]: receive `fields` of every ghost (waiting for
+    /// them) and overwrite the ghosts' copies.
+    pub fn finish_refresh(
+        &self,
+        p: &mut Particles<D>,
+        fields: Fields,
+        pending: Pending,
+        comm: &dyn Comm,
+    ) -> Result<()> {
+        let prev = comm.set_phase(Phase::Halo);
+        let words = Particles::<D>::field_words(fields);
+        let msgs = comm.finish_exchange(pending)?;
         let mut g = p.n_owned;
         for ((_, n), m) in self.inc.iter().zip(&msgs) {
             if m.len() != n * words * 8 {

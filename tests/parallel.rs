@@ -473,3 +473,80 @@ fn a_lone_rank_lends_its_settled_table_to_the_final_view() {
         assert_eq!(t.p, copied.p, "{name}");
     }
 }
+
+/// Overlap (issue 34): a pass that reads refreshed ghost fields computes the interior while
+/// they travel, then the rest. The files are those of the run without overlap, on 1, 3 and 8
+/// ranks and 1–2 threads, for fluids with dummy walls (2D and 3D, δ-SPH), the periodic channel
+/// with the renormalised laminar term, Morris's walls and shifting, particles of several sizes
+/// and an elastic plate; and pair mode, whose passes without a pair kernel overlap.
+#[test]
+fn overlap_changes_no_bit() {
+    let cases: [(&str, &[&str]); 6] = [
+        ("inputs/dam_break_2d.toml", &["time.t_end=0.04"]),
+        (
+            "inputs/dam_break_2d.toml",
+            &["time.t_end=0.04", "performance.interactions=\"pairs\""],
+        ),
+        (
+            "inputs/poiseuille_2d.toml",
+            &[
+                "time.t_end=0.04",
+                "reference.times=[0.04]",
+                "physics.viscous_operator=\"renormalised\"",
+                "wall[0].no_slip=\"morris\"",
+                "physics.shifting=\"delta_plus\"",
+            ],
+        ),
+        ("tests/data/dam_break_3d_small.toml", &["time.t_end=0.04"]),
+        ("inputs/hydrostatic_2d_refined.toml", &["time.t_end=0.04"]),
+        ("inputs/oscillating_plate.toml", &["time.t_end=0.02"]),
+    ];
+    for (k, (path, sets)) in cases.iter().enumerate() {
+        let mut off = sets.to_vec();
+        off.extend(["output.format=\"none\"", "performance.overlap=\"off\""]);
+        let (base, _) = run(&scene(path, &off), 3, 1, &format!("ov{k}-off"));
+        let (ts, fin) = (read(&base, "timeseries.csv"), read(&base, "final.csv"));
+        let mut on = sets.to_vec();
+        on.extend(["output.format=\"none\"", "performance.overlap=\"on\""]);
+        let on = scene(path, &on);
+        for (ranks, threads) in [(1, 1), (3, 1), (3, 2), (8, 1)] {
+            let (dir, _) = run(&on, ranks, threads, &format!("ov{k}-r{ranks}t{threads}"));
+            let same = read(&dir, "timeseries.csv") == ts && read(&dir, "final.csv") == fin;
+            assert!(
+                same,
+                "{path} {sets:?}: overlap changed the bits on {ranks} ranks × {threads} threads"
+            );
+        }
+    }
+}
+
+/// The interior a pass computes while ghosts travel holds no particle with a ghost neighbour,
+/// and on 3 ranks it is neither empty nor everything (so the overlap test splits passes).
+#[test]
+fn the_interior_has_no_ghost_neighbour() {
+    fn on_rank<const D: usize>(scene: &Scene, comm: &dyn Comm) -> hsph::error::Result<(usize, usize)> {
+        let sim = Simulation::<D>::new(scene, comm)?;
+        let n = sim.p.n_owned;
+        let interior = sim.interior();
+        assert_eq!(interior.len(), n, "rank {}: interior not marked", comm.rank());
+        for (i, _) in interior.iter().enumerate().filter(|(_, &b)| b) {
+            let ghost = sim.nl.of(i).iter().find(|&&j| j as usize >= n);
+            assert!(
+                ghost.is_none(),
+                "rank {}: interior particle {i} has ghost neighbour {ghost:?}",
+                comm.rank()
+            );
+        }
+        Ok((interior.iter().filter(|&&b| b).count(), n))
+    }
+    for path in ["inputs/dam_break_2d.toml", "tests/data/dam_break_3d_small.toml"] {
+        let s = scene(path, &[]);
+        let parts = run_local(3, 1, |comm| match s.dimension {
+            2 => on_rank::<2>(&s, comm),
+            _ => on_rank::<3>(&s, comm),
+        })
+        .unwrap();
+        let (inner, all) = parts.iter().fold((0, 0), |(a, b), (i, n)| (a + i, b + n));
+        assert!(inner > 0 && inner < all, "{path}: interior {inner} of {all}");
+    }
+}

@@ -195,6 +195,9 @@ Examples:
         /// Neighbour search: `lists` or `cells` (no stored lists); default: the scene's.
         #[arg(long, value_enum)]
         neighbours: Option<crate::scene::NeighbourMode>,
+        /// Halo refreshes overlapped with the interior (`on`, `off`); default: the scene's.
+        #[arg(long, value_enum)]
+        overlap: Option<crate::scene::Overlap>,
     },
     /// Speed against accuracy: run validation cases at several resolutions and method
     /// variants, each run's error against its reference and its cost in one CSV row, charts
@@ -382,7 +385,15 @@ fn dispatch(cmd: Command) -> Result<i32> {
             set,
             interactions,
             neighbours,
-        } => cmd_bench(scenes, threads, steps, repeat, set, interactions, neighbours),
+            overlap,
+        } => {
+            let flags = SceneFlags {
+                interactions,
+                neighbours,
+                overlap,
+            };
+            cmd_bench(scenes, threads, steps, repeat, set, flags)
+        }
         Command::Report {
             runs,
             compare,
@@ -454,8 +465,7 @@ fn cmd_bench(
     steps: u64,
     repeat: usize,
     set: Vec<String>,
-    interactions: Option<crate::scene::Interactions>,
-    neighbours: Option<crate::scene::NeighbourMode>,
+    flags: SceneFlags,
 ) -> Result<i32> {
     use crate::limits::{count, MAX_BENCH_STEPS, MAX_REPEAT};
     count("--steps", steps, MAX_BENCH_STEPS)?;
@@ -473,10 +483,7 @@ fn cmd_bench(
         steps,
         repeat,
         overrides: set,
-        flags: SceneFlags {
-            interactions,
-            neighbours,
-        },
+        flags,
     };
     say(&bench::table(&bench::run(&scenes, &opts)?));
     Ok(0)

@@ -60,6 +60,11 @@ pub struct RunArgs {
     /// `[performance] neighbours`, else lists.
     #[arg(long, value_enum)]
     neighbours: Option<crate::scene::NeighbourMode>,
+    /// Halo refreshes overlapped with the interior's compute: `on` (the ghosts' fields travel
+    /// while the particles no ghost reaches are computed) or `off`; the same bits either way.
+    /// Default: the scene's `[performance] overlap`, else off.
+    #[arg(long, value_enum)]
+    overlap: Option<crate::scene::Overlap>,
     /// Communication back end.
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
     backend: Backend,
@@ -104,6 +109,7 @@ pub(super) fn cmd_run_args(a: RunArgs) -> Result<i32> {
         set,
         interactions,
         neighbours,
+        overlap,
         backend,
         ranks,
         ranks_per_node,
@@ -117,6 +123,7 @@ pub(super) fn cmd_run_args(a: RunArgs) -> Result<i32> {
     let flags = SceneFlags {
         interactions,
         neighbours,
+        overlap,
     };
     check_run_flags(backend, bind, ranks, checkpoint_every_minutes)?;
     let opts = RunOptions {

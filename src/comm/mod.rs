@@ -150,6 +150,42 @@ pub trait Comm {
         recv_from.iter().map(|&src| self.recv(src, tag)).collect()
     }
 
+    /// Start a neighbour exchange that [`Comm::finish_exchange`] completes: the same messages
+    /// as [`Comm::exchange`], but the caller may compute between the two calls while they
+    /// travel (the overlap of a halo refresh with the interior). The default sends now
+    /// (sends never wait) and receives at the finish.
+    fn start_exchange(&self, sends: Vec<(usize, Vec<u8>)>, recv_from: &[usize], tag: Tag) -> Result<Pending> {
+        for (dst, bytes) in sends {
+            self.send(dst, tag, bytes)?;
+        }
+        Ok(Pending::sent(recv_from, tag))
+    }
+
+    /// Complete an exchange begun by [`Comm::start_exchange`]: one message from each rank of
+    /// its `recv_from`, in that order.
+    fn finish_exchange(&self, x: Pending) -> Result<Vec<Vec<u8>>> {
+        match x.stage {
+            Stage::Sent => x.recv_from.iter().map(|&src| self.recv(src, x.tag)).collect(),
+            Stage::Deferred(sends) => self.exchange(sends, &x.recv_from, x.tag),
+            Stage::Receiving(thread) => {
+                let me = self.rank();
+                let mut remote = thread
+                    .join()
+                    .map_err(|e| Error::run(format!("rank {me}: receiving thread: {}", panic_message(&*e))))??
+                    .into_iter();
+                x.recv_from
+                    .iter()
+                    .map(|&src| match src == me {
+                        true => self.recv(src, x.tag),
+                        false => remote.next().ok_or_else(|| {
+                            Error::run(format!("rank {me}: a message from rank {src} is missing"))
+                        }),
+                    })
+                    .collect()
+            }
+        }
+    }
+
     /// Element-wise exact (wrapping) sum over ranks, in place.
     fn all_reduce_sum_u64(&self, values: &mut [u64]) -> Result<()>;
 
@@ -195,6 +231,60 @@ pub trait Comm {
     /// Close the current step of the traffic log and return its entries.
     fn end_traffic_step(&self) -> Vec<TrafficEntry> {
         self.accounting().end_step()
+    }
+}
+
+/// A neighbour exchange in flight: begun by [`Comm::start_exchange`], completed by
+/// [`Comm::finish_exchange`].
+pub struct Pending {
+    tag: Tag,
+    recv_from: Vec<usize>,
+    stage: Stage,
+}
+
+/// How far a [`Pending`] exchange has gone.
+enum Stage {
+    /// Every message sent; all receives left.
+    Sent,
+    /// Nothing sent yet (a back end whose sends would wait for the receiver: MPI without
+    /// `MPI_THREAD_MULTIPLE`); the finish makes the whole exchange.
+    Deferred(Vec<(usize, Vec<u8>)>),
+    /// Sent; a thread receives the other ranks' messages (in `recv_from` order) while the
+    /// caller computes, so that large messages move meanwhile.
+    Receiving(std::thread::JoinHandle<Result<Vec<Vec<u8>>>>),
+}
+
+impl Pending {
+    /// Every message sent; the receives from `recv_from` (in order, with `tag`) are left.
+    pub fn sent(recv_from: &[usize], tag: Tag) -> Self {
+        Pending {
+            tag,
+            recv_from: recv_from.to_vec(),
+            stage: Stage::Sent,
+        }
+    }
+
+    /// Nothing sent: the finish exchanges `sends` and receives from `recv_from`.
+    pub fn deferred(sends: Vec<(usize, Vec<u8>)>, recv_from: &[usize], tag: Tag) -> Self {
+        Pending {
+            tag,
+            recv_from: recv_from.to_vec(),
+            stage: Stage::Deferred(sends),
+        }
+    }
+
+    /// Every message sent; `thread` receives those of the other ranks of `recv_from` (in its
+    /// order), the finish takes this rank's own from its queue.
+    pub fn receiving(
+        recv_from: &[usize],
+        tag: Tag,
+        thread: std::thread::JoinHandle<Result<Vec<Vec<u8>>>>,
+    ) -> Self {
+        Pending {
+            tag,
+            recv_from: recv_from.to_vec(),
+            stage: Stage::Receiving(thread),
+        }
     }
 }
 

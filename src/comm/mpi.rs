@@ -19,7 +19,7 @@
 //! MPI can be initialised once per process: multi-rank tests start `mpirun` on
 //! `examples/comm_selftest.rs` (see `tests/comm_mpi.rs`), never MPI inside a `#[test]`.
 
-use super::{check_peer, lock, reduce_f64_in_rank_order, Accounting, Collective, Comm, Tag};
+use super::{check_peer, lock, reduce_f64_in_rank_order, Accounting, Collective, Comm, Pending, Tag};
 use crate::error::{Error, Result};
 use crossbeam::channel::{unbounded, Sender};
 use mpi::datatype::PartitionMut;
@@ -258,6 +258,50 @@ impl Comm for MpiComm {
             }
             out
         })
+    }
+
+    /// With MULTIPLE the sends go to their lanes and a thread receives the other ranks'
+    /// messages while the caller computes, so that large messages move meanwhile (a sender
+    /// lane blocked on a large message is released as soon as its receive is posted). The
+    /// thread polls with `MPI_Improbe` and sleeps between polls: a blocking probe spins and,
+    /// with a rank per core, takes the core from the compute (BENCHMARKS.md). Without
+    /// MULTIPLE every MPI call stays on this thread: the whole exchange is made at the finish.
+    fn start_exchange(&self, sends: Vec<(usize, Vec<u8>)>, recv_from: &[usize], tag: Tag) -> Result<Pending> {
+        for &src in recv_from {
+            check_peer(self.rank, self.size, src, tag)?;
+        }
+        if !self.multiple {
+            for (dst, _) in &sends {
+                check_peer(self.rank, self.size, *dst, tag)?;
+            }
+            return Ok(Pending::deferred(sends, recv_from, tag));
+        }
+        for (dst, bytes) in sends {
+            self.send(dst, tag, bytes)?;
+        }
+        let remote: Vec<usize> = recv_from.iter().copied().filter(|&s| s != self.rank).collect();
+        if remote.is_empty() {
+            return Ok(Pending::sent(recv_from, tag));
+        }
+        let thread = std::thread::Builder::new()
+            .name(format!("mpi receive {tag}"))
+            .spawn(move || {
+                let world = SimpleCommunicator::world();
+                let mut out = Vec::with_capacity(remote.len());
+                for &src in &remote {
+                    let peer = world.process_at_rank(src as mpi::Rank);
+                    let msg = loop {
+                        match peer.immediate_matched_probe_with_tag(mpi::Tag::from(tag)) {
+                            Some(found) => break found,
+                            None => std::thread::sleep(std::time::Duration::from_micros(50)),
+                        }
+                    };
+                    out.push(msg.matched_receive_vec::<u8>().0);
+                }
+                Ok(out)
+            })
+            .map_err(|e| Error::run(format!("rank {}: receiving thread: {e}", self.rank)))?;
+        Ok(Pending::receiving(recv_from, tag, thread))
     }
 
     fn all_reduce_sum_u64(&self, values: &mut [u64]) -> Result<()> {

@@ -1,8 +1,8 @@
 //! A self-checking test of any [`Comm`], run by every rank: the same code checks the local
 //! back end in `cargo test` and the MPI back end under `mpirun` (`examples/comm_selftest.rs`).
 //!
-//! It checks all-to-all and sparse exchanges (including self-sends and messages large enough
-//! to leave MPI's eager protocol), per-(source, tag) ordering across interleaved tags,
+//! It checks all-to-all and sparse exchanges, whole and split in two (including self-sends
+//! and messages large enough to leave MPI's eager protocol), per-(source, tag) ordering across interleaved tags,
 //! collectives against values each rank computes itself, identical result bits on every
 //! rank, NaN propagation, all-gather, broadcast from every root, barrier, and that the
 //! traffic log counts exactly the payload bytes and messages sent.
@@ -95,6 +95,28 @@ pub fn run(comm: &dyn Comm) -> Result<()> {
     for ((&o, &s), b) in offsets.iter().zip(&from).zip(&got) {
         expect(comm, *b == payload(s, me, o, length(s, me, o)), || {
             format!("sparse exchange: wrong payload from rank {s} (offset {o})")
+        })?;
+    }
+
+    // The same sparse exchange split in two (an overlapped halo refresh): started, a
+    // collective in between, then finished; the messages are those of the whole exchange.
+    let sends: Vec<_> = offsets
+        .iter()
+        .map(|&o| {
+            let d = (me + o) % p;
+            (d, payload(me, d, o + 7, length(me, d, o)))
+        })
+        .collect();
+    let pending = comm.start_exchange(sends, &from, 21)?;
+    let mut one = [1u64];
+    comm.all_reduce_sum_u64(&mut one)?;
+    let got = comm.finish_exchange(pending)?;
+    expect(comm, one[0] == p as u64, || {
+        "sum during a split exchange".to_string()
+    })?;
+    for ((&o, &s), b) in offsets.iter().zip(&from).zip(&got) {
+        expect(comm, *b == payload(s, me, o + 7, length(s, me, o)), || {
+            format!("split exchange: wrong payload from rank {s} (offset {o})")
         })?;
     }
 

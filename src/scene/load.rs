@@ -1,7 +1,7 @@
 //! Reading a scene: file → `--set` overrides → typed [`Scene`] → validation, with every error
 //! located by file, line and dotted key.
 
-use super::{Interactions, NeighbourMode, Scene};
+use super::{Interactions, NeighbourMode, Overlap, Scene};
 use crate::error::{Error, Location, Result};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -22,8 +22,8 @@ pub struct SceneSource {
     pub flagged: Vec<(String, &'static str)>,
 }
 
-/// Typed command-line flags that set scene keys: `--interactions` (`performance.interactions`)
-/// and `--neighbours` (`performance.neighbours`). They reach the scene as values — nothing is
+/// Typed command-line flags that set scene keys: `--interactions` (`performance.interactions`),
+/// `--neighbours` (`performance.neighbours`) and `--overlap` (`performance.overlap`). They reach the scene as values — nothing is
 /// formatted as text and parsed again — and are written into the scene's text, so that the run
 /// directory's `scene.toml` (and a restart from it) keeps them; an error about such a key
 /// names the flag.
@@ -33,6 +33,8 @@ pub struct SceneFlags {
     pub interactions: Option<Interactions>,
     /// `--neighbours`.
     pub neighbours: Option<NeighbourMode>,
+    /// `--overlap`.
+    pub overlap: Option<Overlap>,
 }
 
 impl SceneFlags {
@@ -46,6 +48,10 @@ impl SceneFlags {
         if let Some(m) = self.neighbours {
             scene.performance.neighbours = m;
             given.push(("--neighbours", "performance.neighbours", m.name()));
+        }
+        if let Some(o) = self.overlap {
+            scene.performance.overlap = o;
+            given.push(("--overlap", "performance.overlap", o.name()));
         }
         if given.is_empty() {
             return Ok(());

@@ -176,6 +176,36 @@ pub struct Performance {
     /// How passes find neighbours: `lists` (default) or `cells` ([`NeighbourMode`]).
     #[serde(default)]
     pub neighbours: NeighbourMode,
+    /// Whether a halo refresh overlaps the interior's compute: `off` (default) or `on`
+    /// ([`Overlap`]). The same bits either way.
+    #[serde(default)]
+    pub overlap: Overlap,
+}
+
+/// Whether a pass computes the interior while its ghost fields are in flight.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum Overlap {
+    /// A pass that reads refreshed ghost fields sends them, computes the owned particles no
+    /// ghost is a neighbour of, then receives the ghosts and computes the rest: each
+    /// particle's sum is its own, in the same order, so the bits are those of `off`.
+    On,
+    /// Refresh first, then compute every particle: the default, because on this project's
+    /// 2-core machine, with a rank per core, overlap made the step 2 % (local ranks) to 7 %
+    /// (MPI) slower (BENCHMARKS.md); it is for nodes where the exchange, not the compute,
+    /// waits.
+    #[default]
+    Off,
+}
+
+impl Overlap {
+    /// Scene-file name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Overlap::On => "on",
+            Overlap::Off => "off",
+        }
+    }
 }
 
 /// How passes find neighbours.

@@ -87,6 +87,14 @@ pub struct Simulation<const D: usize> {
     /// Particles removed by the outflow rule and not yet reported (the driver drains it).
     pub removed: Vec<outflow::Removal>,
     fresh: Freshness,
+    /// `performance.overlap = "on"`: a pass that needs a refresh computes the interior while
+    /// the ghosts' fields travel (`step.rs`).
+    overlap: bool,
+    /// Per owned particle: no ghost is in its stencil ([`CellList::mark_interior`]), from the
+    /// last neighbour build (empty without overlap or ghosts).
+    interior: Vec<bool>,
+    /// Scratch of [`CellList::mark_interior`], one flag per cell.
+    near: Vec<bool>,
     /// Scratch of the solid passes (empty without solids).
     solid: crate::physics::solid::dynamics::SolidScratch<D>,
     /// Accumulators of the pair-mode passes (empty in gather mode).
@@ -250,12 +258,21 @@ impl<const D: usize> Simulation<D> {
             timers: PhaseTimers::default(),
             pair_count: 0,
             fresh: Freshness::default(),
+            overlap: scene.performance.overlap == crate::scene::Overlap::On,
+            interior: Vec::new(),
+            near: Vec::new(),
             solid: Default::default(),
             pair_scratch: Default::default(),
             removed: Vec::new(),
             kinematics: WallKinematics::of(scene),
         };
         Ok(sim)
+    }
+
+    /// Per owned particle: true if no ghost is in its stencil, so a pass computes it while
+    /// the ghosts' fields travel (empty without overlap or without ghosts).
+    pub fn interior(&self) -> &[bool] {
+        &self.interior
     }
 
     /// Number of owned particles (fluid and wall).

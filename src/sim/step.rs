@@ -11,13 +11,28 @@
 use super::timers::Timer;
 use super::Simulation;
 use crate::boundary::motion;
-use crate::cells::Wants;
+use crate::cells::{HalfView, Neighbours, Subset, Wants};
 use crate::comm::Comm;
 use crate::error::Result;
 use crate::particles::Fields;
 use crate::physics::passes::{self, Ctx, Pass};
 use rayon::prelude::*;
 use std::time::Instant;
+
+/// Run `pass` over `nb`, or over the part `part.1` of the mask `part.0` (a split pass, whose
+/// kernels are gather kernels).
+fn run_over<const D: usize, N: Neighbours>(
+    pass: Pass,
+    c: &mut Ctx<'_, D>,
+    nb: &N,
+    part: Option<(&[bool], bool)>,
+    half: Option<&HalfView<'_, D>>,
+) {
+    match part {
+        None => pass.run(c, nb, half),
+        Some((mask, part)) => pass.run(c, &Subset { all: nb, mask, part }, None),
+    }
+}
 
 /// Steps between reorderings of the owned particles into cell order.
 const REORDER_EVERY: u64 = 16;
@@ -87,12 +102,44 @@ impl<const D: usize> Simulation<D> {
         Ok(())
     }
 
-    /// One pass: refresh what it needs, run its row, mark what it wrote.
+    /// One pass: refresh what it needs, run its row, mark what it wrote. With overlap
+    /// ([`Simulation::overlaps`]) the refresh is sent, the interior computed while it travels,
+    /// then received and the rest computed: the bits of one run (`Pass::splits`).
     fn run_pass(&mut self, pass: Pass, dt: f64, comm: &dyn Comm) -> Result<()> {
         let need = self.fresh.before(pass);
-        if !need.is_empty() {
-            self.refresh(need, comm)?;
+        if !need.is_empty() && self.overlaps(pass) {
+            let t0 = Instant::now();
+            let pending = self.halo.start_refresh(&self.p, &self.space, need, comm)?;
+            self.timers.add(Timer::Halo, t0);
+            self.compute(pass, dt, Some(true));
+            let t0 = Instant::now();
+            self.halo.finish_refresh(&mut self.p, need, pending, comm)?;
+            self.timers.add(Timer::Halo, t0);
+            self.compute(pass, dt, Some(false));
+        } else {
+            if !need.is_empty() {
+                self.refresh(need, comm)?;
+            }
+            self.compute(pass, dt, None);
         }
+        self.fresh.after(pass);
+        Ok(())
+    }
+
+    /// True if `pass` computes the interior while its refresh travels: overlap on, ghosts held,
+    /// the interior marked at the last neighbour build, and a gather kernel that splits. Pair
+    /// mode's pair kernels do not: each accumulates every pair of a home in one fixed order.
+    fn overlaps(&self, pass: Pass) -> bool {
+        self.overlap
+            && !self.halo.is_empty()
+            && self.interior.len() == self.p.n_owned
+            && pass.splits()
+            && !(self.pair_mode && pass.has_pair_kernel())
+    }
+
+    /// Run `pass`'s row over every owned particle (`part` = `None`), or over the interior
+    /// (`Some(true)`) or the rest (`Some(false)`) of [`Simulation::interior`].
+    fn compute(&mut self, pass: Pass, dt: f64, part: Option<bool>) {
         let t0 = Instant::now();
         let mut c = Ctx {
             p: &mut self.p,
@@ -102,23 +149,24 @@ impl<const D: usize> Simulation<D> {
             pair: &mut self.pair_scratch,
             solid: &mut self.solid,
         };
-        if pass.walks_neighbours() {
-            let half = self.nl.half(&self.grid, &self.cells);
-            let half = half.as_ref().filter(|_| self.pair_mode);
-            if self.nl.is_lean() {
-                let nb = self.nl.scan(&self.grid, &self.cells);
-                pass.run(&mut c, &nb, half);
-            } else {
-                pass.run(&mut c, &self.nl, half);
-            }
-            self.pair_count += self.nl.entries() as u64;
-            self.timers.add(Timer::Forces, t0);
-        } else {
+        if !pass.walks_neighbours() {
             pass.run(&mut c, &self.nl, None);
             self.timers.add(Timer::Integrate, t0);
+            return;
         }
-        self.fresh.after(pass);
-        Ok(())
+        let half = self.nl.half(&self.grid, &self.cells);
+        let half = half.as_ref().filter(|_| self.pair_mode);
+        let part = part.map(|b| (&self.interior[..], b));
+        if self.nl.is_lean() {
+            let nb = self.nl.scan(&self.grid, &self.cells);
+            run_over(pass, &mut c, &nb, part, half);
+        } else {
+            run_over(pass, &mut c, &self.nl, part, half);
+        }
+        if part.is_none_or(|(_, b)| !b) {
+            self.pair_count += self.nl.entries() as u64;
+        }
+        self.timers.add(Timer::Forces, t0);
     }
 
     /// p = p(ρ) of the particle's material for owned fluid particles (solids: the solid
@@ -150,6 +198,13 @@ impl<const D: usize> Simulation<D> {
         self.timers.add(Timer::Halo, t0);
         let t0 = Instant::now();
         self.bin()?;
+        if self.overlap && !self.halo.is_empty() {
+            let n = self.p.n_owned;
+            self.cells
+                .mark_interior(&self.grid, n, &mut self.near, &mut self.interior);
+        } else {
+            self.interior.clear();
+        }
         let kind = &self.p.kind;
         let fluid_lists = if self.pair_mode { Wants::Half } else { Wants::All };
         self.nl.build(&self.grid, &self.cells, &self.p, support, |i| {
@@ -284,7 +339,6 @@ impl<const D: usize> Simulation<D> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cells::Subset;
     use crate::comm::serial::SerialComm;
 
     /// Run `pass` of `sim` on a copy of its particles and solid scratch, over every particle at
