@@ -125,7 +125,7 @@ pub fn ghost_counts<const D: usize, C: Cloud<D>>(
     .0
 }
 
-/// Payload bytes of one ghost in the whole-record build message of a store without the
+/// Payload bytes of one ghost in the build message of a store without the
 /// `dropped` fields.
 pub fn record_bytes<const D: usize>(dropped: Fields) -> u64 {
     (Record::<D>::words_carried(dropped) * 8) as u64
@@ -258,8 +258,10 @@ impl<const D: usize> HaloPlan<D> {
         self.remote
     }
 
-    /// Rebuild every ghost of `p` (dropping the old ones) with every field set: plan, counts,
-    /// whole records. `boxes[r]` is rank r's box (from `map`); this rank is `comm.rank()`.
+    /// Rebuild every ghost of `p` (dropping the old ones): plan, counts, and records of the
+    /// fields `sent` (the others read as zero until a refresh sends them). `boxes[r]` is rank
+    /// r's box (from `map`); this rank is `comm.rank()`.
+    #[allow(clippy::too_many_arguments)]
     pub fn build(
         &mut self,
         p: &mut Particles<D>,
@@ -267,6 +269,7 @@ impl<const D: usize> HaloPlan<D> {
         map: &Ranks<D>,
         boxes: &[(Vector<D>, Vector<D>)],
         support: f64,
+        sent: Fields,
         comm: &dyn Comm,
     ) -> Result<()> {
         let (me, size) = (comm.rank(), comm.size());
@@ -304,7 +307,7 @@ impl<const D: usize> HaloPlan<D> {
             .enumerate()
             .filter(|(_, l)| !l.is_empty())
             .collect();
-        let dropped = p.dropped;
+        let dropped = p.dropped.or(Fields::ALL.without(sent));
         let words = Record::<D>::words_carried(dropped);
         let sends = self.pack(words, |buf, e| {
             let i = e.src as usize;

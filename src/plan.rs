@@ -10,7 +10,8 @@ use crate::decomp::{fold_parts, Cloud};
 use crate::error::{Error, Result};
 use crate::halo::Ranks;
 use crate::halo::{field_bytes, ghost_counts, record_bytes};
-use crate::physics::passes::{exchanges, schedule};
+use crate::particles::Fields;
+use crate::physics::passes::{build_fields, exchanges, schedule};
 use crate::physics::Model;
 use crate::placement::Placement;
 use crate::placement::{halo_volumes, place_reporting, PairVolumes};
@@ -56,10 +57,15 @@ pub struct PlanRow {
 /// The exchanges of one step and their bytes per ghost, derived from the passes the scene's
 /// model runs ([`crate::physics::passes::exchanges`]): the run refreshes the same fields.
 pub fn step_exchanges<const D: usize>(scene: &Scene) -> Vec<(&'static str, u64)> {
-    exchanges(&schedule(&Model::<D>::new(scene)))
+    let schedule = schedule(&Model::<D>::new(scene));
+    let unsent = Fields::ALL.without(build_fields(&schedule));
+    exchanges(&schedule)
         .into_iter()
         .map(|(name, fields)| match fields {
-            None => (name, record_bytes::<D>(crate::setup::dropped_fields(scene))),
+            None => (
+                name,
+                record_bytes::<D>(crate::setup::dropped_fields(scene).or(unsent)),
+            ),
             Some(f) => (name, field_bytes::<D>(f)),
         })
         .collect()

@@ -9,7 +9,7 @@ use hsph::cells::{brute_force, CellGrid, CellList, NeighbourList, Wants};
 use hsph::comm::serial::SerialComm;
 use hsph::decomp::Decomposition;
 use hsph::halo::{HaloPlan, Ranks};
-use hsph::particles::{Kind, Particles, Record};
+use hsph::particles::{Fields, Kind, Particles, Record};
 use hsph::scene::load_scene_str;
 use hsph::sim::Simulation;
 use hsph::Vector;
@@ -58,8 +58,16 @@ fn build<const D: usize>(
     // one rank: the periodic images go to the rank itself through the halo's own path
     let map = Ranks::new(Decomposition::uniform(min, max, [1; D]), vec![0]);
     let mut plan = HaloPlan::default();
-    plan.build(&mut p, &space, &map, &map.boxes(), support, &SerialComm::new())
-        .unwrap();
+    plan.build(
+        &mut p,
+        &space,
+        &map,
+        &map.boxes(),
+        support,
+        Fields::ALL,
+        &SerialComm::new(),
+    )
+    .unwrap();
     let grid = CellGrid::new(&min, &max, support);
     let mut cells = CellList::default();
     cells

@@ -540,7 +540,7 @@ fn the_interior_has_no_ghost_neighbour() {
         Ok((interior.iter().filter(|&&b| b).count(), n))
     }
     for path in ["inputs/dam_break_2d.toml", "tests/data/dam_break_3d_small.toml"] {
-        let s = scene(path, &[]);
+        let s = scene(path, &["performance.overlap=\"on\""]);
         let parts = run_local(3, 1, |comm| match s.dimension {
             2 => on_rank::<2>(&s, comm),
             _ => on_rank::<3>(&s, comm),

@@ -114,6 +114,9 @@ impl Fields {
     /// The empty set.
     pub const NONE: Fields = Fields(0);
 
+    /// Every field (of any table: the flags no field has are ignored).
+    pub const ALL: Fields = Fields(u64::MAX);
+
     /// Union of two sets.
     pub const fn or(self, o: Fields) -> Fields {
         Fields(self.0 | o.0)
@@ -295,6 +298,20 @@ impl Fields {
         .or(Fields::ENERGY)
         .or(Fields::PLASTIC)
         .or(Fields::FAILED);
+
+    /// What a ghost is and where, which code outside the passes reads (the cell list, the
+    /// neighbour lists, image operations, the pair kernel of particles of several sizes): id,
+    /// sort key, kind, body, material, level, position, mass and h. Every ghost build sends
+    /// these.
+    pub const IDENTITY: Fields = Fields::ID
+        .or(Fields::KEY)
+        .or(Fields::KIND)
+        .or(Fields::BODY)
+        .or(Fields::MAT)
+        .or(Fields::LEVEL)
+        .or(Fields::X)
+        .or(Fields::MASS)
+        .or(Fields::H);
 }
 
 impl<const D: usize> Particles<D> {

@@ -54,7 +54,7 @@ fn a_field_added_in_the_table_travels_everywhere() {
             assert_eq!(p.tag[i], tag(p.id[i], 0), "migrated id {}", p.id[i]);
         }
         let mut halo = HaloPlan::default();
-        halo.build(&mut p, &space, &map, &map.boxes(), support, comm)?;
+        halo.build(&mut p, &space, &map, &map.boxes(), support, Fields::ALL, comm)?;
         // ghosts from the other rank and periodic images (along y) from this rank too
         assert!(halo.remote() > 0 && p.len() > p.n_owned + halo.remote());
         for g in p.n_owned..p.len() {

@@ -87,6 +87,8 @@ pub struct Simulation<const D: usize> {
     /// Particles removed by the outflow rule and not yet reported (the driver drains it).
     pub removed: Vec<outflow::Removal>,
     fresh: Freshness,
+    /// The fields a ghost build sends ([`crate::physics::passes::build_fields`]).
+    build_fields: crate::particles::Fields,
     /// `performance.overlap = "on"`: a pass that needs a refresh computes the interior while
     /// the ghosts' fields travel (`step.rs`).
     overlap: bool,
@@ -235,6 +237,7 @@ impl<const D: usize> Simulation<D> {
             true => nl.with_sizes(0.5 * model.kernel.support / model.kernel.h),
             false => nl,
         };
+        let build_fields = crate::physics::passes::build_fields(&schedule(&model));
         let sim = Simulation {
             scene: scene.clone(),
             schedule: schedule(&model),
@@ -258,6 +261,7 @@ impl<const D: usize> Simulation<D> {
             timers: PhaseTimers::default(),
             pair_count: 0,
             fresh: Freshness::default(),
+            build_fields,
             overlap: scene.performance.overlap == crate::scene::Overlap::On,
             interior: Vec::new(),
             near: Vec::new(),

@@ -190,9 +190,17 @@ impl<const D: usize> Simulation<D> {
             self.timers.add(Timer::Neighbours, t0);
         }
         let t0 = Instant::now();
-        self.halo
-            .build(&mut self.p, &self.space, &self.map, &self.boxes, support, comm)?;
-        self.fresh.built();
+        let sent = self.build_fields;
+        self.halo.build(
+            &mut self.p,
+            &self.space,
+            &self.map,
+            &self.boxes,
+            support,
+            sent,
+            comm,
+        )?;
+        self.fresh.built(sent);
         let held = self.p.len();
         self.balance.note_held(held, held - self.p.n_owned);
         self.timers.add(Timer::Halo, t0);
