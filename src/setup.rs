@@ -58,8 +58,9 @@ impl<const D: usize> BodyFields<D> {
 }
 
 /// The shared particle fields a scene's run does not need: the solid fields when it has no
-/// solid body, the viscous lattice moment unless the operator is renormalised (no storage,
-/// no traffic; see [`Particles::dropped`]).
+/// solid body, the viscous lattice moment unless the operator is renormalised, level and h in
+/// a scene of one size, the walls' extrapolated velocity v_w unless a wall extrapolates from
+/// the fluid (dummy) (no storage, no traffic; see [`Particles::dropped`]).
 pub fn dropped_fields(s: &Scene) -> Fields {
     let solid = if s.solids.is_empty() {
         Fields::SOLID
@@ -81,7 +82,14 @@ pub fn dropped_fields(s: &Scene) -> Fields {
     } else {
         Fields::NONE
     };
-    solid.or(lap).or(level).or(h)
+    // v_w is written by the walls that extrapolate from the fluid (dummy) and read only where
+    // a neighbour is one of their particles
+    let vw = if s.walls.iter().any(|w| crate::boundary::updates(w.method)) {
+        Fields::NONE
+    } else {
+        Fields::VW
+    };
+    solid.or(lap).or(level).or(h).or(vw)
 }
 
 /// Build every particle of a scene (sorted by id): [`SiteSource::build`] over the whole
