@@ -286,9 +286,11 @@ pub struct Balance {
 #[serde(rename_all = "snake_case")]
 pub enum LoadKind {
     /// Every particle weighs 1.
-    #[default]
     Particles,
-    /// A particle weighs 1 + its neighbour count (the cost of its force loop).
+    /// A particle weighs 1 + its neighbour count (the cost of its force loop): the default,
+    /// since a wall particle costs a fraction of a fluid one (2 local ranks on the 3D bench:
+    /// 0.9 × the step time of `particles`, BENCHMARKS.md).
+    #[default]
     Pairs,
 }
 
@@ -304,7 +306,7 @@ impl Default for Balance {
         Balance {
             check_every: default_check_every(),
             threshold: default_threshold(),
-            load: LoadKind::Particles,
+            load: LoadKind::Pairs,
             weights: Vec::new(),
         }
     }
