@@ -43,82 +43,8 @@ pub fn run(comm: &dyn Comm) -> Result<()> {
     let (me, p) = (comm.rank(), comm.size());
     expect(comm, me < p, || format!("rank {me} not below size {p}"))?;
 
-    // All-to-all exchange, self included, counted under Halo; check the log's bytes.
-    let before = comm.traffic();
-    let old = comm.set_phase(Phase::Halo);
-    for round in 0..2 {
-        let sends: Vec<_> = (0..p)
-            .map(|d| (d, payload(me, d, round, length(me, d, round))))
-            .collect();
-        let from: Vec<usize> = (0..p).rev().collect();
-        let got = comm.exchange(sends, &from, 10 + round as Tag)?;
-        for (&s, b) in from.iter().zip(&got) {
-            expect(comm, *b == payload(s, me, round, length(s, me, round)), || {
-                format!("all-to-all round {round}: wrong payload from rank {s}")
-            })?;
-        }
-        let after = comm.traffic();
-        for d in 0..p {
-            let count = |log: &super::TrafficLog| {
-                log.total()
-                    .iter()
-                    .filter(|e| e.phase == Phase::Halo && e.dst == d)
-                    .fold((0, 0), |(b, n), e| (b + e.bytes, n + e.messages))
-            };
-            let (b0, n0) = count(&before);
-            let (b1, n1) = count(&after);
-            let want = (0..=round).map(|r| length(me, d, r) as u64).sum::<u64>();
-            expect(comm, b1 - b0 == want && n1 - n0 == round as u64 + 1, || {
-                format!(
-                    "traffic to rank {d}: logged {} bytes in {} messages, sent {want} in {}",
-                    b1 - b0,
-                    n1 - n0,
-                    round + 1
-                )
-            })?;
-        }
-    }
-    comm.set_phase(old);
-
-    // Sparse exchange: to me+1 and me+3 (mod p), in that order; with few ranks both may be the
-    // same peer (or this rank), so arrival order within one source is checked too.
-    let offsets = [1usize, 3];
-    let sends: Vec<_> = offsets
-        .iter()
-        .map(|&o| {
-            let d = (me + o) % p;
-            (d, payload(me, d, o, length(me, d, o)))
-        })
-        .collect();
-    let from: Vec<usize> = offsets.iter().map(|&o| (me + p * 4 - o) % p).collect();
-    let got = comm.exchange(sends, &from, 20)?;
-    for ((&o, &s), b) in offsets.iter().zip(&from).zip(&got) {
-        expect(comm, *b == payload(s, me, o, length(s, me, o)), || {
-            format!("sparse exchange: wrong payload from rank {s} (offset {o})")
-        })?;
-    }
-
-    // The same sparse exchange split in two (an overlapped halo refresh): started, a
-    // collective in between, then finished; the messages are those of the whole exchange.
-    let sends: Vec<_> = offsets
-        .iter()
-        .map(|&o| {
-            let d = (me + o) % p;
-            (d, payload(me, d, o + 7, length(me, d, o)))
-        })
-        .collect();
-    let pending = comm.start_exchange(sends, &from, 21)?;
-    let mut one = [1u64];
-    comm.all_reduce_sum_u64(&mut one)?;
-    let got = comm.finish_exchange(pending)?;
-    expect(comm, one[0] == p as u64, || {
-        "sum during a split exchange".to_string()
-    })?;
-    for ((&o, &s), b) in offsets.iter().zip(&from).zip(&got) {
-        expect(comm, *b == payload(s, me, o + 7, length(s, me, o)), || {
-            format!("split exchange: wrong payload from rank {s} (offset {o})")
-        })?;
-    }
+    all_to_all(comm)?;
+    sparse_exchanges(comm)?;
 
     // Ordering: interleave two tags to the next rank, receive all of one tag first.
     let next = (me + 1) % p;
@@ -207,6 +133,94 @@ pub fn run(comm: &dyn Comm) -> Result<()> {
     }
     empty_contributions(comm)?;
     comm.barrier()?;
+    Ok(())
+}
+
+/// An all-to-all exchange, self included, counted under Halo; the log's bytes checked.
+fn all_to_all(comm: &dyn Comm) -> Result<()> {
+    let (me, p) = (comm.rank(), comm.size());
+    // All-to-all exchange, self included, counted under Halo; check the log's bytes.
+    let before = comm.traffic();
+    let old = comm.set_phase(Phase::Halo);
+    for round in 0..2 {
+        let sends: Vec<_> = (0..p)
+            .map(|d| (d, payload(me, d, round, length(me, d, round))))
+            .collect();
+        let from: Vec<usize> = (0..p).rev().collect();
+        let got = comm.exchange(sends, &from, 10 + round as Tag)?;
+        for (&s, b) in from.iter().zip(&got) {
+            expect(comm, *b == payload(s, me, round, length(s, me, round)), || {
+                format!("all-to-all round {round}: wrong payload from rank {s}")
+            })?;
+        }
+        let after = comm.traffic();
+        for d in 0..p {
+            let count = |log: &super::TrafficLog| {
+                log.total()
+                    .iter()
+                    .filter(|e| e.phase == Phase::Halo && e.dst == d)
+                    .fold((0, 0), |(b, n), e| (b + e.bytes, n + e.messages))
+            };
+            let (b0, n0) = count(&before);
+            let (b1, n1) = count(&after);
+            let want = (0..=round).map(|r| length(me, d, r) as u64).sum::<u64>();
+            expect(comm, b1 - b0 == want && n1 - n0 == round as u64 + 1, || {
+                format!(
+                    "traffic to rank {d}: logged {} bytes in {} messages, sent {want} in {}",
+                    b1 - b0,
+                    n1 - n0,
+                    round + 1
+                )
+            })?;
+        }
+    }
+    comm.set_phase(old);
+    Ok(())
+}
+
+/// A sparse exchange to me+1 and me+3 (mod p), whole and split in two; with few ranks both may
+/// be the same peer (or this rank), so arrival order within one source is checked too.
+fn sparse_exchanges(comm: &dyn Comm) -> Result<()> {
+    let (me, p) = (comm.rank(), comm.size());
+    // Sparse exchange: to me+1 and me+3 (mod p), in that order; with few ranks both may be the
+    // same peer (or this rank), so arrival order within one source is checked too.
+    let offsets = [1usize, 3];
+    let sends: Vec<_> = offsets
+        .iter()
+        .map(|&o| {
+            let d = (me + o) % p;
+            (d, payload(me, d, o, length(me, d, o)))
+        })
+        .collect();
+    let from: Vec<usize> = offsets.iter().map(|&o| (me + p * 4 - o) % p).collect();
+    let got = comm.exchange(sends, &from, 20)?;
+    for ((&o, &s), b) in offsets.iter().zip(&from).zip(&got) {
+        expect(comm, *b == payload(s, me, o, length(s, me, o)), || {
+            format!("sparse exchange: wrong payload from rank {s} (offset {o})")
+        })?;
+    }
+
+    // The same sparse exchange split in two (an overlapped halo refresh): started, a
+    // collective in between, then finished; the messages are those of the whole exchange.
+    let sends: Vec<_> = offsets
+        .iter()
+        .map(|&o| {
+            let d = (me + o) % p;
+            (d, payload(me, d, o + 7, length(me, d, o)))
+        })
+        .collect();
+    let pending = comm.start_exchange(sends, &from, 21)?;
+    let mut one = [1u64];
+    comm.all_reduce_sum_u64(&mut one)?;
+    let got = comm.finish_exchange(pending)?;
+    expect(comm, one[0] == p as u64, || {
+        "sum during a split exchange".to_string()
+    })?;
+    for ((&o, &s), b) in offsets.iter().zip(&from).zip(&got) {
+        expect(comm, *b == payload(s, me, o + 7, length(s, me, o)), || {
+            format!("split exchange: wrong payload from rank {s} (offset {o})")
+        })?;
+    }
     Ok(())
 }
 
