@@ -21,8 +21,11 @@ pub use half::{HalfPairs, HalfView, Window};
 /// The global cell grid.
 #[derive(Debug, Clone)]
 pub struct CellGrid<const D: usize> {
-    /// Corner of the margin cell (domain min − one edge) (m).
+    /// Corner of the first margin cell next to the domain (domain min − one edge) (m); a
+    /// deeper margin ([`CellGrid::with_reach`]) adds `extra` cells before it.
     pub origin: Vector<D>,
+    /// Margin cells beyond the first on each side (0 for [`CellGrid::new`]).
+    extra: [usize; D],
     /// Cell edge per axis (m), ≥ the support radius.
     pub edge: Vector<D>,
     inv_edge: Vector<D>,
@@ -31,22 +34,39 @@ pub struct CellGrid<const D: usize> {
 }
 
 impl<const D: usize> CellGrid<D> {
-    /// Grid over `[min, max)` with cells no smaller than `support`.
+    /// Grid over `[min, max)` with cells no smaller than `support` and one margin cell on
+    /// each side.
     pub fn new(min: &Vector<D>, max: &Vector<D>, support: f64) -> Self {
+        Self::with_reach(min, max, support, support)
+    }
+
+    /// Grid over `[min, max)` with cells no smaller than `support` and margins of whole cells
+    /// at least `reach` (m) deep on each side, so that a ghost within `reach` of the domain
+    /// has a cell (a ghost set with a skin reaches support + skin). The margins only add
+    /// cells around the domain: the cells of [`CellGrid::new`] keep their order.
+    pub fn with_reach(min: &Vector<D>, max: &Vector<D>, support: f64, reach: f64) -> Self {
         let mut dims = [0usize; D];
         let mut edge = Vector::zeros();
+        let mut extra = [0usize; D];
         for a in 0..D {
             let len = max[a] - min[a];
             let n = ((len / support).floor() as usize).max(1);
             edge[a] = len / n as f64;
-            dims[a] = n + 2;
+            extra[a] = ((reach / edge[a]).ceil() as usize).max(1) - 1;
+            dims[a] = n + 2 + 2 * extra[a];
         }
         CellGrid {
             origin: min - edge,
+            extra,
             edge,
             inv_edge: edge.map(|e| 1.0 / e),
             dims,
         }
+    }
+
+    /// Margin cells beyond the first on each side of axis `a` ([`CellGrid::with_reach`]).
+    pub fn extra_margin(&self, a: usize) -> usize {
+        self.extra[a]
     }
 
     /// Total number of cells.
@@ -64,7 +84,9 @@ impl<const D: usize> CellGrid<D> {
     pub fn coords(&self, x: &Vector<D>) -> Option<[usize; D]> {
         let mut c = [0usize; D];
         for a in 0..D {
-            let f = ((x[a] - self.origin[a]) * self.inv_edge[a]).floor();
+            // offset from the first margin cell, so a deeper margin assigns every point the
+            // cell it has without one (same rounding, same order)
+            let f = ((x[a] - self.origin[a]) * self.inv_edge[a]).floor() + self.extra[a] as f64;
             if !(f >= 0.0 && (f as usize) < self.dims[a]) {
                 return None;
             }

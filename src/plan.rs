@@ -98,7 +98,9 @@ fn plan_dim<const D: usize>(
     let bounds = (&space.min, &space.max);
     let decomp = balanced_blocks(&cloud, bounds, ranks, src.id_bound(), &serial)?;
     let blocks = Ranks::new(decomp.clone(), (0..ranks).collect());
-    let block_counts = ghost_counts(&cloud, &space, &blocks, &blocks.boxes(), support);
+    // the ghosts of the set-up step reach support + skin (sim::skin)
+    let reach = support * (1.0 + scene.performance.skin);
+    let block_counts = ghost_counts(&cloud, &space, &blocks, &blocks.boxes(), reach);
     let volumes = if methods.iter().any(|m| *m != Placement::RankOrder) {
         halo_volumes(&cloud, &decomp, support)
     } else {

@@ -463,3 +463,17 @@ fn renormalised_viscous_operator_needs_a_laminar_viscosity() {
         &["laminar_viscosity", "remove viscous_operator"],
     );
 }
+
+/// A ghost skin outside 0–1 of the support is an input error naming the key, its line and a
+/// valid value.
+#[test]
+fn skin_beyond_the_support_is_refused() {
+    let text = format!("{}\n[performance]\nskin = 1.5\n", shipped());
+    run_bad_scene(
+        "skin",
+        &text,
+        "performance.skin",
+        "skin = 1.5",
+        &["fraction of the kernel support", "got 1.5", "e.g. skin ="],
+    );
+}

@@ -550,3 +550,156 @@ fn the_interior_has_no_ghost_neighbour() {
         assert!(inner > 0 && inner < all, "{path}: interior {inner} of {all}");
     }
 }
+
+/// The ghost set's skin (`performance.skin`, `sim::skin`) changes no bit: ghosts kept between
+/// builds, migration deferred to the builds, the same `timeseries.csv` and `final.csv` as a
+/// build every step — fluids with dummy walls (gather and pairs, 2D and 3D, the list-free
+/// scan), a periodic channel with shifting and the renormalised viscous term, mirror walls, a
+/// moving lid, particles of several sizes, an elastic plate — on 1, 3 and 8 ranks × 1–2
+/// threads. The skin is used: fewer builds than steps, and a build every step without it.
+#[test]
+fn the_skin_changes_no_bit() {
+    let cases: [(&str, &[&str]); 8] = [
+        ("inputs/dam_break_2d.toml", &["time.t_end=0.05"]),
+        (
+            "inputs/dam_break_2d.toml",
+            &[
+                "time.t_end=0.05",
+                "performance.interactions=\"pairs\"",
+                "performance.neighbours=\"cells\"",
+            ],
+        ),
+        (
+            "inputs/poiseuille_2d.toml",
+            &[
+                "time.t_end=0.04",
+                "reference.times=[0.04]",
+                "physics.viscous_operator=\"renormalised\"",
+                "physics.shifting=\"delta_plus\"",
+            ],
+        ),
+        (
+            "inputs/couette_2d_mirror.toml",
+            &["time.t_end=0.04", "reference.times=[0.04]"],
+        ),
+        ("inputs/cavity_re100.toml", &["time.max_steps=100"]),
+        (
+            "tests/data/dam_break_3d_small.toml",
+            &["time.t_end=0.03", "performance.interactions=\"pairs\""],
+        ),
+        ("inputs/hydrostatic_2d_refined.toml", &["time.t_end=0.04"]),
+        ("inputs/oscillating_plate.toml", &["time.t_end=0.02"]),
+    ];
+    for (k, (path, sets)) in cases.iter().enumerate() {
+        let with = |skin: &str| {
+            let mut s = sets.to_vec();
+            let skin = format!("performance.skin={skin}");
+            s.extend(["output.format=\"none\"", skin.as_str()]);
+            scene(path, &s)
+        };
+        let (base, s0) = run(&with("0"), 3, 1, &format!("sk{k}-none"));
+        let steps = s0["steps"].as_u64().unwrap();
+        assert_eq!(
+            s0["ghost_builds"].as_u64(),
+            Some(steps + 1),
+            "{path}: no skin builds every step"
+        );
+        let (ts, fin) = (read(&base, "timeseries.csv"), read(&base, "final.csv"));
+        let skinned = with("0.3");
+        for (ranks, threads) in [(1, 1), (3, 1), (3, 2), (8, 1)] {
+            let (dir, s) = run(&skinned, ranks, threads, &format!("sk{k}-r{ranks}t{threads}"));
+            let same = read(&dir, "timeseries.csv") == ts && read(&dir, "final.csv") == fin;
+            assert!(
+                same,
+                "{path} {sets:?}: the skin changed the bits on {ranks} ranks × {threads} threads"
+            );
+            let builds = s["ghost_builds"].as_u64().unwrap();
+            assert!(
+                builds < steps / 2,
+                "{path}: {builds} ghost builds in {steps} steps with a skin"
+            );
+        }
+    }
+}
+
+/// Ghosts kept between builds give every particle, at every step, the neighbours a fresh
+/// build gives it: the same keys in the same order at the same positions (bitwise) with the
+/// same kind, mass, h and body (their other fields: `the_skin_changes_no_bit`), on 3 ranks of a dam break (particles migrate), 2 of a periodic
+/// channel (particles wrap) and 4 of a 3D dam break, with a skin of the whole support (so the
+/// ghosts are kept for several steps) against none.
+#[test]
+fn kept_ghosts_give_every_particle_the_neighbours_of_a_fresh_build() {
+    type Lists = BTreeMap<u64, Vec<String>>;
+    fn on_rank<const D: usize>(
+        scene: &Scene,
+        steps: usize,
+        comm: &dyn Comm,
+    ) -> hsph::error::Result<(Vec<Lists>, u64, u64)> {
+        let mut sim = Simulation::<D>::new(scene, comm)?;
+        let mut out = Vec::new();
+        for _ in 0..steps {
+            sim.advance(comm)?;
+            let lists: Lists = (0..sim.p.n_owned)
+                .map(|i| {
+                    // what a list is made of: who the neighbour is and where (an owned neighbour's
+                    // other fields move on after the passes, a ghost's do not)
+                    let nb = sim.nl.of(i).iter().map(|&j| {
+                        let r = sim.p.record(j as usize);
+                        format!("{} {:?} {:?} {} {} {}", r.key, r.kind, r.x, r.mass, r.h, r.body)
+                    });
+                    (sim.p.id[i], nb.collect())
+                })
+                .collect();
+            out.push(lists);
+        }
+        Ok((out, sim.ghost_builds(), sim.balance.migrated))
+    }
+    let cases = [
+        ("inputs/dam_break_2d.toml", 3, 60),
+        ("tests/data/periodic_channel_2d.toml", 2, 60),
+        ("tests/data/dam_break_3d_small.toml", 4, 25),
+    ];
+    for (path, ranks, steps) in cases {
+        let lists = |skin: &str| {
+            let s = scene(path, &[&format!("performance.skin={skin}")]);
+            let per_rank = run_local(ranks, 1, |comm| match s.dimension {
+                2 => on_rank::<2>(&s, steps, comm),
+                _ => on_rank::<3>(&s, steps, comm),
+            })
+            .unwrap();
+            let (builds, migrated) = (per_rank[0].1, per_rank.iter().map(|r| r.2).sum::<u64>());
+            let mut at_step: Vec<Lists> = vec![Lists::new(); steps];
+            for (rank_lists, _, _) in per_rank {
+                for (k, l) in rank_lists.into_iter().enumerate() {
+                    for (id, nb) in l {
+                        assert!(
+                            at_step[k].insert(id, nb).is_none(),
+                            "{path}: particle {id} owned twice"
+                        );
+                    }
+                }
+            }
+            (at_step, builds, migrated)
+        };
+        let (fresh, builds0, migrated) = lists("0");
+        let (kept, builds, _) = lists("1");
+        assert_eq!(builds0, steps as u64 + 1, "{path}");
+        assert!(
+            builds < steps as u64 / 3,
+            "{path}: {builds} builds in {steps} steps"
+        );
+        if ranks > 1 && !path.contains("periodic") {
+            assert!(migrated > 0, "{path}: nothing migrated");
+        }
+        for (k, (a, b)) in fresh.iter().zip(&kept).enumerate() {
+            assert_eq!(a.len(), b.len(), "{path} step {}: particle count", k + 1);
+            for (id, nb) in a {
+                assert!(
+                    b.get(id) == Some(nb),
+                    "{path} step {}: neighbours of particle {id} differ",
+                    k + 1
+                );
+            }
+        }
+    }
+}

@@ -322,18 +322,25 @@ impl<'a, const D: usize> HalfView<'a, D> {
         let (nx, ny) = (self.grid.dims[0], self.grid.dims[1]);
         // first slot of row (x, y); y = ny is the next plane's first row
         let row = |x: usize, y: usize| self.half.rows[x * ny + y];
-        let blocks = ny.div_ceil(BLOCK);
+        // planes and blocks are counted from the first margin cell, so a deeper margin
+        // (`CellGrid::with_reach`) runs every pair in the same phase: the same bits
+        let [ex, ey] = [0, 1].map(|a| self.grid.extra_margin(a));
+        // blocks b = first..last cover rows ey + b·B … ey + (b+1)·B − 1, clipped to the grid
+        let first = -(ey.div_ceil(BLOCK) as i64);
+        let last = ((ny - 1 - ey) / BLOCK) as i64;
         let mut spans = Vec::new();
         for phase in 0..4 {
             let (px, py) = (phase & 1, phase >> 1);
             let mut windows = Vec::new();
             let mut rest: &mut [A] = acc;
             let mut at = 0usize;
-            for x in (px..nx).step_by(2) {
+            for x in (0..nx).filter(|x| (x + ex) % 2 == px) {
                 // (homes, rows written in plane x, rows written in plane x + 1)
                 spans.clear();
-                for b in (py..blocks).step_by(2) {
-                    let (y0, y1) = (b * BLOCK, ((b + 1) * BLOCK).min(ny));
+                for b in (first..=last).filter(|b| b.rem_euclid(2) as usize == py) {
+                    let start = ey as i64 + b * BLOCK as i64;
+                    let y0 = start.max(0) as usize;
+                    let y1 = ((start + BLOCK as i64) as usize).min(ny);
                     let homes = row(x, y0)..row(x, y1);
                     if homes.is_empty() {
                         continue;

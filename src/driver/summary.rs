@@ -200,6 +200,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "imbalance": sim.balance.imbalance,
             "migrations": r.migrated,
             "migrations_per_step": r.migrated as f64 / steps.max(1) as f64,
+
             "removed_particles": self.removed,
             "removed_fraction": self.removed as f64 / self.n_fluid.max(1) as f64,
             "outflow": self.scene.domain.outflow,
@@ -211,6 +212,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "timers": timers,
             "errors": errors,
         });
+        // ghost builds: the same on every rank (the rule is all-reduced), set-up's included
+        summary["ghost_builds"] = json!(sim.ghost_builds());
+        summary["skin"] = json!(self.scene.performance.skin);
         if !self.tracker.measured.is_empty() {
             summary["measured"] = json!(self.tracker.measured);
         }

@@ -312,6 +312,10 @@ impl Fields {
         .or(Fields::X)
         .or(Fields::MASS)
         .or(Fields::H);
+
+    /// The part of [`Fields::IDENTITY`] no step changes (all but the position): a ghost kept
+    /// between builds keeps these and is refreshed with the rest of what a build sends.
+    pub const CONSTANT: Fields = Fields::IDENTITY.without(Fields::X);
 }
 
 impl<const D: usize> Particles<D> {

@@ -166,7 +166,7 @@ impl Default for Limits {
 }
 
 /// How the run computes, not what: `[performance]` (issue 16).
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Performance {
     /// How the fluid pair loops visit pairs: `gather` (default) or `pairs`
@@ -180,6 +180,32 @@ pub struct Performance {
     /// ([`Overlap`]). The same bits either way.
     #[serde(default)]
     pub overlap: Overlap,
+    /// Verlet skin of the ghost set, as a fraction of the kernel support (dimensionless,
+    /// 0 ≤ skin ≤ 1; default [`DEFAULT_SKIN`]): ghosts are sent to every rank within
+    /// support·(1 + skin) and kept, their fields refreshed, until some particle has moved more
+    /// than half the skin since they were built (or one wrapped, left, or the planes moved);
+    /// migration waits for that rebuild too. 0 rebuilds every step. The same bits either way:
+    /// a neighbour is listed only within the support, in global cell and key order.
+    #[serde(default = "default_skin")]
+    pub skin: f64,
+}
+
+/// The default Verlet skin of the ghost set (fraction of the kernel support), see BENCHMARKS.md.
+pub const DEFAULT_SKIN: f64 = 0.0;
+
+fn default_skin() -> f64 {
+    DEFAULT_SKIN
+}
+
+impl Default for Performance {
+    fn default() -> Self {
+        Performance {
+            interactions: Interactions::default(),
+            neighbours: NeighbourMode::default(),
+            overlap: Overlap::default(),
+            skin: DEFAULT_SKIN,
+        }
+    }
 }
 
 /// Whether a pass computes the interior while its ghost fields are in flight.

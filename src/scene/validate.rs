@@ -159,6 +159,18 @@ pub fn validate(s: &mut Scene) -> Result<()> {
             format!("must be a positive relative speed, got {w}"),
         );
     }
+    let skin = s.performance.skin;
+    if !(0.0..=1.0).contains(&skin) {
+        return err(
+            "performance.skin",
+            format!(
+                "must be a fraction of the kernel support from 0 (rebuild the ghosts every step) \
+                 to 1, got {}; e.g. skin = {}",
+                num(skin),
+                DEFAULT_SKIN.max(0.2)
+            ),
+        );
+    }
     validate_probes(s)?;
     validate_checkpoint(&s.checkpoint)?;
     validate_reference(s)?;

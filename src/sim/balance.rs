@@ -74,21 +74,28 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Every `check_every` steps, check the load balance and, above the threshold, move the
-    /// cut planes (starting from the current ones); then migrate every particle that left this
-    /// rank's box, once.
-    pub(super) fn migrate_and_balance(&mut self, comm: &dyn Comm) -> Result<()> {
+    /// cut planes (starting from the current ones). True if the planes moved (the particles
+    /// must then migrate and the ghosts be built again).
+    pub(super) fn check_balance(&mut self, comm: &dyn Comm) -> Result<bool> {
         let b = &self.scene.balance;
-        if self.ranks > 1 && b.check_every > 0 && self.step.is_multiple_of(b.check_every) {
-            let t0 = Instant::now();
-            self.balance.checks += 1;
-            // loads are taken before migration, while the neighbour lists match the particles
-            let imb = self.load_imbalance(comm)?;
-            self.balance.imbalance = imb;
-            if imb > b.threshold {
-                self.rebalance(comm)?;
-            }
-            self.timers.add(Timer::Balance, t0);
+        if !(self.ranks > 1 && b.check_every > 0 && self.step.is_multiple_of(b.check_every)) {
+            return Ok(false);
         }
+        let t0 = Instant::now();
+        self.balance.checks += 1;
+        // loads are taken before migration, while the neighbour lists match the particles
+        let imb = self.load_imbalance(comm)?;
+        self.balance.imbalance = imb;
+        let moved = imb > b.threshold;
+        if moved {
+            self.rebalance(comm)?;
+        }
+        self.timers.add(Timer::Balance, t0);
+        Ok(moved)
+    }
+
+    /// Migrate every particle that left this rank's box, once (the ghosts are dropped).
+    pub(super) fn migrate(&mut self, comm: &dyn Comm) -> Result<()> {
         let t0 = Instant::now();
         self.p.truncate_ghosts();
         self.balance.migrated += migrate(&mut self.p, &self.map, &self.boxes, comm)? as u64;

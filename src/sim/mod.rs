@@ -14,6 +14,7 @@ pub mod balance;
 pub mod decompose;
 pub mod observe;
 pub mod outflow;
+pub mod skin;
 pub mod step;
 pub mod timers;
 
@@ -97,6 +98,10 @@ pub struct Simulation<const D: usize> {
     interior: Vec<bool>,
     /// Scratch of [`CellList::mark_interior`], one flag per cell.
     near: Vec<bool>,
+    /// The ghost set's Verlet skin: when the ghosts are built again ([`skin::Skin`]).
+    skin: skin::Skin<D>,
+    /// Step of the last reordering of the owned particles into cell order.
+    reordered_at: Option<u64>,
     /// Scratch of the solid passes (empty without solids).
     solid: crate::physics::solid::dynamics::SolidScratch<D>,
     /// Accumulators of the pair-mode passes (empty in gather mode).
@@ -225,7 +230,10 @@ impl<const D: usize> Simulation<D> {
         let pair_mode = scene.performance.interactions == crate::scene::Interactions::Pairs;
         crate::physics::passes::check_pair_mode(&model, pair_mode)?;
         let space = image_space::<D>(scene);
-        let grid = CellGrid::new(&space.min, &space.max, model.kernel.support);
+        let support = model.kernel.support;
+        let skin = skin::Skin::new(scene.performance.skin * support);
+        // a kept ghost lies within support + w of a box and moves w/2 before a build
+        let grid = CellGrid::with_reach(&space.min, &space.max, support, support + 2.0 * skin.width);
         let boxes = map.boxes();
         let nl = if scene.performance.neighbours == crate::scene::NeighbourMode::Cells {
             NeighbourList::lean()
@@ -265,6 +273,8 @@ impl<const D: usize> Simulation<D> {
             overlap: scene.performance.overlap == crate::scene::Overlap::On,
             interior: Vec::new(),
             near: Vec::new(),
+            skin,
+            reordered_at: None,
             solid: Default::default(),
             pair_scratch: Default::default(),
             removed: Vec::new(),
@@ -277,6 +287,11 @@ impl<const D: usize> Simulation<D> {
     /// the ghosts' fields travel (empty without overlap or without ghosts).
     pub fn interior(&self) -> &[bool] {
         &self.interior
+    }
+
+    /// Ghost builds so far, set-up included (every step without a skin).
+    pub fn ghost_builds(&self) -> u64 {
+        self.skin.builds
     }
 
     /// Number of owned particles (fluid and wall).

@@ -4,8 +4,9 @@
 //!   x_{n+½} = x_{n+1} − ½dt v_{n+½} in the kinematic term (`fluid::continuity`).
 //! Evaluating dρ/dt and dv/dt from one state instead (one fused pass) makes the acoustic
 //! (ρ, v) coupling grow by 1 + (ω dt)²/4 per step, which is why continuity and momentum are
-//! separate passes. Between the drift and the passes: migration (and, every `check_every`
-//! steps, a balance check), then the ghost build and neighbour lists. Before each pass the
+//! separate passes. Between the drift and the passes: every `check_every` steps a balance
+//! check; then, when the ghosts' skin has expired ([`super::skin`]), migration and the ghost
+//! build, else a refresh of the kept ghosts; then the neighbour lists. Before each pass the
 //! ghosts get exactly the fields it reads that are stale ([`crate::physics::passes`]).
 
 use super::timers::Timer;
@@ -43,8 +44,13 @@ impl<const D: usize> Simulation<D> {
     pub fn advance(&mut self, comm: &dyn Comm) -> Result<()> {
         let dt = self.dt;
         self.kick_drift(dt)?;
-        self.migrate_and_balance(comm)?;
-        self.rebuild_neighbours(comm)?;
+        let planes_moved = self.check_balance(comm)?;
+        if self.ghosts_expired(planes_moved, comm)? {
+            self.migrate(comm)?;
+            self.rebuild_neighbours(comm)?;
+        } else {
+            self.refresh_kept_ghosts(comm)?;
+        }
         self.run_passes(dt, comm, None)?;
         let t0 = Instant::now();
         self.apply_outflow(true);
@@ -175,11 +181,32 @@ impl<const D: usize> Simulation<D> {
         passes::update_pressure(&mut self.p, &self.model.materials);
     }
 
+    /// True if this step builds the ghosts again (and migrates): see [`super::skin`]; always
+    /// after the cut planes moved.
+    fn ghosts_expired(&mut self, planes_moved: bool, comm: &dyn Comm) -> Result<bool> {
+        let t0 = Instant::now();
+        let r = self.skin.expired(&self.p, planes_moved, comm);
+        self.timers.add(Timer::Halo, t0);
+        r
+    }
+
+    /// The ghosts kept since the last build get what a build sends (all but
+    /// [`Fields::CONSTANT`]) from the same owners, in the same order; then cells and lists.
+    fn refresh_kept_ghosts(&mut self, comm: &dyn Comm) -> Result<()> {
+        let sent = self.build_fields;
+        self.refresh(sent.without(Fields::CONSTANT).without(self.p.dropped), comm)?;
+        self.fresh.built(sent);
+        let held = self.p.len();
+        self.balance.note_held(held, held - self.p.n_owned);
+        self.list_neighbours()
+    }
+
     /// Ghosts (positions and every field), binning and neighbour lists at the current state.
     pub(super) fn rebuild_neighbours(&mut self, comm: &dyn Comm) -> Result<()> {
         let support = self.model.kernel.support;
         self.p.truncate_ghosts();
-        if self.step.is_multiple_of(REORDER_EVERY) {
+        if self.reordered_at.is_none_or(|s| self.step >= s + REORDER_EVERY) {
+            self.reordered_at = Some(self.step);
             // owned particles in cell order (then key order) for memory locality
             let t0 = Instant::now();
             let grid = &self.grid;
@@ -196,14 +223,22 @@ impl<const D: usize> Simulation<D> {
             &self.space,
             &self.map,
             &self.boxes,
-            support,
+            support + self.skin.width,
             sent,
             comm,
         )?;
         self.fresh.built(sent);
+        self.skin.built(&self.p);
         let held = self.p.len();
         self.balance.note_held(held, held - self.p.n_owned);
         self.timers.add(Timer::Halo, t0);
+        self.list_neighbours()
+    }
+
+    /// Bin owned particles and ghosts, mark the interior (with overlap) and build the
+    /// neighbour lists: within the support, whatever the ghosts' reach.
+    fn list_neighbours(&mut self) -> Result<()> {
+        let support = self.model.kernel.support;
         let t0 = Instant::now();
         self.bin()?;
         if self.overlap && !self.halo.is_empty() {
