@@ -181,7 +181,7 @@ pub struct Performance {
     #[serde(default)]
     pub overlap: Overlap,
     /// Verlet skin of the ghost set, as a fraction of the kernel support (dimensionless,
-    /// 0 ≤ skin ≤ 1; default [`DEFAULT_SKIN`]): ghosts are sent to every rank within
+    /// 0 ≤ skin ≤ 1; default [`DEFAULT_SKIN`] = 0.1): ghosts are sent to every rank within
     /// support·(1 + skin) and kept, their fields refreshed, until some particle has moved more
     /// than half the skin since they were built (or one wrapped, left, or the planes moved);
     /// migration waits for that rebuild too. 0 rebuilds every step. The same bits either way:
@@ -191,7 +191,7 @@ pub struct Performance {
 }
 
 /// The default Verlet skin of the ghost set (fraction of the kernel support), see BENCHMARKS.md.
-pub const DEFAULT_SKIN: f64 = 0.0;
+pub const DEFAULT_SKIN: f64 = 0.1;
 
 fn default_skin() -> f64 {
     DEFAULT_SKIN

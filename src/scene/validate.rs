@@ -167,7 +167,7 @@ pub fn validate(s: &mut Scene) -> Result<()> {
                 "must be a fraction of the kernel support from 0 (rebuild the ghosts every step) \
                  to 1, got {}; e.g. skin = {}",
                 num(skin),
-                DEFAULT_SKIN.max(0.2)
+                DEFAULT_SKIN
             ),
         );
     }
