@@ -185,7 +185,8 @@ pub struct Performance {
     /// support·(1 + skin) and kept, their fields refreshed, until some particle has moved more
     /// than half the skin since they were built (or one wrapped, left, or the planes moved);
     /// migration waits for that rebuild too. 0 rebuilds every step. The same bits either way:
-    /// a neighbour is listed only within the support, in global cell and key order.
+    /// a neighbour is listed only within the support, in global cell and key order. One rank
+    /// without periodic axes or mirror planes has no ghost and keeps no skin.
     #[serde(default = "default_skin")]
     pub skin: f64,
 }

@@ -231,7 +231,14 @@ impl<const D: usize> Simulation<D> {
         crate::physics::passes::check_pair_mode(&model, pair_mode)?;
         let space = image_space::<D>(scene);
         let support = model.kernel.support;
-        let skin = skin::Skin::new(scene.performance.skin * support);
+        // one rank without periodic axes or mirror planes has no ghost to keep: no skin, and
+        // no build positions stored
+        let ghostless = ranks == 1 && !space.periodic.iter().any(|&p| p) && space.planes.is_empty();
+        let skin = skin::Skin::new(if ghostless {
+            0.0
+        } else {
+            scene.performance.skin * support
+        });
         // a kept ghost lies within support + w of a box and moves w/2 before a build
         let grid = CellGrid::with_reach(&space.min, &space.max, support, support + 2.0 * skin.width);
         let boxes = map.boxes();

@@ -11,7 +11,8 @@
 //! moved force a build. Neighbour lists are still built every step from the cells, taking a
 //! neighbour only within the support in global cell and key order, so the extra ghosts change
 //! no sum: **the bits do not depend on the skin** (`tests/parallel.rs`), and a restart, which
-//! builds at its first step, continues the uninterrupted bits.
+//! builds at its first step, continues the uninterrupted bits. One rank without periodic axes
+//! or mirror planes has no ghost: it gets no skin (and stores no build positions).
 
 use crate::comm::{Comm, Phase};
 use crate::error::Result;
