@@ -115,7 +115,6 @@ fn plan_dim<const D: usize>(
             a
         },
     );
-    let n: u64 = block_owned.iter().sum();
     let mut rows = Vec::new();
     for &method in methods {
         let (block_to_rank, ran) = place_reporting(&decomp, topology, method, &volumes);
@@ -129,54 +128,72 @@ fn plan_dim<const D: usize>(
         for (b, c) in block_owned.iter().enumerate() {
             owned[block_to_rank[b]] = *c;
         }
-        let mean = n as f64 / ranks as f64;
-        let imbalance = *owned.iter().max().unwrap_or(&0) as f64 / mean.max(1e-300);
-        let (mut intra, mut inter, mut remote, mut messages) = (0u64, 0u64, 0u64, 0u64);
-        let nodes = topology.nodes();
-        let mut node_pair = vec![0u64; nodes * nodes];
-        let mut node_inter = vec![0u64; nodes];
-        let bytes: Vec<u64> = counts.iter().map(|c| c * per_ghost).collect();
-        for s in 0..ranks {
-            for d in 0..ranks {
-                let c = counts[s * ranks + d];
-                if c == 0 {
-                    continue;
-                }
-                messages += exchanges;
-                if s != d {
-                    remote += c;
-                }
-                let (ns, nd) = (topology.node_of(s), topology.node_of(d));
-                let b = c * per_ghost;
-                if ns == nd {
-                    intra += b;
-                } else {
-                    inter += b;
-                    node_pair[ns.min(nd) * nodes + ns.max(nd)] += b;
-                    node_inter[ns] += b;
-                    node_inter[nd] += b;
-                }
-            }
-        }
-        rows.push(PlanRow {
-            placement: method,
-            ran,
-            imbalance,
-            ghost_fraction: remote as f64 / n.max(1) as f64,
-            intra_node_bytes: intra,
-            inter_node_bytes: inter,
-            messages,
-            node_pairs: node_pair.iter().filter(|&&b| b > 0).count(),
-            max_node_inter_bytes: node_inter.into_iter().max().unwrap_or(0),
-            bytes,
-            ghosts: (0..ranks)
-                .map(|d| (0..ranks).map(|s| counts[s * ranks + d]).sum())
-                .collect(),
-            owned,
-            exchanges,
-        });
+        rows.push(plan_row(
+            method, ran, counts, owned, topology, per_ghost, exchanges,
+        ));
     }
     Ok(rows)
+}
+
+/// The row of one placement from its rank-to-rank ghost counts (`counts[src * P + dst]`), its
+/// owned particles per rank, the bytes of one ghost in a step's exchanges and their number.
+fn plan_row(
+    method: Placement,
+    ran: Placement,
+    counts: Vec<u64>,
+    owned: Vec<u64>,
+    topology: &Topology,
+    per_ghost: u64,
+    exchanges: u64,
+) -> PlanRow {
+    let ranks = owned.len();
+    let n: u64 = owned.iter().sum();
+    let mean = n as f64 / ranks as f64;
+    let imbalance = *owned.iter().max().unwrap_or(&0) as f64 / mean.max(1e-300);
+    let (mut intra, mut inter, mut remote, mut messages) = (0u64, 0u64, 0u64, 0u64);
+    let nodes = topology.nodes();
+    let mut node_pair = vec![0u64; nodes * nodes];
+    let mut node_inter = vec![0u64; nodes];
+    let bytes: Vec<u64> = counts.iter().map(|c| c * per_ghost).collect();
+    for s in 0..ranks {
+        for d in 0..ranks {
+            let c = counts[s * ranks + d];
+            if c == 0 {
+                continue;
+            }
+            messages += exchanges;
+            if s != d {
+                remote += c;
+            }
+            let (ns, nd) = (topology.node_of(s), topology.node_of(d));
+            let b = c * per_ghost;
+            if ns == nd {
+                intra += b;
+            } else {
+                inter += b;
+                node_pair[ns.min(nd) * nodes + ns.max(nd)] += b;
+                node_inter[ns] += b;
+                node_inter[nd] += b;
+            }
+        }
+    }
+    PlanRow {
+        placement: method,
+        ran,
+        imbalance,
+        ghost_fraction: remote as f64 / n.max(1) as f64,
+        intra_node_bytes: intra,
+        inter_node_bytes: inter,
+        messages,
+        node_pairs: node_pair.iter().filter(|&&b| b > 0).count(),
+        max_node_inter_bytes: node_inter.into_iter().max().unwrap_or(0),
+        bytes,
+        ghosts: (0..ranks)
+            .map(|d| (0..ranks).map(|s| counts[s * ranks + d]).sum())
+            .collect(),
+        owned,
+        exchanges,
+    }
 }
 
 /// The table `hsph plan` prints.
