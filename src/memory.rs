@@ -61,23 +61,31 @@ pub fn estimate<const D: usize>(
     // vectors grown by doubling hold up to twice their length
     let growth = 2.0;
     let counts = 2.0 * 8.0 * p * p;
-    // a block holds up to (1 + 2η)^D of the mean (decomp docs): 1.05 in 3D
-    let owned = n / p * 1.05;
-    let rank_setup = owned * ((store + 4.0 + 8.0) * growth + store) + counts;
-    // owned + ghosts (ghost layers of a block: generously half the owned count at small blocks)
-    let ghosts = owned.min(n) * 0.5 + 1000.0;
-    let rank_run = owned * store
-        + ghosts * Particles::<D>::bytes_per_ghost_carried(dropped) as f64
-        + (owned + ghosts) * 8.0
-        + owned * neighbours(scene, D) * 4.0
-        + counts;
+    // a block holds up to (1 + 2η)^D of the mean count (decomp docs): 1.05 in 3D, or, balanced
+    // on pairs, up to the count cap `balance.max_count`
+    let cap = scene.balance.count_cap().unwrap_or(1.0).max(1.05);
+    let per_rank = |owned: f64| {
+        let setup = owned * ((store + 4.0 + 8.0) * growth + store) + counts;
+        // owned + ghosts (ghost layers of a block: generously half the owned count at small
+        // blocks)
+        let ghosts = owned.min(n) * 0.5 + 1000.0;
+        let run = owned * store
+            + ghosts * Particles::<D>::bytes_per_ghost_carried(dropped) as f64
+            + (owned + ghosts) * 8.0
+            + owned * neighbours(scene, D) * 4.0
+            + counts;
+        (setup, run)
+    };
+    let (rank_setup, rank_run) = per_rank((n / p * cap).min(n * 1.05));
+    // the ranks of one process own at most every particle between them
     let k = ranks_in_process.max(1) as f64;
+    let (setup, run) = per_rank((n / p * cap * k).min(n * 1.05) / k);
     Estimate {
         particles,
         rank_setup,
         rank_run,
         ranks_in_process: ranks_in_process.max(1),
-        process: k * (rank_setup + rank_run),
+        process: k * (setup + run),
     }
 }
 

@@ -96,7 +96,13 @@ fn plan_dim<const D: usize>(
     // the decomposition, the block-to-block ghost counts and the halo volumes do not depend
     // on the placement: compute them once, then only relabel blocks as ranks
     let bounds = (&space.min, &space.max);
-    let decomp = balanced_blocks(&cloud, bounds, ranks, src.id_bound(), &serial)?;
+    let decomp = balanced_blocks(
+        &cloud,
+        bounds,
+        ranks,
+        (src.id_bound(), scene.balance.count_cap()),
+        &serial,
+    )?;
     let blocks = Ranks::new(decomp.clone(), (0..ranks).collect());
     // the ghosts of the set-up step reach support + skin (sim::skin)
     let reach = support * (1.0 + scene.performance.skin);

@@ -156,6 +156,8 @@ pub struct SiteSource<'s, const D: usize> {
     fine: Vec<Lattice<D>>,
     /// Spacings and smoothing lengths of the levels (a refined scene only).
     sizes: Option<crate::kernel::sizes::Sizes>,
+    /// The sizes the initial split weighs sites with (`balance.load = "pairs"`; else none).
+    load_sizes: Option<crate::kernel::sizes::Sizes>,
     sources: Vec<Source<D>>,
 }
 
@@ -250,6 +252,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
             lat,
             fine,
             sizes: crate::scene::refine::sizes(s),
+            load_sizes: crate::scene::refine::load_sizes(s),
             sources,
         })
     }
@@ -258,6 +261,11 @@ impl<'s, const D: usize> SiteSource<'s, D> {
     pub fn id_bound(&self) -> u64 {
         let last = self.fine.last().unwrap_or(&self.lat);
         last.offset + last.sites()
+    }
+
+    /// The count cap of the initial split ([`crate::scene::Balance::count_cap`]).
+    pub fn count_cap(&self) -> Option<f64> {
+        self.scene.balance.count_cap()
     }
 
     /// Lattice spacing dx (m).
@@ -377,20 +385,20 @@ impl<'s, const D: usize> SiteSource<'s, D> {
     }
 
     /// Visit every site of the layers `layers` along x with its load in the initial split:
-    /// `(id, centre, load)`, the load 1, or in a refined scene with `balance.load = "pairs"`
-    /// the site's expected pairs ([`crate::kernel::sizes::Sizes::site_load`]).
+    /// `(id, centre, load)`: with `balance.load = "pairs"` the site's expected pairs
+    /// ([`crate::kernel::sizes::Sizes::site_load`]), else 1.
     pub fn for_each_load(&self, layers: std::ops::Range<u64>, mut f: impl FnMut(u64, &Vector<D>, u64)) {
-        let sizes = self
-            .sizes
-            .as_ref()
-            .filter(|_| self.scene.balance.load == crate::scene::LoadKind::Pairs);
+        let sizes = self.load_sizes.as_ref();
         let (min, max) = self.layer_box(layers);
         for (j, src) in self.sources.iter().enumerate() {
             self.each_claimed(j, &min, &max, |id, x, level, h| {
                 f(
                     id,
                     &x,
-                    sizes.map_or(1, |z| particle_load::<D>(z, src.kind, level, h)),
+                    // a site of a scene of one size has no h of its own: the scene's
+                    sizes.map_or(1, |z| {
+                        particle_load::<D>(z, src.kind, level, if h > 0.0 { h } else { z.h[0] })
+                    }),
                 )
             });
         }

@@ -477,3 +477,15 @@ fn skin_beyond_the_support_is_refused() {
         &["fraction of the kernel support", "got 1.5", "e.g. skin ="],
     );
 }
+
+#[test]
+fn a_count_cap_below_one_is_refused() {
+    let text = format!("{}\n[balance]\nmax_count = 0.8\n", shipped());
+    run_bad_scene(
+        "max-count",
+        &text,
+        "balance.max_count",
+        "max_count = 0.8",
+        &["most particles a rank may own", "got 0.8", "1 splits by counts"],
+    );
+}

@@ -1162,6 +1162,7 @@ const SET_KEYS: &[(&str, &str)] = &[
     ("limits.speed_over_c0", "1.0"),
     ("balance.check_every", "20"),
     ("balance.threshold", "1.1"),
+    ("balance.max_count", "1.25"),
 ];
 
 /// Values of another type than a number, for any key.
@@ -1221,6 +1222,7 @@ fn plausible(rng: &mut Rng, key: &str, valid: &str) -> String {
     let grow = [
         "domain.",
         "balance.threshold",
+        "balance.max_count",
         "probe[0].link",
         "limits.",
         "material[0].c0",

@@ -44,6 +44,27 @@
 //! again, with unit loads to within one particle. Without an id bound, or when `max_iter`
 //! calls are spent, the plane takes the best candidate seen (smallest eq. 6 residual; earliest
 //! on ties): the balance is then limited by the layer granularity, not by the search.
+//!
+//! # Count cap (memory)
+//! Loads other than counts (pairs) let a block of cheap particles (dummy walls) hold several
+//! times the mean count, and memory goes with the count. With [`BalanceParams::max_count`] `= c`
+//! every stage also counts particles, and each plane's count left of it must stay within a
+//! window around the count-balanced prefix `T_c = C·w_l/w` (`C` the region's count): with
+//! `C̄ = C/w` the region's count per unit weight, `c_k = c^{1/L}` over the `L` levels that cut,
+//! and the slack `s_j = (c_k − 1)·C̄·w_j` of sub-block `j`, plane `i` may exceed `T_c` by `s_i`
+//! (`s_i/2` unless sub-block `i` is the first) and fall short by `s_{i+1}` (`s_{i+1}/2` unless
+//! it is the last). Each sub-block then holds at most `c_k·C̄·w_j`, so after all levels
+//!
+//! ```text
+//! count_b ≤ c · C_total·w_b/Σw .
+//! ```
+//!
+//! Inside the window a plane seeks its load target as above; where the window excludes it,
+//! the plane goes to the window's edge (to one particle, by the same bisection of positions and
+//! ids: "left heavy" becomes `count > hi ∨ (count ≥ lo ∧ load heavy)`, still monotone along
+//! the axis), and the best candidate is the feasible one nearest the load target. `c = 1` is a
+//! split by counts; the bound holds whenever the window is attainable (an id bound, or layers
+//! no thicker than the slack).
 
 use super::Decomposition;
 use crate::Vector;
@@ -61,6 +82,10 @@ pub struct BalanceParams {
     /// Exclusive upper bound of the particles' global ids: planes may split a layer by id
     /// (module docs). `None`: planes never split a layer (every tie 0).
     pub id_bound: Option<u64>,
+    /// Largest particle count of a block over the mean (weighted) count, `≥ 1`: a memory bound
+    /// when the loads are not counts (module docs: count cap). The `count` closure must then
+    /// answer counts too ([`Stage::counts_particles`]). `None`: no bound.
+    pub max_count: Option<f64>,
 }
 
 impl Default for BalanceParams {
@@ -72,6 +97,7 @@ impl Default for BalanceParams {
             max_iter: 128,
             weights: None,
             id_bound: None,
+            max_count: None,
         }
     }
 }
@@ -140,9 +166,18 @@ pub struct Stage<'a, const D: usize> {
     candidates: Vec<f64>,
     ties: Vec<u64>,
     regions: Vec<usize>,
+    /// Whether the answer also counts the particles (a capped search).
+    counts: bool,
 }
 
 impl<'a, const D: usize> Stage<'a, D> {
+    /// Whether `count` must answer, after the load left of each candidate, the number of
+    /// particles left of each (`2m` numbers for `m` candidates; [`BalanceParams::max_count`]).
+    /// [`Stage::count_local`] and [`Stage::counter`] do.
+    pub fn counts_particles(&self) -> bool {
+        self.counts
+    }
+
     /// Axis (= level) being cut: 0 = x, 1 = y, 2 = z.
     pub fn axis(&self) -> usize {
         self.axis
@@ -169,8 +204,10 @@ impl<'a, const D: usize> Stage<'a, D> {
         self.decomp.region_of(self.axis, x, id)
     }
 
-    /// Load left of each candidate among the given `(position, id, load)` items — the local
-    /// half of `count`; sum the result over ranks (integer all-reduce) for the global answer.
+    /// Load left of each candidate among the given `(position, id, load)` items, then, when
+    /// the stage [counts particles](Stage::counts_particles), their number left of each — the
+    /// local half of `count`; sum the result over ranks (integer all-reduce) for the global
+    /// answer.
     /// `O((n + m)·log m)` for `n` items and `m` candidates; integer sums, order-independent.
     pub fn count_local<I: IntoIterator<Item = (Vector<D>, u64, u64)>>(&self, items: I) -> Vec<u64> {
         let mut counter = self.counter();
@@ -203,7 +240,7 @@ impl<'a, const D: usize> Stage<'a, D> {
             .iter()
             .map(|&i| (self.candidates[i], self.ties[i]))
             .collect();
-        let hist = vec![0u64; sorted.len()];
+        let hist = vec![0u64; sorted.len() * (1 + self.counts as usize)];
         Counter {
             stage: self,
             order,
@@ -233,7 +270,11 @@ impl<const D: usize> Counter<'_, '_, D> {
         let v = x[self.stage.axis];
         let p = s.partition_point(|&(c, t)| super::at_or_right(v, id, c, t));
         if p < s.len() {
-            self.hist[self.start[r] + p] += load;
+            let q = self.start[r] + p;
+            self.hist[q] += load;
+            if self.stage.counts {
+                self.hist[self.sorted.len() + q] += 1;
+            }
         }
     }
 
@@ -243,15 +284,19 @@ impl<const D: usize> Counter<'_, '_, D> {
         self
     }
 
-    /// Load left of each candidate, in the stage's candidate order.
+    /// Load left of each candidate in the stage's candidate order (then the counts, when the
+    /// stage counts particles).
     pub fn finish(self) -> Vec<u64> {
         let nreg = self.start.len() - 1;
-        let mut out = vec![0u64; self.sorted.len()];
-        for r in 0..nreg {
-            let mut acc = 0u64;
-            for q in self.start[r]..self.start[r + 1] {
-                acc += self.hist[q];
-                out[self.order[q]] = acc;
+        let m = self.sorted.len();
+        let mut out = vec![0u64; self.hist.len()];
+        for (half, hist) in self.hist.chunks(m.max(1)).enumerate() {
+            for r in 0..nreg {
+                let mut acc = 0u64;
+                for q in self.start[r]..self.start[r + 1] {
+                    acc += hist[q];
+                    out[half * m + self.order[q]] = acc;
+                }
             }
         }
         out
@@ -272,6 +317,7 @@ impl<'a, const D: usize> Stage<'a, D> {
             ties: vec![0; candidates.len()],
             candidates,
             regions,
+            counts: false,
         }
     }
 }
@@ -292,6 +338,9 @@ pub struct Report {
     pub displacement: Vec<Vec<f64>>,
     /// Global load of every block (known from the last level's counts, no extra reduction).
     pub block_loads: Vec<u64>,
+    /// Particles of every block, when the search was capped ([`BalanceParams::max_count`]);
+    /// else empty.
+    pub block_counts: Vec<u64>,
 }
 
 impl Report {
@@ -362,19 +411,82 @@ struct Plane {
     phase: Phase,
     /// Exclusive bound of the ids, when layers may be split.
     id_bound: Option<u64>,
-    /// Best candidate seen: (residual, position, tie, load left).
-    best: Option<(f64, f64, u64, u64)>,
+    /// Count window of a capped search (module docs: count cap); `None`: uncapped.
+    window: Option<CountWindow>,
+    /// Best candidate seen: (residual, position, tie, load left, count left).
+    best: Option<(f64, f64, u64, u64, u64)>,
+}
+
+/// The particles left of a plane of a capped search lie within `[lo, hi]` of the region's
+/// `total` (module docs: count cap).
+#[derive(Debug, Clone, Copy, Default)]
+struct CountWindow {
+    /// Slack below and above the count-balanced prefix, in units of weight.
+    below: f64,
+    above: f64,
+    /// The region's particle count and the window, once that is known.
+    total: u64,
+    lo: u64,
+    hi: u64,
+}
+
+/// A candidate's residual when its count lies outside the window, `out` particles away: more
+/// than any feasible one's (eq. 6's left-hand side is at most 2).
+fn infeasible(out: u64, total: u64) -> f64 {
+    1.0e9 + out as f64 / total.max(1) as f64
 }
 
 impl Plane {
-    fn consider(&mut self, pos: f64, tie: u64, left: u64, total: u64) -> f64 {
-        let res = eq6_residual(left, total - left, self.w_l, self.w_r);
+    /// Fix the count window once the region's particle count `total` is known.
+    fn set_count_total(&mut self, total: u64) {
+        let (w_l, w_r) = (self.w_l, self.w_r);
+        if let Some(w) = &mut self.window {
+            let per = total as f64 / (w_l + w_r);
+            let target = per * w_l;
+            w.total = total;
+            w.lo = (target - w.below * per).ceil().max(0.0) as u64;
+            w.hi = ((target + w.above * per).floor().max(0.0) as u64).min(total);
+            if w.lo > w.hi {
+                (w.lo, w.hi) = (w.hi, w.hi);
+            }
+        }
+    }
+
+    /// The region's particle count (0 uncapped).
+    fn count_total(&self) -> u64 {
+        self.window.map_or(0, |w| w.total)
+    }
+
+    /// How far `cnt` particles left of the plane lie outside its window (0 inside or uncapped).
+    fn outside(&self, cnt: u64) -> u64 {
+        match self.window {
+            Some(w) if cnt < w.lo => w.lo - cnt,
+            Some(w) if cnt > w.hi => cnt - w.hi,
+            _ => 0,
+        }
+    }
+
+    /// Whether the plane must move left: its left side is heavier than its target, or, capped,
+    /// holds more particles than the window allows (a predicate monotone along the axis).
+    fn left_heavy(&self, left: u64, cnt: u64, total: u64) -> bool {
+        let load_heavy = left as f64 * self.w_r > (total - left) as f64 * self.w_l;
+        match self.window {
+            Some(w) => cnt > w.hi || (cnt >= w.lo && load_heavy),
+            None => load_heavy,
+        }
+    }
+
+    fn consider(&mut self, pos: f64, tie: u64, (left, cnt): (u64, u64), total: u64) -> f64 {
+        let res = match self.outside(cnt) {
+            0 => eq6_residual(left, total - left, self.w_l, self.w_r),
+            out => infeasible(out, self.count_total()),
+        };
         let better = match self.best {
             None => true,
             Some((r, ..)) => res < r,
         };
         if better {
-            self.best = Some((res, pos, tie, left));
+            self.best = Some((res, pos, tie, left, cnt));
         }
         res
     }
@@ -428,14 +540,15 @@ impl Plane {
         }
     }
 
-    /// Record the global load `left` at the current candidate and choose the next one.
-    fn observe(&mut self, left: u64, total: u64, lo: f64, hi: f64) {
+    /// Record the global load `left` (and particle count `cnt`, capped) at the current
+    /// candidate and choose the next one.
+    fn observe(&mut self, (left, cnt): (u64, u64), total: u64, lo: f64, hi: f64) {
         let (c, t) = (self.cand, self.tie);
-        let res = self.consider(c, t, left, total);
+        let res = self.consider(c, t, (left, cnt), total);
         if self.settle_if_satisfied(res) {
             return;
         }
-        let left_heavy = left as f64 * self.w_r > (total - left) as f64 * self.w_l;
+        let left_heavy = self.left_heavy(left, cnt, total);
         match self.phase {
             Phase::Probe => {
                 let (origin, step) = (c, self.h);
@@ -497,13 +610,13 @@ impl Plane {
         let next = origin + dir * step;
         if dir < 0.0 && next <= lo {
             (self.a, self.ta) = (lo, 0);
-            let res = self.consider(lo, 0, 0, total);
+            let res = self.consider(lo, 0, (0, 0), total);
             if !self.settle_if_satisfied(res) {
                 self.bisect_next();
             }
         } else if dir > 0.0 && next >= hi {
             (self.b, self.tb) = (hi, 0);
-            let res = self.consider(hi, 0, total, total);
+            let res = self.consider(hi, 0, (total, self.count_total()), total);
             if !self.settle_if_satisfied(res) {
                 self.bisect_next();
             }
@@ -598,12 +711,21 @@ where
 {
     assert!(params.eta > 0.0 && params.eta < 0.5, "eta must lie in (0, 0.5)");
     assert!(params.max_iter >= 1, "max_iter must be at least 1");
+    let capped = params.max_count.is_some();
+    if let Some(c) = params.max_count {
+        assert!(c >= 1.0 && c.is_finite(), "max_count must be at least 1");
+    }
     let n = decomp.n;
     let wl = level_weights(&n, params.weights.as_deref());
+    // the cap per level that cuts (module docs: count cap)
+    let cutting = n.iter().filter(|&&m| m > 1).count().max(1);
+    let cap_k = params.max_count.map(|c| c.powf(1.0 / cutting as f64));
     let previous = decomp.clone();
     let mut report = Report::default();
-    // Region totals of the current level; level 0's come from a `+∞` candidate.
+    // Region totals of the current level (loads; particle counts when capped); level 0's come
+    // from a `+∞` candidate.
     let mut totals: Option<Vec<u64>> = None;
+    let mut ctotals: Vec<u64> = Vec::new();
     for k in 0..D {
         let nk = n[k];
         let m = nk - 1;
@@ -630,6 +752,13 @@ where
                     }
                 };
                 let h = bracket.unwrap_or(0.0);
+                // a sub-block's slack goes whole to its one plane, or half to each of two
+                let share = |j: usize| if j == 0 || j == nk - 1 { 1.0 } else { 0.5 };
+                let window = cap_k.map(|c| CountWindow {
+                    above: (c - 1.0) * w[i] * share(i),
+                    below: (c - 1.0) * w[i + 1] * share(i + 1),
+                    ..CountWindow::default()
+                });
                 planes.push(Plane {
                     w_l,
                     w_r,
@@ -643,6 +772,7 @@ where
                     tie,
                     phase,
                     id_bound: params.id_bound,
+                    window,
                     best: None,
                 });
             }
@@ -653,7 +783,13 @@ where
             if let Some(t) = &totals {
                 if !initialised {
                     initialised = true;
-                    init_level(&mut planes, t, m, lo, hi, bracket.is_some(), (&old, &old_ties));
+                    let level = Level {
+                        m,
+                        lo,
+                        hi,
+                        rebalance: bracket.is_some(),
+                    };
+                    init_level(&mut planes, (t, &ctotals), &level, (&old, &old_ties));
                 }
                 if planes.iter().all(|p| p.phase == Phase::Done) {
                     break;
@@ -680,40 +816,51 @@ where
                 ties.push(0);
                 regs.push(0);
             }
-            let loads = {
+            let ncand = cands.len();
+            let answer = {
                 let stage = Stage {
                     decomp: &decomp,
                     axis: k,
                     candidates: cands,
                     ties,
                     regions: regs,
+                    counts: capped,
                 };
-                let loads = count(&stage);
+                let answer = count(&stage);
                 assert_eq!(
-                    loads.len(),
-                    stage.candidates.len(),
+                    answer.len(),
+                    ncand * (1 + capped as usize),
                     "count must answer every candidate"
                 );
-                loads
+                answer
             };
+            let (loads, counts) = answer.split_at(ncand);
             calls += 1;
             if totals.is_none() {
                 totals = Some(vec![*loads.last().expect("the total")]);
+                ctotals = counts.last().copied().into_iter().collect();
                 initialised = true;
                 let t = totals.as_ref().expect("just set");
-                init_level(&mut planes, t, m, lo, hi, bracket.is_some(), (&old, &old_ties));
+                let level = Level {
+                    m,
+                    lo,
+                    hi,
+                    rebalance: bracket.is_some(),
+                };
+                init_level(&mut planes, (t, &ctotals), &level, (&old, &old_ties));
             }
             let t = totals.as_ref().expect("known after the first call");
-            for (&q, &left) in idx.iter().zip(&loads) {
+            for (j, (&q, &left)) in idx.iter().zip(loads).enumerate() {
                 if planes[q].phase != Phase::Done {
                     let tot = t[q / m];
                     assert!(left <= tot, "load left of a plane exceeds its region's total");
-                    planes[q].observe(left, tot, lo, hi);
+                    let cnt = counts.get(j).copied().unwrap_or(0);
+                    planes[q].observe((left, cnt), tot, lo, hi);
                 }
             }
         }
         let t = totals.take().expect("totals known");
-        let fin = finish_level(&planes, &t, m);
+        let fin = finish_level(&planes, (&t, &ctotals), m);
         if bracket.is_some() {
             report.displacement.push(
                 fin.positions
@@ -729,8 +876,10 @@ where
         report.residual.push(fin.residual);
         report.tolerance.push(planes.iter().map(|p| p.d).collect());
         totals = Some(fin.sub_loads);
+        ctotals = fin.sub_counts;
     }
     report.block_loads = totals.expect("loads of the last level");
+    report.block_counts = ctotals;
     (decomp, report)
 }
 
@@ -742,42 +891,58 @@ struct LevelResult {
     residual: Vec<f64>,
     /// Load of every sub-block: the next level's region totals.
     sub_loads: Vec<u64>,
+    /// Particles of every sub-block (capped; else empty).
+    sub_counts: Vec<u64>,
 }
 
 /// Each plane takes the best candidate it saw, made ascending in (position, tie) within its
-/// region; `t`: the regions' total loads, `m` planes per region.
-fn finish_level(planes: &[Plane], t: &[u64], m: usize) -> LevelResult {
+/// region; `t`: the regions' total loads (and particle counts, capped), `m` planes per region.
+fn finish_level(planes: &[Plane], (t, ct): (&[u64], &[u64]), m: usize) -> LevelResult {
     let mut out = LevelResult {
         positions: Vec::with_capacity(planes.len()),
         ties: Vec::with_capacity(planes.len()),
         left_load: Vec::with_capacity(planes.len()),
         residual: Vec::with_capacity(planes.len()),
         sub_loads: Vec::with_capacity(t.len() * (m + 1)),
+        sub_counts: Vec::with_capacity(ct.len() * (m + 1)),
     };
     for (r, &total) in t.iter().enumerate() {
-        let mut prev: Option<(f64, u64, u64)> = None;
-        let mut last_left = 0u64;
+        let mut prev: Option<(f64, u64, u64, u64)> = None;
+        let (mut last_left, mut last_cnt) = (0u64, 0u64);
         for p in &planes[r * m..(r + 1) * m] {
-            let (_, mut pos, mut tie, mut left) = p.best.expect("every plane has a candidate");
-            if let Some((pp, pt, pl)) = prev {
+            let (_, mut pos, mut tie, mut left, mut cnt) = p.best.expect("every plane has a candidate");
+            if let Some((pp, pt, pl, pc)) = prev {
                 if pos < pp || (pos == pp && tie < pt) {
-                    (pos, tie, left) = (pp, pt, pl);
+                    (pos, tie, left, cnt) = (pp, pt, pl, pc);
                 }
             }
-            prev = Some((pos, tie, left));
+            prev = Some((pos, tie, left, cnt));
             out.positions.push(pos);
             out.ties.push(tie);
             out.left_load.push(left);
             out.residual.push(eq6_residual(left, total - left, p.w_l, p.w_r));
-            out.sub_loads.push(
-                left.checked_sub(last_left)
-                    .expect("ascending planes have ascending loads"),
-            );
-            last_left = left;
+            let ascending = "ascending planes have ascending loads";
+            out.sub_loads.push(left.checked_sub(last_left).expect(ascending));
+            if !ct.is_empty() {
+                out.sub_counts.push(cnt.checked_sub(last_cnt).expect(ascending));
+            }
+            (last_left, last_cnt) = (left, cnt);
         }
         out.sub_loads.push(total - last_left);
+        if let Some(&c) = ct.get(r) {
+            out.sub_counts.push(c - last_cnt);
+        }
     }
     out
+}
+
+/// What [`init_level`] needs of a level: `m` planes per region, the axis's extent, and
+/// whether planes start where they were.
+struct Level {
+    m: usize,
+    lo: f64,
+    hi: f64,
+    rebalance: bool,
 }
 
 /// Once the region totals are known: empty regions are settled (uniform shares from
@@ -785,25 +950,25 @@ fn finish_level(planes: &[Plane], t: &[u64], m: usize) -> LevelResult {
 /// ends with known loads.
 fn init_level(
     planes: &mut [Plane],
-    totals: &[u64],
-    m: usize,
-    lo: f64,
-    hi: f64,
-    rebalance: bool,
+    (totals, counts): (&[u64], &[u64]),
+    level: &Level,
     (old, old_ties): (&[f64], &[u64]),
 ) {
+    let Level { m, lo, hi, rebalance } = *level;
     for (q, p) in planes.iter_mut().enumerate() {
         let tot = totals[q / m];
+        let cnt = counts.get(q / m).copied().unwrap_or(0);
+        p.set_count_total(cnt);
         if tot == 0 {
             let (pos, tie) = if rebalance {
                 (old[q], old_ties[q])
             } else {
                 (lo + (hi - lo) * p.w_l / (p.w_l + p.w_r), 0)
             };
-            p.best = Some((0.0, pos, tie, 0));
+            p.best = Some((0.0, pos, tie, 0, 0));
             p.phase = Phase::Done;
         } else if !rebalance {
-            for (pos, left) in [(lo, 0), (hi, tot)] {
+            for (pos, left) in [(lo, (0, 0)), (hi, (tot, cnt))] {
                 let res = p.consider(pos, 0, left, tot);
                 p.settle_if_satisfied(res);
             }

@@ -579,3 +579,84 @@ fn decomp_rebalance_keeps_and_moves_split_layers() {
     assert_eq!(rep3.block_loads, loads_by_brute(&next, &moved));
     assert!(rep3.imbalance() <= params.bound(2), "{}", rep3.imbalance());
 }
+
+/// Points whose load is 30 in the lower half of y (fluid) and 2 above (walls): balanced on
+/// loads, the light blocks hold several times the mean count.
+fn fluid_and_walls<const D: usize>(pts: &Pts<D>) -> Pts<D> {
+    pts.iter()
+        .map(|(x, _)| (*x, if x[1] < 0.5 { 30 } else { 2 }))
+        .collect()
+}
+
+/// Counts and loads of every block, by brute force.
+fn block_totals<const D: usize>(dec: &Decomposition<D>, pts: &Pts<D>) -> (Vec<u64>, Vec<u64>) {
+    let mut counts = vec![0u64; dec.n_blocks()];
+    let mut loads = vec![0u64; dec.n_blocks()];
+    for (i, (x, l)) in pts.iter().enumerate() {
+        let b = dec.block_of(x, i as u64);
+        counts[b] += 1;
+        loads[b] += l;
+    }
+    (counts, loads)
+}
+
+#[test]
+fn decomp_count_cap_bounds_every_blocks_particles() {
+    fn case<const D: usize>(pts: &Pts<D>, n: [usize; D], weights: Option<Vec<f64>>) {
+        let (lo, hi) = unit::<D>();
+        let pts = fluid_and_walls(pts);
+        let local = |s: &Stage<'_, D>| s.count_local(with_ids(&pts));
+        let run = |max_count: Option<f64>| {
+            let params = BalanceParams {
+                id_bound: Some(pts.len() as u64),
+                max_count,
+                weights: weights.clone(),
+                ..BalanceParams::default()
+            };
+            Decomposition::balance(lo, hi, n, &params, local)
+        };
+        let w = weights.clone().unwrap_or(vec![1.0; n.iter().product()]);
+        let (free, _) = run(None);
+        let (fc, fl) = block_totals(&free, &pts);
+        let free_count = imbalance_weighted(&fc, &w);
+        assert!(
+            free_count > 1.4,
+            "{n:?}: uncapped counts {free_count} (the case must bind)"
+        );
+        // a cap that does not bind changes no plane
+        assert_eq!(run(Some(1.0e3)).0, free, "{n:?}: a loose cap moved planes");
+        for cap in [1.0, 1.25, 1.5] {
+            let (dec, rep) = run(Some(cap));
+            let (c, l) = block_totals(&dec, &pts);
+            assert_eq!(rep.block_counts, c, "{n:?} cap {cap}: reported counts");
+            assert_eq!(rep.block_loads, l, "{n:?} cap {cap}: reported loads");
+            // to a particle per block and level of rounding
+            let mean = pts.len() as f64 / w.iter().sum::<f64>();
+            for (b, (&cb, wb)) in c.iter().zip(&w).enumerate() {
+                let bound = cap * mean * wb + D as f64;
+                assert!(
+                    cb as f64 <= bound,
+                    "{n:?} cap {cap}: block {b} holds {cb} > {bound}"
+                );
+            }
+            assert!(imbalance_weighted(&l, &w) >= imbalance_weighted(&fl, &w) - 1e-12);
+            if cap == 1.0 {
+                assert!(imbalance_weighted(&c, &w) < 1.01, "{n:?}: cap 1 counts {c:?}");
+            }
+        }
+        let loads = |cap| imbalance_weighted(&block_totals(&run(Some(cap)).0, &pts).1, &w);
+        // one plane: the nearer its load target, the better the loads (with several planes a
+        // block between a clamped plane and a free one need not gain)
+        assert!(
+            n.iter().product::<usize>() > 2 || loads(1.5) < loads(1.0),
+            "{n:?}: a looser cap balances the loads better ({} vs {})",
+            loads(1.5),
+            loads(1.0)
+        );
+    }
+    case(&random::<2>(4000, 11), [1, 2], None);
+    case(&random::<2>(4000, 12), [2, 3], None);
+    case(&random::<2>(4000, 13), [1, 4], Some(vec![1.0, 2.0, 1.0, 1.5]));
+    case(&lattice::<3>(16, 1.0), [2, 2, 2], None);
+    case(&random::<3>(6000, 14), [1, 3, 2], None);
+}

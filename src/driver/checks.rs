@@ -78,12 +78,19 @@ pub fn check_limits(
             } else {
                 "discretisation.dx"
             };
+            let cap = match scene.balance.count_cap() {
+                Some(c) if ranks > 1 && c > 1.05 => format!(
+                    "; balanced on pairs a rank may own up to balance.max_count = {c} times the \
+                     mean particle count (1 splits by counts)"
+                ),
+                _ => String::new(),
+            };
             return Err(Error::input(
                 key,
                 format!(
                     "this run needs about {} per process ({n} particles, {ranks_in_process} rank(s) in this \
                      process at about {} each during the set-up), more than the {} of {what}; use a coarser \
-                     dx, fewer ranks per process (MPI spreads them over processes), or --max-memory to override",
+                     dx, fewer ranks per process (MPI spreads them over processes), or --max-memory to override{cap}",
                     human(est.process),
                     human(est.rank_setup.max(est.rank_run)),
                     human(avail)

@@ -299,13 +299,26 @@ pub struct Balance {
     #[serde(default = "default_threshold")]
     pub threshold: f64,
     /// What a particle weighs: `particles` (1 each) or `pairs` (1 + its neighbour count,
-    /// from the last neighbour search; the initial split uses particle counts, or in a
-    /// refined scene each site's expected neighbour count from its spacing and h).
+    /// from the last neighbour search; the initial split, before any search, weighs each site
+    /// by its expected neighbour count from its spacing, h and kind).
     #[serde(default)]
     pub load: LoadKind,
     /// Relative speed of each rank (empty: all equal); target loads are proportional.
     #[serde(default)]
     pub weights: Vec<f64>,
+    /// With `load = "pairs"`: the most particles a rank may own over the mean (weighted) count,
+    /// ≥ 1 — a memory bound, since a block of cheap particles (dummy walls) would otherwise
+    /// own several times the mean (decomp::balance docs: count cap). 1 splits by counts.
+    #[serde(default = "default_max_count")]
+    pub max_count: f64,
+}
+
+impl Balance {
+    /// The count cap of the decomposition: `max_count` when the loads are pairs, none when
+    /// they are counts (the cap would be redundant).
+    pub fn count_cap(&self) -> Option<f64> {
+        (self.load == LoadKind::Pairs).then_some(self.max_count)
+    }
 }
 
 /// Load measure of the domain decomposition.
@@ -327,6 +340,9 @@ fn default_check_every() -> u64 {
 fn default_threshold() -> f64 {
     1.1
 }
+fn default_max_count() -> f64 {
+    1.5
+}
 
 impl Default for Balance {
     fn default() -> Self {
@@ -335,6 +351,7 @@ impl Default for Balance {
             threshold: default_threshold(),
             load: LoadKind::Pairs,
             weights: Vec::new(),
+            max_count: default_max_count(),
         }
     }
 }

@@ -185,6 +185,15 @@ pub fn sizes(s: &Scene) -> Option<crate::kernel::sizes::Sizes> {
         .then(|| crate::kernel::sizes::Sizes::new(d.kernel, d.dx, d.h_over_dx, finest_h(s) as u16))
 }
 
+/// The sizes the initial split weighs sites with under `balance.load = "pairs"` (a site's
+/// expected pairs, [`crate::kernel::sizes::Sizes::site_load`]): the scene's levels, or its one
+/// size; `None` when the split counts particles.
+pub fn load_sizes(s: &Scene) -> Option<crate::kernel::sizes::Sizes> {
+    let d = &s.discretisation;
+    (s.balance.load == crate::scene::LoadKind::Pairs)
+        .then(|| sizes(s).unwrap_or_else(|| crate::kernel::sizes::Sizes::new(d.kernel, d.dx, d.h_over_dx, 0)))
+}
+
 /// The finest level of the scene (0 without regions).
 pub fn finest(s: &Scene) -> u32 {
     s.refine.iter().map(|r| r.level).max().unwrap_or(0)

@@ -147,6 +147,16 @@ pub fn validate(s: &mut Scene) -> Result<()> {
             ),
         );
     }
+    if !(s.balance.max_count >= 1.0 && s.balance.max_count.is_finite()) {
+        return err(
+            "balance.max_count",
+            format!(
+                "must be a number ≥ 1 (most particles a rank may own over the mean), got {}; \
+                 1.5 is the default, 1 splits by counts",
+                s.balance.max_count
+            ),
+        );
+    }
     if let Some((k, w)) = s
         .balance
         .weights

@@ -86,10 +86,7 @@ impl<const D: usize> Simulation<D> {
         // loads are taken before migration, while the neighbour lists match the particles
         let imb = self.load_imbalance(comm)?;
         self.balance.imbalance = imb;
-        let moved = imb > b.threshold;
-        if moved {
-            self.rebalance(comm)?;
-        }
+        let moved = imb > b.threshold && self.rebalance(comm)?;
         self.timers.add(Timer::Balance, t0);
         Ok(moved)
     }
@@ -105,7 +102,9 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Move the cut planes by parallel bisection on all-reduced loads, from where they are.
-    fn rebalance(&mut self, comm: &dyn Comm) -> Result<()> {
+    /// False when they stay (a count cap, `balance.max_count`, can hold them where the loads
+    /// are still above the threshold).
+    fn rebalance(&mut self, comm: &dyn Comm) -> Result<bool> {
         let loads = self.particle_loads();
         let params = BalanceParams {
             weights: self.rank_weights().map(|w| {
@@ -114,6 +113,7 @@ impl<const D: usize> Simulation<D> {
                     .collect()
             }),
             id_bound: Some(crate::scene::lattice::id_bound::<D>(&self.scene)),
+            max_count: self.scene.balance.count_cap(),
             ..BalanceParams::default()
         };
         let prev = comm.set_phase(Phase::Balance);
@@ -135,6 +135,9 @@ impl<const D: usize> Simulation<D> {
         if let Some(e) = err {
             return Err(e);
         }
+        if next == self.map.decomp {
+            return Ok(false);
+        }
         self.balance.max_plane_shift = self.balance.max_plane_shift.max(report.max_displacement());
         self.balance.rebalance_steps.push(self.step);
         // the last counting round gives every block's load: no extra message
@@ -145,6 +148,6 @@ impl<const D: usize> Simulation<D> {
         self.balance.imbalance_history.push(self.balance.imbalance);
         self.map.decomp = next;
         self.boxes = self.map.boxes();
-        Ok(())
+        Ok(true)
     }
 }

@@ -29,7 +29,8 @@ pub fn decompose_sites<const D: usize>(
     comm: &dyn Comm,
 ) -> Result<(Ranks<D>, Particles<D>, Placement)> {
     let share = LayerShare::of_rank(src, comm.rank(), comm.size());
-    let (map, used) = rank_map(&share, (min, max), src.id_bound(), layout, support, comm)?;
+    let bounds = (src.id_bound(), src.count_cap());
+    let (map, used) = rank_map(&share, (min, max), bounds, layout, support, comm)?;
     let rank = comm.rank();
     let (lo, hi) = map.boxes()[rank];
     // the owned sites lie in the closed box (a plane with a tie gives part of the layer on
@@ -92,16 +93,17 @@ pub(crate) fn agree<T>(local: Result<T>, comm: &dyn Comm) -> Result<T> {
 
 /// The decomposition of the particles of `cloud` (each rank's share; loads summed over the
 /// ranks of `comm`) over the layout's ranks, the blocks' ranks and the placement that ran.
+/// `(id_bound, max_count)` as for [`balanced_blocks`].
 pub fn rank_map<const D: usize, C: Cloud<D>>(
     cloud: &C,
     (min, max): (&Vector<D>, &Vector<D>),
-    id_bound: u64,
+    bounds: (u64, Option<f64>),
     layout: &RunLayout,
     support: f64,
     comm: &dyn Comm,
 ) -> Result<(Ranks<D>, Placement)> {
     let ranks = layout.ranks;
-    let decomp = balanced_blocks(cloud, (min, max), ranks, id_bound, comm)?;
+    let decomp = balanced_blocks(cloud, (min, max), ranks, bounds, comm)?;
     let (block_to_rank, used) = match layout.placement {
         Placement::RankOrder => ((0..ranks).collect(), Placement::RankOrder),
         method => {
@@ -159,15 +161,18 @@ fn extents<const D: usize, C: Cloud<D>>(cloud: &C, comm: &dyn Comm) -> Result<(V
 
 /// Blocks of the particles of `cloud` (each rank's share, counts summed over `comm`): the
 /// factorisation of the cloud's extents (eq. 5 of seed 000) and cut planes balanced on
-/// the particles' loads (eq. 6; counts, or in a refined scene with `balance.load = "pairs"`
-/// each site's expected pairs, [`crate::kernel::sizes::Sizes::site_load`]), splitting layers by id below `id_bound` where a layer holds more
-/// than a block's share. Counting is split over rayon tasks and summed as integers, so the
-/// result depends on neither the thread count nor the rank count.
+/// the particles' loads (eq. 6; counts, or with `balance.load = "pairs"` each site's
+/// expected pairs, [`crate::kernel::sizes::Sizes::site_load`]), splitting layers by id below
+/// `id_bound` where a layer holds more
+/// than a block's share, and, when the loads are not counts, holding no block above
+/// `max_count` times the mean particle count ([`BalanceParams::max_count`]). Counting is split
+/// over rayon tasks and summed as integers, so the result depends on neither the thread count
+/// nor the rank count.
 pub fn balanced_blocks<const D: usize, C: Cloud<D>>(
     cloud: &C,
     (min, max): (&Vector<D>, &Vector<D>),
     ranks: usize,
-    id_bound: u64,
+    (id_bound, max_count): (u64, Option<f64>),
     comm: &dyn Comm,
 ) -> Result<Decomposition<D>> {
     let (lo, hi, n) = extents(cloud, comm)?;
@@ -179,6 +184,7 @@ pub fn balanced_blocks<const D: usize, C: Cloud<D>>(
     nf.copy_from_slice(&f[..D]);
     let params = BalanceParams {
         id_bound: Some(id_bound),
+        max_count,
         ..BalanceParams::default()
     };
     let mut err = None;

@@ -179,15 +179,14 @@ impl<const D: usize> Simulation<D> {
         let bound = crate::scene::lattice::id_bound::<D>(scene);
         let n = p.n_owned;
         let model = Model::<D>::new(scene);
-        // a refined scene balanced on pairs weighs each particle as the set-up did
-        let load: Option<Vec<u64>> = (model.sizes.as_ref())
-            .filter(|_| scene.balance.load == crate::scene::LoadKind::Pairs)
-            .map(|z| {
-                let h = |i: usize| if z.varies_h { p.h[i] } else { z.h[0] };
-                (0..n)
-                    .map(|i| crate::setup::particle_load::<D>(z, p.kind[i], p.level[i], h(i)))
-                    .collect()
-            });
+        // balanced on pairs, each particle weighs as the set-up weighed it
+        let load: Option<Vec<u64>> = crate::scene::refine::load_sizes(scene).map(|z| {
+            let h = |i: usize| if z.varies_h { p.h[i] } else { z.h[0] };
+            let level = |i: usize| p.level.get(i).copied().unwrap_or(0);
+            (0..n)
+                .map(|i| crate::setup::particle_load::<D>(&z, p.kind[i], level(i), h(i)))
+                .collect()
+        });
         let cloud = crate::decomp::Points {
             x: &p.x[..n],
             id: &p.id[..n],
@@ -195,7 +194,14 @@ impl<const D: usize> Simulation<D> {
             load: load.as_deref(),
         };
         let support = model.kernel.support;
-        let (map, placement) = rank_map(&cloud, (&space.min, &space.max), bound, layout, support, comm)?;
+        let (map, placement) = rank_map(
+            &cloud,
+            (&space.min, &space.max),
+            (bound, scene.balance.count_cap()),
+            layout,
+            support,
+            comm,
+        )?;
         let accs = crate::halo::route_to_owners(&p, acc, &map, comm)?;
         crate::halo::migrate(&mut p, &map, &map.boxes(), comm)?;
         let mut perm: Vec<usize> = (0..p.n_owned).collect();
