@@ -20,7 +20,7 @@ use crate::comm::{Comm, Pending, Phase, Tag};
 use crate::decomp::{fold_parts, Cloud, Decomposition};
 use crate::error::{Error, Result};
 use crate::particles::wire::{Reader, Words};
-use crate::particles::{Fields, Particles, Record};
+use crate::particles::{Fields, Kinds, Particles, Record};
 use crate::Vector;
 
 /// Which rank owns which region: the decomposition's blocks and their placement on ranks.
@@ -309,12 +309,16 @@ impl<const D: usize> HaloPlan<D> {
             .collect();
         let dropped = p.dropped.or(Fields::ALL.without(sent));
         let words = Record::<D>::words_carried(dropped);
-        let sends = self.pack(words, |buf, e| {
-            let i = e.src as usize;
-            p.record(i)
-                .imaged(&space.image(p.id[i], &e.ops))
-                .put_carried(dropped, &mut Words::new(buf));
-        });
+        let sends = self.pack(
+            words,
+            |_| true,
+            |buf, e| {
+                let i = e.src as usize;
+                p.record(i)
+                    .imaged(&space.image(p.id[i], &e.ops))
+                    .put_carried(dropped, &mut Words::new(buf));
+            },
+        );
         let msgs = comm.exchange(sends, &self.sources(), TAG_GHOSTS)?;
         for ((_, n), m) in self.inc.iter().zip(&msgs) {
             read_records::<D>(m, *n, dropped, "halo", |r| p.push_ghost(&r))?;
@@ -323,13 +327,19 @@ impl<const D: usize> HaloPlan<D> {
         Ok(())
     }
 
-    /// One message per destination: `words` words per planned ghost, written by `put`.
-    fn pack(&self, words: usize, mut put: impl FnMut(&mut Vec<u8>, &Entry<D>)) -> Vec<(usize, Vec<u8>)> {
+    /// One message per destination: `words` words per planned ghost that `keep` selects,
+    /// written by `put`.
+    fn pack(
+        &self,
+        words: usize,
+        keep: impl Fn(&Entry<D>) -> bool,
+        mut put: impl FnMut(&mut Vec<u8>, &Entry<D>),
+    ) -> Vec<(usize, Vec<u8>)> {
         self.out
             .iter()
             .map(|(dst, list)| {
                 let mut buf = Vec::with_capacity(list.len() * words * 8);
-                for e in list {
+                for e in list.iter().filter(|e| keep(e)) {
                     put(&mut buf, e);
                 }
                 (*dst, buf)
@@ -342,31 +352,34 @@ impl<const D: usize> HaloPlan<D> {
         self.inc.iter().map(|(s, _)| *s).collect()
     }
 
-    /// Send the current `fields` of every planned ghost and overwrite the ghosts' copies.
+    /// Send the current `fields` of every planned ghost of the classes `kinds` and overwrite
+    /// the ghosts' copies (a ghost's kind is its owner's, so both sides select the same
+    /// ghosts, in plan order).
     pub fn refresh(
         &self,
         p: &mut Particles<D>,
         space: &ImageSpace<D>,
-        fields: Fields,
+        (fields, kinds): (Fields, Kinds),
         comm: &dyn Comm,
     ) -> Result<()> {
-        let pending = self.start_refresh(p, space, fields, comm)?;
-        self.finish_refresh(p, fields, pending, comm)
+        let pending = self.start_refresh(p, space, (fields, kinds), comm)?;
+        self.finish_refresh(p, (fields, kinds), pending, comm)
     }
 
     /// The first half of [`HaloPlan::refresh`]: pack and send the current `fields` of every
-    /// planned ghost. Until [`HaloPlan::finish_refresh`] the ghosts keep their old copies and
-    /// the owned particles' `fields` must not change.
+    /// planned ghost of the classes `kinds`. Until [`HaloPlan::finish_refresh`] the ghosts keep
+    /// their old copies and the owned particles' `fields` must not change.
     pub fn start_refresh(
         &self,
         p: &Particles<D>,
         space: &ImageSpace<D>,
-        fields: Fields,
+        (fields, kinds): (Fields, Kinds),
         comm: &dyn Comm,
     ) -> Result<Pending> {
         let prev = comm.set_phase(Phase::Halo);
         let words = Particles::<D>::field_words(fields);
-        let sends = self.pack(words, |buf, e| {
+        let keep = |e: &Entry<D>| kinds.has(p.kind[e.src as usize]);
+        let sends = self.pack(words, keep, |buf, e| {
             let i = e.src as usize;
             p.put_fields(i, fields, &space.image(p.id[i], &e.ops), &mut Words::new(buf));
         });
@@ -380,7 +393,7 @@ impl<const D: usize> HaloPlan<D> {
     pub fn finish_refresh(
         &self,
         p: &mut Particles<D>,
-        fields: Fields,
+        (fields, kinds): (Fields, Kinds),
         pending: Pending,
         comm: &dyn Comm,
     ) -> Result<()> {
@@ -389,13 +402,17 @@ impl<const D: usize> HaloPlan<D> {
         let msgs = comm.finish_exchange(pending)?;
         let mut g = p.n_owned;
         for ((_, n), m) in self.inc.iter().zip(&msgs) {
-            if m.len() != n * words * 8 {
+            let ghosts = g..g + n;
+            g += n;
+            let selected = ghosts.clone().filter(|&k| kinds.has(p.kind[k])).count();
+            if m.len() != selected * words * 8 {
                 return Err(Error::run("halo: refresh message of unexpected length"));
             }
             let mut r = Reader::new(m);
-            for _ in 0..*n {
-                p.get_fields(g, fields, &mut r)?;
-                g += 1;
+            for k in ghosts {
+                if kinds.has(p.kind[k]) {
+                    p.get_fields(k, fields, &mut r)?;
+                }
             }
         }
         comm.set_phase(prev);

@@ -41,6 +41,43 @@ pub enum Kind {
     Clamped = 4,
 }
 
+/// A set of particle classes — fluid, and every other kind — that a pass writes and a ghost
+/// refresh can be limited to (a refresh of the fields only fluid particles changed need not
+/// travel for walls).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Kinds(u8);
+
+impl Kinds {
+    /// No particle.
+    pub const NONE: Kinds = Kinds(0);
+    /// Fluid particles.
+    pub const FLUID: Kinds = Kinds(1);
+    /// Every other kind: walls and solids.
+    pub const OTHER: Kinds = Kinds(2);
+    /// Every particle.
+    pub const ALL: Kinds = Kinds(3);
+    /// The two classes, each on its own.
+    pub const CLASSES: [Kinds; 2] = [Kinds::FLUID, Kinds::OTHER];
+
+    /// True if the set holds particles of `kind`.
+    #[inline]
+    pub fn has(self, kind: Kind) -> bool {
+        self.0 & kind.class().0 != 0
+    }
+
+    /// True if the set holds every particle of class `c`.
+    #[inline]
+    pub fn covers(self, c: Kinds) -> bool {
+        self.0 & c.0 == c.0
+    }
+
+    /// The union.
+    #[inline]
+    pub fn or(self, o: Kinds) -> Kinds {
+        Kinds(self.0 | o.0)
+    }
+}
+
 impl Kind {
     /// Integer code written to output files.
     pub fn code(self) -> u8 {
@@ -69,6 +106,16 @@ impl Kind {
     #[inline]
     pub fn is_fluid(self) -> bool {
         self == Kind::Fluid
+    }
+
+    /// Its class for ghost refreshes: [`Kinds::FLUID`] or [`Kinds::OTHER`].
+    #[inline]
+    pub fn class(self) -> Kinds {
+        if self.is_fluid() {
+            Kinds::FLUID
+        } else {
+            Kinds::OTHER
+        }
     }
 
     /// A wall particle of a fluid (moved only by its wall's motion law).

@@ -16,7 +16,8 @@ fn tag(id: u64, round: u64) -> f64 {
     id as f64 * 0.25 + 1000.0 * round as f64 + 0.125
 }
 
-/// An 8 × 8 lattice of fluid particles in [0, 1)², all on rank 0, tagged for round 0.
+/// An 8 × 8 lattice in [0, 1)², all on rank 0, tagged for round 0: fluid particles, and a
+/// dummy wall particle every fourth id.
 fn lattice(rank: usize) -> Particles<2> {
     let mut p = Particles::<2>::default();
     if rank == 0 {
@@ -27,11 +28,19 @@ fn lattice(rank: usize) -> Particles<2> {
             );
             p.push_owned(Record {
                 tag: tag(k, 0),
-                ..Record::new(k, Kind::Fluid, 0, 0, x, Vector::zeros(), 1.0, 1000.0)
+                ..Record::new(k, kind_of(k), 0, 0, x, Vector::zeros(), 1.0, 1000.0)
             });
         }
     }
     p
+}
+
+fn kind_of(id: u64) -> Kind {
+    if id.is_multiple_of(4) {
+        Kind::Dummy
+    } else {
+        Kind::Fluid
+    }
 }
 
 #[test]
@@ -63,9 +72,33 @@ fn a_field_added_in_the_table_travels_everywhere() {
         for i in 0..p.n_owned {
             p.tag[i] = tag(p.id[i], 1);
         }
-        halo.refresh(&mut p, &space, Fields::TAG, comm)?;
+        halo.refresh(&mut p, &space, (Fields::TAG, Kinds::ALL), comm)?;
         for g in p.n_owned..p.len() {
             assert_eq!(p.tag[g], tag(p.id[g], 1), "refreshed ghost key {}", p.key[g]);
+        }
+        // a refresh of one class reaches that class's ghosts only, and the next the others
+        for (round, class) in [(2, Kinds::FLUID), (3, Kinds::OTHER)] {
+            for i in 0..p.n_owned {
+                p.tag[i] = tag(p.id[i], round);
+            }
+            halo.refresh(&mut p, &space, (Fields::TAG, class), comm)?;
+            for g in p.n_owned..p.len() {
+                let fluid = kind_of(p.id[g]) == Kind::Fluid;
+                let want = match (round, fluid) {
+                    (2, true) | (3, true) => 2,
+                    (2, false) => 1,
+                    _ => 3,
+                };
+                assert_eq!(
+                    p.tag[g],
+                    tag(p.id[g], want),
+                    "round {round}, ghost key {}",
+                    p.key[g]
+                );
+            }
+        }
+        for i in 0..p.n_owned {
+            p.tag[i] = tag(p.id[i], 1);
         }
         // the output gather: whole records to rank 0
         p.truncate_ghosts();

@@ -15,7 +15,7 @@ use crate::boundary::motion;
 use crate::cells::{HalfView, Neighbours, Subset, Wants};
 use crate::comm::Comm;
 use crate::error::Result;
-use crate::particles::Fields;
+use crate::particles::{Fields, Kinds};
 use crate::physics::passes::{self, Ctx, Pass};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -113,7 +113,7 @@ impl<const D: usize> Simulation<D> {
     /// then received and the rest computed: the bits of one run (`Pass::splits`).
     fn run_pass(&mut self, pass: Pass, dt: f64, comm: &dyn Comm) -> Result<()> {
         let need = self.fresh.before(pass);
-        if !need.is_empty() && self.overlaps(pass) {
+        if !need.0.is_empty() && self.overlaps(pass) {
             let t0 = Instant::now();
             let pending = self.halo.start_refresh(&self.p, &self.space, need, comm)?;
             self.timers.add(Timer::Halo, t0);
@@ -123,7 +123,7 @@ impl<const D: usize> Simulation<D> {
             self.timers.add(Timer::Halo, t0);
             self.compute(pass, dt, Some(false));
         } else {
-            if !need.is_empty() {
+            if !need.0.is_empty() {
                 self.refresh(need, comm)?;
             }
             self.compute(pass, dt, None);
@@ -190,12 +190,21 @@ impl<const D: usize> Simulation<D> {
         r
     }
 
-    /// The ghosts kept since the last build get what a build sends (all but
-    /// [`Fields::CONSTANT`]) from the same owners, in the same order; then cells and lists.
+    /// The ghosts kept since the last build get, of what a build sends (all but
+    /// [`Fields::CONSTANT`]), what changed since they last got it (x and v, moved by the drift
+    /// and wall motion; a field a pass wrote after its last refresh), from the same owners in
+    /// the same order; then cells and lists.
     fn refresh_kept_ghosts(&mut self, comm: &dyn Comm) -> Result<()> {
-        let sent = self.build_fields;
-        self.refresh(sent.without(Fields::CONSTANT).without(self.p.dropped), comm)?;
-        self.fresh.built(sent);
+        let fields = self
+            .build_fields
+            .without(Fields::CONSTANT)
+            .without(self.p.dropped);
+        self.fresh.wrote(Fields::X.or(Fields::V));
+        self.fresh.kept();
+        let need = self.fresh.needs(fields);
+        if !need.0.is_empty() {
+            self.refresh(need, comm)?;
+        }
         let held = self.p.len();
         self.balance.note_held(held, held - self.p.n_owned);
         self.list_neighbours()
@@ -266,10 +275,11 @@ impl<const D: usize> Simulation<D> {
         Ok(())
     }
 
-    /// Refresh `fields` on every ghost (a halo exchange), timed as `halo`.
-    fn refresh(&mut self, fields: Fields, comm: &dyn Comm) -> Result<()> {
+    /// Refresh `fields` on the ghosts of the classes `kinds` (a halo exchange), timed as
+    /// `halo`.
+    fn refresh(&mut self, need: (Fields, Kinds), comm: &dyn Comm) -> Result<()> {
         let t0 = Instant::now();
-        self.halo.refresh(&mut self.p, &self.space, fields, comm)?;
+        self.halo.refresh(&mut self.p, &self.space, need, comm)?;
         self.timers.add(Timer::Halo, t0);
         Ok(())
     }

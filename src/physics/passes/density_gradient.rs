@@ -3,7 +3,7 @@
 
 use super::{geometry, Ctx, Row};
 use crate::cells::{HalfView, Neighbours};
-use crate::particles::Fields;
+use crate::particles::{Fields, Kinds};
 use crate::physics::{delta, pairs, Model};
 use crate::scene::DensityDiffusion;
 
@@ -21,6 +21,11 @@ impl Row for DensityGradient {
 
     fn writes() -> Fields {
         Fields::GRAD_RHO
+    }
+
+    /// Fluid particles' gradients; every other particle's stays zero.
+    fn writes_kinds() -> Kinds {
+        Kinds::FLUID
     }
 
     fn runs<const D: usize>(m: &Model<D>) -> bool {

@@ -4,7 +4,7 @@
 use super::{Ctx, Row};
 use crate::cells::Neighbours;
 use crate::material::MaterialModel;
-use crate::particles::{Fields, Particles};
+use crate::particles::{Fields, Kinds, Particles};
 use crate::physics::Model;
 use rayon::prelude::*;
 
@@ -21,6 +21,11 @@ impl Row for DensityUpdate {
 
     fn writes() -> Fields {
         Fields::RHO.or(Fields::P)
+    }
+
+    /// ρ and p of fluid particles only.
+    fn writes_kinds() -> Kinds {
+        Kinds::FLUID
     }
 
     fn runs<const D: usize>(m: &Model<D>) -> bool {

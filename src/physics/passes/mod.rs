@@ -37,7 +37,7 @@ use super::solid::dynamics::SolidScratch;
 use super::Model;
 use crate::boundary::images::ImageSpace;
 use crate::cells::{HalfView, Neighbours};
-use crate::particles::{Fields, Particles};
+use crate::particles::{Fields, Kinds, Particles};
 
 /// What a pass's kernels work on: the particles (owned, then ghosts), the model, the image
 /// space, the step dt (s; 0 at the set-up) and the step's reusable scratch.
@@ -77,6 +77,13 @@ pub trait Row {
 
     /// Shared fields the pass writes on owned particles (stale on ghosts afterwards).
     fn writes() -> Fields;
+
+    /// The classes of particles whose [`Row::writes`] fields the pass can change: the others
+    /// keep their values (a pass may store a constant, such as a zero gradient, in them), so
+    /// their ghosts kept between builds need no refresh of those fields.
+    fn writes_kinds() -> Kinds {
+        Kinds::ALL
+    }
 
     /// True if a model runs this pass.
     fn runs<const D: usize>(m: &Model<D>) -> bool;
@@ -129,6 +136,11 @@ macro_rules! passes {
             /// [`Row::writes`].
             pub fn writes(self) -> Fields {
                 match self { $(Pass::$variant => <$row>::writes(),)* }
+            }
+
+            /// [`Row::writes_kinds`].
+            pub fn writes_kinds(self) -> Kinds {
+                match self { $(Pass::$variant => <$row>::writes_kinds(),)* }
             }
 
             /// [`Row::NAME`].
@@ -235,30 +247,74 @@ pub fn build_fields(schedule: &[Pass]) -> Fields {
     first
 }
 
-/// Which ghost fields are out of date: after a ghost build every field it did not send; a
-/// pass makes what it writes stale; a refresh makes fresh what it sends.
+/// Which ghost fields are out of date, per class of particle ([`Kinds`]): after a ghost build
+/// every field it did not send; a pass makes what it writes stale on the classes it writes; a
+/// refresh makes fresh what it sends. On ghosts kept since an earlier step's build a refresh
+/// goes only to the classes that need it; in a build's step every refresh goes to every ghost
+/// (so `hsph plan`'s set-up step counts ghosts, not classes).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Freshness {
-    stale: Fields,
+    /// Stale fields of fluid ghosts and of the others.
+    stale: [Fields; 2],
+    /// Ghosts built this step: refreshes go to every ghost.
+    built: bool,
 }
 
 impl Freshness {
     /// The ghosts were just built with the fields `sent` ([`build_fields`]).
     pub fn built(&mut self, sent: Fields) {
-        self.stale = Fields::ALL.without(sent);
+        self.stale = [Fields::ALL.without(sent); 2];
+        self.built = true;
     }
 
-    /// The fields `pass` needs refreshed before it runs (possibly none); they count as fresh
-    /// from now on.
-    pub fn before(&mut self, pass: Pass) -> Fields {
-        let need = pass.reads().and(self.stale);
-        self.stale = self.stale.without(need);
-        need
+    /// Code outside the passes (the drift, wall motion) wrote `fields` on owned particles.
+    pub fn wrote(&mut self, fields: Fields) {
+        for s in &mut self.stale {
+            *s = s.or(fields);
+        }
     }
 
-    /// `pass` ran: what it wrote is stale on ghosts.
+    /// A step begins on the ghosts kept since an earlier build: what they got before and
+    /// nobody wrote since is still fresh, and refreshes go only to the classes that need them.
+    pub fn kept(&mut self) {
+        self.built = false;
+    }
+
+    /// The fields `pass` needs refreshed before it runs and the classes of ghosts to refresh
+    /// (possibly none); they count as fresh from now on.
+    pub fn before(&mut self, pass: Pass) -> (Fields, Kinds) {
+        self.needs(pass.reads())
+    }
+
+    /// Which of the fields `reads` need a refresh before they are read, and on which classes
+    /// of ghosts (possibly none); they count as fresh from now on.
+    pub fn needs(&mut self, reads: Fields) -> (Fields, Kinds) {
+        let need = self.stale.map(|s| reads.and(s));
+        let fields = need[0].or(need[1]);
+        let mut kinds = Kinds::NONE;
+        for (c, n) in Kinds::CLASSES.iter().zip(need) {
+            if self.built || !n.is_empty() {
+                kinds = kinds.or(*c);
+            }
+        }
+        if fields.is_empty() {
+            return (fields, Kinds::NONE);
+        }
+        for (s, c) in self.stale.iter_mut().zip(Kinds::CLASSES) {
+            if kinds.covers(c) {
+                *s = s.without(fields);
+            }
+        }
+        (fields, kinds)
+    }
+
+    /// `pass` ran: what it wrote is stale on the ghosts of the classes it writes.
     pub fn after(&mut self, pass: Pass) {
-        self.stale = self.stale.or(pass.writes());
+        for (s, c) in self.stale.iter_mut().zip(Kinds::CLASSES) {
+            if pass.writes_kinds().covers(c) {
+                *s = s.or(pass.writes());
+            }
+        }
     }
 }
 
@@ -269,7 +325,7 @@ pub fn exchanges(schedule: &[Pass]) -> Vec<(&'static str, Option<Fields>)> {
     let mut f = Freshness::default();
     f.built(build_fields(schedule));
     for &pass in schedule {
-        let need = f.before(pass);
+        let (need, _) = f.before(pass);
         if !need.is_empty() {
             out.push((pass.name(), Some(need)));
         }
@@ -306,5 +362,51 @@ mod tests {
             refreshed.and(Fields::P.or(Fields::VW).or(Fields::GRAD_RHO))
                 == Fields::P.or(Fields::VW).or(Fields::GRAD_RHO)
         );
+    }
+
+    /// On ghosts kept between builds, the dam break's refreshes go only to the class whose
+    /// fields changed: x and v (moved by the drift) to all, ∇ρ and the EOS's ρ, p to fluid
+    /// ghosts, the walls' extrapolated p, ρ, v_w to wall ghosts; in a build's step every
+    /// refresh goes to every ghost.
+    #[test]
+    fn kept_ghosts_are_refreshed_by_class() {
+        let (scene, _) =
+            crate::scene::load_scene(std::path::Path::new("inputs/dam_break_2d.toml"), &[]).unwrap();
+        let s = schedule(&Model::<2>::new(&scene));
+        let sent = build_fields(&s);
+        let mut f = Freshness::default();
+        let step = |f: &mut Freshness| -> Vec<(Pass, Fields, Kinds)> {
+            let mut out = Vec::new();
+            for &pass in &s {
+                let (need, kinds) = f.before(pass);
+                if !need.is_empty() {
+                    out.push((pass, need, kinds));
+                }
+                f.after(pass);
+            }
+            out
+        };
+        f.built(sent);
+        let built = step(&mut f);
+        assert!(built.iter().all(|e| e.2 == Kinds::ALL), "{built:?}");
+        for _ in 0..2 {
+            f.wrote(Fields::X.or(Fields::V));
+            f.kept();
+            // ρ has not changed since the refresh before the last step's momentum
+            let start = f.needs(sent.without(Fields::CONSTANT));
+            assert_eq!(start, (Fields::X.or(Fields::V), Kinds::ALL));
+            let kept = step(&mut f);
+            let to = |p: Pass| kept.iter().find(|e| e.0 == p).map(|e| (e.1, e.2));
+            assert_eq!(to(Pass::Continuity), Some((Fields::GRAD_RHO, Kinds::FLUID)));
+            assert_eq!(
+                to(Pass::WallExtrapolation),
+                Some((Fields::RHO.or(Fields::P), Kinds::FLUID))
+            );
+            assert_eq!(
+                to(Pass::Momentum),
+                Some((Fields::P.or(Fields::RHO).or(Fields::VW), Kinds::OTHER))
+            );
+            assert_eq!(kept.len(), built.len(), "{kept:?}");
+        }
     }
 }

@@ -5,7 +5,7 @@
 use super::density_update::update_pressure;
 use super::{geometry, Ctx, Row};
 use crate::cells::Neighbours;
-use crate::particles::Fields;
+use crate::particles::{Fields, Kinds};
 use crate::physics::shifting;
 use crate::physics::Model;
 use rayon::prelude::*;
@@ -23,6 +23,11 @@ impl Row for Shift {
 
     fn writes() -> Fields {
         Fields::X.or(Fields::V).or(Fields::RHO).or(Fields::P)
+    }
+
+    /// Fluid particles only.
+    fn writes_kinds() -> Kinds {
+        Kinds::FLUID
     }
 
     fn runs<const D: usize>(m: &Model<D>) -> bool {

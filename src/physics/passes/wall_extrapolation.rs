@@ -4,7 +4,7 @@
 use super::{geometry, Ctx, Row};
 use crate::boundary::update_walls;
 use crate::cells::Neighbours;
-use crate::particles::Fields;
+use crate::particles::{Fields, Kinds};
 use crate::physics::Model;
 
 /// Wall particles' extrapolation.
@@ -23,6 +23,11 @@ impl Row for WallExtrapolation {
 
     fn writes() -> Fields {
         Fields::P.or(Fields::RHO).or(Fields::VW)
+    }
+
+    /// Wall particles only ([`crate::boundary::update_walls`]).
+    fn writes_kinds() -> Kinds {
+        Kinds::OTHER
     }
 
     fn runs<const D: usize>(m: &Model<D>) -> bool {
