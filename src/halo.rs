@@ -354,52 +354,80 @@ impl<const D: usize> HaloPlan<D> {
 
     /// Send the current `fields` of every planned ghost of the classes `kinds` and overwrite
     /// the ghosts' copies (a ghost's kind is its owner's, so both sides select the same
-    /// ghosts, in plan order).
+    /// ghosts, in plan order). One blocking exchange: no thread waits for the messages, which
+    /// under MPI costs a third of the split form's time when nothing is computed between
+    /// (BENCHMARKS.md).
     pub fn refresh(
         &self,
         p: &mut Particles<D>,
         space: &ImageSpace<D>,
-        (fields, kinds): (Fields, Kinds),
+        need: (Fields, Kinds),
         comm: &dyn Comm,
     ) -> Result<()> {
-        let pending = self.start_refresh(p, space, (fields, kinds), comm)?;
-        self.finish_refresh(p, (fields, kinds), pending, comm)
+        let prev = comm.set_phase(Phase::Halo);
+        let sends = self.pack_refresh(p, space, need);
+        let msgs = comm.exchange(sends, &self.sources(), TAG_REFRESH);
+        comm.set_phase(prev);
+        self.unpack_refresh(p, need, msgs?)
     }
 
-    /// The first half of [`HaloPlan::refresh`]: pack and send the current `fields` of every
-    /// planned ghost of the classes `kinds`. Until [`HaloPlan::finish_refresh`] the ghosts keep
-    /// their old copies and the owned particles' `fields` must not change.
+    /// The first half of [`HaloPlan::refresh`] split for overlap: pack and send the current
+    /// `fields` of every planned ghost of the classes `kinds`. Until
+    /// [`HaloPlan::finish_refresh`] the ghosts keep their old copies and the owned particles'
+    /// `fields` must not change.
     pub fn start_refresh(
         &self,
         p: &Particles<D>,
         space: &ImageSpace<D>,
-        (fields, kinds): (Fields, Kinds),
+        need: (Fields, Kinds),
         comm: &dyn Comm,
     ) -> Result<Pending> {
         let prev = comm.set_phase(Phase::Halo);
-        let words = Particles::<D>::field_words(fields);
-        let keep = |e: &Entry<D>| kinds.has(p.kind[e.src as usize]);
-        let sends = self.pack(words, keep, |buf, e| {
-            let i = e.src as usize;
-            p.put_fields(i, fields, &space.image(p.id[i], &e.ops), &mut Words::new(buf));
-        });
+        let sends = self.pack_refresh(p, space, need);
         let pending = comm.start_exchange(sends, &self.sources(), TAG_REFRESH);
         comm.set_phase(prev);
         pending
     }
 
-    /// The second half of [`HaloPlan::refresh`]: receive `fields` of every ghost (waiting for
-    /// them) and overwrite the ghosts' copies.
+    /// The second half of [`HaloPlan::refresh`] split for overlap: receive `fields` of every
+    /// ghost (waiting for them) and overwrite the ghosts' copies.
     pub fn finish_refresh(
         &self,
         p: &mut Particles<D>,
-        (fields, kinds): (Fields, Kinds),
+        need: (Fields, Kinds),
         pending: Pending,
         comm: &dyn Comm,
     ) -> Result<()> {
         let prev = comm.set_phase(Phase::Halo);
+        let msgs = comm.finish_exchange(pending);
+        comm.set_phase(prev);
+        self.unpack_refresh(p, need, msgs?)
+    }
+
+    /// One message per destination with the `fields` of its ghosts of the classes `kinds`.
+    fn pack_refresh(
+        &self,
+        p: &Particles<D>,
+        space: &ImageSpace<D>,
+        (fields, kinds): (Fields, Kinds),
+    ) -> Vec<(usize, Vec<u8>)> {
         let words = Particles::<D>::field_words(fields);
-        let msgs = comm.finish_exchange(pending)?;
+        let keep = |e: &Entry<D>| kinds.has(p.kind[e.src as usize]);
+        self.pack(words, keep, |buf, e| {
+            let i = e.src as usize;
+            p.put_fields(i, fields, &space.image(p.id[i], &e.ops), &mut Words::new(buf));
+        })
+    }
+
+    /// Overwrite the `fields` of the ghosts of the classes `kinds` from one message per
+    /// source, in plan order.
+    fn unpack_refresh(
+        &self,
+        p: &mut Particles<D>,
+        (fields, kinds): (Fields, Kinds),
+        msgs: Vec<Vec<u8>>,
+    ) -> Result<()> {
+        let words = Particles::<D>::field_words(fields);
         let mut g = p.n_owned;
         for ((_, n), m) in self.inc.iter().zip(&msgs) {
             let ghosts = g..g + n;
@@ -415,7 +443,6 @@ impl<const D: usize> HaloPlan<D> {
                 }
             }
         }
-        comm.set_phase(prev);
         Ok(())
     }
 }
