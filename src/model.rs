@@ -6,8 +6,10 @@
 //! T_r = a·n_r + g·m_r + T_net(node of r)
 //! ```
 //!
-//! with `n_r` its owned particles and `m_r` the ghosts it receives per step (both from
-//! [`crate::plan`], the engine's own decomposition and halo rule), `a` (s per particle-step)
+//! with `n_r` its owned particles (weighed by their cost: [`PlanRow::work`], so that under
+//! `balance.load = "pairs"` a rank of cheap wall particles counts what it computes) and `m_r`
+//! the ghosts it receives per step (both from [`crate::plan`], the engine's own decomposition
+//! and halo rule), `a` (s per particle-step)
 //! the cost of every pass of a one-rank run, and `g` (s per ghost-step) what a ghost adds to a
 //! rank's step between ranks of one node: packing, copying, unpacking and binning it, and the
 //! waits of the exchanges (a rank blocks until its neighbours have sent), fitted on runs with
@@ -270,7 +272,7 @@ fn rank_steps(
         .map(|r| {
             let (n, m) = (row.owned[r] as f64, row.ghosts[r] as f64);
             RankStep {
-                cpu: (cal.per_particle * n + g_cpu * m) / th.speedup(),
+                cpu: (cal.per_particle * row.work[r] + g_cpu * m) / th.speedup(),
                 wait: (cal.per_ghost - g_cpu) * m,
                 network: net_t[topo.node_of(r)],
                 interior: if n > 0.0 { (1.0 - m / n).max(0.0) } else { 0.0 },
@@ -305,7 +307,7 @@ pub fn step_time(
             .fold(0.0, f64::max);
     }
     let cpu: f64 = (0..p)
-        .map(|r| cal.per_particle * row.owned[r] as f64 + cal.ghost_cpu * row.ghosts[r] as f64)
+        .map(|r| cal.per_particle * row.work[r] + cal.ghost_cpu * row.ghosts[r] as f64)
         .sum();
     cpu / cores as f64
 }
@@ -341,8 +343,10 @@ pub fn calibrate(one: &Measured, many: &[Measured], cores: usize) -> Result<Cali
         }
         let (row, _) = m.plan()?;
         let (kind, coef_a, coef_g) = if m.ranks <= cores {
-            let r = (0..row.owned.len()).max_by_key(|&r| row.owned[r]).unwrap_or(0);
-            (0, a * row.owned[r] as f64, row.ghosts[r] as f64)
+            let r = (0..row.work.len())
+                .max_by(|&i, &j| row.work[i].total_cmp(&row.work[j]))
+                .unwrap_or(0);
+            (0, a * row.work[r], row.ghosts[r] as f64)
         } else {
             let n: u64 = row.owned.iter().sum();
             let g: u64 = row.ghosts.iter().sum();
@@ -661,6 +665,7 @@ mod tests {
             node_pairs: 0,
             max_node_inter_bytes: 0,
             bytes,
+            work: owned.iter().map(|&c| c as f64).collect(),
             owned,
             ghosts,
             exchanges: 3,

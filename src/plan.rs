@@ -48,6 +48,10 @@ pub struct PlanRow {
     pub bytes: Vec<u64>,
     /// Owned particles of each rank.
     pub owned: Vec<u64>,
+    /// Each rank's share of the work in particles of the mean cost: its owned particles
+    /// weighed by the decomposition's load (expected pairs under `balance.load = "pairs"`, a
+    /// dummy wall particle a fraction of a fluid one), scaled to sum to the particles.
+    pub work: Vec<f64>,
     /// Ghosts each rank receives in one step's build (self images included).
     pub ghosts: Vec<u64>,
     /// Halo exchanges (messages per communicating rank pair) of one step.
@@ -112,15 +116,27 @@ fn plan_dim<const D: usize>(
     } else {
         PairVolumes::zeros(ranks)
     };
+    // (particles, load) of every block
     let block_owned = fold_parts(
         &cloud,
-        || vec![0u64; ranks],
-        |acc, k| cloud.visit(k, |x, id, _| acc[decomp.block_of(x, id)] += 1),
+        || vec![(0u64, 0u64); ranks],
+        |acc, k| {
+            cloud.visit_loads(k, |x, id, w| {
+                let b = &mut acc[decomp.block_of(x, id)];
+                (b.0, b.1) = (b.0 + 1, b.1 + w);
+            })
+        },
         |mut a, b| {
-            a.iter_mut().zip(b).for_each(|(u, v)| *u += v);
+            a.iter_mut()
+                .zip(b)
+                .for_each(|(u, v)| (u.0, u.1) = (u.0 + v.0, u.1 + v.1));
             a
         },
     );
+    let (n, load) = block_owned
+        .iter()
+        .fold((0u64, 0u64), |s, b| (s.0 + b.0, s.1 + b.1));
+    let per_load = n as f64 / load.max(1) as f64;
     let mut rows = Vec::new();
     for &method in methods {
         let (block_to_rank, ran) = place_reporting(&decomp, topology, method, &volumes);
@@ -131,12 +147,14 @@ fn plan_dim<const D: usize>(
             }
         }
         let mut owned = vec![0u64; ranks];
+        let mut work = vec![0.0; ranks];
         for (b, c) in block_owned.iter().enumerate() {
-            owned[block_to_rank[b]] = *c;
+            owned[block_to_rank[b]] = c.0;
+            work[block_to_rank[b]] = c.1 as f64 * per_load;
         }
-        rows.push(plan_row(
-            method, ran, counts, owned, topology, per_ghost, exchanges,
-        ));
+        let mut row = plan_row(method, ran, counts, owned, topology, per_ghost, exchanges);
+        row.work = work;
+        rows.push(row);
     }
     Ok(rows)
 }
@@ -197,6 +215,7 @@ fn plan_row(
         ghosts: (0..ranks)
             .map(|d| (0..ranks).map(|s| counts[s * ranks + d]).sum())
             .collect(),
+        work: owned.iter().map(|&c| c as f64).collect(),
         owned,
         exchanges,
     }

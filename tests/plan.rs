@@ -279,3 +279,35 @@ fn bad_layouts_are_input_errors() {
         assert!(!dir.join("run").join("summary.json").exists());
     }
 }
+
+/// The model's compute term weighs each rank's particles by their cost: under
+/// `balance.load = "pairs"` the set-up split balances that work, not the counts (a rank of
+/// cheap dummy-wall particles owns more of them), and the work sums to the particles; split
+/// by counts, the work is the count.
+#[test]
+fn plan_weighs_each_ranks_particles_by_their_cost() {
+    // 2 ranks: below the count cap (at 3 it binds on this scene)
+    let topo = Topology::from_ranks_per_node(2, 2).unwrap();
+    for (load, by_pairs) in [("pairs", true), ("particles", false)] {
+        let s = scene("inputs/dam_break_3d.toml", &[&format!("balance.load=\"{load}\"")]);
+        let row = plan(&s, 2, &topo, &[Placement::RankOrder]).unwrap().remove(0);
+        let n: u64 = row.owned.iter().sum();
+        let w: f64 = row.work.iter().sum();
+        assert!((w - n as f64).abs() < 1e-6 * n as f64, "{load}: work {w} for {n} particles");
+        let spread = |v: &[f64]| {
+            let mean = v.iter().sum::<f64>() / v.len() as f64;
+            v.iter().fold(0.0f64, |m, x| m.max(*x)) / mean
+        };
+        let owned: Vec<f64> = row.owned.iter().map(|&c| c as f64).collect();
+        if by_pairs {
+            assert!(
+                spread(&row.work) < 1.05 && spread(&owned) > 1.2,
+                "{load}: work {:?}, owned {:?}",
+                row.work,
+                row.owned
+            );
+        } else {
+            assert_eq!(row.work, owned, "{load}");
+        }
+    }
+}
