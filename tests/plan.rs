@@ -293,7 +293,10 @@ fn plan_weighs_each_ranks_particles_by_their_cost() {
         let row = plan(&s, 2, &topo, &[Placement::RankOrder]).unwrap().remove(0);
         let n: u64 = row.owned.iter().sum();
         let w: f64 = row.work.iter().sum();
-        assert!((w - n as f64).abs() < 1e-6 * n as f64, "{load}: work {w} for {n} particles");
+        assert!(
+            (w - n as f64).abs() < 1e-6 * n as f64,
+            "{load}: work {w} for {n} particles"
+        );
         let spread = |v: &[f64]| {
             let mean = v.iter().sum::<f64>() / v.len() as f64;
             v.iter().fold(0.0f64, |m, x| m.max(*x)) / mean
