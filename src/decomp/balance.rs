@@ -733,17 +733,97 @@ where
         let (lo, hi) = (decomp.lo[k], decomp.hi[k]);
         let old: Vec<f64> = decomp.planes[k].clone();
         let old_ties: Vec<u64> = decomp.ties[k].clone();
-        // Plane states, region-major.
-        let mut planes: Vec<Plane> = Vec::with_capacity(nreg * m);
+        let planes0 = LevelPlanes {
+            weights: &wl[k],
+            nk,
+            lo,
+            hi,
+            cap: cap_k,
+            bracket,
+            old: (&old, &old_ties),
+        };
+        let mut planes = planes0.build(nreg, params);
+        let level = Level {
+            m,
+            lo,
+            hi,
+            rebalance: bracket.is_some(),
+        };
+        if let Some(t) = &totals {
+            init_level(&mut planes, (t, &ctotals), &level, (&old, &old_ties));
+        }
+        let mut calls = 0;
+        loop {
+            let first = totals.is_none();
+            if !first && (calls == params.max_iter || planes.iter().all(|p| p.phase == Phase::Done)) {
+                break;
+            }
+            let (idx, mut loads, mut counts) = ask(&decomp, k, &planes, first, capped, &mut count);
+            calls += 1;
+            if first {
+                totals = Some(vec![loads.pop().expect("the total")]);
+                ctotals = if capped {
+                    counts.pop().into_iter().collect()
+                } else {
+                    Vec::new()
+                };
+                let t = totals.as_ref().expect("just set");
+                init_level(&mut planes, (t, &ctotals), &level, (&old, &old_ties));
+            }
+            let t = totals.as_ref().expect("known after the first call");
+            for (j, (&q, &left)) in idx.iter().zip(&loads).enumerate() {
+                if planes[q].phase != Phase::Done {
+                    let tot = t[q / m];
+                    assert!(left <= tot, "load left of a plane exceeds its region's total");
+                    let cnt = counts.get(j).copied().unwrap_or(0);
+                    planes[q].observe((left, cnt), tot, lo, hi);
+                }
+            }
+        }
+        let t = totals.take().expect("totals known");
+        let fin = finish_level(&planes, (&t, &ctotals), m);
+        let moved = bracket.map(|_| previous.planes(k));
+        let (positions, ties) = report.record(fin, moved, calls, &planes);
+        decomp.set_level(k, positions, ties);
+        totals = Some(std::mem::take(&mut report.block_loads));
+        ctotals = std::mem::take(&mut report.block_counts);
+    }
+    report.block_loads = totals.expect("loads of the last level");
+    report.block_counts = ctotals;
+    (decomp, report)
+}
+
+/// The planes of one level before its search, region-major: each with its weights left and
+/// right, eq. (6)'s tolerance, its start (the middle from scratch, where it was on rebalance)
+/// and, capped, its count window (module docs: count cap).
+struct LevelPlanes<'w> {
+    /// Sub-block weights of the level, `nk` per region.
+    weights: &'w [f64],
+    nk: usize,
+    lo: f64,
+    hi: f64,
+    /// The cap per level (`c^(1/L)`), when capped.
+    cap: Option<f64>,
+    bracket: Option<f64>,
+    /// The level's previous planes and ties, region-major.
+    old: (&'w [f64], &'w [u64]),
+}
+
+impl LevelPlanes<'_> {
+    fn build(&self, nreg: usize, params: &BalanceParams) -> Vec<Plane> {
+        let (nk, lo, hi) = (self.nk, self.lo, self.hi);
+        let m = nk - 1;
+        let (old, old_ties) = self.old;
+        let mut planes = Vec::with_capacity(nreg * m);
         for r in 0..nreg {
-            let w = &wl[k][r * nk..(r + 1) * nk];
+            let w = &self.weights[r * nk..(r + 1) * nk];
             let wsum: f64 = w.iter().sum();
             let mut w_l = 0.0;
             for i in 0..m {
                 w_l += w[i];
                 let w_r = wsum - w_l;
                 let d = tolerance(params.eta, w_l, w_r, w[i].min(w[i + 1]));
-                let (cand, tie, phase) = match bracket {
+                let (cand, tie, phase) = match self.bracket {
                     None => (lo + 0.5 * (hi - lo), 0, Phase::Bisect),
                     Some(_) => {
                         let q = r * m + i;
@@ -751,10 +831,9 @@ where
                         (c, if c == old[q] { old_ties[q] } else { 0 }, Phase::Probe)
                     }
                 };
-                let h = bracket.unwrap_or(0.0);
                 // a sub-block's slack goes whole to its one plane, or half to each of two
                 let share = |j: usize| if j == 0 || j == nk - 1 { 1.0 } else { 0.5 };
-                let window = cap_k.map(|c| CountWindow {
+                let window = self.cap.map(|c| CountWindow {
                     above: (c - 1.0) * w[i] * share(i),
                     below: (c - 1.0) * w[i + 1] * share(i + 1),
                     ..CountWindow::default()
@@ -763,7 +842,7 @@ where
                     w_l,
                     w_r,
                     d,
-                    h,
+                    h: self.bracket.unwrap_or(0.0),
                     a: lo,
                     ta: 0,
                     b: hi,
@@ -777,110 +856,85 @@ where
                 });
             }
         }
-        let mut calls = 0;
-        let mut initialised = false;
-        loop {
-            if let Some(t) = &totals {
-                if !initialised {
-                    initialised = true;
-                    let level = Level {
-                        m,
-                        lo,
-                        hi,
-                        rebalance: bracket.is_some(),
-                    };
-                    init_level(&mut planes, (t, &ctotals), &level, (&old, &old_ties));
-                }
-                if planes.iter().all(|p| p.phase == Phase::Done) {
-                    break;
-                }
-                if calls == params.max_iter {
-                    break;
-                }
-            }
-            let mut cands = Vec::new();
-            let mut ties = Vec::new();
-            let mut regs = Vec::new();
-            let mut idx = Vec::new();
-            for (q, p) in planes.iter().enumerate() {
-                // level 0's first call asks every plane, plus the total
-                if totals.is_none() || p.phase != Phase::Done {
-                    cands.push(p.cand);
-                    ties.push(p.tie);
-                    regs.push(q / m);
-                    idx.push(q);
-                }
-            }
-            if totals.is_none() {
-                cands.push(f64::INFINITY);
-                ties.push(0);
-                regs.push(0);
-            }
-            let ncand = cands.len();
-            let answer = {
-                let stage = Stage {
-                    decomp: &decomp,
-                    axis: k,
-                    candidates: cands,
-                    ties,
-                    regions: regs,
-                    counts: capped,
-                };
-                let answer = count(&stage);
-                assert_eq!(
-                    answer.len(),
-                    ncand * (1 + capped as usize),
-                    "count must answer every candidate"
-                );
-                answer
-            };
-            let (loads, counts) = answer.split_at(ncand);
-            calls += 1;
-            if totals.is_none() {
-                totals = Some(vec![*loads.last().expect("the total")]);
-                ctotals = counts.last().copied().into_iter().collect();
-                initialised = true;
-                let t = totals.as_ref().expect("just set");
-                let level = Level {
-                    m,
-                    lo,
-                    hi,
-                    rebalance: bracket.is_some(),
-                };
-                init_level(&mut planes, (t, &ctotals), &level, (&old, &old_ties));
-            }
-            let t = totals.as_ref().expect("known after the first call");
-            for (j, (&q, &left)) in idx.iter().zip(loads).enumerate() {
-                if planes[q].phase != Phase::Done {
-                    let tot = t[q / m];
-                    assert!(left <= tot, "load left of a plane exceeds its region's total");
-                    let cnt = counts.get(j).copied().unwrap_or(0);
-                    planes[q].observe((left, cnt), tot, lo, hi);
-                }
-            }
-        }
-        let t = totals.take().expect("totals known");
-        let fin = finish_level(&planes, (&t, &ctotals), m);
-        if bracket.is_some() {
-            report.displacement.push(
-                fin.positions
-                    .iter()
-                    .zip(previous.planes(k))
-                    .map(|(a, b)| (a - b).abs())
-                    .collect(),
-            );
-        }
-        decomp.set_level(k, fin.positions, fin.ties);
-        report.calls.push(calls);
-        report.left_load.push(fin.left_load);
-        report.residual.push(fin.residual);
-        report.tolerance.push(planes.iter().map(|p| p.d).collect());
-        totals = Some(fin.sub_loads);
-        ctotals = fin.sub_counts;
+        planes
     }
-    report.block_loads = totals.expect("loads of the last level");
-    report.block_counts = ctotals;
-    (decomp, report)
+}
+
+/// One counting round of level `k`: the candidate of every plane still searching (of every
+/// plane, and `+∞` for the total, on level 0's `first` call) is answered by `count`. Returns
+/// the planes asked and the loads and, `capped`, particle counts left of each candidate (the
+/// total last on the first call).
+fn ask<const D: usize, F>(
+    decomp: &Decomposition<D>,
+    k: usize,
+    planes: &[Plane],
+    first: bool,
+    capped: bool,
+    count: &mut F,
+) -> (Vec<usize>, Vec<u64>, Vec<u64>)
+where
+    F: FnMut(&Stage<'_, D>) -> Vec<u64>,
+{
+    let m = decomp.n[k] - 1;
+    let mut cands = Vec::new();
+    let mut ties = Vec::new();
+    let mut regs = Vec::new();
+    let mut idx = Vec::new();
+    for (q, p) in planes.iter().enumerate() {
+        if first || p.phase != Phase::Done {
+            cands.push(p.cand);
+            ties.push(p.tie);
+            regs.push(q / m);
+            idx.push(q);
+        }
+    }
+    if first {
+        cands.push(f64::INFINITY);
+        ties.push(0);
+        regs.push(0);
+    }
+    let ncand = cands.len();
+    let stage = Stage {
+        decomp,
+        axis: k,
+        candidates: cands,
+        ties,
+        regions: regs,
+        counts: capped,
+    };
+    let mut loads = count(&stage);
+    assert_eq!(
+        loads.len(),
+        ncand * (1 + capped as usize),
+        "count must answer every candidate"
+    );
+    let counts = loads.split_off(ncand);
+    (idx, loads, counts)
+}
+
+impl Report {
+    /// Keep a finished level's calls, loads, residuals, tolerances and (rebalancing from
+    /// `previous` planes) displacements; its sub-blocks' loads and counts are left in
+    /// `block_loads` and `block_counts`. Returns the planes and ties.
+    fn record(
+        &mut self,
+        fin: LevelResult,
+        previous: Option<&[f64]>,
+        calls: usize,
+        planes: &[Plane],
+    ) -> (Vec<f64>, Vec<u64>) {
+        if let Some(prev) = previous {
+            let moved = fin.positions.iter().zip(prev).map(|(a, b)| (a - b).abs());
+            self.displacement.push(moved.collect());
+        }
+        self.calls.push(calls);
+        self.left_load.push(fin.left_load);
+        self.residual.push(fin.residual);
+        self.tolerance.push(planes.iter().map(|p| p.d).collect());
+        self.block_loads = fin.sub_loads;
+        self.block_counts = fin.sub_counts;
+        (fin.positions, fin.ties)
+    }
 }
 
 /// The planes of a finished level, region-major, with what the report keeps of them.
