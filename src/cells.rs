@@ -16,6 +16,7 @@ use crate::Vector;
 use rayon::prelude::*;
 
 mod half;
+mod sized;
 pub use half::{HalfPairs, HalfView, Window};
 
 /// The global cell grid.
@@ -77,6 +78,13 @@ impl<const D: usize> CellGrid<D> {
     /// True if the grid has no cells (never, for a valid scene).
     pub fn is_empty(&self) -> bool {
         self.len() == 0
+    }
+
+    /// Lower corner (m) of the cell at coordinates `c`: the cell holds the points that
+    /// [`CellGrid::coords`] maps to `c`, up to rounding.
+    #[inline]
+    pub fn cell_lo(&self, c: &[usize; D]) -> Vector<D> {
+        Vector::from_fn(|a, _| self.origin[a] + (c[a] as f64 - self.extra[a] as f64) * self.edge[a])
     }
 
     /// Integer cell coordinates of `x`, or `None` outside the grid.
@@ -320,6 +328,11 @@ pub struct NeighbourList {
     reach_per_h: f64,
     /// κ h_i / 2 of every particle in cell order (like `xs`; empty in a scene of one h).
     reach: Vec<f64>,
+    /// Sub-cells of the occupied cells (particles of several sizes, stored lists): a fine
+    /// particle's candidates come from near it (`sized`; the same lists).
+    sub: sized::SubCells,
+    /// False to list particles of several sizes by the coarse scan (tests compare the two).
+    no_sub_cells: bool,
     /// Pair mode's half lists (built when some owned particle wants [`Wants::Half`]).
     half: HalfPairs,
     /// True if the last build made half lists.
@@ -536,6 +549,13 @@ impl NeighbourList {
             &self.fluid_start[..],
             &self.reach[..],
         );
+        if reach.is_empty() || self.no_sub_cells {
+            self.sub = Default::default();
+        } else {
+            let copy = sized::Copy { xs, fluid, reach };
+            self.sub.build(grid, &cells.start, &copy);
+        }
+        let sub = &self.sub;
         let nchunks = n.div_ceil(CHUNK);
         self.chunks.resize_with(nchunks, Vec::new);
         self.offset.resize(n, 0);
@@ -557,6 +577,16 @@ impl NeighbourList {
                         continue;
                     }
                     if want == Wants::Nothing {
+                        continue;
+                    }
+                    if sub.split() > 0 {
+                        let k = cells.slot[i] as usize;
+                        let mut xa = [0.0f64; D];
+                        xa.copy_from_slice(&xs[k * D..k * D + D]);
+                        let c = grid.coords_of(cells.cell[i] as usize);
+                        let w = list.len();
+                        sub.list(list, grid, &c, k, &xa, reach[k], want == Wants::Fluid);
+                        list[w..].iter_mut().for_each(|s| *s = cells.order[*s as usize]);
                         continue;
                     }
                     list_particle(
@@ -672,6 +702,18 @@ impl NeighbourList {
     pub fn with_sizes(mut self, half_support_per_h: f64) -> Self {
         self.reach_per_h = half_support_per_h;
         self
+    }
+
+    /// Lists of particles of several sizes built by the coarse scan of the 3^D cells, not
+    /// through sub-cells: the same lists, slower (for tests that compare the two).
+    pub fn without_sub_cells(mut self) -> Self {
+        self.no_sub_cells = true;
+        self
+    }
+
+    /// Sub-cells per axis of a cell in the last build (0: the coarse scan listed).
+    pub fn sub_cell_split(&self) -> usize {
+        self.sub.split()
     }
 
     /// True in lean mode (no stored lists).

@@ -457,6 +457,39 @@ fn lists_of_several_sizes_keep_each_pair_within_its_own_support() {
         cells.build(&grid, &p).unwrap();
         let mut nl = NeighbourList::default().with_sizes(1.0);
         nl.build(&grid, &cells, &p, support, |_| Wants::All);
+        // the sub-cells (edge ≤ the smallest support: 4 per axis of a cell here) list every
+        // particle's neighbours in the coarse scan's order, entry for entry, for lists of all
+        // neighbours and of fluid ones only (the dummy walls' lists)
+        assert_eq!(nl.sub_cell_split(), 4, "{D}D: sub-cells in use");
+        let mut coarse = NeighbourList::default().with_sizes(1.0).without_sub_cells();
+        coarse.build(&grid, &cells, &p, support, |_| Wants::All);
+        assert_eq!(coarse.sub_cell_split(), 0);
+        for i in 0..n {
+            assert_eq!(nl.of(i), coarse.of(i), "{D}D: order of particle {i}'s list");
+        }
+        let wants = |i: usize| {
+            if i.is_multiple_of(3) {
+                Wants::Fluid
+            } else {
+                Wants::All
+            }
+        };
+        let mut walls = p.clone();
+        for i in (0..n).step_by(5) {
+            walls.kind[i] = Kind::Dummy;
+        }
+        let (mut a, mut b) = (nl.clone(), coarse.clone());
+        a.build(&grid, &cells, &walls, support, wants);
+        b.build(&grid, &cells, &walls, support, wants);
+        let mut fluid_only = 0;
+        for i in 0..n {
+            assert_eq!(a.of(i), b.of(i), "{D}D: order of particle {i}'s list, walls");
+            if i.is_multiple_of(3) {
+                assert!(a.of(i).iter().all(|&j| walls.kind[j as usize].is_fluid()));
+                fluid_only += nl.of(i).len() - a.of(i).len();
+            }
+        }
+        assert!(fluid_only > 0, "{D}D: some wall neighbour was left out");
         let mut pairs = 0;
         for i in 0..n {
             let expect: Vec<u32> = (0..n as u32)

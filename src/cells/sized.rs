@@ -1,0 +1,305 @@
+//! Candidates of particles of several sizes (issue 35): each cell of the grid, whose edge is
+//! the largest support, is cut into s^D sub-cells of about the smallest support, so that a
+//! fine particle tests the candidates near it, not the 3^D coarse cells around it (whose
+//! candidates grow as 2^(ℓD) with the refinement level ℓ).
+//!
+//! **Same lists.** A pair (i, j) is a neighbour when |x_ij| < r_i + r_j, r = κh/2, and
+//! r_i + r_j ≤ the support ≤ the cell edge, so every neighbour lies in i's 3^D stencil of
+//! cells; the stencil's rows cover ascending linear cells, each ascending by key, so the
+//! coarse scan lists i's neighbours in ascending **slot** (position in the cell list's order).
+//! Here a particle's candidates come from the sub-cells that its largest possible pair support
+//! reaches; the neighbours found (the same distance test on the same positions) are sorted by
+//! slot: the coarse scan's list, entry for entry, so the same bits whatever s. The sub-cells
+//! are a local index only: s may differ between ranks.
+
+use super::CellGrid;
+
+/// Largest number of sub-cells per axis of a cell.
+const MAX_SPLIT: usize = 4;
+
+/// Sub-cells of the occupied cells, over the build's cell-order copy of positions.
+#[derive(Debug, Clone, Default)]
+pub(super) struct SubCells {
+    /// Sub-cells per axis of a cell (≥ 2 when built).
+    s: usize,
+    /// Per cell: its table in `start` (`u32::MAX` for an empty cell).
+    table: Vec<u32>,
+    /// Per table: s^D + 1 offsets into the sub-cell order (absolute slots: a cell's particles
+    /// keep the range of slots they have in cell order).
+    start: Vec<u32>,
+    /// Per sub-cell of each table: the largest κh/2 of its particles (m).
+    rmax: Vec<f64>,
+    /// The largest κh/2 of all (m).
+    rglob: f64,
+    /// Slots in sub-cell order (`order[k]` is a slot of the cell list).
+    order: Vec<u32>,
+    /// Positions, reach and fluid flags in sub-cell order.
+    xs: Vec<f64>,
+    reach: Vec<f64>,
+    fluid: Vec<u8>,
+}
+
+/// The cell-order copy the build made: positions (`D` per slot), fluid flags and κh/2 per slot.
+pub(super) struct Copy<'a> {
+    pub xs: &'a [f64],
+    pub fluid: &'a [u8],
+    pub reach: &'a [f64],
+}
+
+impl SubCells {
+    /// Sub-cells per axis when built, 0 when the grid's cells are not much larger than the
+    /// smallest support (the coarse scan is used then).
+    pub fn split(&self) -> usize {
+        self.s
+    }
+
+    /// Cut every occupied cell of `grid` (cell list `start`) into sub-cells about as large as
+    /// twice the smallest reach of `copy`; no sub-cells (split 0) when that is one per axis.
+    pub fn build<const D: usize>(&mut self, grid: &CellGrid<D>, start: &[u32], copy: &Copy<'_>) {
+        let rmin = copy.reach.iter().copied().fold(f64::INFINITY, f64::min);
+        let emin = grid.edge.iter().copied().fold(f64::INFINITY, f64::min);
+        let s = if rmin > 0.0 && rmin.is_finite() {
+            ((emin / (2.0 * rmin)).floor() as usize).clamp(1, MAX_SPLIT)
+        } else {
+            1
+        };
+        if s < 2 {
+            self.s = 0;
+            return;
+        }
+        self.s = s;
+        self.rglob = copy.reach.iter().copied().fold(0.0, f64::max);
+        let nsub = s.pow(D as u32);
+        let n = copy.reach.len();
+        self.table.clear();
+        self.table.resize(start.len() - 1, u32::MAX);
+        self.start.clear();
+        self.rmax.clear();
+        self.order.resize(n, 0);
+        let mut sub = Vec::new();
+        let mut count = vec![0u32; nsub + 1];
+        self.rmax.reserve(nsub);
+        for c in 0..start.len() - 1 {
+            let (b, e) = (start[c] as usize, start[c + 1] as usize);
+            if b == e {
+                continue;
+            }
+            self.table[c] = (self.start.len() / (nsub + 1)) as u32;
+            let lo = grid.cell_lo(&grid.coords_of(c));
+            // counting sort of the cell's slots by sub-cell
+            sub.clear();
+            count.iter_mut().for_each(|x| *x = 0);
+            let r0 = self.rmax.len();
+            self.rmax.resize(r0 + nsub, 0.0);
+            let rmax = &mut self.rmax[r0..];
+            for k in b..e {
+                let mut l = 0usize;
+                for a in 0..D {
+                    let f = ((copy.xs[k * D + a] - lo[a]) * s as f64 / grid.edge[a]).floor();
+                    l = l * s + (f.max(0.0) as usize).min(s - 1);
+                }
+                sub.push(l as u32);
+                count[l + 1] += 1;
+                rmax[l] = rmax[l].max(copy.reach[k]);
+            }
+            for q in 0..nsub {
+                count[q + 1] += count[q];
+            }
+            self.start.extend(count.iter().map(|&x| x + b as u32));
+            for (k, &l) in (b..e).zip(&sub) {
+                let f = &mut count[l as usize];
+                self.order[b + *f as usize] = k as u32;
+                *f += 1;
+            }
+        }
+        self.xs.resize(n * D, 0.0);
+        self.reach.resize(n, 0.0);
+        self.fluid.resize(n, 0);
+        for (q, &k) in self.order.iter().enumerate() {
+            let k = k as usize;
+            self.xs[q * D..q * D + D].copy_from_slice(&copy.xs[k * D..k * D + D]);
+            self.reach[q] = copy.reach[k];
+            self.fluid[q] = copy.fluid[k];
+        }
+    }
+
+    /// Append to `list` the slots of the neighbours of the particle at slot `ki` (position
+    /// `xa`, reach `ri`, in cell `c` of `grid`), fluid ones only if `fluid_only`, ascending:
+    /// those with |x_ij| < r_i + r_j, the test of the coarse scan.
+    #[allow(clippy::too_many_arguments)]
+    pub fn list<const D: usize>(
+        &self,
+        list: &mut Vec<u32>,
+        grid: &CellGrid<D>,
+        c: &[usize; D],
+        ki: usize,
+        xa: &[f64; D],
+        ri: f64,
+        fluid_only: bool,
+    ) {
+        let s = self.s;
+        let nsub = s.pow(D as u32);
+        // the cells of the 3^D stencil that i's largest pair support reaches (same margin as
+        // the sub-cells'), in ascending linear order: ascending slot ranges
+        let own = grid.cell_lo(c);
+        let (mut c0, mut c1) = ([0usize; D], [0usize; D]);
+        for a in 0..D {
+            let e = grid.edge[a];
+            let q = ri + self.rglob + 1e-9 * e;
+            let lo = if xa[a] - q < own[a] {
+                c[a].saturating_sub(1)
+            } else {
+                c[a]
+            };
+            let hi = if xa[a] + q >= own[a] + e { c[a] + 1 } else { c[a] };
+            c0[a] = lo;
+            c1[a] = hi.min(grid.dims[a] - 1);
+        }
+        let mut cc = c0;
+        loop {
+            let t = self.table[grid.linear(&cc)];
+            if t != u32::MAX {
+                let lo = grid.cell_lo(&cc);
+                let from = list.len();
+                let base = t as usize * (nsub + 1);
+                self.scan_cell(list, grid, (&lo, base), ki, xa, ri, fluid_only);
+                // within a cell each run of sub-cells is ascending: sort the cell's entries
+                let found = &mut list[from..];
+                if !found.is_sorted() {
+                    found.sort_unstable();
+                }
+            }
+            let mut a = D;
+            loop {
+                if a == 0 {
+                    return;
+                }
+                a -= 1;
+                if cc[a] < c1[a] {
+                    cc[a] += 1;
+                    break;
+                }
+                cc[a] = c0[a];
+            }
+        }
+    }
+
+    /// The neighbours of one cell (corner `lo`, table at `base`) among the sub-cells that
+    /// i's largest pair support reaches, as slots.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn scan_cell<const D: usize>(
+        &self,
+        list: &mut Vec<u32>,
+        grid: &CellGrid<D>,
+        (lo, base): (&crate::Vector<D>, usize),
+        ki: usize,
+        xa: &[f64; D],
+        ri: f64,
+        fluid_only: bool,
+    ) {
+        let s = self.s;
+        let nsub = s.pow(D as u32);
+        let tb = base / (nsub + 1) * nsub;
+        // the sub-cells within ri + (the largest reach) of x_i per axis, with a margin of
+        // 1e-9 edges for a particle binned across a rounding of its position
+        let (mut q0, mut q1) = ([0usize; D], [0usize; D]);
+        for a in 0..D {
+            let e = grid.edge[a];
+            let q = ri + self.rglob + 1e-9 * e;
+            let f0 = ((xa[a] - q - lo[a]) * s as f64 / e).floor();
+            let f1 = ((xa[a] + q - lo[a]) * s as f64 / e).floor();
+            if f1 < 0.0 || f0 >= s as f64 {
+                return;
+            }
+            q0[a] = f0.max(0.0) as usize;
+            q1[a] = (f1 as usize).min(s - 1);
+        }
+        // runs of sub-cells along the last axis are contiguous in the sub-cell order
+        let last = D - 1;
+        let mut q = q0;
+        loop {
+            let l = q.iter().fold(0usize, |l, &qa| l * s + qa);
+            let run = l + q1[last] - q0[last];
+            let (b, e) = (self.start[base + l] as usize, self.start[base + run + 1] as usize);
+            if b < e {
+                let rmax = self.rmax[tb + l..=tb + run].iter().copied().fold(0.0, f64::max);
+                self.scan_run(
+                    list,
+                    grid,
+                    (lo, &q, q1[last], rmax),
+                    (b, e),
+                    ki,
+                    xa,
+                    ri,
+                    fluid_only,
+                );
+            }
+            // next run of the box
+            let mut a = last;
+            loop {
+                if a == 0 {
+                    return;
+                }
+                a -= 1;
+                if q[a] < q1[a] {
+                    q[a] += 1;
+                    break;
+                }
+                q[a] = q0[a];
+            }
+        }
+    }
+
+    /// The neighbours in a run of sub-cells along the last axis (from local coordinates `q`
+    /// to `q_end` on that axis; slots `b..e`; their largest reach `rmax`), unless the run's
+    /// box lies beyond ri + that reach.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn scan_run<const D: usize>(
+        &self,
+        list: &mut Vec<u32>,
+        grid: &CellGrid<D>,
+        (lo, q, q_end, rmax): (&crate::Vector<D>, &[usize; D], usize, f64),
+        (b, e): (usize, usize),
+        ki: usize,
+        xa: &[f64; D],
+        ri: f64,
+        fluid_only: bool,
+    ) {
+        let s = self.s as f64;
+        let reach = ri + rmax;
+        let mut d2 = 0.0;
+        for a in 0..D {
+            let sub = grid.edge[a] / s;
+            let b0 = lo[a] + q[a] as f64 * sub;
+            let b1 = lo[a] + (if a == D - 1 { q_end } else { q[a] } + 1) as f64 * sub;
+            let d = (b0 - xa[a]).max(xa[a] - b1).max(0.0) - 1e-9 * grid.edge[a];
+            if d > 0.0 {
+                d2 += d * d;
+            }
+        }
+        if d2 >= reach * reach {
+            return;
+        }
+        // branch-free append: write every candidate, advance on a hit
+        let w = list.len();
+        list.resize(w + (e - b), 0);
+        let out = &mut list[w..];
+        let mut m = 0usize;
+        for q in b..e {
+            let xj = &self.xs[q * D..q * D + D];
+            let mut d2 = 0.0;
+            for a in 0..D {
+                let d = xa[a] - xj[a];
+                d2 += d * d;
+            }
+            let k = self.order[q];
+            let sum = ri + self.reach[q];
+            let keep = (d2 < sum * sum) & (k as usize != ki) & (!fluid_only | (self.fluid[q] != 0));
+            out[m] = k;
+            m += keep as usize;
+        }
+        list.truncate(w + m);
+    }
+}
