@@ -17,6 +17,19 @@ use super::CellGrid;
 /// Largest number of sub-cells per axis of a cell.
 const MAX_SPLIT: usize = 4;
 
+/// Step `q` to the next index of the box `q0 ..= q1` over its first `axes` axes, the last of
+/// them fastest (ascending linear order); false once the box is done.
+fn advance<const D: usize>(q: &mut [usize; D], (q0, q1): (&[usize; D], &[usize; D]), axes: usize) -> bool {
+    for a in (0..axes).rev() {
+        if q[a] < q1[a] {
+            q[a] += 1;
+            return true;
+        }
+        q[a] = q0[a];
+    }
+    false
+}
+
 /// Sub-cells of the occupied cells, over the build's cell-order copy of positions.
 #[derive(Debug, Clone, Default)]
 pub(super) struct SubCells {
@@ -169,17 +182,8 @@ impl SubCells {
                     found.sort_unstable();
                 }
             }
-            let mut a = D;
-            loop {
-                if a == 0 {
-                    return;
-                }
-                a -= 1;
-                if cc[a] < c1[a] {
-                    cc[a] += 1;
-                    break;
-                }
-                cc[a] = c0[a];
+            if !advance(&mut cc, (&c0, &c1), D) {
+                return;
             }
         }
     }
@@ -236,17 +240,8 @@ impl SubCells {
                 );
             }
             // next run of the box
-            let mut a = last;
-            loop {
-                if a == 0 {
-                    return;
-                }
-                a -= 1;
-                if q[a] < q1[a] {
-                    q[a] += 1;
-                    break;
-                }
-                q[a] = q0[a];
+            if !advance(&mut q, (&q0, &q1), last) {
+                return;
             }
         }
     }
