@@ -490,6 +490,33 @@ fn lists_of_several_sizes_keep_each_pair_within_its_own_support() {
             }
         }
         assert!(fluid_only > 0, "{D}D: some wall neighbour was left out");
+        // pair mode's half lists of particles of several sizes (walls list fluid, fluid lists
+        // halves): the pairs of the oracle within each pair's own support, each under its
+        // lower slot, ascending, wall–wall pairs left out
+        let half = |i: usize| {
+            if walls.kind[i].is_fluid() {
+                Wants::Half
+            } else {
+                Wants::Fluid
+            }
+        };
+        a.build(&grid, &cells, &walls, support, half);
+        let ha = a.half(&grid, &cells).unwrap();
+        let order = ha.order();
+        let mut listed = 0;
+        for k in 0..ha.slots() {
+            let i = order[k] as usize;
+            let expect: Vec<u32> = (k as u32 + 1..order.len() as u32)
+                .filter(|&t| {
+                    let j = order[t as usize] as usize;
+                    let fluid = walls.kind[i].is_fluid() || walls.kind[j].is_fluid();
+                    fluid && (p.x[i] - p.x[j]).norm() < p.h[i] + p.h[j]
+                })
+                .collect();
+            assert_eq!(ha.stored(k).unwrap(), &expect[..], "{D}D: half list of slot {k}");
+            listed += expect.len();
+        }
+        assert!(listed > 0, "{D}D: half lists built");
         let mut pairs = 0;
         for i in 0..n {
             let expect: Vec<u32> = (0..n as u32)
