@@ -104,6 +104,42 @@ fn local_ranks_threads_are_bound_as_planned() {
     }
 }
 
+/// Pools built with the `--bind cores` start handler, 1–3 ranks × 1–3 threads: every thread's
+/// binding, as hwloc **and** the kernel read it back, is the PUs of the core the plan gives it.
+#[cfg(feature = "hwloc")]
+#[test]
+fn pool_threads_read_back_the_planned_binding_through_hwloc_and_the_kernel() {
+    use hsph::affinity::{hw::Machine, start_handler, with_start, Bind};
+    let machine = Machine::discover().unwrap();
+    let cores = machine.cores().len();
+    for ranks in [1, 2, 3] {
+        for threads in [1, 2, 3] {
+            let start = start_handler(Bind::Cores, ranks, threads).unwrap().unwrap();
+            for rank in 0..ranks {
+                let plan = machine.plan(threads, rank, ranks);
+                assert_eq!(plan.len(), threads);
+                let builder = rayon::ThreadPoolBuilder::new().num_threads(threads);
+                let pool = with_start(builder, Some(&start), rank).build().unwrap();
+                let seen = pool.broadcast(|ctx| {
+                    let binding = machine.current_thread_binding().unwrap();
+                    let hw: Vec<usize> = binding.iter_set().map(usize::from).collect();
+                    (ctx.index(), hw, kernel_affinity())
+                });
+                for (i, hw, kernel) in seen {
+                    let want: Vec<usize> = machine.cores()[plan[i]]
+                        .cpuset
+                        .iter_set()
+                        .map(usize::from)
+                        .collect();
+                    let ctx = format!("{cores} cores, rank {rank}/{ranks}, thread {i}/{threads}");
+                    assert_eq!(hw, want, "hwloc: {ctx}");
+                    assert_eq!(kernel, want, "kernel: {ctx}");
+                }
+            }
+        }
+    }
+}
+
 #[cfg(feature = "hwloc")]
 #[test]
 fn topology_prints_the_machine_and_the_plan() {
@@ -115,6 +151,7 @@ fn topology_prints_the_machine_and_the_plan() {
         "NUMA nodes:",
         "cores:",
         "PUs:",
+        "process cpuset",
         "policy:",
         "rank 0: t0->core L#",
     ] {

@@ -1,7 +1,7 @@
 //! Bad input: every mistake exits with status 2 and one located message on stderr, never a
 //! panic and never a `summary.json`; randomly mutated scenes never panic the loader.
 
-mod common;
+use crate::common;
 
 use common::{repo_path, temp_dir};
 use hsph::error::Error;

@@ -4,7 +4,7 @@
 //! 3.15 %; the kinetic energy's trend over the last 5 L/U, 0.18 % per L/U. The bound is 1.5 ×
 //! the measured error (docs/validation.md has the 100 × 100 run).
 
-mod common;
+use crate::common;
 
 use common::hsph;
 

@@ -1,7 +1,7 @@
 //! Conservation: momentum in a periodic box, zero sum of the δ-SPH diffusion term, and the
 //! renormalised gradient of a linear field.
 
-mod common;
+use crate::common;
 
 use common::Rng;
 use hsph::comm::serial::SerialComm;

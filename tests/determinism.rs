@@ -2,7 +2,7 @@
 //! files of a run with 1 thread equal those with 2 threads, and `summary.json` records the
 //! thread count actually used.
 
-mod common;
+use crate::common;
 
 use hsph::driver::{run_scene, RunOptions};
 use hsph::scene::load_scene;

@@ -1,7 +1,7 @@
 //! Measurement fidelity (issue 14): what `hsph check` and `hsph run` say about the bodies as
 //! the lattice builds them.
 
-mod common;
+use crate::common;
 
 use common::hsph;
 

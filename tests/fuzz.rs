@@ -33,7 +33,7 @@
 //! command, are printed; `HSPH_FUZZ_CASE=k` runs case `k` alone (its working directory is
 //! kept), `HSPH_FUZZ_SEED=n` tries other mutants, `HSPH_FUZZ_VERBOSE=1` prints every case.
 
-mod common;
+use crate::common;
 
 use common::mutate::{mutants, mutate};
 use common::{repo_path, temp_dir, Rng};
@@ -2114,7 +2114,7 @@ fn run_case(bin: &str, dir: &Path, k: usize, case: &Case, failures: &Mutex<Vec<S
             tail = format!("{}…", &tail[..cut]);
         }
         failures.lock().unwrap().push(format!(
-            "case {k} [{:?}] {problem} after {:.1} s\n  replay: HSPH_FUZZ_CASE={k} cargo test --release --test fuzz\n  \
+            "case {k} [{:?}] {problem} after {:.1} s\n  replay: HSPH_FUZZ_CASE={k} cargo test --release --test suite fuzz::\n  \
              cd {} && {line}\n  {}\n  stderr: {}",
             case.family,
             elapsed.as_secs_f64(),

@@ -1,7 +1,7 @@
 //! Issue 9's table of edge cases, one test per row (the row number in the test name): each
 //! reproduces what a user tried and checks what happens now.
 
-mod common;
+use crate::common;
 
 use common::cli::{assert_input_error, hsph_in, stderr};
 use common::{repo_path, temp_dir};

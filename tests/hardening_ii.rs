@@ -4,7 +4,7 @@
 //! expressions, names, empty bodies) are in `tests/scene_limits.rs`, job scripts in
 //! `tests/injection.rs`, random mutants in `tests/fuzz.rs`.
 
-mod common;
+use crate::common;
 
 use common::cli::{assert_input_error, hsph_in, stderr};
 use common::{repo_path, temp_dir};

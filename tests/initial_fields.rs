@@ -2,7 +2,7 @@
 //! velocity and pressure its expressions give at its position; bad expressions are exit 2
 //! naming the key.
 
-mod common;
+use crate::common;
 
 use std::f64::consts::PI;
 

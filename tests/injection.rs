@@ -6,7 +6,7 @@
 //! run verbatim, each as one argument, and keeps every `#SBATCH` line in the leading comment
 //! block, where Slurm reads them. Both launchers, both branches (a new run and a restart).
 
-mod common;
+use crate::common;
 
 use common::{repo_path, temp_dir};
 use std::os::unix::fs::{FileTypeExt, PermissionsExt};

@@ -4,7 +4,7 @@
 //! checkpoint, exit 3 → `scontrol requeue` → the requeued script continues from the checkpoint
 //! and ends with the bits of an uninterrupted run. The real-Slurm test is .ci/slurm-stage, run by CI.
 
-mod common;
+use crate::common;
 
 use std::os::unix::fs::PermissionsExt;
 use std::path::Path;

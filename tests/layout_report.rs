@@ -1,7 +1,7 @@
 //! At start a run prints the layout it got and warns where it differs from the job script's
 //! plan (`HSPH_JOB_PLAN`, written by `hsph jobscript`; issue 10, item 5).
 
-mod common;
+use crate::common;
 
 fn run_with_plan(tag: &str, plan: &str, extra: &[&str]) -> (i32, String) {
     let out = common::temp_dir(tag).join("run");

@@ -3,7 +3,7 @@
 //! pair mode must give the same bits as with lists, in 2D and 3D, on one rank and several,
 //! with walls (fluid-only wall lists), mirror walls and periodic images.
 
-mod common;
+use crate::common;
 
 use common::hsph;
 use hsph::scene::{load_scene, Scene};

@@ -7,7 +7,7 @@
 //! |h/H − experiment| over t√(g/H) ∈ [0, 8] and the surge's arrival (first h/H > 0.02).
 //! Bounds: 1.5 × the errors measured at 1 cm on the commit of this test (in docs).
 
-mod common;
+use crate::common;
 
 use common::hsph;
 use std::path::Path;

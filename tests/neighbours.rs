@@ -1,7 +1,7 @@
 //! Neighbour lists (cell list + ghosts) against brute-force oracles, 2D and 3D, periodic and
 //! not, on lattices (many pairs exactly at the support radius) and jittered particles.
 
-mod common;
+use crate::common;
 
 use common::Rng;
 use hsph::boundary::ImageSpace;

@@ -3,7 +3,7 @@
 //! together are the gathered state, with the same bits on any rank count; the netCDF files
 //! hold `final.csv`'s values; above `output.gather_limit` `final.csv` is written per rank.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

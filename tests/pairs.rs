@@ -2,7 +2,7 @@
 //! opposite shares. It must agree with gather mode to round-off on one step, in 2D and 3D,
 //! and give the same bits on any number of ranks and threads (its own bits, not gather's).
 
-mod common;
+use crate::common;
 
 use common::hsph;
 use hsph::comm::serial::SerialComm;

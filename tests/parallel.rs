@@ -4,7 +4,7 @@
 //! the neighbours it has on one rank (including subdomains thinner than the support radius);
 //! a failing rank stops the run with one message naming it, without hanging.
 
-mod common;
+use crate::common;
 
 use hsph::comm::local::run_local;
 use hsph::comm::Comm;

@@ -2,7 +2,7 @@
 //! exactly, the placements order as the issue expects on the 3D dam break with 96 ranks on 4
 //! nodes, every placement keeps the engine's bits, and bad layouts are input errors.
 
-mod common;
+use crate::common;
 
 use hsph::driver::{run_scene, Backend, RunOptions};
 use hsph::placement::Placement;

@@ -2,7 +2,7 @@
 //! and a time window, front of the main body, force and moment on a wall), and the same bits
 //! on any number of ranks.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

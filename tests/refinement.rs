@@ -4,7 +4,7 @@
 //! run gives the same bits on any number of ranks and threads and after a restart, still water
 //! stays still, and bad refinement input is exit 2 naming the key.
 
-mod common;
+use crate::common;
 
 use common::cli::{assert_input_error, hsph_in};
 use common::Rng;

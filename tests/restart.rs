@@ -2,7 +2,7 @@
 //! writes the same bytes as a run never interrupted; a checkpoint torn by a crash is skipped; a
 //! damaged part or a change to the physics is refused with exit 2.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

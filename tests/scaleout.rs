@@ -4,7 +4,7 @@
 //! 96 ranks and 1.20 at 1 024 ranks on 10 M particles; a set-up error found by one rank is
 //! every rank's input error.
 
-mod common;
+use crate::common;
 
 use hsph::placement::Placement;
 use hsph::plan::plan;

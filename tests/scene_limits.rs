@@ -6,7 +6,7 @@
 //! bodies that build no particle. Ordinary values pass (the positive controls). Every case is
 //! a `check`, never a run, so that the whole file takes seconds.
 
-mod common;
+use crate::common;
 
 use common::{hsph, temp_dir};
 use std::time::Instant;

@@ -6,7 +6,7 @@
 //! 0.205, closest pair 0.41 dx; with shifting 0.0234, 0.052 and 0.77 dx. Bounds: 1.5 × the
 //! shifted error, and the unshifted run must stay at least ten times worse.
 
-mod common;
+use crate::common;
 
 use hsph::driver::{run_scene, RunOptions};
 use hsph::scene::load_scene;

@@ -3,7 +3,7 @@
 //! exits with status 3; the CSV series are exactly the complete run's up to the last output
 //! step before the stop.
 
-mod common;
+use crate::common;
 
 use hsph::driver::{run_scene, Backend, Fault, FaultKind, RunOptions};
 use hsph::scene::load_scene;

@@ -1,7 +1,7 @@
 //! Elastic–plastic solids (issue 12): the oscillating plate against thin-plate theory, the
 //! tensile instability with and without artificial stress.
 
-mod common;
+use crate::common;
 
 use hsph::comm::serial::SerialComm;
 use hsph::scene::load_scene_str;

@@ -5,7 +5,7 @@
 //! (8 m + λ)/c = 6.093 s (0.30 %); run-up at the wall 0.0862 m against Su & Mirie's 0.1065 m
 //! (19.0 %). Bounds: 1.5 × each.
 
-mod common;
+use crate::common;
 
 use common::hsph;
 

@@ -4,7 +4,7 @@
 //! with resolution for each variant, that a second call reruns nothing, and that `--target`
 //! names a run that met it and `--write` gives a scene `hsph check` accepts.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::Command;
