@@ -17,7 +17,7 @@ use rayon::prelude::*;
 
 mod half;
 mod sized;
-pub use half::{HalfPairs, HalfView, Window};
+pub use half::{HalfPairs, HalfView, Stored, Window};
 
 /// The global cell grid.
 #[derive(Debug, Clone)]
@@ -682,7 +682,7 @@ impl NeighbourList {
     pub fn load(&self, i: usize, cells: &CellList) -> usize {
         let own = self.of(i).len();
         if self.has_half && !self.lean {
-            own + self.half.stored(cells.slot[i] as usize).len()
+            own + self.half.stored(cells.slot[i] as usize).count()
         } else {
             own
         }

@@ -34,9 +34,10 @@ const OWNED: u8 = 4;
 /// The canonical half lists (stored) or what a list-free scan needs (lean mode).
 #[derive(Debug, Clone, Default)]
 pub struct HalfPairs {
-    /// Partner slots of homes k·[`CHUNK`] .. (k+1)·[`CHUNK`], one list after the other.
-    chunks: Vec<Vec<u32>>,
-    /// Start of slot k's partners within its chunk.
+    /// Partner slots of homes k·[`CHUNK`] .. (k+1)·[`CHUNK`], one list after the other, each
+    /// list delta-encoded ([`encode`]): 2 B per partner instead of 4.
+    chunks: Vec<Vec<u16>>,
+    /// Start of slot k's partners within its chunk (in u16 units).
     offset: Vec<u32>,
     /// Slots listed (owned + ghosts), 0 when not built.
     slots: usize,
@@ -44,6 +45,11 @@ pub struct HalfPairs {
     flags: Vec<u8>,
     /// First slot of each row of cells (axis-0 and axis-1 coordinates), one per row plus one.
     rows: Vec<usize>,
+    /// Accumulator entry of each slot, one per slot plus one: the fluid slots before it.
+    /// Only fluid slots receive in the pair passes, so [`HalfView::run`]'s accumulators hold
+    /// one entry per fluid slot (half the slots or fewer in a walled tank); the count rises
+    /// with the slot, so the blocks' disjoint slot ranges stay disjoint entry ranges.
+    entry: Vec<u32>,
     /// Partners listed in all.
     pairs: usize,
 }
@@ -75,6 +81,13 @@ impl HalfPairs {
                     *f = eligible | fluid | owned;
                 }
             });
+        self.entry.clear();
+        self.entry.push(0);
+        let mut fluid = 0u32;
+        for &f in &self.flags {
+            fluid += u32::from(f & FLUID != 0);
+            self.entry.push(fluid);
+        }
         let row = grid.dims[2..].iter().product::<usize>();
         self.rows.clear();
         self.rows
@@ -97,19 +110,21 @@ impl HalfPairs {
                 grid,
                 cells,
             };
-            chunks
+            self.pairs = chunks
                 .par_iter_mut()
                 .zip(offset.par_chunks_mut(CHUNK))
                 .enumerate()
-                .for_each(|(ci, (list, offs))| {
+                .map(|(ci, (list, offs))| {
                     list.clear();
+                    let mut pairs = 0;
                     for (k, off) in offs.iter_mut().enumerate() {
                         *off = list.len() as u32;
-                        view.append(ci * CHUNK + k, list);
+                        pairs += view.append(ci * CHUNK + k, list);
                     }
-                });
+                    pairs
+                })
+                .sum();
         }
-        self.pairs = chunks.iter().map(Vec::len).sum();
         self.chunks = chunks;
         self.offset = offset;
     }
@@ -126,15 +141,16 @@ impl HalfPairs {
 
     /// Bytes held by the lists.
     pub fn bytes(&self) -> usize {
-        self.chunks.iter().map(|c| c.capacity() * 4).sum::<usize>()
+        self.chunks.iter().map(|c| c.capacity() * 2).sum::<usize>()
             + self.offset.capacity() * 4
             + self.flags.capacity()
             + self.rows.capacity() * 8
+            + self.entry.capacity() * 4
     }
 
     /// Partners of home slot `k` (stored lists).
     #[inline]
-    pub(super) fn stored(&self, k: usize) -> &[u32] {
+    pub(super) fn stored(&self, k: usize) -> Stored<'_> {
         let (c, r) = (k / CHUNK, k % CHUNK);
         let list = &self.chunks[c];
         let s = self.offset[k] as usize;
@@ -143,7 +159,88 @@ impl HalfPairs {
         } else {
             list.len()
         };
-        &list[s..e]
+        Stored {
+            units: list[s..e].iter(),
+            prev: k as u32,
+        }
+    }
+}
+
+/// Append to `out` the candidates of slots `s ..` (one item of `cand` each) for which
+/// `keep(t, item)` holds, each as its distance from the previous partner (`prev`, the home's
+/// slot before its first partner) in one u16 — or, for a distance of 2¹⁶ or more (a jump to
+/// the next plane of a large grid), a 0 and then the slot itself, low half first. Distances
+/// are at least 1, so 0 is free to mark the escape. Returns how many were kept.
+///
+/// Branch-free: every candidate is written at the end, counted from the slot before the row
+/// (or the last kept one) and the end advances on a keep, so within a row of fewer than 2¹⁶
+/// slots no distance overflows; only the row's first partner is then re-measured from `prev`.
+#[inline(always)]
+fn encode_run<I: ExactSizeIterator>(
+    prev: &mut u32,
+    s: usize,
+    out: &mut Vec<u16>,
+    cand: I,
+    keep: impl Fn(usize, I::Item) -> bool,
+) -> usize {
+    let n = cand.len();
+    let w = out.len();
+    if n > usize::from(u16::MAX) {
+        // a row too long for one-unit distances: every partner escaped
+        out.resize(w + 3 * n, 0);
+        let mut m = 0;
+        for (t, item) in (s..s + n).zip(cand) {
+            let hit = keep(t, item);
+            out[w + m..w + m + 3].copy_from_slice(&[0, t as u16, (t >> 16) as u16]);
+            m += 3 * usize::from(hit);
+            *prev = if hit { t as u32 } else { *prev };
+        }
+        out.truncate(w + m);
+        return m / 3;
+    }
+    out.resize(w + n, 0);
+    let body = &mut out[w..];
+    let (mut m, mut last) = (0usize, s as u32 - 1);
+    for (t, item) in (s..s + n).zip(cand) {
+        let hit = keep(t, item);
+        body[m] = (t as u32 - last) as u16;
+        last = if hit { t as u32 } else { last };
+        m += usize::from(hit);
+    }
+    out.truncate(w + m);
+    if m > 0 {
+        let first = s as u32 - 1 + u32::from(out[w]);
+        match u16::try_from(first - *prev) {
+            Ok(d) => out[w] = d,
+            Err(_) => {
+                out.splice(w..w + 1, [0, first as u16, (first >> 16) as u16]);
+            }
+        }
+        *prev = last;
+    }
+    m
+}
+
+/// One home's stored partner slots, decoded ([`encode`]), ascending.
+#[derive(Clone)]
+pub struct Stored<'a> {
+    units: std::slice::Iter<'a, u16>,
+    prev: u32,
+}
+
+impl Iterator for Stored<'_> {
+    type Item = u32;
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<u32> {
+        let d = *self.units.next()?;
+        self.prev = if d != 0 {
+            self.prev + u32::from(d)
+        } else {
+            let mut half = || u32::from(self.units.next().copied().unwrap_or(0));
+            half() | half() << 16
+        };
+        Some(self.prev)
     }
 }
 
@@ -156,18 +253,20 @@ pub struct HalfView<'a, const D: usize> {
     pub(super) cells: &'a CellList,
 }
 
-/// The accumulator entries one block of homes may write: slots `a_base ..` (its rows of
-/// plane X and the row above) and `b_base ..` (the rows of plane X + 1 beside them), `stride`
-/// entries each.
+/// The accumulator entries one block of homes may write: entries `a_base ..` (the fluid slots
+/// of its rows of plane X and the row above) and `b_base ..` (those of the rows of plane X + 1
+/// beside them), `stride` values each. Only fluid slots have an entry.
 pub struct Window<'w, A> {
     a_base: usize,
     a: &'w mut [A],
     b_base: usize,
     b: &'w mut [A],
     stride: usize,
+    /// Entry of each slot ([`HalfPairs`]'s `entry`).
+    entry: &'w [u32],
 }
 
-/// The next `r` slots of `rest` (which starts at slot `at`), `stride` entries each.
+/// The next entries `r` of `rest` (which starts at entry `at`), `stride` values each.
 fn take<'s, A>(rest: &mut &'s mut [A], at: &mut usize, r: &Range<usize>, stride: usize) -> &'s mut [A] {
     let (_, tail) = std::mem::take(rest).split_at_mut((r.start - *at) * stride);
     let (mid, tail) = tail.split_at_mut((r.end - r.start) * stride);
@@ -177,25 +276,33 @@ fn take<'s, A>(rest: &mut &'s mut [A], at: &mut usize, r: &Range<usize>, stride:
 }
 
 impl<A> Window<'_, A> {
-    /// The entry of slot `s` of a one-entry-per-slot accumulator.
+    /// Entry of fluid slot `s` (a slot that is not fluid has none).
+    #[inline(always)]
+    fn entry_of(&self, s: usize) -> usize {
+        debug_assert!(self.entry[s + 1] > self.entry[s], "slot {s} is not fluid");
+        self.entry[s] as usize
+    }
+
+    /// The value of fluid slot `s` of a one-value-per-entry accumulator.
     #[inline(always)]
     pub fn one(&mut self, s: usize) -> &mut A {
         debug_assert_eq!(self.stride, 1);
-        if s < self.b_base {
-            &mut self.a[s - self.a_base]
+        let e = self.entry_of(s);
+        if e < self.b_base {
+            &mut self.a[e - self.a_base]
         } else {
-            &mut self.b[s - self.b_base]
+            &mut self.b[e - self.b_base]
         }
     }
 
-    /// The `stride` entries of slot `s`.
+    /// The `stride` values of fluid slot `s`.
     #[inline(always)]
     pub fn at(&mut self, s: usize) -> &mut [A] {
-        let st = self.stride;
-        if s < self.b_base {
-            &mut self.a[(s - self.a_base) * st..][..st]
+        let (st, e) = (self.stride, self.entry_of(s));
+        if e < self.b_base {
+            &mut self.a[(e - self.a_base) * st..][..st]
         } else {
-            &mut self.b[(s - self.b_base) * st..][..st]
+            &mut self.b[(e - self.b_base) * st..][..st]
         }
     }
 }
@@ -224,10 +331,16 @@ impl<'a, const D: usize> HalfView<'a, D> {
         self.half.slots
     }
 
+    /// Accumulator entry of fluid particle `i` (where [`HalfView::run`] left its sums).
+    #[inline(always)]
+    pub fn entry(&self, i: usize) -> usize {
+        self.half.entry[self.slot(i)] as usize
+    }
+
     /// The stored partner slots of home slot `k`, ascending; `None` in lean mode (use
     /// [`HalfView::scan`]).
     #[inline]
-    pub fn stored(&self, k: usize) -> Option<&'a [u32]> {
+    pub fn stored(&self, k: usize) -> Option<Stored<'a>> {
         (!self.nl.lean).then(|| self.half.stored(k))
     }
 
@@ -264,15 +377,17 @@ impl<'a, const D: usize> HalfView<'a, D> {
         fa & FLUID == 0 && self.nl.fluid_start[c1] == self.nl.fluid_start[c0]
     }
 
-    /// Append home slot `k`'s partners to `list` (the list build: what [`HalfView::scan`]
-    /// finds, with a branch-free append per stencil row).
-    fn append(&self, k: usize, list: &mut Vec<u32>) {
+    /// Append home slot `k`'s partners to `list`, delta-encoded ([`encode_run`]), and return
+    /// how many (the list build: what [`HalfView::scan`] finds, with a branch-free append per
+    /// stencil row).
+    fn append(&self, k: usize, list: &mut Vec<u16>) -> usize {
         let it = self.scan(k);
         if it.rows == 0 {
-            return;
+            return 0;
         }
         let (fl, xs, r2max, cells) = (&self.half.flags, &self.nl.xs, self.nl.r2max, self.cells);
         let reach = &self.nl.reach;
+        let (mut prev, mut pairs) = (k as u32, 0);
         for row in 0..it.rows {
             let Some((c0, c1)) = self.grid.stencil_run(&it.c, row) else {
                 continue;
@@ -282,12 +397,8 @@ impl<'a, const D: usize> HalfView<'a, D> {
                 continue;
             }
             let s = (cells.start[c0] as usize).max(k + 1);
-            // write every candidate, advance on a hit
-            let w = list.len();
-            list.resize(w + (e - s), 0);
-            let out = &mut list[w..];
-            let mut m = 0usize;
-            for (t, (xb, &fb)) in (s..e).zip(xs[s * D..e * D].chunks_exact(D).zip(&fl[s..e])) {
+            let cand = xs[s * D..e * D].chunks_exact(D).zip(&fl[s..e]);
+            pairs += encode_run(&mut prev, s, list, cand, |t, (xb, &fb)| {
                 let mut d2 = 0.0;
                 for (xa, xb) in it.xa.iter().zip(xb) {
                     let d = xa - xb;
@@ -298,17 +409,15 @@ impl<'a, const D: usize> HalfView<'a, D> {
                     Some(r) => d2 < (it.ra + r) * (it.ra + r),
                     None => d2 < r2max,
                 };
-                let keep = near & (fb & ELIGIBLE != 0) & (both & FLUID != 0) & (both & OWNED != 0);
-                out[m] = t as u32;
-                m += keep as usize;
-            }
-            list.truncate(w + m);
+                near & (fb & ELIGIBLE != 0) & (both & FLUID != 0) & (both & OWNED != 0)
+            });
         }
+        pairs
     }
 
     /// Run `home(k, window)` for every slot k, in four phases (module docs); `acc` is reset
-    /// to `stride` entries of `zero` per slot first. A home may write the entries of its own
-    /// slot and of its partners'.
+    /// to `stride` values of `zero` per fluid slot first ([`HalfView::entry`] finds them). A
+    /// home may write the values of its own slot and of its partners', fluid slots only.
     pub fn run<A: Copy + Send + Sync>(
         &self,
         acc: &mut Vec<A>,
@@ -316,9 +425,11 @@ impl<'a, const D: usize> HalfView<'a, D> {
         zero: A,
         home: impl Fn(usize, &mut Window<'_, A>) + Sync,
     ) {
-        let slots = self.half.slots;
+        let entry = &self.half.entry[..];
         acc.clear();
-        acc.resize(slots * stride, zero);
+        acc.resize(entry[self.half.slots] as usize * stride, zero);
+        // the entries of a range of slots
+        let entries = |r: Range<usize>| entry[r.start] as usize..entry[r.end] as usize;
         let (nx, ny) = (self.grid.dims[0], self.grid.dims[1]);
         // first slot of row (x, y); y = ny is the next plane's first row
         let row = |x: usize, y: usize| self.half.rows[x * ny + y];
@@ -351,7 +462,12 @@ impl<'a, const D: usize> HalfView<'a, D> {
                     } else {
                         usize::MAX..usize::MAX
                     };
-                    spans.push((homes.clone(), homes.start..row(x, top), next));
+                    let next = if next.start == usize::MAX {
+                        next
+                    } else {
+                        entries(next)
+                    };
+                    spans.push((homes.clone(), entries(homes.start..row(x, top)), next));
                 }
                 // the windows' pieces in memory order: plane x's, then plane x + 1's
                 let mut own = Vec::with_capacity(spans.len());
@@ -372,6 +488,7 @@ impl<'a, const D: usize> HalfView<'a, D> {
                             b_base: n.start,
                             b,
                             stride,
+                            entry,
                         },
                     ));
                 }
@@ -462,5 +579,47 @@ impl<const D: usize> Iterator for HalfScan<'_, D> {
                 return None;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{encode_run, Stored};
+
+    /// Rows of candidates encoded one after the other decode to exactly the kept slots:
+    /// distances of one, of 2¹⁶ − 1 (the largest in one unit) within a row and across rows,
+    /// of 2¹⁶ (the first escape), a jump up to the top of the slot range, an empty row and a
+    /// row of more than 2¹⁶ candidates (every partner escaped).
+    #[test]
+    fn delta_lists_decode_to_the_slots_kept() {
+        let k = 5u32;
+        let top = u32::MAX as usize;
+        let rows = [
+            (6, 10),
+            (65_542, 131_000),
+            (196_535, 196_545),
+            (200_000, 200_010),
+            (4_000_000, 4_100_000),
+            (top - 3, top),
+            (top, top + 1),
+        ];
+        let kept = |t: usize| {
+            [6, 7, 65_542, 130_999, 196_535, 196_536, 4_000_000, 4_070_000].contains(&t) || t >= top - 1
+        };
+        let (mut units, mut prev, mut pairs, mut want) = (Vec::new(), k, 0, Vec::new());
+        for (s, e) in rows {
+            pairs += encode_run(&mut prev, s, &mut units, s..e, |t, _| kept(t));
+            want.extend((s..e).filter(|&t| kept(t)).map(|t| t as u32));
+        }
+        assert_eq!(pairs, want.len());
+        let got: Vec<u32> = Stored {
+            units: units.iter(),
+            prev: k,
+        }
+        .collect();
+        assert_eq!(got, want);
+        // escapes: 196 535 (2^16 after 130 999), 4 000 000 and 4 070 000 (a row of 100 000
+        // candidates), u32::MAX − 1 (a jump across the range); the other six take one unit
+        assert_eq!(units.len(), 4 * 3 + 6);
     }
 }

@@ -36,10 +36,9 @@ use rayon::prelude::*;
 /// particle count has settled).
 #[derive(Debug, Default)]
 pub struct PairScratch<const D: usize> {
-    /// Scalar accumulators per slot (dρ/dt, or the gradient's matrix and vector, flattened).
+    /// Accumulators per fluid slot, flattened: dρ/dt, dv/dt (D values), the lattice moment, or
+    /// the gradient's matrix and vector (one buffer: the passes run one after the other).
     flat: Vec<f64>,
-    /// Vector accumulators per slot (dv/dt).
-    vector: Vec<Vector<D>>,
     /// V_j = m_j/ρ_j of every particle.
     vol: Vec<f64>,
     /// p_j/ρ_j² of every particle.
@@ -50,7 +49,6 @@ impl<const D: usize> PairScratch<D> {
     /// Bytes held (for the memory report).
     pub fn bytes(&self) -> usize {
         (self.flat.capacity() + self.vol.capacity() + self.p_rho2.capacity()) * 8
-            + self.vector.capacity() * 8 * D
     }
 
     /// A per-particle buffer for the gather passes (the pair passes' volumes; the two modes
@@ -85,7 +83,7 @@ fn run_homes<const D: usize, A: Copy + Send + Sync>(
     pass: &impl Home<A>,
 ) {
     half.run(acc, stride, zero, |k, w| match half.stored(k) {
-        Some(list) => pass.home(k, w, list.iter().copied()),
+        Some(list) => pass.home(k, w, list),
         None => pass.home(k, w, half.scan(k)),
     });
 }
@@ -115,7 +113,7 @@ pub fn continuity<const D: usize>(
     let (acc, kind) = (&s.flat, &p.kind);
     p.drho[..n].par_iter_mut().enumerate().for_each(|(i, d)| {
         *d = if kind[i].is_fluid() {
-            acc[half.slot(i)]
+            acc[half.entry(i)]
         } else {
             0.0
         };
@@ -220,13 +218,13 @@ pub fn momentum<const D: usize>(
             model,
             p_rho2: &s.p_rho2,
         };
-        run_homes(half, &mut s.vector, 1, Vector::zeros(), &pass);
+        run_homes(half, &mut s.flat, D, 0.0, &pass);
     });
     let n = p.n_owned;
-    let (acc, kind, g) = (&s.vector, &p.kind, model.g);
+    let (acc, kind, g) = (&s.flat, &p.kind, model.g);
     p.acc[..n].par_iter_mut().enumerate().for_each(|(i, a)| {
         *a = if kind[i].is_fluid() {
-            acc[half.slot(i)] + g
+            Vector::<D>::from_column_slice(&acc[half.entry(i) * D..][..D]) + g
         } else {
             Vector::zeros()
         };
@@ -244,10 +242,18 @@ struct Momentum<'a, 'h, const D: usize, K> {
     p_rho2: &'a [f64],
 }
 
-impl<const D: usize, K: PairKernel> Home<Vector<D>> for Momentum<'_, '_, D, K> {
+/// Add `v` to the D values `out` (one slot's dv/dt in the flat accumulator).
+#[inline(always)]
+fn add<const D: usize>(out: &mut [f64], v: &Vector<D>) {
+    for (o, x) in out.iter_mut().zip(v.iter()) {
+        *o += x;
+    }
+}
+
+impl<const D: usize, K: PairKernel> Home<f64> for Momentum<'_, '_, D, K> {
     /// Home slot k's pairs.
     #[inline]
-    fn home<I: Iterator<Item = u32>>(&self, k: usize, w: &mut Window<'_, Vector<D>>, partners: I) {
+    fn home<I: Iterator<Item = u32>>(&self, k: usize, w: &mut Window<'_, f64>, partners: I) {
         let (p, model, p_rho2) = (self.p, self.model, self.p_rho2);
         let order = self.half.order();
         let a = order[k] as usize;
@@ -257,7 +263,10 @@ impl<const D: usize, K: PairKernel> Home<Vector<D>> for Momentum<'_, '_, D, K> {
                 let t = t as usize;
                 let b = order[t] as usize;
                 let tb = PairTerms::of(p, model, b, p_rho2[b]);
-                *w.one(t) += pair_acceleration(p, model, self.kern, &tb, p_rho2[a], a);
+                add(
+                    w.at(t),
+                    &pair_acceleration(p, model, self.kern, &tb, p_rho2[a], a),
+                );
             }
             return;
         }
@@ -269,12 +278,12 @@ impl<const D: usize, K: PairKernel> Home<Vector<D>> for Momentum<'_, '_, D, K> {
             if p.kind[b].is_fluid() {
                 let (d_a, d_b) = fluid_pair(p, model, self.kern, &ta, p_rho2, a, b);
                 sum += d_a;
-                *w.one(t) += d_b;
+                add(w.at(t), &d_b);
             } else {
                 sum += pair_acceleration(p, model, self.kern, &ta, p_rho2[b], b);
             }
         }
-        *w.one(k) += sum;
+        add(w.at(k), &sum);
     }
 }
 
@@ -372,7 +381,7 @@ pub fn renormalised_gradient<const D: usize>(
         if !kind[i].is_fluid() {
             return;
         }
-        let at = &acc[half.slot(i) * stride..][..stride];
+        let at = &acc[half.entry(i) * stride..][..stride];
         let mat = Matrix::<D>::from_fn(|r, c| {
             if r <= c {
                 at[tri::<D>(r, c)]
@@ -472,7 +481,7 @@ pub fn lattice_moment<const D: usize>(
     let (acc, kind) = (&s.flat, &p.kind);
     p.lap[..n].par_iter_mut().enumerate().for_each(|(i, l)| {
         *l = if kind[i].is_fluid() {
-            super::viscous::moment_of::<D>(acc[half.slot(i)])
+            super::viscous::moment_of::<D>(acc[half.entry(i)])
         } else {
             1.0
         };
