@@ -458,14 +458,9 @@ impl<'a, const D: usize> HalfView<'a, D> {
                     }
                     let top = (y1 + 1).min(ny);
                     let next = if x + 1 < nx {
-                        row(x + 1, y0.saturating_sub(1))..row(x + 1, top)
+                        entries(row(x + 1, y0.saturating_sub(1))..row(x + 1, top))
                     } else {
                         usize::MAX..usize::MAX
-                    };
-                    let next = if next.start == usize::MAX {
-                        next
-                    } else {
-                        entries(next)
                     };
                     spans.push((homes.clone(), entries(homes.start..row(x, top)), next));
                 }
