@@ -309,7 +309,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                         f(id, x, 0, h0)
                     }
                 });
-                self.each_fine(&b.name, &lo, &hi, |_, x| b.contains(x.as_slice()), &mut f);
+                self.each_fine(&b.name, &lo, &hi, None, |_, x| b.contains(x.as_slice()), &mut f);
             }
             Claim::Wall { inner, .. } => {
                 let h_scene = self.sizes.as_ref().map_or(0.0, |z| z.h[0]);
@@ -331,13 +331,15 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                         .then(|| crate::scene::refine::region_at(self.scene, name, x))
                         .flatten()
                 };
-                self.lat.for_each_in(&lo, &hi, |idx, id, x| {
+                // the inner box's rows are jumped over, not visited
+                let hole = inner.as_deref();
+                self.lat.for_each_in_except(&lo, &hi, hole, |idx, id, x| {
                     if claims(idx) && region_at(x.as_slice()).is_none() {
                         f(id, x, 0, h_scene)
                     }
                 });
                 if refined {
-                    self.each_fine(name, &lo, &hi, |parent, _| claims(parent), &mut f);
+                    self.each_fine(name, &lo, &hi, hole, |parent, _| claims(parent), &mut f);
                 }
             }
         }
@@ -346,18 +348,22 @@ impl<'s, const D: usize> SiteSource<'s, D> {
     /// Visit the sites of the refinement levels of body `name` whose centres lie in
     /// `[lo, hi)`: a site of level ℓ is visited if the coarse site whose cell it subdivides
     /// (lattice index `parent`) lies in a region of level ℓ refining the body and `keep(parent,
-    /// centre)` holds.
+    /// centre)` holds. Sites whose parent lies in `hole` (coarse index ranges) are not visited.
     fn each_fine(
         &self,
         name: &str,
         lo: &[f64],
         hi: &[f64],
+        hole: Option<&[(u64, u64)]>,
         keep: impl Fn(&[u64], &Vector<D>) -> bool,
         f: &mut impl FnMut(u64, Vector<D>, u16, f64),
     ) {
         let sizes = self.sizes.as_ref().expect("a refined scene has sizes");
         for (lat, level) in self.fine.iter().zip(1u32..) {
-            lat.for_each_in(lo, hi, |idx, id, x| {
+            // a fine site's parent is idx >> level: the hole at this level
+            let fine_hole: Option<Vec<(u64, u64)>> =
+                hole.map(|r| r.iter().map(|(l, h)| (l << level, h << level)).collect());
+            lat.for_each_in_except(lo, hi, fine_hole.as_deref(), |idx, id, x| {
                 let parent: [u64; D] = std::array::from_fn(|a| idx[a] >> level);
                 let centre: [f64; D] =
                     std::array::from_fn(|a| self.lat.origin[a] + (parent[a] as f64 + 0.5) * self.lat.dx);

@@ -64,23 +64,51 @@ impl<const D: usize> Lattice<D> {
         (lo.min(self.n[axis]), hi.min(self.n[axis]))
     }
 
-    /// Visit every site in the box `[min, max)`: `(site index per axis, id, centre)`.
-    pub fn for_each_in(&self, min: &[f64], max: &[f64], mut f: impl FnMut(&[u64], u64, Vector<D>)) {
-        let r: Vec<(u64, u64)> = (0..D).map(|a| self.range(a, min[a], max[a])).collect();
+    /// Visit every site in the box `[min, max)`: `(site index per axis, id, centre)`, the last
+    /// axis fastest.
+    pub fn for_each_in(&self, min: &[f64], max: &[f64], f: impl FnMut(&[u64], u64, Vector<D>)) {
+        self.for_each_in_except(min, max, None, f)
+    }
+
+    /// [`Lattice::for_each_in`] without the sites whose indices lie in `hole` (per axis `[lo,
+    /// hi)`: a container's inner box), in the same order. A row of the last axis that crosses
+    /// the hole jumps over it, so a container's walls cost their own sites, not its inside.
+    pub fn for_each_in_except(
+        &self,
+        min: &[f64],
+        max: &[f64],
+        hole: Option<&[(u64, u64)]>,
+        mut f: impl FnMut(&[u64], u64, Vector<D>),
+    ) {
+        let r: [(u64, u64); D] = std::array::from_fn(|a| self.range(a, min[a], max[a]));
         if r.iter().any(|(lo, hi)| hi <= lo) {
             return;
         }
-        let mut idx: Vec<u64> = r.iter().map(|(lo, _)| *lo).collect();
+        let last = D - 1;
+        let mut idx: [u64; D] = std::array::from_fn(|a| r[a].0);
         loop {
-            let mut id = 0u64;
-            for (na, ia) in self.n.iter().zip(&idx) {
-                id = id * na + ia;
+            // the row's runs along the last axis: all of it, or the parts beside the hole
+            let (lo, hi) = r[last];
+            let runs = match hole {
+                Some(hl) if (0..last).all(|a| idx[a] >= hl[a].0 && idx[a] < hl[a].1) => {
+                    [(lo, hl[last].0.clamp(lo, hi)), (hl[last].1.clamp(lo, hi), hi)]
+                }
+                _ => [(lo, hi), (hi, hi)],
+            };
+            let mut row = 0u64;
+            for (na, ia) in self.n.iter().zip(&idx).take(last) {
+                row = row * na + ia;
             }
-            let id = self.offset + id;
-            let x = Vector::from_fn(|a, _| self.origin[a] + (idx[a] as f64 + 0.5) * self.dx);
-            f(&idx, id, x);
-            // odometer, last axis fastest
-            let mut a = D;
+            for (a, b) in runs {
+                for i in a..b {
+                    idx[last] = i;
+                    let id = self.offset + row * self.n[last] + i;
+                    let x = Vector::from_fn(|a, _| self.origin[a] + (idx[a] as f64 + 0.5) * self.dx);
+                    f(&idx, id, x);
+                }
+            }
+            // odometer over the leading axes
+            let mut a = last;
             loop {
                 if a == 0 {
                     return;
@@ -542,4 +570,71 @@ pub(crate) fn container_outer(s: &Scene, w: &super::WallBody) -> (Vec<f64>, Vec<
         }
     }
     (lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Lattice;
+    use crate::Vector;
+
+    /// Every site of `[min, max)` with its index, id and centre, in visiting order.
+    type Visits = Vec<(Vec<u64>, u64, Vec<f64>)>;
+
+    fn visits<const D: usize>(
+        lat: &Lattice<D>,
+        min: &[f64],
+        max: &[f64],
+        hole: Option<&[(u64, u64)]>,
+    ) -> Visits {
+        let mut v = Vec::new();
+        lat.for_each_in_except(min, max, hole, |idx, id, x| {
+            v.push((idx.to_vec(), id, x.as_slice().to_vec()))
+        });
+        v
+    }
+
+    /// The hole jumped over equals the full visit filtered by the hole, site for site and in
+    /// the same order, for holes inside, across and beyond the visited box (2D and 3D).
+    fn check<const D: usize>(n: u64) {
+        let lat = Lattice::<D> {
+            origin: Vector::<D>::from_fn(|a, _| -0.3 * a as f64),
+            dx: 0.1,
+            n: [n; D],
+            offset: 7,
+        };
+        let (min, max) = (vec![-1.0; D], vec![10.0; D]);
+        let all = visits(&lat, &min, &max, None);
+        assert_eq!(all.len() as u64, n.pow(D as u32));
+        for (i, id) in all.iter().map(|v| v.1).enumerate() {
+            assert_eq!(id, 7 + i as u64, "ids follow the index, last axis fastest");
+        }
+        let holes: [Vec<(u64, u64)>; 4] = [
+            vec![(2, 5); D],
+            (0..D).map(|a| (a as u64, n - 1)).collect(),
+            vec![(0, n); D],
+            (0..D).map(|a| (n - 2, n + 3 + a as u64)).collect(),
+        ];
+        for hole in &holes {
+            let inside = |idx: &[u64]| idx.iter().zip(hole).all(|(i, (l, h))| i >= l && i < h);
+            let want: Visits = all.iter().filter(|v| !inside(&v.0)).cloned().collect();
+            assert_eq!(visits(&lat, &min, &max, Some(hole)), want, "hole {hole:?}");
+            // a sub-box cut by the hole
+            let (lo, hi) = (vec![0.15; D], vec![0.55; D]);
+            let sub: Visits = visits(&lat, &lo, &hi, None)
+                .into_iter()
+                .filter(|v| !inside(&v.0))
+                .collect();
+            assert_eq!(
+                visits(&lat, &lo, &hi, Some(hole)),
+                sub,
+                "hole {hole:?} in a sub-box"
+            );
+        }
+    }
+
+    #[test]
+    fn a_hole_is_jumped_over_in_the_visiting_order() {
+        check::<2>(9);
+        check::<3>(7);
+    }
 }
