@@ -18,6 +18,9 @@ fn cavity_re100_at_40x40_matches_ghia_within_its_committed_bound() {
         "--out",
         o.to_str().unwrap(),
         "-q",
+        // many steps of a small scene: one thread (see `common::hsph`)
+        "--threads",
+        "1",
         "--set",
         "discretisation.dx=0.025",
         "--set",
@@ -54,6 +57,9 @@ fn cavity_re1_at_40x40_matches_the_stokes_solution_within_its_committed_bound() 
         "--out",
         o.to_str().unwrap(),
         "-q",
+        // many steps of a small scene: one thread (see `common::hsph`)
+        "--threads",
+        "1",
         "--set",
         "discretisation.dx=0.025",
         "--set",
@@ -82,6 +88,9 @@ fn cavity_re1000_at_40x40_within_its_committed_bound() {
         "--out",
         o.to_str().unwrap(),
         "-q",
+        // many steps of a small scene: one thread (see `common::hsph`)
+        "--threads",
+        "1",
         "--set",
         "discretisation.dx=0.025",
         "--set",

@@ -846,184 +846,207 @@ fn cli_case(rng: &mut Rng, fx: &Fixtures) -> Case {
     );
     let mut a: Vec<String> = vec![s(cmd)];
     match cmd {
-        "run" => {
-            // each flag odd one time in three, so that most runs get to their steps
-            a.push(if rng.below(12) == 0 {
-                input_path(rng, fx)
-            } else {
-                p(&fx.dam)
-            });
-            if rng.below(2) == 0 {
-                a.push(s("-q"));
-            }
-            if rng.below(4) != 0 {
-                a.push(s("--force"));
-            }
-            a.extend([
-                s("--out"),
-                s(if rng.below(6) == 0 {
-                    pick(rng, OUT_PATHS)
-                } else {
-                    "out"
-                }),
-            ]);
-            for _ in 0..rng.below(5) {
-                let (f, good, bad) = RUN_FLAGS[rng.below(RUN_FLAGS.len())];
-                let odd = rng.below(3) == 0;
-                match f {
-                    "--restart" if odd => {
-                        let r = match rng.below(5) {
-                            0 => s("nosuch"),
-                            1 => p(&fx.dam),
-                            2 => s("."),
-                            3 => s(".."),
-                            _ => s("/dev/null"),
-                        };
-                        a.extend([s(f), r]);
-                    }
-                    "--topology" => {
-                        let t = if odd { 1 + rng.below(fx.topo.len() - 1) } else { 0 };
-                        a.extend([s(f), p(&fx.topo[t])]);
-                    }
-                    "--restart" => {}
-                    _ => a.extend([s(f), s(pick(rng, if odd { bad } else { good }))]),
-                }
-            }
-            junk(&mut a, rng);
-            a.extend([s("--set"), s("time.max_steps=5")]);
-        }
-        "check" => {
-            a.push(scene_arg(rng, fx));
-            for _ in 0..rng.below(4) {
-                match rng.below(3) {
-                    0 => flag(&mut a, rng, "--ranks", COUNTS),
-                    1 => flag(&mut a, rng, "--max-memory", SIZES),
-                    _ => flag(&mut a, rng, "--set", CLI_SETS),
-                }
-            }
-            junk(&mut a, rng);
-        }
-        "plan" => {
-            a.push(scene_arg(rng, fx));
-            if rng.below(8) != 0 {
-                flag(&mut a, rng, "--ranks", COUNTS);
-            }
-            for _ in 0..rng.below(4) {
-                match rng.below(5) {
-                    0 => flag(&mut a, rng, "--ranks-per-node", COUNTS),
-                    1 => a.extend([s("--topology"), input_path(rng, fx)]),
-                    2 => flag(
-                        &mut a,
-                        rng,
-                        "--placement",
-                        &[
-                            "all",
-                            "rank-order",
-                            "centre-distance",
-                            "node-grid",
-                            "min-cut",
-                            "x",
-                        ],
-                    ),
-                    3 => flag(&mut a, rng, "--out", OUT_PATHS),
-                    _ => flag(&mut a, rng, "--set", CLI_SETS),
-                }
-            }
-            junk(&mut a, rng);
-        }
-        "model" => {
-            if rng.below(4) != 0 {
-                a.push(scene_arg(rng, fx));
-            }
-            if rng.below(8) != 0 {
-                a.extend([s("--one"), run_dir(rng, fx)]);
-            }
-            if rng.below(8) != 0 {
-                a.push(s("--many"));
-                for _ in 0..1 + rng.below(2) {
-                    a.push(run_dir(rng, fx));
-                }
-            }
-            for _ in 0..rng.below(5) {
-                match rng.below(7) {
-                    0 => flag(&mut a, rng, "--ranks", COUNTS),
-                    1 => flag(&mut a, rng, "--ranks-per-node", COUNTS),
-                    2 => flag(&mut a, rng, "--cores", COUNTS),
-                    3 => flag(&mut a, rng, "--bandwidth", REALS),
-                    4 => flag(&mut a, rng, "--latency", REALS),
-                    5 => a.extend([s("--check"), run_dir(rng, fx)]),
-                    _ => flag(&mut a, rng, "--set", CLI_SETS),
-                }
-            }
-            junk(&mut a, rng);
-        }
-        "bench" => {
-            // at most 3 timed steps of one repetition, or values that are refused
-            a.push(if rng.below(6) == 0 {
-                input_path(rng, fx)
-            } else {
-                p(&fx.dam)
-            });
-            flag(
-                &mut a,
-                rng,
-                "--steps",
-                &["1", "2", "3", "0", "-1", "x", "1000001", "1e300", ""],
-            );
-            flag(&mut a, rng, "--repeat", &["1", "1", "0", "-1", "1001", "x", ""]);
-            if rng.below(2) == 0 {
-                flag(
-                    &mut a,
-                    rng,
-                    "--threads",
-                    &[
-                        "1", "2", "1,2", "0", "1,,2", "", "1025", "x", "100000", ",", "2,1", "-1",
-                    ],
-                );
-            }
-            for _ in 0..rng.below(3) {
-                match rng.below(3) {
-                    0 => flag(&mut a, rng, "--interactions", &["gather", "pairs", "x"]),
-                    1 => flag(&mut a, rng, "--neighbours", &["lists", "cells", "x"]),
-                    _ => flag(&mut a, rng, "--set", CLI_SETS),
-                }
-            }
-            junk(&mut a, rng);
-        }
+        "run" => run_args(&mut a, rng, fx),
+        "check" => check_args(&mut a, rng, fx),
+        "plan" => plan_args(&mut a, rng, fx),
+        "model" => model_args(&mut a, rng, fx),
+        "bench" => bench_args(&mut a, rng, fx),
         "validate" => validate_args(&mut a, rng),
-        "topology" => {
-            for _ in 0..rng.below(3) {
-                let f = pick(rng, &["--ranks", "--threads"]);
-                flag(&mut a, rng, f, COUNTS);
-            }
-            junk(&mut a, rng);
-        }
-        _ => {
-            // report: always an output directory of the case's own
-            for _ in 0..1 + rng.below(3) {
-                a.push(run_dir(rng, fx));
-            }
-            if rng.below(3) == 0 {
-                a.push(s("--compare"));
-            }
-            let out = loop {
-                let o = pick(rng, OUT_PATHS);
-                if !o.is_empty() {
-                    break o;
-                }
-            };
-            a.extend([s("--out"), s(out)]);
-            if rng.below(2) == 0 {
-                a.push(s("--field"));
-                a.push(match rng.below(3) {
-                    0 => s(pick(rng, &["eps_p", "p", "rho", "vx", "id", "e"])),
-                    _ => hostile(rng),
-                });
-            }
-            junk(&mut a, rng);
-        }
+        "topology" => topology_args(&mut a, rng),
+        _ => report_args(&mut a, rng, fx),
     }
     Case::new(Family::Cli, a)
+}
+
+/// Arguments of a fuzzed `hsph run` after the command: a scene, output flags, up to four run
+/// flags (each odd one time in three) and junk.
+fn run_args(a: &mut Vec<String>, rng: &mut Rng, fx: &Fixtures) {
+    // each flag odd one time in three, so that most runs get to their steps
+    a.push(if rng.below(12) == 0 {
+        input_path(rng, fx)
+    } else {
+        p(&fx.dam)
+    });
+    if rng.below(2) == 0 {
+        a.push(s("-q"));
+    }
+    if rng.below(4) != 0 {
+        a.push(s("--force"));
+    }
+    a.extend([
+        s("--out"),
+        s(if rng.below(6) == 0 {
+            pick(rng, OUT_PATHS)
+        } else {
+            "out"
+        }),
+    ]);
+    for _ in 0..rng.below(5) {
+        let (f, good, bad) = RUN_FLAGS[rng.below(RUN_FLAGS.len())];
+        let odd = rng.below(3) == 0;
+        match f {
+            "--restart" if odd => {
+                let r = match rng.below(5) {
+                    0 => s("nosuch"),
+                    1 => p(&fx.dam),
+                    2 => s("."),
+                    3 => s(".."),
+                    _ => s("/dev/null"),
+                };
+                a.extend([s(f), r]);
+            }
+            "--topology" => {
+                let t = if odd { 1 + rng.below(fx.topo.len() - 1) } else { 0 };
+                a.extend([s(f), p(&fx.topo[t])]);
+            }
+            "--restart" => {}
+            _ => a.extend([s(f), s(pick(rng, if odd { bad } else { good }))]),
+        }
+    }
+    junk(a, rng);
+    a.extend([s("--set"), s("time.max_steps=5")]);
+}
+
+/// Arguments of a fuzzed `hsph check`.
+fn check_args(a: &mut Vec<String>, rng: &mut Rng, fx: &Fixtures) {
+    a.push(scene_arg(rng, fx));
+    for _ in 0..rng.below(4) {
+        match rng.below(3) {
+            0 => flag(a, rng, "--ranks", COUNTS),
+            1 => flag(a, rng, "--max-memory", SIZES),
+            _ => flag(a, rng, "--set", CLI_SETS),
+        }
+    }
+    junk(a, rng);
+}
+
+/// Arguments of a fuzzed `hsph plan`.
+fn plan_args(a: &mut Vec<String>, rng: &mut Rng, fx: &Fixtures) {
+    a.push(scene_arg(rng, fx));
+    if rng.below(8) != 0 {
+        flag(a, rng, "--ranks", COUNTS);
+    }
+    for _ in 0..rng.below(4) {
+        match rng.below(5) {
+            0 => flag(a, rng, "--ranks-per-node", COUNTS),
+            1 => a.extend([s("--topology"), input_path(rng, fx)]),
+            2 => flag(
+                a,
+                rng,
+                "--placement",
+                &[
+                    "all",
+                    "rank-order",
+                    "centre-distance",
+                    "node-grid",
+                    "min-cut",
+                    "x",
+                ],
+            ),
+            3 => flag(a, rng, "--out", OUT_PATHS),
+            _ => flag(a, rng, "--set", CLI_SETS),
+        }
+    }
+    junk(a, rng);
+}
+
+/// Arguments of a fuzzed `hsph model`.
+fn model_args(a: &mut Vec<String>, rng: &mut Rng, fx: &Fixtures) {
+    if rng.below(4) != 0 {
+        a.push(scene_arg(rng, fx));
+    }
+    if rng.below(8) != 0 {
+        a.extend([s("--one"), run_dir(rng, fx)]);
+    }
+    if rng.below(8) != 0 {
+        a.push(s("--many"));
+        for _ in 0..1 + rng.below(2) {
+            a.push(run_dir(rng, fx));
+        }
+    }
+    for _ in 0..rng.below(5) {
+        match rng.below(7) {
+            0 => flag(a, rng, "--ranks", COUNTS),
+            1 => flag(a, rng, "--ranks-per-node", COUNTS),
+            2 => flag(a, rng, "--cores", COUNTS),
+            3 => flag(a, rng, "--bandwidth", REALS),
+            4 => flag(a, rng, "--latency", REALS),
+            5 => a.extend([s("--check"), run_dir(rng, fx)]),
+            _ => flag(a, rng, "--set", CLI_SETS),
+        }
+    }
+    junk(a, rng);
+}
+
+/// Arguments of a fuzzed `hsph bench`: at most 3 timed steps of one repetition, or values
+/// that are refused.
+fn bench_args(a: &mut Vec<String>, rng: &mut Rng, fx: &Fixtures) {
+    // at most 3 timed steps of one repetition, or values that are refused
+    a.push(if rng.below(6) == 0 {
+        input_path(rng, fx)
+    } else {
+        p(&fx.dam)
+    });
+    flag(
+        a,
+        rng,
+        "--steps",
+        &["1", "2", "3", "0", "-1", "x", "1000001", "1e300", ""],
+    );
+    flag(a, rng, "--repeat", &["1", "1", "0", "-1", "1001", "x", ""]);
+    if rng.below(2) == 0 {
+        flag(
+            a,
+            rng,
+            "--threads",
+            &[
+                "1", "2", "1,2", "0", "1,,2", "", "1025", "x", "100000", ",", "2,1", "-1",
+            ],
+        );
+    }
+    for _ in 0..rng.below(3) {
+        match rng.below(3) {
+            0 => flag(a, rng, "--interactions", &["gather", "pairs", "x"]),
+            1 => flag(a, rng, "--neighbours", &["lists", "cells", "x"]),
+            _ => flag(a, rng, "--set", CLI_SETS),
+        }
+    }
+    junk(a, rng);
+}
+
+/// Arguments of a fuzzed `hsph topology`.
+fn topology_args(a: &mut Vec<String>, rng: &mut Rng) {
+    for _ in 0..rng.below(3) {
+        let f = pick(rng, &["--ranks", "--threads"]);
+        flag(a, rng, f, COUNTS);
+    }
+    junk(a, rng);
+}
+
+/// Arguments of a fuzzed `hsph report`: always an output directory of the case's own.
+fn report_args(a: &mut Vec<String>, rng: &mut Rng, fx: &Fixtures) {
+    // report: always an output directory of the case's own
+    for _ in 0..1 + rng.below(3) {
+        a.push(run_dir(rng, fx));
+    }
+    if rng.below(3) == 0 {
+        a.push(s("--compare"));
+    }
+    let out = loop {
+        let o = pick(rng, OUT_PATHS);
+        if !o.is_empty() {
+            break o;
+        }
+    };
+    a.extend([s("--out"), s(out)]);
+    if rng.below(2) == 0 {
+        a.push(s("--field"));
+        a.push(match rng.below(3) {
+            0 => s(pick(rng, &["eps_p", "p", "rho", "vx", "id", "e"])),
+            _ => hostile(rng),
+        });
+    }
+    junk(a, rng);
 }
 
 /// Every odd value of [`RUN_FLAGS`] once in an otherwise valid run, and thread and rank

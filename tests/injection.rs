@@ -313,34 +313,32 @@ fn stderr(o: &Output) -> String {
 }
 
 /// Generate the script for `c` with `launcher` in a fresh directory, and check what comes of it.
+/// The files of one case: its directory, the scene, the run directory, the job script and
+/// the hsph binary the script names.
+struct Paths {
+    dir: PathBuf,
+    scene: PathBuf,
+    run: PathBuf,
+    job: PathBuf,
+    bin: PathBuf,
+}
+
 fn try_case(c: &Case, launcher: &str) {
     let what = format!("{} ({launcher})", c.what);
     let dir = temp_dir("injection");
     let scene = dir.join(&c.scene_dir).join("scene.toml");
     scene_named(&scene, c.name.as_deref().unwrap_or("dam_break_2d"));
-    let run = dir.join(&c.out);
-    let job = dir.join("job.sh");
-    let bin = match &c.bin_dir {
-        Some(b) => binary_in(&dir.join(b)),
-        None => PathBuf::from(env!("CARGO_BIN_EXE_hsph")),
+    let f = Paths {
+        run: dir.join(&c.out),
+        job: dir.join("job.sh"),
+        bin: match &c.bin_dir {
+            Some(b) => binary_in(&dir.join(b)),
+            None => PathBuf::from(env!("CARGO_BIN_EXE_hsph")),
+        },
+        scene,
+        dir,
     };
-    let mut cmd = Command::new(&bin);
-    cmd.arg("jobscript")
-        .arg(&scene)
-        .args(["--nodes", "2", "--ranks-per-node", "3", "--threads-per-rank", "4"])
-        .args(["--time", "01:30:00", "--launcher", launcher])
-        .arg("--out")
-        .arg(&run)
-        .arg("--script")
-        .arg(&job)
-        .current_dir(&dir);
-    if let Some(p) = &c.partition {
-        cmd.arg(format!("--partition={p}"));
-    }
-    if let Some(a) = &c.account {
-        cmd.arg(format!("--account={a}"));
-    }
-    let o = cmd.output().unwrap();
+    let o = jobscript_command(c, launcher, &f).output().unwrap();
     let err = stderr(&o);
     assert!(!err.contains("panicked"), "{what}: {err}");
     if let Some(key) = c.refused {
@@ -349,18 +347,46 @@ fn try_case(c: &Case, launcher: &str) {
         assert_eq!(err.trim_end().lines().count(), 1, "{what}: one line: {err}");
         if key == "name" {
             assert!(
-                err.contains(scene.to_str().unwrap()),
+                err.contains(f.scene.to_str().unwrap()),
                 "{what}: names the scene file: {err}"
             );
         }
-        assert!(!job.exists(), "{what}: a refused request wrote a script");
-        assert_nothing_ran(&dir, &what);
-        let _ = std::fs::remove_dir_all(&dir);
+        assert!(!f.job.exists(), "{what}: a refused request wrote a script");
+        assert_nothing_ran(&f.dir, &what);
+        let _ = std::fs::remove_dir_all(&f.dir);
         return;
     }
     assert_eq!(o.status.code(), Some(0), "{what}: {err}");
-    let text = std::fs::read_to_string(&job).unwrap();
-    bash_n(&job, &what);
+    let text = std::fs::read_to_string(&f.job).unwrap();
+    bash_n(&f.job, &what);
+    assert_directives(&text, &expected_directives(c), &what);
+    run_script(c, launcher, &f, &what);
+    let _ = std::fs::remove_dir_all(&f.dir);
+}
+
+/// `hsph jobscript` for case `c`: 2 nodes of 3 ranks of 4 threads, 1 h 30 min.
+fn jobscript_command(c: &Case, launcher: &str, f: &Paths) -> Command {
+    let mut cmd = Command::new(&f.bin);
+    cmd.arg("jobscript")
+        .arg(&f.scene)
+        .args(["--nodes", "2", "--ranks-per-node", "3", "--threads-per-rank", "4"])
+        .args(["--time", "01:30:00", "--launcher", launcher])
+        .arg("--out")
+        .arg(&f.run)
+        .arg("--script")
+        .arg(&f.job)
+        .current_dir(&f.dir);
+    if let Some(p) = &c.partition {
+        cmd.arg(format!("--partition={p}"));
+    }
+    if let Some(a) = &c.account {
+        cmd.arg(format!("--account={a}"));
+    }
+    cmd
+}
+
+/// The `#SBATCH` lines the script of case `c` must hold, in order.
+fn expected_directives(c: &Case) -> Vec<String> {
     let mut expected = strings(&[
         "#SBATCH --job-name=dam_break_2d",
         "#SBATCH --nodes=2",
@@ -380,15 +406,20 @@ fn try_case(c: &Case, launcher: &str) {
         "#SBATCH --open-mode=append",
         "#SBATCH --output=hsph-%x-%j.out",
     ]));
-    assert_directives(&text, &expected, &what);
+    expected
+}
 
+/// Run the generated script with stand-ins for hsph, the launcher and scontrol: a new run,
+/// then a restart; every command it ran is the one expected, with the hostile values quoted.
+fn run_script(c: &Case, launcher: &str, f: &Paths, what: &str) {
+    let (dir, scene, run, job, bin) = (&f.dir, &f.scene, &f.run, &f.job, &f.bin);
     // run it: the stand-in hsph is either $HSPH or the file the script names by default
     let standin = dir.join("standin");
     standins(&standin);
     let hsph = match &c.bin_dir {
         Some(_) => {
-            std::fs::remove_file(&bin).unwrap();
-            write_exec(&bin, &standin_hsph());
+            std::fs::remove_file(bin).unwrap();
+            write_exec(bin, &standin_hsph());
             bin.clone()
         }
         None => {
@@ -435,7 +466,7 @@ fn try_case(c: &Case, launcher: &str) {
             std::fs::write(ck.join("manifest.json"), "{}").unwrap();
         }
         let mut bash = Command::new("bash");
-        bash.arg(&job)
+        bash.arg(job)
             .current_dir(&work)
             .env("PATH", &path)
             .env("SLURM_JOB_ID", "42")
@@ -445,7 +476,7 @@ fn try_case(c: &Case, launcher: &str) {
             None => bash.env("HSPH", &hsph),
         };
         let o = bash.output().unwrap();
-        assert_nothing_ran(&dir, &what);
+        assert_nothing_ran(dir, what);
         let out = String::from_utf8_lossy(&o.stdout);
         assert_eq!(
             o.status.code(),
@@ -471,7 +502,6 @@ fn try_case(c: &Case, launcher: &str) {
         want.sort();
         assert_eq!(calls(&log), want, "{what}: restart {restart}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

@@ -19,6 +19,9 @@ fn solitary_wave_crest_arrival_and_runup_within_their_committed_bounds() {
         "--out",
         o.to_str().unwrap(),
         "-q",
+        // many steps of a small scene: one thread (see `common::hsph`)
+        "--threads",
+        "1",
         "--set",
         "discretisation.dx=0.025",
     ]);
