@@ -436,9 +436,9 @@ fn momentum_of<const D: usize, N: Neighbours, K: PairKernel>(
 
 /// Artificial stress R (Gray, Monaghan & Swift 2001): in the principal frame of σ, each
 /// tensile principal stress σ'_aa > 0 gives R'_aa = −`eps_rho2` σ'_aa (`eps_rho2` = ε/ρ²),
-/// compressive ones 0; rotated back. nalgebra's symmetric eigen-decomposition of σ embedded
-/// in 3×3 (a 2D tensor gets a zero z row and column, whose eigenvalue 0 adds nothing);
-/// deterministic for a given tensor.
+/// compressive ones 0; rotated back (R in Pa·m³/kg² when σ is in Pa). In 2D in closed form
+/// ([`artificial_stress_2d`]); in 3D through nalgebra's symmetric eigen-decomposition
+/// ([`artificial_stress_eigen`]). Deterministic for a given tensor.
 pub fn artificial_stress<const D: usize>(sigma: &Tensor<D>, eps_rho2: f64) -> Tensor<D> {
     // Gershgorin: every eigenvalue lies within a disc σ_aa ± Σ_b≠a |σ_ab|; with all discs at
     // or below zero no principal stress is tensile and the decomposition is skipped
@@ -449,6 +449,35 @@ pub fn artificial_stress<const D: usize>(sigma: &Tensor<D>, eps_rho2: f64) -> Te
     if !tensile {
         return Tensor::zeros();
     }
+    if D == 2 {
+        let r = artificial_stress_2d([sigma[(0, 0)], sigma[(0, 1)], sigma[(1, 1)]], eps_rho2);
+        return Tensor::<D>::from_fn(|a, b| r[a + b]);
+    }
+    artificial_stress_eigen(sigma, eps_rho2)
+}
+
+/// [`artificial_stress`] of the 2D tensor [[a, b], [b, c]] = `[a, b, c]`, returned the same
+/// way. Principal stresses λ± = (a + c)/2 ± √(((a − c)/2)² + b²); with both tensile R = −ε/ρ² σ,
+/// with λ+ alone R = −ε/ρ² λ+ (σ − λ− I)/(λ+ − λ−) (the projector on λ+'s axis; λ+ − λ− ≥
+/// λ+ > 0), with neither 0. It replaces a 3×3 eigen-decomposition per particle and step,
+/// 14 % of the oscillating plate's run.
+pub fn artificial_stress_2d([a, b, c]: [f64; 3], eps_rho2: f64) -> [f64; 3] {
+    let mean = 0.5 * (a + c);
+    let rad = (0.5 * (a - c)).hypot(b);
+    let (hi, lo) = (mean + rad, mean - rad);
+    if lo > 0.0 {
+        return [-eps_rho2 * a, -eps_rho2 * b, -eps_rho2 * c];
+    }
+    if hi <= 0.0 {
+        return [0.0; 3];
+    }
+    let f = -eps_rho2 * hi / (hi - lo);
+    [f * (a - lo), f * b, f * (c - lo)]
+}
+
+/// [`artificial_stress`] through nalgebra's symmetric eigen-decomposition of σ embedded in
+/// 3×3 (a 2D tensor gets a zero z row and column, whose eigenvalue 0 adds nothing).
+pub fn artificial_stress_eigen<const D: usize>(sigma: &Tensor<D>, eps_rho2: f64) -> Tensor<D> {
     let mut m = nalgebra::Matrix3::<f64>::zeros();
     for a in 0..D {
         for b in 0..D {
@@ -484,6 +513,29 @@ mod tests {
         // pure compression: no artificial stress
         let c = nalgebra::Matrix3::new(-1.0, 0.2, 0.0, 0.2, -2.0, 0.1, 0.0, 0.1, -0.5);
         assert_eq!(artificial_stress::<3>(&c, 0.3), Tensor::<3>::zeros());
+    }
+
+    #[test]
+    fn the_2d_closed_form_equals_the_eigen_decomposition() {
+        // both tensile, one, neither, equal principal stresses, pure shear, zero
+        let cases = [
+            [3.0e6, 1.0e6, 2.0e6],
+            [2.0e5, -4.0e5, -1.0e6],
+            [-1.0, 0.3, -2.0],
+            [5.0, 0.0, 5.0],
+            [-5.0, 0.0, -5.0],
+            [0.0, 7.0, 0.0],
+            [1.0e-3, 2.0e-3, -4.0e6],
+            [0.0, 0.0, 0.0],
+        ];
+        for [a, b, c] in cases {
+            let s = nalgebra::Matrix2::new(a, b, b, c);
+            let want = artificial_stress_eigen::<2>(&s, 0.3);
+            let got = artificial_stress::<2>(&s, 0.3);
+            let scale = s.abs().max().max(1e-300);
+            assert!((got - want).abs().max() <= 1e-13 * scale, "{s}: {got} vs {want}");
+            assert_eq!(got, got.transpose());
+        }
     }
 
     #[test]
