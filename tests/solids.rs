@@ -63,9 +63,10 @@ fn zero_crossings(h: &[(f64, f64, f64)]) -> Vec<f64> {
 }
 
 /// Gray, Monaghan & Swift's oscillating plate at V_f = 0.01 and H/dx = 10 (the shipped
-/// scene): over 5 periods the period is within 3 % of thin-plate theory (T = 2π/ω,
-/// ω² = E H² k⁴ / (12 ρ (1 − ν²)), kL = 1.8751), the first amplitude within 5 % of V_f c0/ω,
-/// and kinetic + internal energy (the elastic energy is part of e) drifts by less than 1 %.
+/// scene), run for 2.6 periods: over the first two the period is within 3 % of thin-plate
+/// theory (T = 2π/ω, ω² = E H² k⁴ / (12 ρ (1 − ν²)), kL = 1.8751), the first amplitude within
+/// 5 % of V_f c0/ω, and kinetic + internal energy (the elastic energy is part of e) drifts by
+/// less than 0.7 %.
 #[test]
 fn oscillating_plate_period_and_energy_match_theory() {
     let (e, nu, rho, hh, l) = (2.0e6f64, 0.3975f64, 1000.0f64, 0.02f64, 0.2f64);
@@ -73,11 +74,12 @@ fn oscillating_plate_period_and_energy_match_theory() {
     let omega = (e * hh * hh * k.powi(4) / (12.0 * rho * (1.0 - nu * nu))).sqrt();
     let period = 2.0 * std::f64::consts::PI / omega;
     assert!((period - 0.2541).abs() < 1e-3, "theory {period}");
-    let h = plate_history(&[], 5.0 * period);
+    // 2.6 periods (~48 000 steps) keep CI's time; the 5-period run is in docs/solids.md
+    let h = plate_history(&[], 2.6 * period);
     let z = zero_crossings(&h);
     // deflection starts at 0 moving up: crossings at T/2, T, 3T/2, ...
-    assert!(z.len() >= 9, "{z:?}");
-    let measured = 2.0 * (z[8] - z[0]) / 8.0;
+    assert!(z.len() >= 5, "{z:?}");
+    let measured = 2.0 * (z[4] - z[0]) / 4.0;
     let err = measured / period - 1.0;
     println!(
         "period {measured:.5} s, theory {period:.5} s ({:+.2} %)",
@@ -95,7 +97,8 @@ fn oscillating_plate_period_and_energy_match_theory() {
     let e0 = h[0].2;
     let drift = h.iter().map(|x| ((x.2 - e0) / e0).abs()).fold(0.0, f64::max);
     println!("energy drift {:.3} %", 100.0 * drift);
-    assert!(drift < 0.01, "energy drift {drift}");
+    // 0.452 % over 2.6 periods when this bound was set (0.67 % over 5): 1.5 × that
+    assert!(drift < 0.007, "energy drift {drift}");
 }
 
 /// Smallest distance between two particles of the block over dx (the clumping index; 1 on the
