@@ -576,18 +576,21 @@ pub fn migrate<const D: usize>(
 
 /// Every owned particle as whole records (for gathering output on one rank).
 pub fn pack_owned<const D: usize>(p: &Particles<D>) -> Vec<u8> {
-    pack_owned_where(p, &|_, _| true)
+    pack_owned_where(p, &|_, _| true, p.dropped)
 }
 
-/// The records of the owned particles `keep` selects, in storage order.
+/// The records of the owned particles `keep` selects, in storage order, without the
+/// `dropped` fields (a field `p` drops but `dropped` does not is sent as zero): what
+/// [`unpack_owned`] reads into a store that drops the same.
 pub fn pack_owned_where<const D: usize>(
     p: &Particles<D>,
     keep: &dyn Fn(&Particles<D>, usize) -> bool,
+    dropped: Fields,
 ) -> Vec<u8> {
     let kept: Vec<usize> = (0..p.n_owned).filter(|&i| keep(p, i)).collect();
-    let mut buf = Vec::with_capacity(kept.len() * Record::<D>::words_carried(p.dropped) * 8);
+    let mut buf = Vec::with_capacity(kept.len() * Record::<D>::words_carried(dropped) * 8);
     for i in kept {
-        p.record(i).put_carried(p.dropped, &mut Words::new(&mut buf));
+        p.record(i).put_carried(dropped, &mut Words::new(&mut buf));
     }
     buf
 }

@@ -374,6 +374,16 @@ impl<const D: usize> Particles<D> {
         }
     }
 
+    /// An empty store for a gathered view (output, probes) that holds every shared field
+    /// except `dropped` and no rates: a view is read, never stepped.
+    pub fn for_view(dropped: Fields) -> Self {
+        Particles {
+            dropped,
+            view_only: true,
+            ..Particles::default()
+        }
+    }
+
     /// The same owned particles in a store that drops `dropped` (no ghosts may exist): a
     /// checkpoint's store holds every field; a fluid-only run keeps none of the solid ones.
     pub fn dropping(self, dropped: Fields) -> Self {
@@ -398,7 +408,7 @@ impl<const D: usize> Particles<D> {
     }
 
     /// Append an owned particle (before any ghost exists); its key is set from its id and its
-    /// rates start at zero.
+    /// rates start at zero (a view's store holds none).
     pub fn push_owned(&mut self, mut r: Record<D>) {
         debug_assert_eq!(self.n_owned, self.len(), "owned particles go before ghosts");
         r.key = r.id << IMAGE_BITS;

@@ -52,6 +52,9 @@ macro_rules! particle_table {
             /// Shared fields this store does not hold (a fluid-only run drops the solid
             /// fields): no storage, never sent, read as zero by [`Particles::record`].
             pub dropped: Fields,
+            /// A gathered view's store (output, probes: [`Particles::for_view`]), never
+            /// stepped: it holds no owned-only columns (rates).
+            pub view_only: bool,
             $( $(#[doc = $doc])* $(#[cfg($cfg)])? pub $name: Vec<$ty>, )*
             $( $(#[doc = $odoc])* pub $oname: Vec<$oty>, )*
         }
@@ -160,7 +163,9 @@ macro_rules! particle_table {
                         gather(&mut self.$name, perm);
                     }
                 )*
-                $( gather(&mut self.$oname, perm); )*
+                if !self.view_only {
+                    $( gather(&mut self.$oname, perm); )*
+                }
             }
 
             /// The shared fields of particle `i`.
@@ -190,7 +195,9 @@ macro_rules! particle_table {
 
             #[inline]
             fn push_rates(&mut self) {
-                $( self.$oname.push(<$oty as FieldValue<D>>::zero()); )*
+                if !self.view_only {
+                    $( self.$oname.push(<$oty as FieldValue<D>>::zero()); )*
+                }
             }
 
             /// Room for `n` more particles in every column this store keeps.
@@ -201,7 +208,9 @@ macro_rules! particle_table {
                         self.$name.reserve(n);
                     }
                 )*
-                $( self.$oname.reserve(n); )*
+                if !self.view_only {
+                    $( self.$oname.reserve(n); )*
+                }
             }
 
             /// Write the `fields` of particle `i` seen through `im` (a ghost refresh record).

@@ -53,9 +53,9 @@ struct Dense<const D: usize> {
 impl<const D: usize> Dense<D> {
     /// The table's box over `cells` (lowest corner, extent per axis), or `None` when it would
     /// hold more than [`DENSE_PER_ITEM`] cells per particle of `items`.
-    fn bounds<'c>(cells: impl Iterator<Item = &'c [i64; D]>, items: usize) -> Option<([i64; D], [i64; D])> {
+    fn bounds(cells: impl Iterator<Item = [i64; D]>, items: usize) -> Option<([i64; D], [i64; D])> {
         let mut cells = cells.peekable();
-        let first = **cells.peek()?;
+        let first = *cells.peek()?;
         let (mut lo, mut hi) = (first, first);
         for c in cells {
             for a in 0..D {
@@ -103,13 +103,15 @@ impl<const D: usize> Bins<D> {
     /// Bin the particles `members` (indices into `x`) in cells of side `size` (m).
     ///
     /// When the occupied cells' box is small (the usual case) this is a counting sort over the
-    /// box, O(n); otherwise one sort of (cell, index) pairs and lookups by binary search.
-    pub fn new(x: &[Vector<D>], size: f64, members: impl Iterator<Item = usize>) -> Self {
-        let mut keyed: Vec<([i64; D], usize)> = members.map(|i| (cell_of(&x[i], size), i)).collect();
-        let in_order = keyed.windows(2).all(|w| w[0].1 < w[1].1);
-        match Dense::bounds(keyed.iter().map(|(c, _)| c), keyed.len()) {
-            Some((lo, dims)) if in_order => Self::counted(size, &keyed, lo, dims),
+    /// box, O(n), that walks `members` again instead of storing their cells; otherwise one
+    /// sort of (cell, index) pairs and lookups by binary search.
+    pub fn new(x: &[Vector<D>], size: f64, members: impl Iterator<Item = usize> + Clone) -> Self {
+        let cells = members.clone().map(|i| cell_of(&x[i], size));
+        let in_order = members.clone().zip(members.clone().skip(1)).all(|(a, b)| a < b);
+        match Dense::bounds(cells, members.clone().count()) {
+            Some((lo, dims)) if in_order => Self::counted(size, x, members, lo, dims),
             _ => {
+                let mut keyed: Vec<([i64; D], usize)> = members.map(|i| (cell_of(&x[i], size), i)).collect();
                 keyed.sort_unstable();
                 Self::sorted(size, keyed)
             }
@@ -136,22 +138,28 @@ impl<const D: usize> Bins<D> {
         }
     }
 
-    /// Bins from `keyed` in index order by a stable counting sort over the box (`lo`, `dims`):
-    /// the box's linear order is the cells' lexicographic order, so cells and members come out
-    /// as [`Bins::sorted`] would give them.
-    fn counted(size: f64, keyed: &[([i64; D], usize)], lo: [i64; D], dims: [i64; D]) -> Self {
+    /// Bins of `members` (in index order) by a stable counting sort over the box (`lo`,
+    /// `dims`): the box's linear order is the cells' lexicographic order, so cells and members
+    /// come out as [`Bins::sorted`] would give them.
+    fn counted(
+        size: f64,
+        x: &[Vector<D>],
+        members: impl Iterator<Item = usize> + Clone,
+        lo: [i64; D],
+        dims: [i64; D],
+    ) -> Self {
         let total = dims.iter().product::<i64>() as usize;
         let mut dense = Dense {
             lo,
             dims,
             slot: vec![0u32; total],
         };
-        let linear: Vec<usize> = keyed
-            .iter()
-            .map(|(c, _)| dense.linear(*c).expect("inside the box"))
-            .collect();
-        for &l in &linear {
+        let linear = |d: &Dense<D>, i: usize| d.linear(cell_of(&x[i], size)).expect("inside the box");
+        let mut n = 0;
+        for i in members.clone() {
+            let l = linear(&dense, i);
             dense.slot[l] += 1;
+            n += 1;
         }
         let (mut cells, mut start) = (Vec::new(), Vec::new());
         let mut at = 0usize;
@@ -168,10 +176,10 @@ impl<const D: usize> Bins<D> {
         }
         start.push(at);
         let mut next = start.clone();
-        let mut items = vec![0usize; keyed.len()];
-        for (&l, (_, i)) in linear.iter().zip(keyed) {
-            let k = dense.slot[l] as usize;
-            items[next[k]] = *i;
+        let mut items = vec![0usize; n];
+        for i in members {
+            let k = dense.slot[linear(&dense, i)] as usize;
+            items[next[k]] = i;
             next[k] += 1;
         }
         Bins {

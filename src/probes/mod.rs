@@ -19,7 +19,7 @@ pub mod sensors;
 use crate::comm::{Comm, Phase};
 use crate::error::{Error, Result};
 use crate::output::series;
-use crate::particles::Particles;
+use crate::particles::{Fields, Particles};
 use crate::scene::{Probe, Scene};
 use crate::sim::{Simulation, View};
 use crate::Vector;
@@ -29,6 +29,14 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 pub use sensors::{columns, sample};
+
+/// The fields a probe or the reference tracker reads from the gathered view: all but the sort
+/// key, the density gradient and the solid fields (a force probe evaluates the solver's own
+/// pair force, which reads the material, the wall velocity and the lattice moment; a hole
+/// probe reads the solids' positions alone). A probe that reads one of the excluded fields
+/// takes it out of this list: the view holds no other, and a missing one fails every test of
+/// that probe at its first sample.
+const PROBED: Fields = Fields::ALL.without(Fields::KEY.or(Fields::GRAD_RHO).or(Fields::SOLID));
 
 /// When a probe writes a row.
 #[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
@@ -167,7 +175,7 @@ impl<const D: usize> ProbeSet<D> {
         let keep = |p: &Particles<D>, i: usize| {
             (fluid && p.kind[i].is_fluid()) || regions.iter().any(|r| r.contains(p, i))
         };
-        let Some(view) = sim.gather_where(comm, &keep)? else {
+        let Some(view) = sim.gather_where(comm, &keep, PROBED)? else {
             return Ok(None);
         };
         for k in (0..self.probes.len()).filter(|&k| sampled[k]) {

@@ -6,7 +6,7 @@ use crate::comm::{Comm, Phase, Tag};
 use crate::error::Result;
 use crate::exact::ExactSum;
 use crate::halo::{pack_owned_where, unpack_owned};
-use crate::particles::Particles;
+use crate::particles::{Fields, Particles};
 use crate::physics::Model;
 use crate::scene::Scene;
 use crate::Vector;
@@ -181,7 +181,7 @@ impl<const D: usize> Simulation<D> {
             // the table is the view: no copy (a whole run's memory peak on one rank)
             return Ok(Some(self.view(Cow::Borrowed(p))));
         }
-        self.gather_where(comm, &|_, _| true)
+        self.gather_where(comm, &|_, _| true, Fields::ALL)
     }
 
     /// At the end of a run on one rank: drop the ghosts and put the owned particles in id
@@ -210,14 +210,17 @@ impl<const D: usize> Simulation<D> {
         }
     }
 
-    /// Gather on rank 0, sorted by id, the owned particles of every rank that `keep` selects
-    /// (`None` on the other ranks): what a probe needs without the whole state. Collective.
+    /// Gather on rank 0, sorted by id, the `fields` (the id always) of the owned particles of
+    /// every rank that `keep` selects (`None` on the other ranks): what a probe needs without
+    /// the whole state. The view holds no other field and no rates. Collective.
     pub fn gather_where(
         &self,
         comm: &dyn Comm,
         keep: &dyn Fn(&Particles<D>, usize) -> bool,
+        fields: Fields,
     ) -> Result<Option<View<'_, D>>> {
-        let mut all = Particles::<D>::without(self.p.dropped);
+        let dropped = self.p.dropped.or(Fields::ALL.without(fields.or(Fields::ID)));
+        let mut all = Particles::<D>::for_view(dropped);
         if self.ranks == 1 {
             // pushed in id order: no permutation (and no second copy of a field) after
             let mut kept: Vec<usize> = (0..self.p.n_owned).filter(|&i| keep(&self.p, i)).collect();
@@ -229,7 +232,7 @@ impl<const D: usize> Simulation<D> {
             return Ok(Some(self.view(Cow::Owned(all))));
         } else {
             let prev = comm.set_phase(Phase::Output);
-            let mine = pack_owned_where(&self.p, keep);
+            let mine = pack_owned_where(&self.p, keep, dropped);
             if self.rank != 0 {
                 comm.send(0, TAG_GATHER, mine)?;
                 comm.set_phase(prev);
