@@ -69,6 +69,8 @@ pub struct Model<const D: usize> {
     pub c_max: f64,
     /// Particle shifting of fluid particles, if the scene asks for it.
     pub shifting: Option<shifting::Shifting>,
+    /// The set-up relaxation's shift and its iterations (`discretisation.relax`), if any.
+    pub relaxation: Option<(shifting::Shifting, u32)>,
     /// Kernels of pairs of particle sizes, if the scene has refinement regions (`None`: every
     /// particle has the size of `kernel`).
     pub sizes: Option<Sizes>,
@@ -127,6 +129,12 @@ impl<const D: usize> Model<D> {
             materials,
             c_max,
             shifting,
+            relaxation: (s.discretisation.relax > 0).then(|| {
+                (
+                    shifting::Shifting::relaxation(h, dx, kernel.w(dx)),
+                    s.discretisation.relax,
+                )
+            }),
             sizes: crate::scene::refine::sizes(s),
         }
     }
@@ -249,6 +257,12 @@ impl<const D: usize> Model<D> {
                 "δ⁺-SPH particle shifting (Sun et al. 2017), β(2h)² = {:.3e} m², |δr| ≤ {:.2e} m, \
                  fields Taylor-corrected",
                 s.coefficient, s.cap
+            ));
+        }
+        if let Some((s, n)) = &self.relaxation {
+            v.push(format!(
+                "set-up relaxation: {n} iterations of δr = −{:.3e} m² Σ V_j ∇W_ij (fluid, at rest)",
+                s.coefficient
             ));
         }
         v

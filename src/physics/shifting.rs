@@ -51,6 +51,8 @@ pub struct Shifting {
     pub w_dx: f64,
     /// Cap on |δr| (m).
     pub cap: f64,
+    /// R of the anti-clumping term ([`R`]; 0 in the set-up relaxation).
+    pub repel: f64,
 }
 
 impl Shifting {
@@ -61,9 +63,27 @@ impl Shifting {
             coefficient: cfl * (u / c0) * 4.0 * h * h,
             w_dx,
             cap: CAP * dx,
+            repel: R,
+        }
+    }
+
+    /// The set-up relaxation's step (`discretisation.relax`): δr = −β_r (2h)² Σ_j ∇_i W_ij V_j
+    /// with β_r = [`RELAX_BETA`] and no anti-clumping term, so that the particles settle where
+    /// the zeroth moment Σ_j V_j ∇_i W_ij vanishes (the residual that multiplies the pressure in
+    /// the momentum equation); `w_dx` is W(dx) of the kernel, the cap as in a step.
+    pub fn relaxation(h: f64, dx: f64, w_dx: f64) -> Self {
+        Shifting {
+            coefficient: RELAX_BETA * 4.0 * h * h,
+            w_dx,
+            cap: CAP * dx,
+            repel: 0.0,
         }
     }
 }
+
+/// β_r of the set-up relaxation (–): with Wendland C2 at h = 2 dx a particle displaced from a
+/// uniform lattice returns by about a quarter of its offset per iteration.
+pub const RELAX_BETA: f64 = 0.1;
 
 /// What shifting does to one particle: displacement δr (m) and the Taylor increments of its
 /// density (kg/m³) and velocity (m/s).
@@ -135,7 +155,7 @@ fn shift_of<const D: usize, N: Neighbours, K: crate::kernel::sizes::PairKernel>(
         }
         let g = xij * (k.dw_dr_over_r(r) * vol[j]); // ∇_i W_ij V_j
         let ratio = k.w(r) / model.pair_w_dp(p, i, j, &k, s.w_dx);
-        push += g * (1.0 + R * ratio.powi(N));
+        push += g * (1.0 + s.repel * ratio.powi(N));
         grad_c += g;
         div_r -= xij.dot(&g);
         if p.kind[j].is_fluid() {

@@ -403,6 +403,12 @@ pub struct Discretisation {
     /// `wendland_c2`, `cubic_spline` or `quintic_spline`.
     #[serde(default = "default_kernel")]
     pub kernel: KernelKind,
+    /// Iterations of the set-up relaxation (0, the default: none): before t = 0 the fluid
+    /// particles move, at rest and walls fixed, until Σ_j V_j ∇W_ij vanishes
+    /// ([`crate::physics::shifting::Shifting::relaxation`]); for the interfaces of refinement
+    /// regions, where the lattices of two sizes leave it non-zero.
+    #[serde(default)]
+    pub relax: u32,
 }
 
 impl Discretisation {

@@ -14,6 +14,10 @@ use crate::limits::{
     MAX_VISCOSITY, SOUND_SPEED_RANGE,
 };
 
+/// Most iterations of the set-up relaxation (`discretisation.relax`): each is a ghost build and a
+/// pass over the particles, and the interface settles within ~50.
+pub const MAX_RELAX: u32 = 1000;
+
 /// Check a vector key has `d` components, all finite; fill an empty one with zeros if allowed.
 /// The initial-field expressions of fluid body `k` (`velocity_field`, `pressure_field`): one
 /// per axis, parsed against the coordinates and `[constants]`, not together with the plain
@@ -305,6 +309,16 @@ fn validate_domain(s: &mut Scene) -> Result<f64> {
         return err(
             "discretisation.h_over_dx",
             format!("must lie in [0.5, 4] (got {}); 1.3 is typical", disc.h_over_dx),
+        );
+    }
+    if disc.relax > MAX_RELAX {
+        return err(
+            "discretisation.relax",
+            format!(
+                "at most {MAX_RELAX} iterations of set-up relaxation (got {}); 50 settles a \
+                 refinement region's interface",
+                disc.relax
+            ),
         );
     }
     let support = disc.kernel.support_factor() * disc.h_over_dx * disc.dx;

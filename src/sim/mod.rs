@@ -132,6 +132,7 @@ impl<const D: usize> Simulation<D> {
         sim.apply_wall_motion(0.0, 0.0);
         sim.check_state()?;
         sim.update_pressure();
+        sim.relax(comm)?;
         // the set-up runs the passes of a whole step at dt = 0 (its dρ/dt is recomputed before
         // use), so its halo traffic is one step's, as `hsph plan` predicts
         sim.rebuild_neighbours(comm)?;
