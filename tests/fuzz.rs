@@ -403,12 +403,39 @@ fn fixtures(dir: &Path, rng: &mut Rng) -> Fixtures {
         checkpoint_fixture(&fx, "ck1", "1"),
         checkpoint_fixture(&fx, "ck2", "2"),
     ];
-    // damaged copies of the 2-rank run
+    let damaged = damaged_runs(&fx, &r2, rng);
+    let empty = fx.join("empty");
+    fs::create_dir_all(&empty).unwrap();
+    // layout files: the shipped one, mutants of it, and one that does not exist
+    let shipped_topo = fs::read_to_string(repo_path("topology/four_nodes_24.toml")).unwrap();
+    let mut topo = vec![repo_path("topology/four_nodes_24.toml"), dir.join("missing.toml")];
+    for (k, t) in mutants(&shipped_topo, 60, 0x7090).iter().enumerate() {
+        let p = dir.join(format!("topo-{k}.toml"));
+        fs::write(&p, t).unwrap();
+        topo.push(p);
+    }
+    let js_scenes = hostile_scenes(&fx, &dam);
+    Fixtures {
+        hydro: repo_path("inputs/hydrostatic_2d.toml"),
+        dam,
+        r1,
+        r2,
+        damaged,
+        cks,
+        empty,
+        topo,
+        js_scenes,
+    }
+}
+
+/// Damaged copies of the run `r2` under `fx`: summaries cut, mutated or a link to
+/// /dev/zero, final rows cut, garbage series.
+fn damaged_runs(fx: &Path, r2: &Path, rng: &mut Rng) -> Vec<PathBuf> {
     let mut damaged = Vec::new();
     let summary = fs::read_to_string(r2.join("summary.json")).unwrap();
     for k in 0..8 {
         let d = fx.join(format!("damaged-{k}"));
-        copy_dir(&r2, &d);
+        copy_dir(r2, &d);
         match k {
             0 => fs::write(d.join("summary.json"), &summary[..summary.len() / 2]).unwrap(),
             1..=3 => {
@@ -430,19 +457,13 @@ fn fixtures(dir: &Path, rng: &mut Rng) -> Fixtures {
         }
         damaged.push(d);
     }
-    let empty = fx.join("empty");
-    fs::create_dir_all(&empty).unwrap();
-    // layout files: the shipped one, mutants of it, and one that does not exist
-    let shipped_topo = fs::read_to_string(repo_path("topology/four_nodes_24.toml")).unwrap();
-    let mut topo = vec![repo_path("topology/four_nodes_24.toml"), dir.join("missing.toml")];
-    for (k, t) in mutants(&shipped_topo, 60, 0x7090).iter().enumerate() {
-        let p = dir.join(format!("topo-{k}.toml"));
-        fs::write(&p, t).unwrap();
-        topo.push(p);
-    }
-    // scenes with hostile names in hostile directories, and with a valid name in each of
-    // the hostile directories
-    let text = fs::read_to_string(&dam).unwrap();
+    damaged
+}
+
+/// Scenes for `hsph jobscript` under `fx`: the dam break (`dam`) with a valid name in each
+/// hostile directory, and with hostile names in hostile directories.
+fn hostile_scenes(fx: &Path, dam: &Path) -> Vec<PathBuf> {
+    let text = fs::read_to_string(dam).unwrap();
     let old = "name = \"dam_break_2d\"\n";
     assert!(text.contains(old));
     let mut js_scenes = Vec::new();
@@ -468,17 +489,7 @@ fn fixtures(dir: &Path, rng: &mut Rng) -> Fixtures {
         .unwrap();
         js_scenes.push(file);
     }
-    Fixtures {
-        hydro: repo_path("inputs/hydrostatic_2d.toml"),
-        dam,
-        r1,
-        r2,
-        damaged,
-        cks,
-        empty,
-        topo,
-        js_scenes,
-    }
+    js_scenes
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1562,98 +1573,115 @@ fn mutate_json_at(root: &mut Value, ptr: &str, rng: &mut Rng) -> String {
         return format!("{ptr}: absent, unchanged");
     };
     let new: Value = match &*node {
-        Value::Number(n) => {
-            let x = n.as_f64().unwrap();
-            match rng.below(22) {
-                0 => json!(-1e300),
-                1 => json!(1e300),
-                2 => json!("NaN"),
-                3 => raw("NaN"),
-                4 => raw("1e999"),
-                5 => raw("-1e999"),
-                6 => json!(0),
-                7 => json!(-1),
-                8 => json!(u64::MAX),
-                9 => raw("18446744073709551616"),
-                10 => json!(1e19),
-                11 => json!(0.5),
-                12 => Value::Null,
-                13 => json!("x"),
-                14 => json!(true),
-                15 => json!([]),
-                16 => json!(x + 1.0),
-                17 => json!(x - 1.0),
-                18 => n.as_u64().map_or(json!(x * 2.0), |u| json!(u.wrapping_add(1))),
-                19 => n.as_u64().map_or(json!(-x), |u| json!(u.wrapping_sub(1))),
-                20 => json!(x * 1e6),
-                _ => json!(1e-300),
-            }
-        }
-        Value::String(_) if ptr.ends_with("/file") => json!(pick(rng, PART_NAMES)),
-        Value::String(t) if ptr == "/scene" => {
-            if rng.below(5) == 0 {
-                json!("")
-            } else {
-                let mut m = t.clone();
-                for _ in 0..1 + rng.below(2) {
-                    m = mutate(&m, rng);
-                }
-                json!(m)
-            }
-        }
-        Value::String(t) if ptr.ends_with("fnv1a64") => {
-            let mut c: Vec<char> = t.chars().collect();
-            match rng.below(4) {
-                0 if !c.is_empty() => {
-                    let k = rng.below(c.len());
-                    c[k] = if c[k] == '0' { '1' } else { '0' };
-                    json!(c.into_iter().collect::<String>())
-                }
-                1 => json!(""),
-                2 => json!("zz"),
-                _ => json!("0".repeat(100)),
-            }
-        }
-        Value::String(_) => json!(pick(rng, &["", "x", "../x", "Every", "Output", "\u{0}", "NaN"])),
-        Value::Array(a) => {
-            let mut a = a.clone();
-            match rng.below(6) {
-                0 => a.clear(),
-                1 if !a.is_empty() => {
-                    let k = rng.below(a.len());
-                    let e = a[k].clone();
-                    a.insert(k, e);
-                }
-                2 => {
-                    a.pop();
-                }
-                3 => a.push(json!("x")),
-                4 if !a.is_empty() => {
-                    let e = a[0].clone();
-                    a = vec![e; 100_000];
-                }
-                _ => a.reverse(),
-            }
-            Value::Array(a)
-        }
-        Value::Object(m) => {
-            let mut m = m.clone();
-            match rng.below(4) {
-                0 if !m.is_empty() => {
-                    let k = m.keys().nth(rng.below(m.len())).unwrap().clone();
-                    m.remove(&k);
-                }
-                1 => {
-                    m.insert(s("nosuch"), json!(1));
-                }
-                2 => return set_node(node, ptr, json!([])),
-                _ => return set_node(node, ptr, Value::Null),
-            }
-            Value::Object(m)
-        }
+        Value::Number(n) => number_node(n, rng),
+        Value::String(t) => string_node(t, ptr, rng),
+        Value::Array(a) => array_node(a, rng),
+        Value::Object(m) => object_node(m, rng),
         Value::Bool(_) | Value::Null => json!(pick(rng, &["1", "x"])),
     };
     set_node(node, ptr, new)
+}
+
+/// A mutant of a JSON number `n`: extremes, non-numbers, neighbours.
+fn number_node(n: &serde_json::Number, rng: &mut Rng) -> Value {
+    let x = n.as_f64().unwrap();
+    match rng.below(22) {
+        0 => json!(-1e300),
+        1 => json!(1e300),
+        2 => json!("NaN"),
+        3 => raw("NaN"),
+        4 => raw("1e999"),
+        5 => raw("-1e999"),
+        6 => json!(0),
+        7 => json!(-1),
+        8 => json!(u64::MAX),
+        9 => raw("18446744073709551616"),
+        10 => json!(1e19),
+        11 => json!(0.5),
+        12 => Value::Null,
+        13 => json!("x"),
+        14 => json!(true),
+        15 => json!([]),
+        16 => json!(x + 1.0),
+        17 => json!(x - 1.0),
+        18 => n.as_u64().map_or(json!(x * 2.0), |u| json!(u.wrapping_add(1))),
+        19 => n.as_u64().map_or(json!(-x), |u| json!(u.wrapping_sub(1))),
+        20 => json!(x * 1e6),
+        _ => json!(1e-300),
+    }
+}
+
+/// A mutant of the string `t` at `ptr`: a part name for a part's file, a mutated scene text,
+/// a damaged checksum, else an odd word.
+fn string_node(t: &str, ptr: &str, rng: &mut Rng) -> Value {
+    if ptr.ends_with("/file") {
+        json!(pick(rng, PART_NAMES))
+    } else if ptr == "/scene" {
+        if rng.below(5) == 0 {
+            json!("")
+        } else {
+            let mut m = t.to_string();
+            for _ in 0..1 + rng.below(2) {
+                m = mutate(&m, rng);
+            }
+            json!(m)
+        }
+    } else if ptr.ends_with("fnv1a64") {
+        let mut c: Vec<char> = t.chars().collect();
+        match rng.below(4) {
+            0 if !c.is_empty() => {
+                let k = rng.below(c.len());
+                c[k] = if c[k] == '0' { '1' } else { '0' };
+                json!(c.into_iter().collect::<String>())
+            }
+            1 => json!(""),
+            2 => json!("zz"),
+            _ => json!("0".repeat(100)),
+        }
+    } else {
+        json!(pick(rng, &["", "x", "../x", "Every", "Output", "\u{0}", "NaN"]))
+    }
+}
+
+/// A mutant of the array `a`: emptied, an element doubled, popped, pushed, 100 000 copies.
+fn array_node(a: &[Value], rng: &mut Rng) -> Value {
+    let mut a = a.to_vec();
+    match rng.below(6) {
+        0 => a.clear(),
+        1 if !a.is_empty() => {
+            let k = rng.below(a.len());
+            let e = a[k].clone();
+            a.insert(k, e);
+        }
+        2 => {
+            a.pop();
+        }
+        3 => a.push(json!("x")),
+        4 if !a.is_empty() => {
+            let e = a[0].clone();
+            a = vec![e; 100_000];
+        }
+        _ => a.reverse(),
+    }
+    Value::Array(a)
+}
+
+/// A mutant of the object `m`: a key removed, an unknown key added, or an array or null
+/// in its place.
+fn object_node(m: &serde_json::Map<String, Value>, rng: &mut Rng) -> Value {
+    let mut m = m.clone();
+    match rng.below(4) {
+        0 if !m.is_empty() => {
+            let k = m.keys().nth(rng.below(m.len())).unwrap().clone();
+            m.remove(&k);
+        }
+        1 => {
+            m.insert(s("nosuch"), json!(1));
+        }
+        2 => return json!([]),
+        _ => return Value::Null,
+    }
+    Value::Object(m)
 }
 
 fn set_node(node: &mut Value, ptr: &str, new: Value) -> String {
@@ -1711,30 +1739,7 @@ fn checkpoint_case(rng: &mut Rng, fx: &Fixtures) -> Case {
     let mut extra: Vec<String> = Vec::new();
     let (change, note) = match rng.below(100) {
         // mild: the run state nudged, or a restart with allowed changes and another layout
-        0..=44 => {
-            if rng.below(2) == 0 {
-                extra.extend([s("--set"), s(pick(rng, RESTART_MILD))]);
-                (CkChange::None, s("checkpoint unchanged"))
-            } else {
-                let mut v: Value = serde_json::from_str(&ck.manifest).unwrap();
-                let run = v.pointer("/run").unwrap().clone();
-                let ptr = format!("/run{}", random_pointer(&run, rng));
-                let note = match v.pointer_mut(&ptr) {
-                    Some(n @ Value::Number(_)) => {
-                        let x = n.as_f64().unwrap();
-                        let new = if n.is_u64() {
-                            json!(n.as_u64().unwrap().saturating_sub(rng.below(2) as u64))
-                        } else {
-                            json!(x * (1.0 + 1e-3 * rng.range(-1.0, 1.0)))
-                        };
-                        set_node(n, &ptr, new)
-                    }
-                    _ => mutate_json_at(&mut v, &ptr, rng),
-                };
-                let text = raw_json(&v);
-                (CkChange::Manifest { step, text }, note)
-            }
-        }
+        0..=44 => mild_change(rng, ck, step, &mut extra),
         45..=69 => {
             let mut v: Value = serde_json::from_str(&ck.manifest).unwrap();
             let mut notes = Vec::new();
@@ -1749,63 +1754,111 @@ fn checkpoint_case(rng: &mut Rng, fx: &Fixtures) -> Case {
             let text = raw_json(&v);
             (CkChange::Manifest { step, text }, notes.join("; "))
         }
-        70..=75 => {
-            let mut text = ck.manifest.clone();
-            let note = if rng.below(2) == 0 {
-                let mut cut = rng.below(text.len());
-                while !text.is_char_boundary(cut) {
-                    cut -= 1;
-                }
-                text.truncate(cut);
-                format!("manifest cut to {cut} bytes")
-            } else {
-                let k = rng.below(text.len());
-                let mut b = text.into_bytes();
-                b[k] = b"{}[]\",:0-e\\ \n9x"[rng.below(15)];
-                text = String::from_utf8_lossy(&b).into_owned();
-                format!("manifest byte {k} replaced")
-            };
-            (CkChange::Manifest { step, text }, note)
-        }
-        76..=77 => {
-            let (text, note) = match rng.below(5) {
-                0 => (s(""), "manifest empty"),
-                1 => (s("{}"), "manifest {}"),
-                2 => (s("null"), "manifest null"),
-                3 => ("[".repeat(100_000), "manifest 100 000 nested ["),
-                _ => (" ".repeat(17 << 20), "manifest of 17 MiB of spaces"),
-            };
-            (CkChange::Manifest { step, text }, s(note))
-        }
+        d @ 70..=77 => broken_manifest(rng, ck, step, d >= 76),
         78 => (
             CkChange::DropManifest { step },
             format!("newest manifest removed ({} used)", ck.older),
         ),
-        79..=94 => {
-            let (file, len) = ck.parts[rng.below(ck.parts.len())].clone();
-            let op = match rng.below(9) {
-                0..=2 => PartOp::Flip(rng.below(len as usize) as u64, 1 + rng.below(255) as u8),
-                3 | 4 => PartOp::Truncate(rng.below(len as usize) as u64),
-                5 => PartOp::Append(vec![0xab; 1 + rng.below(64)]),
-                6 => PartOp::Remove,
-                7 => PartOp::Symlink(pick(rng, &["/dev/zero", "/etc/passwd", "/dev/null"])),
-                _ => PartOp::Dir,
-            };
-            let note = match &op {
-                PartOp::Flip(at, m) => format!("{file}: byte {at} xor {m:#04x}"),
-                PartOp::Truncate(n) => format!("{file}: cut to {n} bytes"),
-                PartOp::Append(b) => format!("{file}: {} bytes appended", b.len()),
-                PartOp::Remove => format!("{file}: removed"),
-                PartOp::Symlink(t) => format!("{file}: a link to {t}"),
-                PartOp::Dir => format!("{file}: a directory"),
-            };
-            (CkChange::Part { step, file, op }, note)
-        }
+        79..=94 => part_change(rng, ck, step),
         _ => {
             extra.extend([s("--set"), s(pick(rng, RESTART_SETS))]);
             (CkChange::None, s("checkpoint unchanged"))
         }
     };
+    let a = restart_args(rng, ck, extra);
+    Case {
+        prep: Prep::Checkpoint {
+            from: ck.run.clone(),
+            change,
+        },
+        note: format!("restart of a copy of {} ({}): {note}", ck.run.display(), ck.step),
+        ..Case::new(Family::Checkpoint, a)
+    }
+}
+
+/// A mild change: an allowed `--set` on an unchanged checkpoint, or one number of the
+/// manifest's run state nudged (anything else there mutated).
+fn mild_change(rng: &mut Rng, ck: &Checkpoint, step: String, extra: &mut Vec<String>) -> (CkChange, String) {
+    if rng.below(2) == 0 {
+        extra.extend([s("--set"), s(pick(rng, RESTART_MILD))]);
+        return (CkChange::None, s("checkpoint unchanged"));
+    }
+    let mut v: Value = serde_json::from_str(&ck.manifest).unwrap();
+    let run = v.pointer("/run").unwrap().clone();
+    let ptr = format!("/run{}", random_pointer(&run, rng));
+    let note = match v.pointer_mut(&ptr) {
+        Some(n @ Value::Number(_)) => {
+            let x = n.as_f64().unwrap();
+            let new = if n.is_u64() {
+                json!(n.as_u64().unwrap().saturating_sub(rng.below(2) as u64))
+            } else {
+                json!(x * (1.0 + 1e-3 * rng.range(-1.0, 1.0)))
+            };
+            set_node(n, &ptr, new)
+        }
+        _ => mutate_json_at(&mut v, &ptr, rng),
+    };
+    let text = raw_json(&v);
+    (CkChange::Manifest { step, text }, note)
+}
+
+/// The manifest's text broken: cut or one byte replaced, or (`whole`) replaced by something
+/// that is not a manifest (empty, `{}`, `null`, deep nesting, 17 MiB of spaces).
+fn broken_manifest(rng: &mut Rng, ck: &Checkpoint, step: String, whole: bool) -> (CkChange, String) {
+    if whole {
+        let (text, note) = match rng.below(5) {
+            0 => (s(""), "manifest empty"),
+            1 => (s("{}"), "manifest {}"),
+            2 => (s("null"), "manifest null"),
+            3 => ("[".repeat(100_000), "manifest 100 000 nested ["),
+            _ => (" ".repeat(17 << 20), "manifest of 17 MiB of spaces"),
+        };
+        return (CkChange::Manifest { step, text }, s(note));
+    }
+    let mut text = ck.manifest.clone();
+    let note = if rng.below(2) == 0 {
+        let mut cut = rng.below(text.len());
+        while !text.is_char_boundary(cut) {
+            cut -= 1;
+        }
+        text.truncate(cut);
+        format!("manifest cut to {cut} bytes")
+    } else {
+        let k = rng.below(text.len());
+        let mut b = text.into_bytes();
+        b[k] = b"{}[]\",:0-e\\ \n9x"[rng.below(15)];
+        text = String::from_utf8_lossy(&b).into_owned();
+        format!("manifest byte {k} replaced")
+    };
+    (CkChange::Manifest { step, text }, note)
+}
+
+/// One part file of the checkpoint damaged: a byte flipped, cut, grown, removed, a link or a
+/// directory in its place.
+fn part_change(rng: &mut Rng, ck: &Checkpoint, step: String) -> (CkChange, String) {
+    let (file, len) = ck.parts[rng.below(ck.parts.len())].clone();
+    let op = match rng.below(9) {
+        0..=2 => PartOp::Flip(rng.below(len as usize) as u64, 1 + rng.below(255) as u8),
+        3 | 4 => PartOp::Truncate(rng.below(len as usize) as u64),
+        5 => PartOp::Append(vec![0xab; 1 + rng.below(64)]),
+        6 => PartOp::Remove,
+        7 => PartOp::Symlink(pick(rng, &["/dev/zero", "/etc/passwd", "/dev/null"])),
+        _ => PartOp::Dir,
+    };
+    let note = match &op {
+        PartOp::Flip(at, m) => format!("{file}: byte {at} xor {m:#04x}"),
+        PartOp::Truncate(n) => format!("{file}: cut to {n} bytes"),
+        PartOp::Append(b) => format!("{file}: {} bytes appended", b.len()),
+        PartOp::Remove => format!("{file}: removed"),
+        PartOp::Symlink(t) => format!("{file}: a link to {t}"),
+        PartOp::Dir => format!("{file}: a directory"),
+    };
+    (CkChange::Part { step, file, op }, note)
+}
+
+/// The restart's command line: past the checkpoint's end, sometimes a step cap, one of four
+/// layouts, then the case's `extra` flags.
+fn restart_args(rng: &mut Rng, ck: &Checkpoint, extra: Vec<String>) -> Vec<String> {
     let t_end = CK_T_END + 0.0005;
     let mut a: Vec<String> = vec![
         s("run"),
@@ -1825,14 +1878,7 @@ fn checkpoint_case(rng: &mut Rng, fx: &Fixtures) -> Case {
         _ => {}
     }
     a.extend(extra);
-    Case {
-        prep: Prep::Checkpoint {
-            from: ck.run.clone(),
-            change,
-        },
-        note: format!("restart of a copy of {} ({}): {note}", ck.run.display(), ck.step),
-        ..Case::new(Family::Checkpoint, a)
-    }
+    a
 }
 
 fn prepare(prep: &Prep, cwd: &Path) {
@@ -1887,7 +1933,22 @@ fn jobscript_case(rng: &mut Rng, fx: &Fixtures) -> Case {
     // a valid one, so that both refusals and written scripts are common
     let odd_fields: Vec<usize> = (0..rng.below(3)).map(|_| rng.below(12)).collect();
     let odd = |k: usize| odd_fields.contains(&k);
-    let scene = if odd(0) {
+    let scene = jobscript_scene(rng, fx, odd(0));
+    let mut a = vec![s("jobscript"), scene];
+    jobscript_flags(&mut a, rng, &odd);
+    jobscript_account_out(&mut a, rng, &odd);
+    let script = jobscript_script(&mut a, rng, odd(11));
+    junk(&mut a, rng);
+    Case {
+        script: Some(script),
+        ..Case::new(Family::Jobscript, a)
+    }
+}
+
+/// The scene argument of a `jobscript` case: an odd path (`odd`), a valid scene in a hostile
+/// directory, or the dam break.
+fn jobscript_scene(rng: &mut Rng, fx: &Fixtures, odd: bool) -> String {
+    if odd {
         match rng.below(3) {
             0 => input_path(rng, fx),
             _ => p(&fx.js_scenes[HOSTILE_DIRS.len() + rng.below(fx.js_scenes.len() - HOSTILE_DIRS.len())]),
@@ -1897,8 +1958,12 @@ fn jobscript_case(rng: &mut Rng, fx: &Fixtures) -> Case {
         p(&fx.js_scenes[rng.below(HOSTILE_DIRS.len())])
     } else {
         p(&fx.dam)
-    };
-    let mut a = vec![s("jobscript"), scene];
+    }
+}
+
+/// The flags with a valid and an odd value each (`odd(k)` for flag k); the required ones (k ≤
+/// 3) are present unless left out as the odd case, the others a third of the time.
+fn jobscript_flags(a: &mut Vec<String>, rng: &mut Rng, odd: &dyn Fn(usize) -> bool) {
     let pairs: [(usize, &str, &[&str], &[&str]); 8] = [
         (1, "--nodes", &["1", "2", "4"], COUNTS),
         (2, "--ranks-per-node", &["1", "2", "24"], COUNTS),
@@ -1950,6 +2015,10 @@ fn jobscript_case(rng: &mut Rng, fx: &Fixtures) -> Case {
             a.extend([s(f), s(pick(rng, good))]);
         }
     }
+}
+
+/// `--account` and `--out`, odd (`odd(9)`, `odd(10)`) or valid, each sometimes.
+fn jobscript_account_out(a: &mut Vec<String>, rng: &mut Rng, odd: &dyn Fn(usize) -> bool) {
     if odd(9) {
         a.extend([s("--account"), hostile(rng)]);
     } else if rng.below(3) == 0 {
@@ -1972,10 +2041,14 @@ fn jobscript_case(rng: &mut Rng, fx: &Fixtures) -> Case {
         };
         a.extend([s("--out"), v]);
     }
-    let script = if rng.below(5) == 0 {
+}
+
+/// `--script` (four cases in five): an odd name (`odd`) or `job.sh`; the name given, if any.
+fn jobscript_script(a: &mut Vec<String>, rng: &mut Rng, odd: bool) -> Option<String> {
+    if rng.below(5) == 0 {
         None
     } else {
-        let v = if odd(11) {
+        let v = if odd {
             pick(
                 rng,
                 &[
@@ -1994,11 +2067,6 @@ fn jobscript_case(rng: &mut Rng, fx: &Fixtures) -> Case {
         };
         a.extend([s("--script"), s(v)]);
         Some(s(v))
-    };
-    junk(&mut a, rng);
-    Case {
-        script: Some(script),
-        ..Case::new(Family::Jobscript, a)
     }
 }
 
@@ -2164,25 +2232,10 @@ fn run_case(bin: &str, dir: &Path, k: usize, case: &Case, failures: &Mutex<Vec<S
     }
 }
 
-#[test]
-fn two_thousand_mutants_of_scenes_flags_sets_checkpoints_and_job_scripts_never_panic_hang_or_exit_outside_0_to_3(
-) {
-    let seed = std::env::var("HSPH_FUZZ_SEED").ok().map_or(SEED, |v| {
-        v.parse()
-            .unwrap_or_else(|_| u64::from_str_radix(v.trim_start_matches("0x"), 16).unwrap())
-    });
-    // each family from its own stream, so that changing one leaves the others' mutants alone
+/// Every case of the run, each family from its stream of `seed` (the scene mutants from
+/// theirs), in a fixed order: case k is the same case for one seed.
+fn all_cases(seed: u64, fx: &Fixtures, dir: &Path) -> Vec<Case> {
     let stream = |k: u64| seed ^ k.wrapping_mul(0x9e37_79b9_7f4a_7c15);
-    eprintln!("fuzz seed {seed:#x} (HSPH_FUZZ_SEED)");
-    let dir = temp_dir("fuzz");
-    let t_fx = Instant::now();
-    let fx = fixtures(&dir, &mut Rng(stream(1)));
-    let ck_hashes: Vec<_> = fx
-        .cks
-        .iter()
-        .map(|c| tree_hashes(&c.run.join("checkpoints")))
-        .collect();
-
     let mut cases = Vec::new();
     let mut rng = Rng(seed);
     let dam = fs::read_to_string(&fx.dam).unwrap();
@@ -2192,69 +2245,50 @@ fn two_thousand_mutants_of_scenes_flags_sets_checkpoints_and_job_scripts_never_p
         .chain(&mutants(&poi, 150, 0x901 ^ seed ^ SEED))
         .enumerate()
     {
-        cases.push(scene_case(&mut rng, text, &dir, k, k % 2 == 0));
+        cases.push(scene_case(&mut rng, text, dir, k, k % 2 == 0));
     }
     for k in 0..480 {
         let scene = if k % 2 == 0 { &fx.dam } else { &fx.hydro };
-        cases.push(flag_case(&mut rng, scene, &dir, &fx.topo, k));
+        cases.push(flag_case(&mut rng, scene, dir, &fx.topo, k));
     }
     for k in 0..80 {
-        cases.push(layout_case(&fx, k));
+        cases.push(layout_case(fx, k));
     }
     let mut rng = Rng(stream(2));
     for _ in 0..560 {
-        cases.push(cli_case(&mut rng, &fx));
+        cases.push(cli_case(&mut rng, fx));
     }
-    cases.extend(run_flag_sweep(&fx));
+    cases.extend(run_flag_sweep(fx));
     let mut rng = Rng(stream(3));
     for _ in 0..500 {
-        cases.push(set_case(&mut rng, &fx));
+        cases.push(set_case(&mut rng, fx));
     }
     for (key, valid) in SET_KEYS {
         for value in SWEEP {
-            cases.push(sweep_case(&fx, key, valid, value));
+            cases.push(sweep_case(fx, key, valid, value));
         }
     }
     let mut rng = Rng(stream(4));
     for _ in 0..450 {
-        cases.push(checkpoint_case(&mut rng, &fx));
+        cases.push(checkpoint_case(&mut rng, fx));
     }
     let mut rng = Rng(stream(5));
     for _ in 0..260 {
-        cases.push(jobscript_case(&mut rng, &fx));
+        cases.push(jobscript_case(&mut rng, fx));
     }
+    cases
+}
+
+/// Print what the run did, per family and in all (exit codes, runs that ran, scripts checked,
+/// the slowest cases); returns the count of each exit code, the runs that ran and the
+/// scripts checked.
+fn report(
+    cases: &[Case],
+    outcomes: &[(usize, Outcome)],
+    wall: Duration,
+    seed: u64,
+) -> ([usize; 4], usize, usize) {
     let runs = cases.iter().filter(|c| c.is_run()).count();
-    assert!(
-        cases.len() >= 2000 && runs * 5 >= cases.len(),
-        "{} cases, {runs} runs",
-        cases.len()
-    );
-
-    let only: Option<usize> = std::env::var("HSPH_FUZZ_CASE").ok().map(|v| v.parse().unwrap());
-    let order: Vec<usize> = match only {
-        Some(k) => vec![k],
-        None => (0..cases.len()).collect(),
-    };
-    let next = AtomicUsize::new(0);
-    let outcomes: Mutex<Vec<(usize, Outcome)>> = Mutex::new(Vec::new());
-    let failures = Mutex::new(Vec::new());
-    let bin = env!("CARGO_BIN_EXE_hsph");
-    eprintln!("fixtures ready after {:.1} s", t_fx.elapsed().as_secs_f64());
-    let t0 = Instant::now();
-    std::thread::scope(|sc| {
-        for _ in 0..2 {
-            sc.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::SeqCst);
-                let Some(&k) = order.get(i) else { break };
-                let o = run_case(bin, &dir, k, &cases[k], &failures);
-                outcomes.lock().unwrap().push((k, o));
-            });
-        }
-    });
-    let wall = t0.elapsed();
-    let outcomes = outcomes.into_inner().unwrap();
-    let failures = failures.into_inner().unwrap();
-
     // per family: cases, runs, exit 0/1/2/3, failures, scripts checked, seconds
     eprintln!(
         "{} mutants ({runs} runs, {:.0} %) in {:.1} s on 2 workers, seed {seed:#x}",
@@ -2306,6 +2340,62 @@ fn two_thousand_mutants_of_scenes_flags_sets_checkpoints_and_job_scripts_never_p
             shell_line("hsph", &cases[*k].args)
         );
     }
+    (total, ran, scripts)
+}
+
+#[test]
+fn two_thousand_mutants_of_scenes_flags_sets_checkpoints_and_job_scripts_never_panic_hang_or_exit_outside_0_to_3(
+) {
+    let seed = std::env::var("HSPH_FUZZ_SEED").ok().map_or(SEED, |v| {
+        v.parse()
+            .unwrap_or_else(|_| u64::from_str_radix(v.trim_start_matches("0x"), 16).unwrap())
+    });
+    // each family from its own stream, so that changing one leaves the others' mutants alone
+    let stream = |k: u64| seed ^ k.wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    eprintln!("fuzz seed {seed:#x} (HSPH_FUZZ_SEED)");
+    let dir = temp_dir("fuzz");
+    let t_fx = Instant::now();
+    let fx = fixtures(&dir, &mut Rng(stream(1)));
+    let ck_hashes: Vec<_> = fx
+        .cks
+        .iter()
+        .map(|c| tree_hashes(&c.run.join("checkpoints")))
+        .collect();
+
+    let cases = all_cases(seed, &fx, &dir);
+    let runs = cases.iter().filter(|c| c.is_run()).count();
+    assert!(
+        cases.len() >= 2000 && runs * 5 >= cases.len(),
+        "{} cases, {runs} runs",
+        cases.len()
+    );
+
+    let only: Option<usize> = std::env::var("HSPH_FUZZ_CASE").ok().map(|v| v.parse().unwrap());
+    let order: Vec<usize> = match only {
+        Some(k) => vec![k],
+        None => (0..cases.len()).collect(),
+    };
+    let next = AtomicUsize::new(0);
+    let outcomes: Mutex<Vec<(usize, Outcome)>> = Mutex::new(Vec::new());
+    let failures = Mutex::new(Vec::new());
+    let bin = env!("CARGO_BIN_EXE_hsph");
+    eprintln!("fixtures ready after {:.1} s", t_fx.elapsed().as_secs_f64());
+    let t0 = Instant::now();
+    std::thread::scope(|sc| {
+        for _ in 0..2 {
+            sc.spawn(|| loop {
+                let i = next.fetch_add(1, Ordering::SeqCst);
+                let Some(&k) = order.get(i) else { break };
+                let o = run_case(bin, &dir, k, &cases[k], &failures);
+                outcomes.lock().unwrap().push((k, o));
+            });
+        }
+    });
+    let wall = t0.elapsed();
+    let outcomes = outcomes.into_inner().unwrap();
+    let failures = failures.into_inner().unwrap();
+
+    let (total, ran, scripts) = report(&cases, &outcomes, wall, seed);
     for (c, h) in fx.cks.iter().zip(&ck_hashes) {
         assert_eq!(
             &tree_hashes(&c.run.join("checkpoints")),

@@ -262,6 +262,28 @@ pub(crate) fn check_body_names(
     Ok(())
 }
 
+/// The spacing, h/dx and the set-up relaxation's iterations.
+fn validate_discretisation(disc: &super::Discretisation) -> Result<()> {
+    positive(disc.dx, "discretisation.dx", "dx = 0.01")?;
+    if !(disc.h_over_dx >= 0.5 && disc.h_over_dx <= 4.0) {
+        return err(
+            "discretisation.h_over_dx",
+            format!("must lie in [0.5, 4] (got {}); 1.3 is typical", disc.h_over_dx),
+        );
+    }
+    if disc.relax > MAX_RELAX {
+        return err(
+            "discretisation.relax",
+            format!(
+                "at most {MAX_RELAX} iterations of set-up relaxation (got {}); 50 settles a \
+                 refinement region's interface",
+                disc.relax
+            ),
+        );
+    }
+    Ok(())
+}
+
 /// Dimension, domain, limits and discretisation; returns the kernel support (m).
 fn validate_domain(s: &mut Scene) -> Result<f64> {
     let d = s.dimension;
@@ -304,23 +326,7 @@ fn validate_domain(s: &mut Scene) -> Result<f64> {
     }
     positive(lim.speed_over_c0, "limits.speed_over_c0", "speed_over_c0 = 1.0")?;
     let disc = &s.discretisation;
-    positive(disc.dx, "discretisation.dx", "dx = 0.01")?;
-    if !(disc.h_over_dx >= 0.5 && disc.h_over_dx <= 4.0) {
-        return err(
-            "discretisation.h_over_dx",
-            format!("must lie in [0.5, 4] (got {}); 1.3 is typical", disc.h_over_dx),
-        );
-    }
-    if disc.relax > MAX_RELAX {
-        return err(
-            "discretisation.relax",
-            format!(
-                "at most {MAX_RELAX} iterations of set-up relaxation (got {}); 50 settles a \
-                 refinement region's interface",
-                disc.relax
-            ),
-        );
-    }
+    validate_discretisation(disc)?;
     let support = disc.kernel.support_factor() * disc.h_over_dx * disc.dx;
     for a in 0..d {
         let len = s.domain.max[a] - s.domain.min[a];
