@@ -69,6 +69,7 @@ impl<const D: usize> Simulation<D> {
             return Ok(());
         };
         let kept = self.model.shifting.replace(step);
+        let builds = self.skin.builds;
         for _ in 0..iterations {
             self.migrate(comm)?;
             self.rebuild_neighbours(comm)?;
@@ -77,6 +78,9 @@ impl<const D: usize> Simulation<D> {
             self.check_state()?;
         }
         self.model.shifting = kept;
+        // the run's ghost builds (`summary.json`) are the set-up step's and the steps': the
+        // relaxation's precede them
+        self.skin.builds = builds;
         self.migrate(comm)
     }
 
