@@ -466,6 +466,11 @@ fn bad_refinement_input_is_exit_2_naming_the_key() {
         &["discretisation.relax", "got 5000", "at most 1000"],
     );
     refused(&["discretisation.relax=-1"], &["discretisation.relax"]);
+    // the relaxation's shifting row gathers over full lists: no pair mode
+    refused(
+        &["performance.interactions=\"pairs\""],
+        &["performance.interactions", "discretisation.relax", "shift"],
+    );
     refused(
         &["refine.0.max=[0.7, 2.0]"],
         &["refine[0].max", "outside the domain"],

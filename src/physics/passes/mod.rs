@@ -214,20 +214,26 @@ pub fn schedule<const D: usize>(model: &Model<D>) -> Vec<Pass> {
 }
 
 /// Pair mode (`performance.interactions = "pairs"`) is open to a model whose every pass can run
-/// in it ([`Row::IN_PAIR_MODE`]); otherwise an input error naming the first pass that cannot.
+/// in it ([`Row::IN_PAIR_MODE`]), the set-up relaxation's shifting row included; otherwise an
+/// input error naming the first pass that cannot.
 pub fn check_pair_mode<const D: usize>(model: &Model<D>, pair_mode: bool) -> crate::error::Result<()> {
     if !pair_mode {
         return Ok(());
     }
-    let Some(pass) = schedule(model).into_iter().find(|p| !p.in_pair_mode()) else {
+    let relaxation = model.relaxation.map(|_| Pass::Shift);
+    let Some(pass) = schedule(model)
+        .into_iter()
+        .chain(relaxation)
+        .find(|p| !p.in_pair_mode())
+    else {
         return Ok(());
     };
     Err(crate::error::Error::input(
         "performance.interactions",
         format!(
             "interactions = \"pairs\" runs the passes that have a pair kernel, and this scene runs the \
-             pass `{}` (solid bodies' passes and physics.shifting gather over full neighbour lists); \
-             use interactions = \"gather\"",
+             pass `{}` (solid bodies' passes, physics.shifting and discretisation.relax gather over \
+             full neighbour lists); use interactions = \"gather\"",
             pass.name()
         ),
     ))
