@@ -688,6 +688,17 @@ impl NeighbourList {
         }
     }
 
+    /// Free every buffer (lists, cell-order copies, half lists), keeping the configuration
+    /// (lean mode, several sizes): the next [`NeighbourList::build`] allocates them again.
+    pub fn release(&mut self) {
+        *self = NeighbourList {
+            lean: self.lean,
+            reach_per_h: self.reach_per_h,
+            no_sub_cells: self.no_sub_cells,
+            ..Default::default()
+        };
+    }
+
     /// An empty list set that stores no lists ([`NeighbourList::lean`]): passes reach the
     /// neighbours through [`NeighbourList::scan`].
     pub fn lean() -> Self {

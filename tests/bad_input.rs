@@ -109,8 +109,24 @@ fn wrong_type() {
         &text,
         "discretisation.dx",
         "dx = \"6 mm\"",
-        &["invalid type", "expected f64"],
+        &["invalid type", "expected a number"],
     );
+}
+
+/// A count given a negative or fractional value is named with the range it takes, not Rust's
+/// type name.
+#[test]
+fn a_count_out_of_its_type() {
+    for (bad, what) in [("-3", "integer `-3`"), ("2.5", "floating point `2.5`")] {
+        let text = shipped().replace("dx = 0.006\n", &format!("dx = 0.006\nrelax = {bad}\n"));
+        run_bad_scene(
+            "count",
+            &text,
+            "discretisation.relax",
+            &format!("relax = {bad}"),
+            &[what, "expected a whole number from 0 to 4294967295"],
+        );
+    }
 }
 
 #[test]
@@ -223,7 +239,7 @@ fn bad_set() {
         ),
         (
             "time.t_end=soon",
-            &["key `time.t_end`", "invalid type", "expected f64"],
+            &["key `time.t_end`", "invalid type", "expected a number"],
         ),
         ("time.t_edn=1", &["key `time.t_edn`", "unknown field", "t_end"]),
         (

@@ -70,34 +70,56 @@ pub fn updates(method: WallMethod) -> bool {
     }
 }
 
+/// Particles whose new wall values are held at once by [`update_walls`]: its buffer (40 B per
+/// particle in 3D) is one wave's, not the whole table's, so it does not add to the step's peak
+/// of memory beside the neighbour lists (issue 33).
+const WAVE: usize = 1 << 14;
+
 /// Set p, ρ and v_w of every owned wall particle whose method [`updates`] them, each by its
-/// wall body's method from its neighbours; other particles keep theirs.
+/// wall body's method from its neighbours; other particles keep theirs. A wall's values are
+/// read from fluid neighbours only, so computing a wave of particles and writing it back before
+/// the next gives the bits of one sweep.
 pub fn update_walls<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, c: &WallContext<D>) {
-    let out: Vec<(f64, f64, Vector<D>)> = {
-        let p = &*p;
-        let sizes = c.sizes.filter(|s| s.varies_h);
-        crate::with_pair_kernel!(sizes, *c.kernel, D, kern => {
-            (0..p.n_owned)
-                .into_par_iter()
-                .map(|w| {
-                    let keep = (p.p[w], p.rho[w], p.vw[w]);
-                    if !p.kind[w].is_wall() || !nl.visits(w) {
-                        return keep;
-                    }
-                    match c.methods[p.body[w] as usize] {
-                        WallMethod::Dummy => dummy::extrapolated(p, w, nl.iter(w), c, kern),
-                        #[cfg(test)]
-                        WallMethod::Toy => toy::shepard_pressure(p, w, nl.iter(w), c),
-                        WallMethod::Repulsive | WallMethod::Mirror => keep,
-                    }
-                })
-                .collect()
-        })
-    };
-    for (w, (pw, rw, vw)) in out.into_iter().enumerate() {
-        p.p[w] = pw;
-        p.rho[w] = rw;
-        p.vw[w] = vw;
+    update_walls_in_waves(p, nl, c, WAVE);
+}
+
+/// [`update_walls`] in waves of `wave` particles (≥ 1).
+pub(crate) fn update_walls_in_waves<const D: usize, N: Neighbours>(
+    p: &mut Particles<D>,
+    nl: &N,
+    c: &WallContext<D>,
+    wave: usize,
+) {
+    let n = p.n_owned;
+    let mut out: Vec<(f64, f64, Vector<D>)> = Vec::with_capacity(wave.min(n));
+    let sizes = c.sizes.filter(|s| s.varies_h);
+    for start in (0..n).step_by(wave) {
+        let end = (start + wave).min(n);
+        {
+            let p = &*p;
+            crate::with_pair_kernel!(sizes, *c.kernel, D, kern => {
+                (start..end)
+                    .into_par_iter()
+                    .map(|w| {
+                        let keep = (p.p[w], p.rho[w], p.vw[w]);
+                        if !p.kind[w].is_wall() || !nl.visits(w) {
+                            return keep;
+                        }
+                        match c.methods[p.body[w] as usize] {
+                            WallMethod::Dummy => dummy::extrapolated(p, w, nl.iter(w), c, kern),
+                            #[cfg(test)]
+                            WallMethod::Toy => toy::shepard_pressure(p, w, nl.iter(w), c),
+                            WallMethod::Repulsive | WallMethod::Mirror => keep,
+                        }
+                    })
+                    .collect_into_vec(&mut out)
+            })
+        }
+        for (k, &(pw, rw, vw)) in out.iter().enumerate() {
+            p.p[start + k] = pw;
+            p.rho[start + k] = rw;
+            p.vw[start + k] = vw;
+        }
     }
 }
 

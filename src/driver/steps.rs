@@ -26,6 +26,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             self.sim.advance(self.comm)?;
             self.report_removals()?;
             if self.tracker.due(self.scene, self.sim.t) {
+                self.sim.release_step_buffers();
                 match &self.sim.gather(self.comm)? {
                     Some(v) => self.tracker.after_step(v),
                     None => self.tracker.skip(self.scene, self.sim.t),
@@ -70,6 +71,10 @@ impl<'a, const D: usize> RankRun<'a, D> {
         let t0 = Instant::now();
         // both such references (front, cavity) read the fluid alone
         let fluid = output && Tracker::measures_at_output(self.scene);
+        if output || self.probes.gathers(self.sim.t, (output, output_only), fluid) {
+            // the view and the output need none of the step's lists
+            self.sim.release_step_buffers();
+        }
         let view = self
             .probes
             .after_step(&self.sim, self.comm, (output, output_only), fluid)?;

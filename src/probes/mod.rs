@@ -138,6 +138,21 @@ impl<const D: usize> ProbeSet<D> {
         })
     }
 
+    /// True if [`ProbeSet::after_step`] with the same arguments at time `t` (s) gathers a
+    /// view: a probe is due or averages over a window, or `fluid` asks for the fluid. The
+    /// driver frees the step's buffers first ([`Simulation::release_step_buffers`]).
+    pub fn gathers(&self, t: f64, (output, output_only): (bool, bool), fluid: bool) -> bool {
+        fluid
+            || self
+                .clocks
+                .iter()
+                .zip(&self.probes)
+                .any(|(c, probe)| match output_only {
+                    true => output && matches!(c, Clock::Output),
+                    false => clock_is_due(c, t, output) || probe.window() > 0.0,
+                })
+    }
+
     /// Collective, after each step (and once at the start, with `output`): sample the probes
     /// that are due now or average over a window, and write the rows of those that are due.
     /// `output` says this is an output step. With `output_only` (a second call for the same
@@ -154,6 +169,9 @@ impl<const D: usize> ProbeSet<D> {
         fluid: bool,
     ) -> Result<Option<View<'s, D>>> {
         let t = sim.t;
+        if !self.gathers(t, (output, output_only), fluid) {
+            return Ok(None);
+        }
         let due: Vec<bool> = self
             .clocks
             .iter_mut()
@@ -165,9 +183,6 @@ impl<const D: usize> ProbeSet<D> {
         let sampled: Vec<bool> = (0..self.probes.len())
             .map(|k| due[k] || (!output_only && self.probes[k].window() > 0.0))
             .collect();
-        if !sampled.contains(&true) && !fluid {
-            return Ok(None);
-        }
         let mut regions = Vec::new();
         for k in (0..self.probes.len()).filter(|&k| sampled[k]) {
             regions.push(self.region(k, sim, comm)?);
@@ -314,20 +329,22 @@ pub fn advance_past(next: &mut f64, interval: f64, t: f64) {
     }
 }
 
-/// Whether a clock writes a row at time `t` (s); advances an interval clock past `t`.
-fn clock_due(c: &mut Clock, t: f64, output: bool) -> bool {
+/// Whether a clock writes a row at time `t` (s), without advancing it.
+fn clock_is_due(c: &Clock, t: f64, output: bool) -> bool {
     match c {
         Clock::Output => output,
         Clock::Step => true,
-        Clock::Every { interval, next } => {
-            if t >= *next * (1.0 - 1e-12) - 1e-300 {
-                advance_past(next, *interval, t);
-                true
-            } else {
-                false
-            }
-        }
+        Clock::Every { next, .. } => t >= *next * (1.0 - 1e-12) - 1e-300,
     }
+}
+
+/// Whether a clock writes a row at time `t` (s); advances an interval clock past `t`.
+fn clock_due(c: &mut Clock, t: f64, output: bool) -> bool {
+    let due = clock_is_due(c, t, output);
+    if let (true, Clock::Every { interval, next }) = (due, c) {
+        advance_past(next, *interval, t);
+    }
+    due
 }
 
 /// Push a sample (t, values), keeping the samples of [t − window, t] (and the one just before).

@@ -387,47 +387,58 @@ pub fn phase_times(dir: &Path, diag: &Diagnostics, totals: &[(String, [f64; 3])]
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
             .draw()?;
-        let np = totals.len().max(1) as f64;
-        let mut tc = ChartBuilder::on(&right)
-            .caption("Whole run: mean, min–max over ranks", font(17))
-            .margin(10)
-            .x_label_area_size(70)
-            .y_label_area_size(65)
-            .build_cartesian_2d(-0.5..np - 0.5, 0.0..(total_max * 1.1).max(1e-9))?;
-        let phase_label = |v: &f64| {
-            let i = v.round();
-            if (v - i).abs() > 1e-6 || i < 0.0 || i as usize >= totals.len() {
-                return String::new();
-            }
-            totals[i as usize].0.clone()
-        };
-        tc.configure_mesh()
-            .disable_x_mesh()
-            .x_desc("phase")
-            .y_desc("wall seconds")
-            .x_labels(totals.len() + 1)
-            .x_label_formatter(&phase_label)
-            .x_label_style(font(11).transform(FontTransform::Rotate90))
-            .label_style(font(12))
-            .axis_desc_style(font(14))
-            .draw()?;
-        for (k, (name, [lo, mean, hi])) in totals.iter().enumerate() {
-            let pi = PHASES.iter().position(|p| p == name).unwrap_or(k);
-            let c = PALETTE[pi % PALETTE.len()];
-            let x = k as f64;
-            tc.draw_series(std::iter::once(Rectangle::new(
-                [(x - 0.35, 0.0), (x + 0.35, *mean)],
-                c.filled(),
-            )))?;
-            let w = BLACK.stroke_width(1);
-            tc.draw_series([
-                PathElement::new(vec![(x, *lo), (x, *hi)], w),
-                PathElement::new(vec![(x - 0.15, *lo), (x + 0.15, *lo)], w),
-                PathElement::new(vec![(x - 0.15, *hi), (x + 0.15, *hi)], w),
-            ])?;
-        }
+        whole_run_panel(&right, totals, total_max)?;
         Ok(())
     })
+}
+
+/// The right panel of [`phase_times`]: per phase the whole run's mean seconds (bar) and the
+/// min–max over ranks (whisker), on a scale up to `total_max` (s).
+fn whole_run_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    totals: &[(String, [f64; 3])],
+    total_max: f64,
+) -> std::result::Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let np = totals.len().max(1) as f64;
+    let mut tc = ChartBuilder::on(area)
+        .caption("Whole run: mean, min–max over ranks", font(17))
+        .margin(10)
+        .x_label_area_size(70)
+        .y_label_area_size(65)
+        .build_cartesian_2d(-0.5..np - 0.5, 0.0..(total_max * 1.1).max(1e-9))?;
+    let phase_label = |v: &f64| {
+        let i = v.round();
+        if (v - i).abs() > 1e-6 || i < 0.0 || i as usize >= totals.len() {
+            return String::new();
+        }
+        totals[i as usize].0.clone()
+    };
+    tc.configure_mesh()
+        .disable_x_mesh()
+        .x_desc("phase")
+        .y_desc("wall seconds")
+        .x_labels(totals.len() + 1)
+        .x_label_formatter(&phase_label)
+        .x_label_style(font(11).transform(FontTransform::Rotate90))
+        .label_style(font(12))
+        .axis_desc_style(font(14))
+        .draw()?;
+    for (k, (name, [lo, mean, hi])) in totals.iter().enumerate() {
+        let pi = PHASES.iter().position(|p| p == name).unwrap_or(k);
+        let c = PALETTE[pi % PALETTE.len()];
+        let x = k as f64;
+        tc.draw_series(std::iter::once(Rectangle::new(
+            [(x - 0.35, 0.0), (x + 0.35, *mean)],
+            c.filled(),
+        )))?;
+        let w = BLACK.stroke_width(1);
+        tc.draw_series([
+            PathElement::new(vec![(x, *lo), (x, *hi)], w),
+            PathElement::new(vec![(x - 0.15, *lo), (x + 0.15, *lo)], w),
+            PathElement::new(vec![(x - 0.15, *hi), (x + 0.15, *hi)], w),
+        ])?;
+    }
+    Ok(())
 }
 
 /// `--compare`: bars per run of particle-steps/s, inter-node bytes, ghost fraction and

@@ -321,7 +321,7 @@ impl SceneSource {
             .filter(|s| !whole(s))
             .and_then(|s| ImDocument::parse(self.text.clone()).ok().map(|d| key_at(&d, &s)))
             .unwrap_or_default();
-        let mut message = first_line(e.message()).to_string();
+        let mut message = plain_types(first_line(e.message()));
         // inside a tagged table (a probe's kind) the parser can only point at the array; find
         // the entry that holds the offending value instead
         let mut span = span;
@@ -416,6 +416,31 @@ fn span_in(t: &dyn TableLike, path: &[Seg], best: &mut Option<Range<usize>>) {
         (Item::Value(Value::InlineTable(tab)), Some(Seg::Key(_))) => span_in(tab, rest, best),
         _ => {}
     }
+}
+
+/// The parser's message with Rust's type names said as a scene's author reads them:
+/// "expected u32" becomes "expected a whole number from 0 to 4294967295", "expected f64"
+/// "expected a number".
+fn plain_types(message: &str) -> String {
+    let words: [(&str, String); 6] = [
+        ("expected f64", "expected a number".into()),
+        ("expected u8", whole(u8::MAX.into())),
+        ("expected u16", whole(u16::MAX.into())),
+        ("expected u32", whole(u32::MAX.into())),
+        ("expected u64", whole(u64::MAX)),
+        ("expected usize", whole(usize::MAX as u64)),
+    ];
+    for (rust, plain) in words {
+        if let Some(head) = message.strip_suffix(rust) {
+            return format!("{head}{plain}");
+        }
+    }
+    message.to_string()
+}
+
+/// "expected a whole number from 0 to `max`".
+fn whole(max: u64) -> String {
+    format!("expected a whole number from 0 to {max}")
 }
 
 /// The key `array[i].k` of the first entry of the array of tables named by `at` (for example

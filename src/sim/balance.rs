@@ -73,14 +73,26 @@ impl<const D: usize> Simulation<D> {
         (!w.is_empty()).then(|| (0..self.ranks).map(|r| w[r % w.len()]).collect())
     }
 
+    /// True if step `step` checks the load balance (several ranks, every `check_every` steps).
+    pub(super) fn balance_checked_at(&self, step: u64) -> bool {
+        let every = self.scene.balance.check_every;
+        self.ranks > 1 && every > 0 && step.is_multiple_of(every)
+    }
+
+    /// True if the balance check of the next step reads this step's neighbour lists
+    /// (`balance.load = "pairs"`).
+    pub(super) fn next_check_reads_lists(&self) -> bool {
+        self.scene.balance.load == LoadKind::Pairs && self.balance_checked_at(self.step + 1)
+    }
+
     /// Every `check_every` steps, check the load balance and, above the threshold, move the
     /// cut planes (starting from the current ones). True if the planes moved (the particles
     /// must then migrate and the ghosts be built again).
     pub(super) fn check_balance(&mut self, comm: &dyn Comm) -> Result<bool> {
-        let b = &self.scene.balance;
-        if !(self.ranks > 1 && b.check_every > 0 && self.step.is_multiple_of(b.check_every)) {
+        if !self.balance_checked_at(self.step) {
             return Ok(false);
         }
+        let b = &self.scene.balance;
         let t0 = Instant::now();
         self.balance.checks += 1;
         // loads are taken before migration, while the neighbour lists match the particles

@@ -60,6 +60,25 @@ impl<const D: usize> Simulation<D> {
         Ok(())
     }
 
+    /// Free the step's neighbour lists, cell list and pair accumulators, which the next step
+    /// builds again from scratch: the driver calls it before it gathers a view (probes,
+    /// reference, output), so that the view does not sit on top of them at the run's peak of
+    /// memory (BENCHMARKS.md, issue 33). The lists are kept when the next step's balance check
+    /// reads them. Changes no bit.
+    pub fn release_step_buffers(&mut self) {
+        if !self.next_check_reads_lists() {
+            self.free_step_buffers();
+        }
+    }
+
+    /// Free the neighbour lists, cell list and pair accumulators (see
+    /// [`Simulation::release_step_buffers`]).
+    fn free_step_buffers(&mut self) {
+        self.nl.release();
+        self.cells = Default::default();
+        self.pair_scratch = Default::default();
+    }
+
     /// The set-up relaxation (`discretisation.relax` iterations, none by default): the shifting
     /// row with the relaxation's step, each iteration after a migration and a ghost build, the
     /// fluid's density carried to the new positions by the row's Taylor correction (its
@@ -240,6 +259,9 @@ impl<const D: usize> Simulation<D> {
         self.p.truncate_ghosts();
         if self.reordered_at.is_none_or(|s| self.step >= s + REORDER_EVERY) {
             self.reordered_at = Some(self.step);
+            // the last step's lists are stale from here on: freed before the table's columns
+            // are copied, so that the copies do not add to them
+            self.free_step_buffers();
             // owned particles in cell order (then key order) for memory locality
             let t0 = Instant::now();
             let grid = &self.grid;
@@ -446,6 +468,65 @@ mod tests {
             }
         }
         format!("{p:?} {solid:?}")
+    }
+
+    /// The wall extrapolation computed in waves of particles, each written back before the
+    /// next is computed, gives the bits of one sweep (a wall reads only fluid neighbours), and
+    /// it does change the walls' pressure.
+    #[test]
+    fn walls_updated_in_waves_give_the_bits_of_one_sweep() {
+        let comm = SerialComm::new();
+        let (scene, _) =
+            crate::scene::load_scene(std::path::Path::new("inputs/dam_break_2d.toml"), &[]).unwrap();
+        let mut sim = Simulation::<2>::new(&scene, &comm).unwrap();
+        for _ in 0..10 {
+            sim.advance(&comm).unwrap();
+        }
+        let n = sim.p.n_owned;
+        // the walls' pressure cleared first, so that an extrapolation that wrote nothing shows
+        let mut cleared = sim.p.clone();
+        for i in 0..n {
+            if cleared.kind[i].is_wall() {
+                cleared.p[i] = 0.0;
+            }
+        }
+        let show = |p: &crate::particles::Particles<2>| {
+            format!("{:?} {:?} {:?}", &p.p[..n], &p.rho[..n], &p.vw[..n])
+        };
+        let walls = |wave: usize| {
+            let mut p = cleared.clone();
+            crate::boundary::update_walls_in_waves(&mut p, &sim.nl, &sim.model.wall_context(), wave);
+            show(&p)
+        };
+        let whole = walls(n);
+        assert_eq!(whole, walls(7), "waves of 7 particles");
+        assert_eq!(whole, walls(n / 3 + 1), "three waves");
+        assert_ne!(whole, show(&cleared), "the extrapolation wrote no wall");
+    }
+
+    /// Freeing the step's lists, cells and pair accumulators between steps (as the driver does
+    /// before it gathers a view) changes no bit: the next step builds them again, in gather and
+    /// in pair mode.
+    #[test]
+    fn freeing_the_step_buffers_changes_no_bit() {
+        let comm = SerialComm::new();
+        for mode in ["gather", "pairs"] {
+            let sets = vec![format!("performance.interactions=\"{mode}\"")];
+            let (scene, _) =
+                crate::scene::load_scene(std::path::Path::new("inputs/dam_break_2d.toml"), &sets).unwrap();
+            let mut kept = Simulation::<2>::new(&scene, &comm).unwrap();
+            let mut freed = Simulation::<2>::new(&scene, &comm).unwrap();
+            for _ in 0..20 {
+                kept.advance(&comm).unwrap();
+                freed.advance(&comm).unwrap();
+                assert!(freed.nl.entries() > 0);
+                freed.release_step_buffers();
+                assert_eq!(freed.nl.entries(), 0, "{mode}: lists kept");
+                assert!(freed.cells.order.is_empty(), "{mode}: cells kept");
+            }
+            assert_eq!(format!("{:?}", kept.p), format!("{:?}", freed.p), "{mode}");
+            assert_eq!(kept.dt.to_bits(), freed.dt.to_bits(), "{mode}");
+        }
     }
 
     /// A pass that splits (`Pass::splits`) gives the same bits run over a part of the
