@@ -147,10 +147,7 @@ impl<const D: usize> ProbeSet<D> {
                 .clocks
                 .iter()
                 .zip(&self.probes)
-                .any(|(c, probe)| match output_only {
-                    true => output && matches!(c, Clock::Output),
-                    false => clock_is_due(c, t, output) || probe.window() > 0.0,
-                })
+                .any(|(c, probe)| samples(clock_is_due(c, t, (output, output_only)), probe, output_only))
     }
 
     /// Collective, after each step (and once at the start, with `output`): sample the probes
@@ -175,13 +172,10 @@ impl<const D: usize> ProbeSet<D> {
         let due: Vec<bool> = self
             .clocks
             .iter_mut()
-            .map(|c| match output_only {
-                true => output && matches!(c, Clock::Output),
-                false => clock_due(c, t, output),
-            })
+            .map(|c| clock_due(c, t, (output, output_only)))
             .collect();
         let sampled: Vec<bool> = (0..self.probes.len())
-            .map(|k| due[k] || (!output_only && self.probes[k].window() > 0.0))
+            .map(|k| samples(due[k], &self.probes[k], output_only))
             .collect();
         let mut regions = Vec::new();
         for k in (0..self.probes.len()).filter(|&k| sampled[k]) {
@@ -329,18 +323,26 @@ pub fn advance_past(next: &mut f64, interval: f64, t: f64) {
     }
 }
 
-/// Whether a clock writes a row at time `t` (s), without advancing it.
-fn clock_is_due(c: &Clock, t: f64, output: bool) -> bool {
-    match c {
-        Clock::Output => output,
-        Clock::Step => true,
-        Clock::Every { next, .. } => t >= *next * (1.0 - 1e-12) - 1e-300,
+/// Whether a clock writes a row at time `t` (s), without advancing it; on an `output_only` call
+/// (the run's last state, off the schedule) only the output clock writes.
+fn clock_is_due(c: &Clock, t: f64, (output, output_only): (bool, bool)) -> bool {
+    match (c, output_only) {
+        (Clock::Output, _) => output,
+        (_, true) => false,
+        (Clock::Step, false) => true,
+        (Clock::Every { next, .. }, false) => t >= *next * (1.0 - 1e-12) - 1e-300,
     }
 }
 
+/// Whether a probe samples the particles now: its row is `due`, or it averages over a window
+/// (sampled once per step: not again on the `output_only` call).
+fn samples(due: bool, probe: &Probe, output_only: bool) -> bool {
+    due || (!output_only && probe.window() > 0.0)
+}
+
 /// Whether a clock writes a row at time `t` (s); advances an interval clock past `t`.
-fn clock_due(c: &mut Clock, t: f64, output: bool) -> bool {
-    let due = clock_is_due(c, t, output);
+fn clock_due(c: &mut Clock, t: f64, flags: (bool, bool)) -> bool {
+    let due = clock_is_due(c, t, flags);
     if let (true, Clock::Every { interval, next }) = (due, c) {
         advance_past(next, *interval, t);
     }
@@ -407,12 +409,16 @@ mod tests {
         };
         let fired: Vec<f64> = [0.0, 0.04, 0.08, 0.12, 0.16, 0.2, 0.24, 0.31]
             .into_iter()
-            .filter(|&t| clock_due(&mut c, t, false))
+            .filter(|&t| clock_due(&mut c, t, (false, false)))
             .collect();
         assert_eq!(fired, vec![0.0, 0.12, 0.2, 0.31]);
         let mut o = Clock::Output;
-        assert!(!clock_due(&mut o, 0.5, false) && clock_due(&mut o, 0.5, true));
-        assert!(clock_due(&mut Clock::Step, 0.5, false));
+        assert!(!clock_due(&mut o, 0.5, (false, false)) && clock_due(&mut o, 0.5, (true, false)));
+        assert!(clock_due(&mut Clock::Step, 0.5, (false, false)));
+        // the last state's extra call: only the output clock writes, and no clock advances
+        assert!(clock_due(&mut o, 0.5, (true, true)));
+        assert!(!clock_due(&mut Clock::Step, 0.5, (true, true)));
+        assert!(!clock_due(&mut c, 0.5, (true, true)) && clock_due(&mut c, 0.5, (false, false)));
     }
 
     #[test]
