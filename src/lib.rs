@@ -21,6 +21,7 @@ pub mod error;
 pub mod exact;
 pub mod files;
 pub mod halo;
+pub mod ids;
 pub mod joblayout;
 pub mod jobscript;
 pub mod kernel;

@@ -260,3 +260,58 @@ fn a_wall_clock_limit_stops_with_a_checkpoint() {
     assert_eq!(code, 0, "{err}");
     assert_same(&reference, &out, "after --max-wall");
 }
+
+/// The id counter of created particles (issue 36, `hsph::ids`): a checkpoint records it (the
+/// lattice's id bound while nothing is created); a manifest without it (hsph before the
+/// counter) restarts to the same bits; a counter below the lattice's ids, below an id the
+/// parts hold or above the id limit is refused with exit 2 naming the manifest.
+#[test]
+fn the_id_counter_is_checkpointed_and_checked() {
+    let dir = common::temp_dir("restart-ids");
+    let out = dir.join("run");
+    let (code, err) = run(
+        &out,
+        "2",
+        &["--set", "time.max_steps=20", "--set", "checkpoint.every_steps=20"],
+        &[],
+    );
+    assert_eq!(code, 0, "{err}");
+    let ck = out.join("checkpoints/step-0000000020");
+    let path = ck.join("manifest.json");
+    let good = std::fs::read_to_string(&path).unwrap();
+    let m: hsph::checkpoint::Manifest = serde_json::from_str(&good).unwrap();
+    let text = std::fs::read_to_string(common::repo_path(SCENE)).unwrap();
+    let (scene, _) = hsph::scene::load_scene_str(&text, Path::new(SCENE), "scene", &[]).unwrap();
+    let bound = hsph::scene::lattice::id_bound::<2>(&scene);
+    assert_eq!(m.next_id, Some(bound));
+    let (p, _) = hsph::checkpoint::particles::<2>(&ck, &m).unwrap();
+    let largest = *p.id.iter().max().unwrap();
+    assert!(largest + 1 < bound, "the lattice has sites beyond the bodies");
+    // the continued runs write no checkpoint: the one read stays as it is
+    let to_end = ["--set", "time.max_steps=40", "--set", "checkpoint.every_steps=0"];
+    let (code, err) = restart(&ck, "1", &to_end);
+    assert_eq!(code, 0, "{err}");
+    let reference = std::fs::read(out.join("final.csv")).unwrap();
+    let with = |next: Option<u64>| {
+        let mut v: serde_json::Value = serde_json::from_str(&good).unwrap();
+        match next {
+            Some(n) => v["next_id"] = n.into(),
+            None => drop(v.as_object_mut().unwrap().remove("next_id")),
+        }
+        std::fs::write(&path, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+    };
+    with(None);
+    let (code, err) = restart(&ck, "1", &to_end);
+    assert_eq!(code, 0, "{err}");
+    assert!(std::fs::read(out.join("final.csv")).unwrap() == reference);
+    for (next, needle) in [
+        (largest, "not below the manifest's next_id"),
+        (largest + 1, "below the scene's lattice ids"),
+        (1 << 60, "above the id limit 2^54"),
+    ] {
+        with(Some(next));
+        let (code, err) = restart(&ck, "1", &to_end);
+        assert_eq!(code, 2, "next_id = {next}: {err}");
+        assert!(err.contains("manifest.json") && err.contains(needle), "{err}");
+    }
+}

@@ -64,6 +64,10 @@ pub struct Manifest {
     pub t: f64,
     /// Time step of the next step (s).
     pub dt: f64,
+    /// The id the next created particle takes ([`crate::ids`]); absent in checkpoints of
+    /// hsph before issue 36, which created none (the set-up's id bound then).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub next_id: Option<u64>,
     /// Ranks that wrote it (one part each).
     pub ranks: usize,
     /// The parts.
@@ -85,6 +89,8 @@ pub struct Clock {
     pub t: f64,
     /// Time step of the next step (s).
     pub dt: f64,
+    /// The id the next created particle takes ([`crate::ids::IdCounter::next`]).
+    pub next_id: u64,
 }
 
 /// FNV-1a, 64 bit (Fowler, Noll & Vo): a checksum against torn and flipped bytes.
@@ -191,6 +197,7 @@ pub fn write<const D: usize>(
         step: clock.step,
         t: clock.t,
         dt: clock.dt,
+        next_id: Some(clock.next_id),
         ranks: comm.size(),
         parts,
         scene: toml::to_string(scene).map_err(|e| Error::run(format!("checkpoint scene: {e}")))?,
@@ -290,6 +297,24 @@ pub fn manifest(dir: &Path) -> Result<Manifest> {
     Ok(m)
 }
 
+/// The id counter a restart continues from: the manifest's `next_id`, or the set-up's id
+/// `bound` for a checkpoint written before the counter was recorded (nothing was created
+/// then). A counter below `bound` would give created particles the ids of lattice sites: bad
+/// input.
+pub fn next_id(dir: &Path, m: &Manifest, bound: u64) -> Result<u64> {
+    match m.next_id {
+        None => Ok(bound),
+        Some(next) if next >= bound => Ok(next),
+        Some(next) => Err(bad(
+            &dir.join("manifest.json"),
+            format!(
+                "next_id = {next} is below the scene's lattice ids (up to {bound}): created \
+                 particles would reuse them"
+            ),
+        )),
+    }
+}
+
 /// Whether `name` is a part file name this hsph writes: `part-<digits>.bin`, a plain name
 /// inside the checkpoint directory (no separator, no `..`, nothing absolute).
 pub fn is_part_name(name: &str) -> bool {
@@ -318,6 +343,9 @@ impl Manifest {
                 self.ranks,
                 crate::limits::MAX_RANKS
             ));
+        }
+        if let Some(next) = self.next_id.filter(|&n| n > crate::ids::ID_LIMIT) {
+            return Err(format!("next_id = {next} is above the id limit 2^54"));
         }
         let mut total = 0u64;
         for (k, p) in self.parts.iter().enumerate() {
@@ -423,6 +451,14 @@ fn particles_of_parts<const D: usize>(
     let mut perm: Vec<usize> = (0..all.n_owned).collect();
     perm.sort_unstable_by_key(|&i| all.id[i]);
     all.permute_owned(&perm);
+    if let (Some(next), Some(&last)) = (m.next_id, all.id.last()) {
+        if last >= next {
+            return Err(bad(
+                &dir.join("manifest.json"),
+                format!("a part holds particle id {last}, not below the manifest's next_id = {next}"),
+            ));
+        }
+    }
     let acc = perm.iter().map(|&i| acc[i]).collect();
     Ok((all, acc))
 }

@@ -124,7 +124,7 @@ impl<const D: usize> Simulation<D> {
                     .map(|blk| w[self.map.block_to_rank[blk]])
                     .collect()
             }),
-            id_bound: Some(crate::scene::lattice::id_bound::<D>(&self.scene)),
+            id_bound: Some(self.ids.next()),
             max_count: self.scene.balance.count_cap(),
             ..BalanceParams::default()
         };

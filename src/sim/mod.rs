@@ -85,6 +85,8 @@ pub struct Simulation<const D: usize> {
     /// each pair of owned fluid particles once over half lists instead of gathering over full
     /// ones. A choice of the step, not of the physics.
     pub pair_mode: bool,
+    /// The next id a created particle takes, the same on every rank ([`crate::ids`]).
+    pub ids: crate::ids::IdCounter,
     /// Particles removed by the outflow rule and not yet reported (the driver drains it).
     pub removed: Vec<outflow::Removal>,
     fresh: Freshness,
@@ -154,12 +156,19 @@ impl<const D: usize> Simulation<D> {
     ) -> Result<Self> {
         let read = crate::checkpoint::share::<D>(dir, m, comm.rank(), comm.size());
         let (share, acc) = decompose::agree(read, comm)?;
-        Self::resume(scene, comm, layout, share, &acc, (m.step, m.t, m.dt))
+        let bound = crate::scene::lattice::id_bound::<D>(scene);
+        let clock = crate::checkpoint::Clock {
+            step: m.step,
+            t: m.t,
+            dt: m.dt,
+            next_id: crate::checkpoint::next_id(dir, m, bound)?,
+        };
+        Self::resume(scene, comm, layout, share, &acc, clock)
     }
 
     /// Continue from a checkpoint's state: this rank's share of its particles (any subset of
-    /// them) with their accelerations `acc` (m/s²), at step `step`, time `t` (s), next time
-    /// step `dt` (s). The
+    /// them) with their accelerations `acc` (m/s²), at the checkpoint's `clock` (step, time,
+    /// next time step, next id). The
     /// domain is decomposed afresh over `comm.size()` ranks; nothing is recomputed, so the next
     /// step is the step the checkpointed run would have taken.
     pub fn resume(
@@ -168,7 +177,7 @@ impl<const D: usize> Simulation<D> {
         layout: &RunLayout,
         share: Particles<D>,
         acc: &[Vector<D>],
-        (step, t, dt): (u64, f64, f64),
+        clock: crate::checkpoint::Clock,
     ) -> Result<Self> {
         // `share`: the particles of the checkpoint parts this rank read (any subset; all of
         // them on one rank). The blocks are balanced on counts summed over ranks, then every
@@ -177,7 +186,8 @@ impl<const D: usize> Simulation<D> {
         let mut p = share.dropping(crate::setup::dropped_fields(scene));
         let loaded = p.n_owned;
         let space = image_space::<D>(scene);
-        let bound = crate::scene::lattice::id_bound::<D>(scene);
+        // ties between equal coordinates are bisected over every id given so far
+        let bound = clock.next_id;
         let n = p.n_owned;
         let model = Model::<D>::new(scene);
         // balanced on pairs, each particle weighs as the set-up weighed it
@@ -216,7 +226,8 @@ impl<const D: usize> Simulation<D> {
                 .map_err(|_| Error::run("resume: a particle lost its acceleration"))?;
             sim.p.acc[i] = accs[k].1;
         }
-        (sim.step, sim.t, sim.dt) = (step, t, dt);
+        (sim.step, sim.t, sim.dt) = (clock.step, clock.t, clock.dt);
+        sim.ids = crate::ids::IdCounter::starting_at(clock.next_id);
         sim.check_state()?;
         sim.balance.imbalance = sim.load_imbalance(comm)?;
         sim.balance.imbalance_history.push(sim.balance.imbalance);
@@ -264,6 +275,7 @@ impl<const D: usize> Simulation<D> {
             scene: scene.clone(),
             schedule: schedule(&model),
             pair_mode,
+            ids: crate::ids::IdCounter::starting_at(crate::scene::lattice::id_bound::<D>(scene)),
             model,
             p,
             space,
@@ -326,12 +338,13 @@ impl<const D: usize> Simulation<D> {
             || (self.scene.time.max_steps > 0 && self.step >= self.scene.time.max_steps)
     }
 
-    /// Where the run stands (step, t, dt), as a checkpoint records it.
+    /// Where the run stands (step, t, dt, next id), as a checkpoint records it.
     pub fn clock(&self) -> crate::checkpoint::Clock {
         crate::checkpoint::Clock {
             step: self.step,
             t: self.t,
             dt: self.dt,
+            next_id: self.ids.next(),
         }
     }
 
