@@ -151,6 +151,8 @@ fn mpi_runs_give_the_local_back_ends_bits() {
             "inputs/hydrostatic_2d_refined.toml",
             vec!["time.t_end=0.05", "balance.check_every=5"],
         ),
+        // splitting (issue 36): children numbered by the all-gathered id counter under MPI
+        ("tests/data/drift_split_2d.toml", vec!["time.t_end=0.04"]),
         // the oblique impact (issue 12), coarse: halos carry the solid fields under MPI too
         (
             "inputs/impact_oblique_45.toml",

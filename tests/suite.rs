@@ -42,4 +42,5 @@ mod shifting;
 mod signals;
 mod solids;
 mod solitary;
+mod splitting;
 mod validate;

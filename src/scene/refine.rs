@@ -60,6 +60,15 @@ pub struct Refine {
     /// high; docs/refinement.md §1).
     #[serde(default)]
     pub smoothing_length: RegionH,
+    /// Fluid particles that enter the region during the run split to its level (2^D children
+    /// on the finer lattice's pattern, `docs/splitting.md` §2) once they lie a band of their
+    /// own spacing inside it. Off by default: the particles keep the size they were built with.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub adapt: bool,
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 /// Which smoothing length a refinement region's particles take.
@@ -235,6 +244,25 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
                 )
             }
             Some(_) => {}
+        }
+        if r.adapt && r.smoothing_length == RegionH::Level {
+            return err(
+                format!("{k}.adapt"),
+                "splits particles with the scene's h only: set smoothing_length = \"scene\" (the \
+                 default) or adapt = false",
+            );
+        }
+        if r.adapt
+            && !s
+                .fluids
+                .iter()
+                .any(|f| r.bodies.is_empty() || r.bodies.contains(&f.name))
+        {
+            return err(
+                format!("{k}.adapt"),
+                "splits fluid particles, and the region refines no fluid: name a fluid in `bodies` \
+                 or set adapt = false",
+            );
         }
         for (j, b) in r.bodies.iter().enumerate() {
             if bodies.contains(b) {

@@ -10,6 +10,7 @@
 //! [`decompose`] (initial blocks and placement), [`observe`] (observables and the gather for
 //! output), [`timers`].
 
+mod adapt;
 pub mod balance;
 pub mod decompose;
 pub mod observe;

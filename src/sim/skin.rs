@@ -52,6 +52,13 @@ impl<const D: usize> Skin<D> {
         }
     }
 
+    /// Forget the last build: the ghosts are built again at the next check (particles were
+    /// created, so the owned set no longer matches the one the ghosts were built from).
+    pub fn forget(&mut self) {
+        self.built.clear();
+        self.held = (usize::MAX, usize::MAX);
+    }
+
     /// True if the ghosts must be built again this step, the same answer on every rank: no
     /// skin, a forced build (`force`: the cut planes moved), particles added,
     /// removed or reordered since the build, or some particle moved farther than w/2 (the

@@ -44,6 +44,9 @@ impl<const D: usize> Simulation<D> {
     pub fn advance(&mut self, comm: &dyn Comm) -> Result<()> {
         let dt = self.dt;
         self.kick_drift(dt)?;
+        if self.adapts() {
+            self.split_entering(comm)?;
+        }
         let planes_moved = self.check_balance(comm)?;
         if self.ghosts_expired(planes_moved, comm)? {
             self.migrate(comm)?;

@@ -1,0 +1,112 @@
+//! Splitting of fluid particles that enter adaptive refinement regions (`[[refine]] adapt =
+//! true`; issue 36, `docs/splitting.md` §2). Merging is not built yet: a split particle keeps
+//! its level when it leaves the region.
+//!
+//! A fluid particle of level ℓ (spacing s = dx/2^ℓ) whose centre lies at least s inside an
+//! adaptive region of a level above ℓ becomes 2^D children of level ℓ + 1 at x + (s/4)·σ,
+//! σ ∈ {−1, +1}^D (the sites a set-up at level ℓ + 1 puts in the parent's cell), each of mass
+//! m/2^D with the parent's velocity, density and every other field, so Σm and Σmv are kept
+//! (m/2^D is exact in binary floating point). The smoothing length is the scene's, as the
+//! region's (`smoothing_length = "scene"`). Children take new ids from the run's counter
+//! ([`crate::ids`]), keyed by (parent id, child index): the same on every layout.
+
+use super::Simulation;
+use crate::comm::Comm;
+use crate::error::Result;
+use crate::scene::refine::Refine;
+use crate::Vector;
+
+/// The offset σ_c (s/4)·σ of child `c` of 2^D (bit a of c: the sign along axis a).
+fn child_offset<const D: usize>(c: usize, s: f64) -> Vector<D> {
+    Vector::<D>::from_fn(|a, _| if c >> a & 1 == 1 { 0.25 * s } else { -0.25 * s })
+}
+
+impl<const D: usize> Simulation<D> {
+    /// True if the scene has a region whose fluid particles split ([`Refine::adapt`]).
+    pub(super) fn adapts(&self) -> bool {
+        self.scene.refine.iter().any(|r| r.adapt)
+    }
+
+    /// The level an owned fluid particle `i` of level `l` splits to: `l + 1` if its centre lies
+    /// at least its own spacing inside an adaptive region of a higher level that refines its
+    /// body, else `None`.
+    fn splits_to(&self, regions: &[&Refine], i: usize, l: u16) -> Option<u16> {
+        let p = &self.p;
+        let name = &self.scene.fluids.get(p.body[i] as usize)?.name;
+        let x: Vec<f64> = p.x[i].iter().copied().collect();
+        let dom = (&self.scene.domain.min[..], &self.scene.domain.max[..]);
+        let band = self.scene.discretisation.dx / f64::from(1u32 << l);
+        let inside = |r: &&&Refine| {
+            r.level > u32::from(l) && r.applies_to(name) && r.contains(&x) && r.depth(&x, dom) >= band
+        };
+        regions.iter().find(inside).map(|_| l + 1)
+    }
+
+    /// Collective (after the drift and the outflow rule, before the balance check): split the
+    /// owned fluid particles that entered an adaptive region, numbering the children on every
+    /// rank together. The ghosts are dropped (the next step builds them again).
+    pub(super) fn split_entering(&mut self, comm: &dyn Comm) -> Result<()> {
+        let regions: Vec<&Refine> = self.scene.refine.iter().filter(|r| r.adapt).collect();
+        let n = self.p.n_owned;
+        let level = |i: usize| self.p.level.get(i).copied().unwrap_or(0);
+        let split: Vec<(usize, u16)> = (0..n)
+            .filter(|&i| self.p.kind[i].is_fluid())
+            .filter_map(|i| self.splits_to(&regions, i, level(i)).map(|l| (i, l)))
+            .collect();
+        let children = 1usize << D;
+        let id = &self.p.id;
+        let keys: Vec<crate::ids::Key> = split
+            .iter()
+            .flat_map(|&(i, _)| (0..children as u32).map(move |c| (id[i], c)))
+            .collect();
+        let ids = self.ids.allocate(comm, &keys)?;
+        if split.is_empty() {
+            return Ok(());
+        }
+        // the particles that stay, in their order, then each parent's children
+        let mut parent = vec![false; n];
+        split.iter().for_each(|&(i, _)| parent[i] = true);
+        let mut perm: Vec<usize> = (0..n).filter(|&i| !parent[i]).collect();
+        let first = perm.len();
+        perm.extend(split.iter().flat_map(|&(i, _)| std::iter::repeat_n(i, children)));
+        self.p.truncate_ghosts();
+        self.p.permute_owned(&perm);
+        let dx = self.scene.discretisation.dx;
+        let share = 1.0 / children as f64;
+        for (k, &(_, l)) in split.iter().enumerate() {
+            let s = dx / f64::from(1u32 << (l - 1));
+            for c in 0..children {
+                let j = first + k * children + c;
+                let p = &mut self.p;
+                p.x[j] += child_offset::<D>(c, s);
+                self.space.wrap(&mut p.x[j]);
+                p.mass[j] *= share;
+                p.level[j] = l;
+                p.id[j] = ids[k * children + c];
+                p.key[j] = p.id[j] << crate::particles::IMAGE_BITS;
+            }
+        }
+        self.skin.forget();
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::child_offset;
+
+    #[test]
+    fn the_children_sit_on_the_finer_lattice_and_average_to_the_parent() {
+        let s = 0.4;
+        let offsets: Vec<_> = (0..8).map(|c| child_offset::<3>(c, s)).collect();
+        let mean = offsets.iter().fold(crate::Vector::<3>::zeros(), |a, o| a + o) / 8.0;
+        assert_eq!(mean, crate::Vector::<3>::zeros());
+        for (a, oa) in offsets.iter().enumerate() {
+            assert!(oa.iter().all(|&v| v.abs() == 0.25 * s));
+            for ob in &offsets[a + 1..] {
+                // distinct sites, at least the finer spacing s/2 apart
+                assert!((oa - ob).norm() >= 0.5 * s - 1e-15);
+            }
+        }
+    }
+}
