@@ -57,6 +57,21 @@ fn restart(from: &Path, ranks: &str, extra: &[&str]) -> (i32, String) {
     hsph_env(&args, &[])
 }
 
+/// A 2-rank run to step 20 with a checkpoint there: (temp dir, run dir, checkpoint dir).
+fn checkpointed_at_20(tag: &str) -> (PathBuf, PathBuf, PathBuf) {
+    let dir = common::temp_dir(tag);
+    let out = dir.join("run");
+    let (code, err) = run(
+        &out,
+        "2",
+        &["--set", "time.max_steps=20", "--set", "checkpoint.every_steps=20"],
+        &[],
+    );
+    assert_eq!(code, 0, "{err}");
+    let ck = out.join("checkpoints/step-0000000020");
+    (dir, out, ck)
+}
+
 fn reference() -> PathBuf {
     let out = common::temp_dir("restart-ref").join("run");
     let (code, err) = run(&out, "1", &[], &[]);
@@ -198,16 +213,7 @@ fn a_checkpoint_torn_by_a_crash_is_skipped() {
 /// the physics, naming the key; a later t_end is accepted.
 #[test]
 fn damaged_checkpoints_and_physics_changes_are_refused() {
-    let dir = common::temp_dir("restart-bad");
-    let out = dir.join("run");
-    let (code, err) = run(
-        &out,
-        "2",
-        &["--set", "time.max_steps=20", "--set", "checkpoint.every_steps=20"],
-        &[],
-    );
-    assert_eq!(code, 0, "{err}");
-    let ck = out.join("checkpoints/step-0000000020");
+    let (dir, out, ck) = checkpointed_at_20("restart-bad");
     let part = ck.join("part-00001.bin");
     let good = std::fs::read(&part).unwrap();
     let (code, err) = restart(&out, "1", &["--set", "physics.artificial_viscosity=0.1"]);
@@ -267,22 +273,11 @@ fn a_wall_clock_limit_stops_with_a_checkpoint() {
 /// parts hold or above the id limit is refused with exit 2 naming the manifest.
 #[test]
 fn the_id_counter_is_checkpointed_and_checked() {
-    let dir = common::temp_dir("restart-ids");
-    let out = dir.join("run");
-    let (code, err) = run(
-        &out,
-        "2",
-        &["--set", "time.max_steps=20", "--set", "checkpoint.every_steps=20"],
-        &[],
-    );
-    assert_eq!(code, 0, "{err}");
-    let ck = out.join("checkpoints/step-0000000020");
+    let (_, out, ck) = checkpointed_at_20("restart-ids");
     let path = ck.join("manifest.json");
     let good = std::fs::read_to_string(&path).unwrap();
     let m: hsph::checkpoint::Manifest = serde_json::from_str(&good).unwrap();
-    let text = std::fs::read_to_string(common::repo_path(SCENE)).unwrap();
-    let (scene, _) = hsph::scene::load_scene_str(&text, Path::new(SCENE), "scene", &[]).unwrap();
-    let bound = hsph::scene::lattice::id_bound::<2>(&scene);
+    let bound = common::id_bound_2d(SCENE);
     assert_eq!(m.next_id, Some(bound));
     let (p, _) = hsph::checkpoint::particles::<2>(&ck, &m).unwrap();
     let largest = *p.id.iter().max().unwrap();

@@ -10,22 +10,8 @@ use std::path::{Path, PathBuf};
 
 const SCENE: &str = "tests/data/drift_split_2d.toml";
 
-fn run(out: &Path, ranks: &str, threads: &str, sets: &[&str]) {
-    let mut args = vec![
-        "run",
-        SCENE,
-        "-q",
-        "--out",
-        out.to_str().unwrap(),
-        "--ranks",
-        ranks,
-        "--threads",
-        threads,
-    ];
-    for s in sets {
-        args.extend(["--set", s]);
-    }
-    let (code, _, err) = hsph(&args);
+fn run(out: &Path, ranks: usize, threads: usize, sets: &[&str]) {
+    let (code, _, err) = common::run_file(SCENE, out, (ranks, threads), sets);
     assert_eq!(code, 0, "{err}");
 }
 
@@ -73,7 +59,7 @@ fn series(dir: &Path, name: &str) -> Vec<f64> {
 fn entering_particles_split_conserving_mass_and_momentum_on_any_layout() {
     let dir = common::temp_dir("split");
     let base: PathBuf = dir.join("r1t1");
-    run(&base, "1", "1", &[]);
+    run(&base, 1, 1, &[]);
     let ps = particles(&base);
     // set-up: 700 coarse particles (40 × 20 lattice less the region's 10 × 10) and 400 fine
     let coarse = ps.iter().filter(|p| p.1 == 0).count();
@@ -90,9 +76,7 @@ fn entering_particles_split_conserving_mass_and_momentum_on_any_layout() {
     let split = 700 - coarse;
     let ids: HashSet<u64> = ps.iter().map(|p| p.0).collect();
     assert_eq!(ids.len(), ps.len(), "ids unique");
-    let text = std::fs::read_to_string(common::repo_path(SCENE)).unwrap();
-    let (scene, _) = hsph::scene::load_scene_str(&text, Path::new(SCENE), "scene", &[]).unwrap();
-    let bound = hsph::scene::lattice::id_bound::<2>(&scene);
+    let bound = common::id_bound_2d(SCENE);
     let born: Vec<u64> = ps.iter().filter(|p| p.0 >= bound).map(|p| p.0).collect();
     assert_eq!(born.len(), 4 * split, "children take ids from the counter");
     assert!(
@@ -121,7 +105,7 @@ fn entering_particles_split_conserving_mass_and_momentum_on_any_layout() {
         }
     }
     assert!(closest > 0.5 * 0.005, "closest pair {closest} m");
-    for (ranks, threads) in [("3", "1"), ("8", "1"), ("3", "2")] {
+    for (ranks, threads) in [(3, 1), (8, 1), (3, 2)] {
         let d = dir.join(format!("r{ranks}t{threads}"));
         run(&d, ranks, threads, &[]);
         for f in ["timeseries.csv", "final.csv"] {
@@ -139,19 +123,12 @@ fn entering_particles_split_conserving_mass_and_momentum_on_any_layout() {
 fn a_restart_across_splits_gives_the_uninterrupted_bits() {
     let dir = common::temp_dir("split-restart");
     let whole = dir.join("whole");
-    run(&whole, "2", "1", &[]);
+    run(&whole, 2, 1, &[]);
     let cut = dir.join("cut");
-    run(
-        &cut,
-        "2",
-        "1",
-        &["time.max_steps=130", "checkpoint.every_steps=130"],
-    );
+    run(&cut, 2, 1, &["time.max_steps=130", "checkpoint.every_steps=130"]);
     let m: serde_json::Value =
         serde_json::from_str(&read(&cut.join("checkpoints/step-0000000130"), "manifest.json")).unwrap();
-    let text = std::fs::read_to_string(common::repo_path(SCENE)).unwrap();
-    let (scene, _) = hsph::scene::load_scene_str(&text, Path::new(SCENE), "scene", &[]).unwrap();
-    let bound = hsph::scene::lattice::id_bound::<2>(&scene);
+    let bound = common::id_bound_2d(SCENE);
     assert!(
         m["next_id"].as_u64().unwrap() > bound,
         "no split before the checkpoint"

@@ -4,7 +4,7 @@
 pub mod cli;
 pub mod mutate;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// splitmix64 (Steele, Lea & Flood 2014): tiny, deterministic, good enough for test data.
@@ -70,6 +70,28 @@ pub fn hsph(args: &[&str]) -> (i32, String, String) {
         String::from_utf8_lossy(&o.stdout).into_owned(),
         String::from_utf8_lossy(&o.stderr).into_owned(),
     )
+}
+
+/// `hsph run scene -q --out out --ranks R --threads T --set …` (see [`hsph`]).
+pub fn run_file(
+    scene: &str,
+    out: &Path,
+    (ranks, threads): (usize, usize),
+    sets: &[&str],
+) -> (i32, String, String) {
+    let (out, r, t) = (out.to_str().unwrap(), ranks.to_string(), threads.to_string());
+    let mut args = vec!["run", scene, "-q", "--out", out, "--ranks", &r, "--threads", &t];
+    for s in sets {
+        args.extend(["--set", s]);
+    }
+    hsph(&args)
+}
+
+/// The lattice's id bound of the 2D scene file `scene` (the first id a created particle takes).
+pub fn id_bound_2d(scene: &str) -> u64 {
+    let text = std::fs::read_to_string(repo_path(scene)).unwrap();
+    let (s, _) = hsph::scene::load_scene_str(&text, Path::new(scene), "scene", &[]).unwrap();
+    hsph::scene::lattice::id_bound::<2>(&s)
 }
 
 /// Values of the `<DataArray Name="name">` of a `.vtu` piece, as text tokens (vectors give
