@@ -24,7 +24,7 @@ const LAYERS: &[&[&str]] = &[
     &["limits", "particles", "decomp", "affinity", "material"],
     // input: what a run is asked to do, and files
     &["scene", "comm", "jobscript", "files"],
-    &["topology", "signals", "cells"],
+    &["topology", "signals", "cells", "ids"],
     // methods
     &["boundary", "placement"],
     &["physics", "halo", "layout", "checkpoint"],
