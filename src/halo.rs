@@ -141,6 +141,7 @@ const TAG_GHOSTS: Tag = 102;
 const TAG_REFRESH: Tag = 103;
 const TAG_MIGRATE: Tag = 104;
 const TAG_ROUTE: Tag = 105;
+const TAG_HAND_OVER: Tag = 106;
 
 /// One planned ghost: owned source index and image operation.
 #[derive(Debug, Clone, Copy)]
@@ -511,6 +512,58 @@ pub fn route_to_owners<const D: usize>(
     comm.set_phase(prev);
     kept.sort_unstable_by_key(|e| e.0);
     Ok(kept)
+}
+
+/// Send the owned particles `to` lists, as `(index, rank)` with rank ≠ this one, to those
+/// ranks, each as its carried record and its acceleration, and return what this rank
+/// receives, sorted by id. The senders keep their particles: what the receiver makes of them
+/// (a merge, `sim/merge.rs`) is the caller's.
+pub fn hand_over<const D: usize>(
+    p: &Particles<D>,
+    to: &[(usize, usize)],
+    comm: &dyn Comm,
+) -> Result<Vec<(Record<D>, Vector<D>)>> {
+    let (me, size) = (comm.rank(), comm.size());
+    let prev = comm.set_phase(Phase::Migration);
+    let dropped = p.dropped;
+    let mut out: Vec<Vec<u8>> = vec![Vec::new(); size];
+    let mut n_out = vec![0usize; size];
+    for &(i, r) in to {
+        debug_assert!(r != me && i < p.n_owned);
+        p.record(i).put_carried(dropped, &mut Words::new(&mut out[r]));
+        for c in p.acc[i].iter() {
+            out[r].extend_from_slice(&c.to_le_bytes());
+        }
+        n_out[r] += 1;
+    }
+    let counts = incoming_counts(n_out.into_iter(), comm)?;
+    let from: Vec<usize> = (0..size)
+        .filter(|&s| s != me && counts[s * size + me] > 0)
+        .collect();
+    let sends: Vec<(usize, Vec<u8>)> = out
+        .into_iter()
+        .enumerate()
+        .filter(|(_, b)| !b.is_empty())
+        .collect();
+    let msgs = comm.exchange(sends, &from, TAG_HAND_OVER)?;
+    let rec = Record::<D>::words_carried(dropped) * 8;
+    let width = rec + 8 * D;
+    let mut got = Vec::new();
+    for (s, m) in from.iter().zip(&msgs) {
+        if m.len() != counts[s * size + me] as usize * width {
+            return Err(Error::run(
+                "handing particles over: a message of the wrong length",
+            ));
+        }
+        for c in m.chunks_exact(width) {
+            let r = Record::get_carried(dropped, &mut Reader::new(&c[..rec]))?;
+            let word = |k: usize| c[rec + 8 * k..rec + 8 * k + 8].try_into().expect("8 bytes");
+            got.push((r, Vector::<D>::from_fn(|a, _| f64::from_le_bytes(word(a)))));
+        }
+    }
+    comm.set_phase(prev);
+    got.sort_unstable_by_key(|e| e.0.id);
+    Ok(got)
 }
 
 /// Move every owned particle that left this rank's box to its owner (ghosts must have been

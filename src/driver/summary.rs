@@ -231,6 +231,11 @@ impl<'a, const D: usize> RankRun<'a, D> {
         summary["removed_energy"] = json!(self.removed_out[0]);
         summary["removed_mass"] = json!(self.removed_out[1]);
         summary["hole"] = self.hole_summary();
+        if sim.adapts() {
+            // particles that changed size in this segment (`[[refine]] adapt`)
+            summary["splits"] = json!(sim.resized.splits);
+            summary["merges"] = json!(sim.resized.merges);
+        }
         summary
     }
 }

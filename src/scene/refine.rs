@@ -163,6 +163,58 @@ impl Refine {
         }
     }
 
+    /// Distance (m) from `x` outside the region to it (0 inside), with `period[a]` the length
+    /// of a periodic axis (the nearest image counts). A block's faces at or beyond the domain's
+    /// bounds `dom` are not counted, as in [`Refine::depth`]: the region runs on past them.
+    pub fn clearance(&self, x: &[f64], dom: (&[f64], &[f64]), period: &[Option<f64>]) -> f64 {
+        let d = x.len();
+        // the offset from `c` along axis a, to the nearest image on a periodic axis
+        let off = |a: usize, c: f64| {
+            let r = x[a] - c;
+            match period.get(a).copied().flatten() {
+                Some(l) => r - l * (r / l).round(),
+                None => r,
+            }
+        };
+        let pos = |v: f64| v.max(0.0);
+        match self.shape {
+            BodyShape::Block => (0..d)
+                .map(|a| {
+                    let c = 0.5 * (self.min[a] + self.max[a]);
+                    let half = 0.5 * (self.max[a] - self.min[a]);
+                    let r = off(a, c);
+                    // a face past the domain's bound: no distance on that side
+                    let lo = if self.min[a] <= dom.0[a] {
+                        0.0
+                    } else {
+                        pos(-r - half)
+                    };
+                    let hi = if self.max[a] >= dom.1[a] {
+                        0.0
+                    } else {
+                        pos(r - half)
+                    };
+                    lo.max(hi).powi(2)
+                })
+                .sum::<f64>()
+                .sqrt(),
+            BodyShape::Sphere => {
+                let r2: f64 = (0..d).map(|a| off(a, self.centre[a]).powi(2)).sum();
+                pos(r2.sqrt() - self.radius)
+            }
+            BodyShape::Cylinder => {
+                let axis = self.axis.unwrap_or(2);
+                let r2: f64 = (0..d)
+                    .filter(|&a| a != axis)
+                    .map(|a| off(a, self.centre[a]).powi(2))
+                    .sum();
+                let radial = pos(r2.sqrt() - self.radius);
+                let along = pos(off(axis, self.centre[axis]).abs() - 0.5 * self.length);
+                radial.hypot(along)
+            }
+        }
+    }
+
     /// Smoothing length (m) of a particle of this region's level at `x`: `h_fine` at a depth
     /// of at least the transition band, rising linearly to `h_scene` at the boundary (the
     /// region's faces inside the domain `dom`, [`Refine::depth`]).
@@ -250,6 +302,18 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
                 format!("{k}.adapt"),
                 "splits particles with the scene's h only: set smoothing_length = \"scene\" (the \
                  default) or adapt = false",
+            );
+        }
+        let diagonal = (d as f64).sqrt() * s.discretisation.dx;
+        if r.adapt && support < diagonal {
+            return err(
+                format!("{k}.adapt"),
+                format!(
+                    "merges particles within a cell of side dx, whose diagonal √D·dx = {diagonal} m \
+                     must lie within the kernel support ({support} m): raise \
+                     discretisation.h_over_dx to at least {:.3}",
+                    diagonal / (s.discretisation.kernel.support_factor() * s.discretisation.dx)
+                ),
             );
         }
         if r.adapt
@@ -344,5 +408,57 @@ fn overlap(a: &Refine, b: &Refine) -> bool {
         (BodyShape::Sphere, BodyShape::Block) => dist2(&a.centre, b) < a.radius * a.radius,
         (BodyShape::Block, BodyShape::Sphere) => dist2(&b.centre, a) < b.radius * b.radius,
         _ => true,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Refine;
+
+    fn region(text: &str) -> Refine {
+        toml::from_str(text).unwrap()
+    }
+
+    /// The distance from points around a block and a disc to the nearest of ~10⁵ sample points
+    /// inside them (a brute-force oracle, to within the sampling step), on a domain periodic
+    /// along x: the nearest image counts, and a block face on the domain's bound does not.
+    #[test]
+    fn clearance_is_the_distance_to_the_nearest_point_of_the_region() {
+        let dom = ([0.0, 0.0], [1.0, 1.0]);
+        let period = [Some(1.0), None];
+        let block = region("min = [0.6, 0.0]\nmax = [0.9, 0.5]\nlevel = 1");
+        let mut disc = region("shape = \"sphere\"\ncentre = [0.2, 0.7]\nradius = 0.15\nlevel = 1");
+        (disc.min, disc.max) = (vec![0.05, 0.55], vec![0.35, 0.85]);
+        let step = 0.002;
+        for r in [&block, &disc] {
+            let inside: Vec<[f64; 2]> = (0..500)
+                .flat_map(|i| (0..500).map(move |j| [(i as f64 + 0.5) * step, (j as f64 + 0.5) * step]))
+                .filter(|x| r.contains(x))
+                .collect();
+            for x in [
+                [0.5, 0.3],
+                [0.95, 0.8],
+                [0.02, 0.2],
+                [0.7, 0.6],
+                [0.2, 0.3],
+                [0.7, 0.2],
+            ] {
+                let oracle = inside
+                    .iter()
+                    .map(|y| {
+                        let dx = (x[0] - y[0]).abs();
+                        // the nearest periodic image along x; the block's lower face at
+                        // y = 0 lies on the domain's bound and is not a face
+                        dx.min(1.0 - dx).hypot(x[1] - y[1])
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                let got = r.clearance(&x, (&dom.0[..], &dom.1[..]), &period);
+                let inside_x = r.contains(&x);
+                assert_eq!(got == 0.0, inside_x, "{x:?}: {got}");
+                if !inside_x {
+                    assert!((got - oracle).abs() < 2.0 * step, "{x:?}: {got}, oracle {oracle}");
+                }
+            }
+        }
     }
 }

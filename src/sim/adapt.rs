@@ -1,6 +1,6 @@
 //! Splitting of fluid particles that enter adaptive refinement regions (`[[refine]] adapt =
-//! true`; issue 36, `docs/splitting.md` §2). Merging is not built yet: a split particle keeps
-//! its level when it leaves the region.
+//! true`; issue 36, `docs/splitting.md` §2). Their children merge again when they leave it
+//! ([`super::merge`]).
 //!
 //! A fluid particle of level ℓ (spacing s = dx/2^ℓ) whose centre lies at least s inside an
 //! adaptive region of a level above ℓ becomes 2^D children of level ℓ + 1 at x + (s/4)·σ,
@@ -23,7 +23,7 @@ fn child_offset<const D: usize>(c: usize, s: f64) -> Vector<D> {
 
 impl<const D: usize> Simulation<D> {
     /// True if the scene has a region whose fluid particles split ([`Refine::adapt`]).
-    pub(super) fn adapts(&self) -> bool {
+    pub fn adapts(&self) -> bool {
         self.scene.refine.iter().any(|r| r.adapt)
     }
 
@@ -33,11 +33,11 @@ impl<const D: usize> Simulation<D> {
     fn splits_to(&self, regions: &[&Refine], i: usize, l: u16) -> Option<u16> {
         let p = &self.p;
         let name = &self.scene.fluids.get(p.body[i] as usize)?.name;
-        let x: Vec<f64> = p.x[i].iter().copied().collect();
+        let x = p.x[i].as_slice();
         let dom = (&self.scene.domain.min[..], &self.scene.domain.max[..]);
         let band = self.scene.discretisation.dx / f64::from(1u32 << l);
         let inside = |r: &&&Refine| {
-            r.level > u32::from(l) && r.applies_to(name) && r.contains(&x) && r.depth(&x, dom) >= band
+            r.level > u32::from(l) && r.applies_to(name) && r.contains(x) && r.depth(x, dom) >= band
         };
         regions.iter().find(inside).map(|_| l + 1)
     }
@@ -59,7 +59,9 @@ impl<const D: usize> Simulation<D> {
             .iter()
             .flat_map(|&(i, _)| (0..children as u32).map(move |c| (id[i], c)))
             .collect();
+        let before = self.ids.next();
         let ids = self.ids.allocate(comm, &keys)?;
+        self.resized.splits += (self.ids.next() - before) >> D;
         if split.is_empty() {
             return Ok(());
         }
@@ -78,7 +80,13 @@ impl<const D: usize> Simulation<D> {
             for c in 0..children {
                 let j = first + k * children + c;
                 let p = &mut self.p;
-                p.x[j] += child_offset::<D>(c, s);
+                let offset = child_offset::<D>(c, s);
+                p.x[j] += offset;
+                // the density carried to the child's site by the parent's renormalised
+                // gradient, where δ-SPH computed one (a hydrostatic column keeps its profile)
+                if let Some(g) = p.grad_rho.get(j) {
+                    p.rho[j] += g.dot(&offset);
+                }
                 self.space.wrap(&mut p.x[j]);
                 p.mass[j] *= share;
                 p.level[j] = l;
@@ -86,6 +94,7 @@ impl<const D: usize> Simulation<D> {
                 p.key[j] = p.id[j] << crate::particles::IMAGE_BITS;
             }
         }
+        self.free_step_buffers();
         self.skin.forget();
         Ok(())
     }

@@ -6,13 +6,15 @@
 //! (v) → dt`. The passes and their order are declared in [`crate::physics::passes`]; one rank
 //! goes through the same halo path as many (self-sends).
 //!
-//! Modules: [`step`] (the step and the passes), [`balance`] (load balance and migration),
+//! Modules: [`step`] (the step and the passes), [`adapt`] and [`merge`] (fluid particles that
+//! change size, `[[refine]] adapt`), [`balance`] (load balance and migration),
 //! [`decompose`] (initial blocks and placement), [`observe`] (observables and the gather for
 //! output), [`timers`].
 
-mod adapt;
+pub mod adapt;
 pub mod balance;
 pub mod decompose;
+pub mod merge;
 pub mod observe;
 pub mod outflow;
 pub mod skin;
@@ -39,6 +41,15 @@ use crate::scene::Scene;
 use crate::setup::SiteSource;
 use crate::Vector;
 use rayon::prelude::*;
+
+/// Particles that changed size in a run segment, the same count on every rank.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Resized {
+    /// Particles split into 2^D children.
+    pub splits: u64,
+    /// Groups of 2^D particles merged into one.
+    pub merges: u64,
+}
 
 /// The state of one rank.
 pub struct Simulation<const D: usize> {
@@ -88,6 +99,9 @@ pub struct Simulation<const D: usize> {
     pub pair_mode: bool,
     /// The next id a created particle takes, the same on every rank ([`crate::ids`]).
     pub ids: crate::ids::IdCounter,
+    /// Splits and merges of this run segment, counted over every rank
+    /// ([`crate::sim::adapt`], [`crate::sim::merge`]; `summary.json`).
+    pub resized: Resized,
     /// Particles removed by the outflow rule and not yet reported (the driver drains it).
     pub removed: Vec<outflow::Removal>,
     fresh: Freshness,
@@ -277,6 +291,7 @@ impl<const D: usize> Simulation<D> {
             schedule: schedule(&model),
             pair_mode,
             ids: crate::ids::IdCounter::starting_at(crate::scene::lattice::id_bound::<D>(scene)),
+            resized: Resized::default(),
             model,
             p,
             space,

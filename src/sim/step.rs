@@ -55,6 +55,9 @@ impl<const D: usize> Simulation<D> {
             self.refresh_kept_ghosts(comm)?;
         }
         self.run_passes(dt, comm, None)?;
+        if self.adapts() {
+            self.merge_leaving(comm)?;
+        }
         let t0 = Instant::now();
         self.apply_outflow(true);
         self.check_finite()?;
@@ -76,7 +79,7 @@ impl<const D: usize> Simulation<D> {
 
     /// Free the neighbour lists, cell list and pair accumulators (see
     /// [`Simulation::release_step_buffers`]).
-    fn free_step_buffers(&mut self) {
+    pub(super) fn free_step_buffers(&mut self) {
         self.nl.release();
         self.cells = Default::default();
         self.pair_scratch = Default::default();
@@ -326,7 +329,7 @@ impl<const D: usize> Simulation<D> {
 
     /// Refresh `fields` on the ghosts of the classes `kinds` (a halo exchange), timed as
     /// `halo`.
-    fn refresh(&mut self, need: (Fields, Kinds), comm: &dyn Comm) -> Result<()> {
+    pub(super) fn refresh(&mut self, need: (Fields, Kinds), comm: &dyn Comm) -> Result<()> {
         let t0 = Instant::now();
         self.halo.refresh(&mut self.p, &self.space, need, comm)?;
         self.timers.add(Timer::Halo, t0);
