@@ -151,8 +151,9 @@ fn mpi_runs_give_the_local_back_ends_bits() {
             "inputs/hydrostatic_2d_refined.toml",
             vec!["time.t_end=0.05", "balance.check_every=5"],
         ),
-        // splitting (issue 36): children numbered by the all-gathered id counter under MPI
-        ("tests/data/drift_split_2d.toml", vec!["time.t_end=0.04"]),
+        // splitting and merging (issue 36): children and merged particles numbered by the
+        // all-gathered id counter, merges handed over to the centroid's rank, under MPI
+        ("tests/data/drift_split_2d.toml", vec![]),
         // the oblique impact (issue 12), coarse: halos carry the solid fields under MPI too
         (
             "inputs/impact_oblique_45.toml",
