@@ -10,12 +10,11 @@ pub struct Progress {
     start: Instant,
     last: Instant,
     last_frac_logged: f64,
-    particles: usize,
 }
 
 impl Progress {
     /// New reporter; `quiet` silences it.
-    pub fn new(particles: usize, quiet: bool) -> Self {
+    pub fn new(quiet: bool) -> Self {
         let now = Instant::now();
         Progress {
             tty: std::io::stderr().is_terminal(),
@@ -23,12 +22,12 @@ impl Progress {
             start: now,
             last: now,
             last_frac_logged: 0.0,
-            particles,
         }
     }
 
-    /// Report after a step.
-    pub fn update(&mut self, step: u64, t: f64, t_end: f64) {
+    /// Report after a step, with the particle-steps done since the reporter was made (every
+    /// step's particles: a population that changes is counted as it is).
+    pub fn update(&mut self, step: u64, t: f64, t_end: f64, particle_steps: f64) {
         if self.quiet {
             return;
         }
@@ -49,7 +48,7 @@ impl Progress {
         } else {
             0.0
         };
-        let rate = self.particles as f64 * step as f64 / elapsed.max(1e-9);
+        let rate = particle_steps / elapsed.max(1e-9);
         let mut err = std::io::stderr();
         if self.tty {
             let width = 24;

@@ -51,11 +51,21 @@ fn series(dir: &Path, name: &str) -> Vec<f64> {
         .collect()
 }
 
-/// `splits` and `merges` of a run's `summary.json`.
+/// `splits` and `merges` of a run's `summary.json`, after checking its particle counts
+/// against them: the end count is the start's plus 3 per split less 3 per merge, and the
+/// largest is at least either.
 fn resized(dir: &Path) -> (usize, usize) {
     let s: serde_json::Value = serde_json::from_str(&read(dir, "summary.json")).unwrap();
     let n = |k: &str| s[k].as_u64().unwrap_or_else(|| panic!("summary.json: no {k}")) as usize;
-    (n("splits"), n("merges"))
+    let (splits, merges) = (n("splits"), n("merges"));
+    let (start, end, most) = (n("particles_start"), n("particles"), n("particles_max"));
+    assert_eq!(
+        end + 3 * merges,
+        start + 3 * splits,
+        "summary.json: {start} → {end} particles"
+    );
+    assert!(most >= start.max(end), "summary.json: largest count {most}");
+    (splits, merges)
 }
 
 /// Particles split as they enter (4 children of a quarter of the mass, new ids above the
@@ -123,6 +133,56 @@ fn particles_split_and_merge_conserving_mass_and_momentum_on_any_layout() {
     }
 }
 
+/// With `smoothing_length = "level"` children take the region's h at their sites (the fine
+/// h, 0.0065 m, ramped to the scene's 0.013 m over the transition band), merged particles the
+/// scene's; mass stays exact and the bits are the same on 1 and 3 ranks.
+#[test]
+fn with_the_levels_h_children_take_the_ramp_and_merged_particles_the_scenes() {
+    let dir = common::temp_dir("split-level-h");
+    let level = ["refine[0].smoothing_length=\"level\""];
+    let one = dir.join("r1");
+    run(&one, 1, 1, &level);
+    let (splits, merges) = resized(&one);
+    assert!(splits > 0 && merges > 0, "{splits} splits, {merges} merges");
+    let text = read(&one, "final.csv");
+    let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
+    let (id, lv, h) = (col("id"), col("level"), col("h"));
+    let bound = common::id_bound_2d(SCENE);
+    let (h_scene, h_fine) = (0.013, 0.0065);
+    for l in text.lines().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        let (i, lvl, hh): (u64, u16, f64) = (
+            f[id].parse().unwrap(),
+            f[lv].parse().unwrap(),
+            f[h].parse().unwrap(),
+        );
+        if lvl == 0 {
+            assert!(
+                (hh / h_scene - 1.0).abs() < 1e-12,
+                "particle {i} (level 0): h = {hh}"
+            );
+        } else {
+            assert!(
+                hh >= h_fine * (1.0 - 1e-12) && hh <= h_scene * (1.0 + 1e-12),
+                "particle {i}: h = {hh}"
+            );
+            if i >= bound {
+                // a child: one fine spacing deep at least, so below the scene's h
+                assert!(hh < h_scene, "child {i}: h = {hh}");
+            }
+        }
+    }
+    for m in series(&one, "mass") {
+        assert_eq!(m, 80.0);
+    }
+    let three = dir.join("r3");
+    run(&three, 3, 1, &level);
+    for f in ["timeseries.csv", "final.csv"] {
+        assert!(read(&three, f) == read(&one, f), "{f} differs on 3 ranks");
+    }
+}
+
 /// A run checkpointed on 2 ranks between splits and continued on 3 gives the uninterrupted
 /// bits: the counter `next_id` travels in the checkpoint.
 #[test]
@@ -155,15 +215,11 @@ fn a_restart_across_splits_gives_the_uninterrupted_bits() {
     }
 }
 
-/// `adapt` needs a region that refines a fluid, with the scene's h, and a kernel support that
-/// holds a merge's cell (√D·dx): otherwise exit 2 naming the key.
+/// `adapt` needs a region that refines a fluid and a kernel support that holds a merge's cell
+/// (√D·dx): otherwise exit 2 naming the key.
 #[test]
-fn adapt_without_a_fluid_or_with_the_levels_h_is_refused() {
+fn adapt_without_a_fluid_or_with_a_short_support_is_refused() {
     for (set, needle) in [
-        (
-            "refine[0].smoothing_length=\"level\"",
-            "smoothing_length = \"scene\"",
-        ),
         ("refine[0].bodies=[\"nothing\"]", "refines no fluid"),
         ("discretisation.h_over_dx=0.6", "h_over_dx to at least 0.707"),
     ] {

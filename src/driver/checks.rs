@@ -66,7 +66,9 @@ pub fn check_limits(
             ),
         ));
     }
-    let est = crate::with_dim!(scene.dimension, D => Ok(crate::memory::estimate::<D>(scene, n, ranks, ranks_in_process)))?;
+    // the largest population: the set-up's, and what the adaptive regions can add
+    let peak = n + crate::scene::refine::adaptive_growth(scene);
+    let est = crate::with_dim!(scene.dimension, D => Ok(crate::memory::estimate::<D>(scene, peak, ranks, ranks_in_process)))?;
     let limit = match opts.max_memory {
         Some(m) => Some((m, "--max-memory")),
         None => available(),

@@ -66,6 +66,16 @@ pub(super) struct RankRun<'a, const D: usize> {
     pub(super) n_fluid: u64,
     /// Particles removed by the outflow rule so far, over all ranks.
     pub(super) removed: u64,
+    /// Particles now over all ranks, counted from this segment's start by the splits, merges
+    /// and removals (no collective), and the most there were.
+    pub(super) population: (u64, u64),
+    /// Particle-steps of this segment: the population summed over its steps.
+    pub(super) particle_steps: f64,
+    /// Mass of the fluid and solid particles at the run's first step (kg, or kg/m in 2D): the
+    /// observables' exact Σm now plus what was removed before (a restart's). The outflow rule's
+    /// budget and `removed_fraction` are fractions of it, so particles that split or merge
+    /// (`[[refine]] adapt`) count by what they weigh, not by their number.
+    pub(super) mass_start: f64,
     /// Energy (J, or J/m in 2D) and mass (kg, or kg/m in 2D) they carried out, summed in id
     /// order step by step (the same bits on any number of ranks).
     pub(super) removed_out: [f64; 2],

@@ -79,6 +79,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
             loop_peak: None,
             n_fluid: n_total[1],
             removed: 0,
+            population: (n_total[0], n_total[0]),
+            particle_steps: 0.0,
+            mass_start: 0.0,
             removed_out: [0.0; 2],
             next_out: scene.output.interval,
             next_checkpoint: scene.checkpoint.every,
@@ -92,6 +95,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
         } else {
             // the set-up's traffic (one step's exchanges at the initial positions) is step 0
             run.traffic(0)?;
+        }
+        if run.scene.domain.outflow == crate::scene::Outflow::Remove {
+            run.mass_start = run.sim.observables(comm)?.mass + run.removed_out[1];
         }
         run.banner();
         run.loop_start = Instant::now();

@@ -17,14 +17,16 @@ impl<'a, const D: usize> RankRun<'a, D> {
     /// Steps until the end, with the reference tracker, output steps and progress.
     pub(super) fn step_loop(&mut self) -> Result<()> {
         let interval = self.scene.output.interval;
-        let mut progress = Progress::new(self.n_total, self.quiet);
+        let mut progress = Progress::new(self.quiet);
         self.steps_start = Instant::now();
         self.checkpoint_clock.0 = Instant::now();
         let mut last_step = Instant::now();
         while !self.sim.done() {
             self.inject_fault();
+            let before = (self.sim.resized, self.removed);
             self.sim.advance(self.comm)?;
             self.report_removals()?;
+            self.count_population(before);
             if self.tracker.due(self.scene, self.sim.t) {
                 self.sim.release_step_buffers();
                 match &self.sim.gather(self.comm)? {
@@ -38,7 +40,12 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 crate::probes::advance_past(&mut self.next_out, interval, self.sim.t);
                 self.traffic(self.sim.step)?;
             }
-            progress.update(self.sim.step, self.sim.t, self.scene.time.t_end);
+            progress.update(
+                self.sim.step,
+                self.sim.t,
+                self.scene.time.t_end,
+                self.particle_steps,
+            );
             // a step boundary: stop here if any rank has received a stopping signal or is about
             // to run out of wall-clock time (one collective decides for all)
             let mut clock = self.wall_clock_flags(&mut last_step);
@@ -136,6 +143,26 @@ impl<'a, const D: usize> RankRun<'a, D> {
         )
     }
 
+    /// Move the population on by a step's splits, merges and removals (counts the same on
+    /// every rank, `before` them), and add it to the segment's particle-steps.
+    fn count_population(&mut self, before: (crate::sim::Resized, u64)) {
+        let k = (1u64 << D) - 1;
+        let r = self.sim.resized;
+        let grown = self.population.0 + k * (r.splits - before.0.splits);
+        let now = grown - k * (r.merges - before.0.merges) - (self.removed - before.1);
+        self.population = (now, self.population.1.max(grown).max(now));
+        self.particle_steps += now as f64;
+    }
+
+    /// The fraction of the moving mass the outflow rule removed so far (0 without removals).
+    pub(super) fn removed_fraction(&self) -> f64 {
+        if self.mass_start > 0.0 {
+            self.removed_out[1] / self.mass_start
+        } else {
+            0.0
+        }
+    }
+
     /// Collective, under `outflow = "remove"`: count the particles every rank removed this step,
     /// log them in `removed.csv` (rank 0, sorted by id) and stop the run once more than
     /// `domain.max_removed_fraction` of the fluid is gone.
@@ -175,18 +202,19 @@ impl<'a, const D: usize> RankRun<'a, D> {
             }
         }
         self.removed += count[0];
-        let limit = self.scene.domain.max_removed_fraction * self.n_fluid as f64;
-        if self.removed as f64 > limit {
+        let fraction = self.removed_fraction();
+        if fraction > self.scene.domain.max_removed_fraction {
             let r = &rows[0];
             return Err(Error::run(format!(
-                "step {}, t = {:.6e} s: {} of {} moving (fluid and solid) particles removed ({:.3} %), more than \
-                 domain.max_removed_fraction = {}; among them particle id {} {} at position {:?} \
-                 (see removed.csv; enlarge the domain, check the walls, or raise the fraction)",
+                "step {}, t = {:.6e} s: {} of {} moving (fluid and solid) particles removed, {:.3} % of \
+                 their mass, more than domain.max_removed_fraction = {}; among them particle id {} {} \
+                 at position {:?} (see removed.csv; enlarge the domain, check the walls, or raise the \
+                 fraction)",
                 self.sim.step,
                 self.sim.t,
                 self.removed,
                 self.n_fluid,
-                100.0 * self.removed as f64 / self.n_fluid.max(1) as f64,
+                100.0 * fraction,
                 self.scene.domain.max_removed_fraction,
                 r.id,
                 r.reason,

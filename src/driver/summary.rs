@@ -74,7 +74,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         }
         let summary = self.summary(&r, wall, n_fluid[0] as usize, n_fluid[1] as usize);
         output::write_summary(self.dir, &summary)?;
-        self.closing_lines(&r, wall);
+        self.closing_lines(wall);
         Ok(RunOutcome {
             dir: self.dir.to_path_buf(),
             summary,
@@ -85,7 +85,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
 
     /// The closing log lines (rank 0): why the run stopped early, or its rate and the
     /// reference's measured values and errors.
-    fn closing_lines(&self, r: &Reduced, wall: f64) {
+    fn closing_lines(&self, wall: f64) {
         if let Some(sig) = self.stopped_by {
             // said even with -q: the run did not finish
             eprintln!(
@@ -98,10 +98,10 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 self.dir.display()
             );
         } else if !self.quiet {
-            let (n, steps) = (r.particles as f64, self.sim.step as f64);
             eprintln!(
-                "hsph: done: {steps} steps in {wall:.2} s ({:.3e} particle-steps/s); results in {}",
-                n * steps / wall.max(1e-12),
+                "hsph: done: {} steps in {wall:.2} s ({:.3e} particle-steps/s); results in {}",
+                self.sim.step,
+                self.particle_steps / wall.max(1e-12),
                 self.dir.display()
             );
             for (k, v) in &self.tracker.measured {
@@ -179,7 +179,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             // plus this one (a segment's steps after its last checkpoint were redone)
             "wall_s_all_segments": self.earlier.0 + wall,
             "segments": self.earlier.1 + 1,
-            "particle_steps_per_s": per_s(n as f64 * steps as f64),
+            "particle_steps_per_s": per_s(self.particle_steps),
             // list entries visited (pair mode: each owned fluid pair once); the list-free scan
             // counts none, so it reports none rather than zero
             "pair_interactions_per_s": if sim.nl.is_lean() {
@@ -202,7 +202,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "migrations_per_step": r.migrated as f64 / steps.max(1) as f64,
 
             "removed_particles": self.removed,
-            "removed_fraction": self.removed as f64 / self.n_fluid.max(1) as f64,
+            "removed_fraction": self.removed_fraction(),
             "outflow": self.scene.domain.outflow,
             "rebalances": sim.balance.rebalance_steps.len(),
             "rebalance_steps": sim.balance.rebalance_steps,
@@ -235,6 +235,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
             // particles that changed size in this segment (`[[refine]] adapt`)
             summary["splits"] = json!(sim.resized.splits);
             summary["merges"] = json!(sim.resized.merges);
+            summary["particles_start"] = json!(self.n_total);
+            summary["particles_max"] = json!(self.population.1);
         }
         summary
     }

@@ -371,7 +371,8 @@ pub struct Domain {
     /// `limits.density_ratio`) does: `remove` (counted and logged) or `stop` the run.
     #[serde(default)]
     pub outflow: Outflow,
-    /// Fraction of the particles that may be removed before the run stops (exit 1).
+    /// Fraction of the moving (fluid and solid) mass that may be removed before the run stops
+    /// (exit 1).
     #[serde(default = "default_max_removed_fraction")]
     pub max_removed_fraction: f64,
 }

@@ -6,8 +6,9 @@
 //! adaptive region of a level above ℓ becomes 2^D children of level ℓ + 1 at x + (s/4)·σ,
 //! σ ∈ {−1, +1}^D (the sites a set-up at level ℓ + 1 puts in the parent's cell), each of mass
 //! m/2^D with the parent's velocity, density and every other field, so Σm and Σmv are kept
-//! (m/2^D is exact in binary floating point). The smoothing length is the scene's, as the
-//! region's (`smoothing_length = "scene"`). Children take new ids from the run's counter
+//! (m/2^D is exact in binary floating point). The smoothing length is the region's at the
+//! child's site ([`Refine::smoothing_length`]: the scene's, or with `smoothing_length =
+//! "level"` that of level ℓ + 1, ramped over the transition band). Children take new ids from the run's counter
 //! ([`crate::ids`]), keyed by (parent id, child index): the same on every layout.
 
 use super::Simulation;
@@ -27,10 +28,10 @@ impl<const D: usize> Simulation<D> {
         self.scene.refine.iter().any(|r| r.adapt)
     }
 
-    /// The level an owned fluid particle `i` of level `l` splits to: `l + 1` if its centre lies
-    /// at least its own spacing inside an adaptive region of a higher level that refines its
-    /// body, else `None`.
-    fn splits_to(&self, regions: &[&Refine], i: usize, l: u16) -> Option<u16> {
+    /// The level an owned fluid particle `i` of level `l` splits to, `l + 1`, and the region
+    /// (an index into `regions`) if its centre lies at least its own spacing inside an adaptive
+    /// region of a higher level that refines its body, else `None`.
+    fn splits_to(&self, regions: &[&Refine], i: usize, l: u16) -> Option<(u16, usize)> {
         let p = &self.p;
         let name = &self.scene.fluids.get(p.body[i] as usize)?.name;
         let x = p.x[i].as_slice();
@@ -39,7 +40,7 @@ impl<const D: usize> Simulation<D> {
         let inside = |r: &&&Refine| {
             r.level > u32::from(l) && r.applies_to(name) && r.contains(x) && r.depth(x, dom) >= band
         };
-        regions.iter().find(inside).map(|_| l + 1)
+        regions.iter().position(|r| inside(&r)).map(|k| (l + 1, k))
     }
 
     /// Collective (after the drift and the outflow rule, before the balance check): split the
@@ -49,7 +50,7 @@ impl<const D: usize> Simulation<D> {
         let regions: Vec<&Refine> = self.scene.refine.iter().filter(|r| r.adapt).collect();
         let n = self.p.n_owned;
         let level = |i: usize| self.p.level.get(i).copied().unwrap_or(0);
-        let split: Vec<(usize, u16)> = (0..n)
+        let split: Vec<(usize, (u16, usize))> = (0..n)
             .filter(|&i| self.p.kind[i].is_fluid())
             .filter_map(|i| self.splits_to(&regions, i, level(i)).map(|l| (i, l)))
             .collect();
@@ -75,7 +76,8 @@ impl<const D: usize> Simulation<D> {
         self.p.permute_owned(&perm);
         let dx = self.scene.discretisation.dx;
         let share = 1.0 / children as f64;
-        for (k, &(_, l)) in split.iter().enumerate() {
+        let dom = (&self.scene.domain.min[..], &self.scene.domain.max[..]);
+        for (k, &(_, (l, r))) in split.iter().enumerate() {
             let s = dx / f64::from(1u32 << (l - 1));
             for c in 0..children {
                 let j = first + k * children + c;
@@ -88,6 +90,11 @@ impl<const D: usize> Simulation<D> {
                     p.rho[j] += g.dot(&offset);
                 }
                 self.space.wrap(&mut p.x[j]);
+                // the region's h at the child's site: the scene's, or with
+                // `smoothing_length = "level"` its level's ramped over the transition band
+                if let (Some(sz), Some(h)) = (self.model.sizes.as_ref(), p.h.get_mut(j)) {
+                    *h = regions[r].smoothing_length(p.x[j].as_slice(), dom, sz.h[0], sz.h[l as usize]);
+                }
                 p.mass[j] *= share;
                 p.level[j] = l;
                 p.id[j] = ids[k * children + c];

@@ -10,7 +10,8 @@
 //!   m = Σ m_k,  x = Σ m_k x_k / m,  v = Σ m_k v_k / m,  a = Σ m_k a_k / m,
 //!   ρ = m / Σ (m_k/ρ_k)  (the group's volume kept),
 //! summed in id order, so Σm and Σmv are kept to round-off and every rank that holds a member
-//! computes the same bits. The other fields are the smallest-id member's. The merged particle
+//! computes the same bits; h is that of the region of level ℓ − 1 that holds it (the scene's
+//! outside every region). The other fields are the smallest-id member's. The merged particle
 //! takes a new id from the run's counter, keyed (smallest member id, 0).
 //!
 //! In parallel: the merge runs at the end of the step, when the ghosts' positions are the
@@ -195,6 +196,19 @@ impl<const D: usize> Simulation<D> {
         Ok(())
     }
 
+    /// The smoothing length (m) of a merged particle `r` (its level, body and centre set): that
+    /// of the region of its level that holds it, if any ([`crate::scene::refine::Refine::smoothing_length`]:
+    /// the scene's h, or its level's ramped), else the scene's.
+    fn merged_h(&self, sz: &crate::kernel::sizes::Sizes, r: &Record<D>) -> f64 {
+        let s = &self.scene;
+        let (l, x) = (r.level, r.x.as_slice());
+        let dom = (&s.domain.min[..], &s.domain.max[..]);
+        let name = &s.fluids[r.body as usize].name;
+        crate::scene::refine::region_at(s, name, x)
+            .filter(|g| l > 0 && g.level == u32::from(l))
+            .map_or(sz.h[0], |g| g.smoothing_length(x, dom, sz.h[0], sz.h[l as usize]))
+    }
+
     /// The particle a group `members` (records and accelerations, in id order) merges into,
     /// with id `id` (see the module docs).
     fn merged(&self, members: &[(Record<D>, Vector<D>)], id: u64) -> (Record<D>, Vector<D>) {
@@ -212,6 +226,9 @@ impl<const D: usize> Simulation<D> {
         r.rho = m / volume;
         r.level -= 1;
         r.id = id;
+        if let Some(sz) = self.model.sizes.as_ref() {
+            r.h = self.merged_h(sz, &r);
+        }
         (r, a)
     }
 }
