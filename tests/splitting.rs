@@ -301,3 +301,17 @@ fn particles_of_kind(dir: &Path, kind: &str) -> Vec<(f64, f64)> {
         .map(|f| (f[x].parse().unwrap(), f[y].parse().unwrap()))
         .collect()
 }
+
+/// A gauge half a fine spacing in front of a refined side wall reads the still water, not the
+/// wall: columns are taken within half of each wall particle's own spacing (a window of the
+/// scene's spacing took the 1 cm wall column beside it, 0.7 m high, for the bed and read 0).
+#[test]
+fn a_gauge_beside_a_refined_wall_reads_the_still_water() {
+    let out = common::temp_dir("gauge-refined").join("run");
+    let scene = "inputs/solitary_wave_adaptive.toml";
+    let (code, _, err) = common::run_file(scene, &out, (1, 1), &["time.t_end=0.005"]);
+    assert_eq!(code, 0, "{err}");
+    let text = read(&out, "probes/wall.csv");
+    let first: f64 = text.lines().nth(1).unwrap().split(',').nth(1).unwrap().parse().unwrap();
+    assert!((first - 0.25).abs() < 1e-3, "the wall gauge reads {first} m at t = 0");
+}

@@ -157,10 +157,13 @@ fn gauge<const D: usize>(v: &View<D>, point: &[f64]) -> f64 {
     // the columns within half a spacing, both of them when the gauge sits exactly between two
     // (x = 0.3 m on a lattice offset by dx/2 from it); a strict `<` found none there, took
     // the domain's floor for the bed and read a full column as dry
-    let under = |i: usize| (0..up).all(|a| (p.x[i][a] - point[a]).abs() <= 0.5 * dx * (1.0 + 1e-9));
+    // a particle's own spacing dx/2^level: refined wall columns are half as wide, so the
+    // scene's spacing would take the refined side wall next to a gauge for its bed
+    let spacing = |i: usize| dx / f64::from(1u32 << p.level.get(i).copied().unwrap_or(0));
+    let under = |i: usize| (0..up).all(|a| (p.x[i][a] - point[a]).abs() <= 0.5 * spacing(i) * (1.0 + 1e-9));
     let bed = (0..p.n_owned)
         .filter(|&i| p.kind[i].is_wall() && under(i))
-        .map(|i| p.x[i][up] + 0.5 * dx)
+        .map(|i| p.x[i][up] + 0.5 * spacing(i))
         .fold(v.scene.domain.min[up], f64::max);
     let phi = |z: f64| {
         let at = Vector::<D>::from_fn(|a, _| if a == up { z } else { point[a] });
