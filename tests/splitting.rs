@@ -312,6 +312,17 @@ fn a_gauge_beside_a_refined_wall_reads_the_still_water() {
     let (code, _, err) = common::run_file(scene, &out, (1, 1), &["time.t_end=0.005"]);
     assert_eq!(code, 0, "{err}");
     let text = read(&out, "probes/wall.csv");
-    let first: f64 = text.lines().nth(1).unwrap().split(',').nth(1).unwrap().parse().unwrap();
-    assert!((first - 0.25).abs() < 1e-3, "the wall gauge reads {first} m at t = 0");
+    let first: f64 = text
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .nth(1)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(
+        (first - 0.25).abs() < 1e-3,
+        "the wall gauge reads {first} m at t = 0"
+    );
 }
