@@ -462,6 +462,33 @@ fn incoming_counts(outgoing: impl Iterator<Item = usize>, comm: &dyn Comm) -> Re
     Ok(counts)
 }
 
+/// Send `out[r]`, which holds `n_out[r]` items, to each rank r whose buffer is not empty, and
+/// receive from every rank that sends here (learnt by [`incoming_counts`]): returns
+/// `(items, message)` per source rank, in rank order.
+fn exchange_counted(
+    out: Vec<Vec<u8>>,
+    n_out: &[usize],
+    tag: Tag,
+    comm: &dyn Comm,
+) -> Result<Vec<(usize, Vec<u8>)>> {
+    let (me, size) = (comm.rank(), comm.size());
+    let counts = incoming_counts(n_out.iter().copied(), comm)?;
+    let from: Vec<usize> = (0..size)
+        .filter(|&s| s != me && counts[s * size + me] > 0)
+        .collect();
+    let sends: Vec<(usize, Vec<u8>)> = out
+        .into_iter()
+        .enumerate()
+        .filter(|(_, b)| !b.is_empty())
+        .collect();
+    let msgs = comm.exchange(sends, &from, tag)?;
+    Ok(from
+        .iter()
+        .map(|&s| counts[s * size + me] as usize)
+        .zip(msgs)
+        .collect())
+}
+
 /// Send `value[i]` of each owned particle of `p` to the rank that owns it under `map`, and
 /// return the values this rank receives or keeps, as `(id, value)` sorted by id: what does not
 /// travel in the particle records (a restart's accelerations) follows its particles.
@@ -488,18 +515,9 @@ pub fn route_to_owners<const D: usize>(
         }
         n_out[r] += 1;
     }
-    let counts = incoming_counts(n_out.into_iter(), comm)?;
-    let from: Vec<usize> = (0..size)
-        .filter(|&s| s != me && counts[s * size + me] > 0)
-        .collect();
-    let sends: Vec<(usize, Vec<u8>)> = out
-        .into_iter()
-        .enumerate()
-        .filter(|(_, b)| !b.is_empty())
-        .collect();
-    let msgs = comm.exchange(sends, &from, TAG_ROUTE)?;
+    let msgs = exchange_counted(out, &n_out, TAG_ROUTE, comm)?;
     let width = 8 * (D + 1);
-    for m in &msgs {
+    for (_, m) in &msgs {
         if m.len() % width != 0 {
             return Err(Error::run("routing to owners: a message of the wrong length"));
         }
@@ -536,21 +554,12 @@ pub fn hand_over<const D: usize>(
         }
         n_out[r] += 1;
     }
-    let counts = incoming_counts(n_out.into_iter(), comm)?;
-    let from: Vec<usize> = (0..size)
-        .filter(|&s| s != me && counts[s * size + me] > 0)
-        .collect();
-    let sends: Vec<(usize, Vec<u8>)> = out
-        .into_iter()
-        .enumerate()
-        .filter(|(_, b)| !b.is_empty())
-        .collect();
-    let msgs = comm.exchange(sends, &from, TAG_HAND_OVER)?;
+    let msgs = exchange_counted(out, &n_out, TAG_HAND_OVER, comm)?;
     let rec = Record::<D>::words_carried(dropped) * 8;
     let width = rec + 8 * D;
     let mut got = Vec::new();
-    for (s, m) in from.iter().zip(&msgs) {
-        if m.len() != counts[s * size + me] as usize * width {
+    for (n, m) in &msgs {
+        if m.len() != n * width {
             return Err(Error::run(
                 "handing particles over: a message of the wrong length",
             ));
@@ -592,26 +601,21 @@ pub fn migrate<const D: usize>(
             per_dst[r].push(i);
         }
     }
-    let counts = incoming_counts(per_dst.iter().map(|l| l.len()), comm)?;
-    let from: Vec<usize> = (0..size)
-        .filter(|&s| s != me && counts[s * size + me] > 0)
-        .collect();
     let sent: usize = per_dst.iter().map(|l| l.len()).sum();
     let dropped = p.dropped;
     let words = Record::<D>::words_carried(dropped);
-    let sends: Vec<(usize, Vec<u8>)> = per_dst
+    let out: Vec<Vec<u8>> = per_dst
         .iter()
-        .enumerate()
-        .filter(|(_, l)| !l.is_empty())
-        .map(|(dst, list)| {
+        .map(|list| {
             let mut buf = Vec::with_capacity(list.len() * words * 8);
             for &i in list {
                 p.record(i).put_carried(dropped, &mut Words::new(&mut buf));
             }
-            (dst, buf)
+            buf
         })
         .collect();
-    let msgs = comm.exchange(sends, &from, TAG_MIGRATE)?;
+    let n_out: Vec<usize> = per_dst.iter().map(|l| l.len()).collect();
+    let msgs = exchange_counted(out, &n_out, TAG_MIGRATE, comm)?;
     // drop the emigrants (keeping the others in order), then append the immigrants
     if sent > 0 {
         let mut leaving = vec![false; p.n_owned];
@@ -619,9 +623,8 @@ pub fn migrate<const D: usize>(
         let keep: Vec<usize> = (0..p.n_owned).filter(|&i| !leaving[i]).collect();
         p.permute_owned(&keep);
     }
-    for (s, m) in from.iter().zip(&msgs) {
-        let n = counts[s * size + me] as usize;
-        read_records::<D>(m, n, dropped, "migration", |r| p.push_owned(r))?;
+    for (n, m) in &msgs {
+        read_records::<D>(m, *n, dropped, "migration", |r| p.push_owned(r))?;
     }
     comm.set_phase(prev);
     Ok(sent)

@@ -242,17 +242,7 @@ fn a_gauge_reads_the_water_column_under_it() {
         "material[0].c0=45",
     ]);
     assert_eq!(code, 0, "{err}");
-    let first = |name: &str| -> f64 {
-        let t = std::fs::read_to_string(out.join("probes").join(format!("{name}.csv"))).unwrap();
-        t.lines()
-            .nth(1)
-            .unwrap()
-            .split(',')
-            .nth(1)
-            .unwrap()
-            .parse()
-            .unwrap()
-    };
+    let first = |name: &str| -> f64 { common::probe_values(&out, name)[0] };
     let wet = first("wet");
     assert!((wet - 0.5).abs() < 0.02, "wet gauge {wet}");
     assert_eq!(first("dry"), 0.0);

@@ -274,16 +274,7 @@ fn impact_same_bits_on_any_rank_count_and_across_a_restart() {
         &["--set", "time.max_steps=25", "--set", "checkpoint.every_steps=25"],
     );
     assert_eq!(code, 0, "{err}");
-    let (code, _, err) = common::hsph(&[
-        "run",
-        "--restart",
-        b.to_str().unwrap(),
-        "-q",
-        "--ranks",
-        "3",
-        "--set",
-        "time.max_steps=0",
-    ]);
+    let (code, _, err) = common::restart_to_end(&b, 3);
     assert_eq!(code, 0, "{err}");
     assert_same(&one, &b, "4 -> 3 restart");
 }

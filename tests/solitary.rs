@@ -39,28 +39,14 @@ fn solitary_wave_crest_arrival_and_runup_within_their_committed_bounds() {
     assert!((e("solitary_crest") - (m("crest_height_m") / 0.05 - 1.0).abs()).abs() < 1e-12);
     // a gauge half a spacing from the wall reads the still water's depth (the dry wall above
     // the water once raised it by 1.4 cm here)
-    let wall = std::fs::read_to_string(o.join("probes").join("wall.csv")).unwrap();
-    let z0: f64 = wall
-        .lines()
-        .nth(1)
-        .unwrap()
-        .split(',')
-        .nth(1)
-        .unwrap()
-        .parse()
-        .unwrap();
+    let z0 = common::probe_values(&o, "wall")[0];
     assert!(
         (z0 - 0.25).abs() < 0.1 * 0.025,
         "still water at the wall reads {z0}"
     );
     // the pressure sensors on the wall felt the wave above their still-water pressure ρ g d
     for (name, depth) in [("P0", 0.20), ("P1", 0.10)] {
-        let text = std::fs::read_to_string(o.join("probes").join(format!("{name}.csv"))).unwrap();
-        let p: Vec<f64> = text
-            .lines()
-            .skip(1)
-            .filter_map(|l| l.split(',').nth(1)?.parse().ok())
-            .collect();
+        let p = common::probe_values(&o, name);
         let still = 1000.0 * 9.81 * depth;
         assert!((p[0] / still - 1.0).abs() < 0.02, "{name}: {} vs {still}", p[0]);
         let peak = p.iter().copied().fold(f64::MIN, f64::max);

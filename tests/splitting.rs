@@ -199,16 +199,7 @@ fn a_restart_across_splits_gives_the_uninterrupted_bits() {
         m["next_id"].as_u64().unwrap() > bound,
         "no split before the checkpoint"
     );
-    let (code, _, err) = hsph(&[
-        "run",
-        "--restart",
-        cut.to_str().unwrap(),
-        "-q",
-        "--ranks",
-        "3",
-        "--set",
-        "time.max_steps=0",
-    ]);
+    let (code, _, err) = common::restart_to_end(&cut, 3);
     assert_eq!(code, 0, "{err}");
     for f in ["timeseries.csv", "final.csv"] {
         assert!(read(&cut, f) == read(&whole, f), "{f} differs after the restart");
@@ -311,16 +302,7 @@ fn a_gauge_beside_a_refined_wall_reads_the_still_water() {
     let scene = "inputs/solitary_wave_adaptive.toml";
     let (code, _, err) = common::run_file(scene, &out, (1, 1), &["time.t_end=0.005"]);
     assert_eq!(code, 0, "{err}");
-    let text = read(&out, "probes/wall.csv");
-    let first: f64 = text
-        .lines()
-        .nth(1)
-        .unwrap()
-        .split(',')
-        .nth(1)
-        .unwrap()
-        .parse()
-        .unwrap();
+    let first = common::probe_values(&out, "wall")[0];
     assert!(
         (first - 0.25).abs() < 1e-3,
         "the wall gauge reads {first} m at t = 0"

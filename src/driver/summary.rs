@@ -139,15 +139,6 @@ impl<'a, const D: usize> RankRun<'a, D> {
     fn summary(&self, r: &Reduced, wall: f64, n_fluid: usize, n_solid: usize) -> serde_json::Value {
         let sim = &self.sim;
         let n = r.particles as usize;
-        let steps = sim.step;
-        let mut timers = serde_json::Map::new();
-        for (k, p) in PHASES.iter().enumerate() {
-            timers.insert(
-                format!("{p}_s"),
-                json!({"min": r.timers[k][0], "mean": r.timers[k][1], "max": r.timers[k][2]}),
-            );
-        }
-        let comm_s = r.mean(Timer::Halo) + r.mean(Timer::Migration);
         let errors: serde_json::Map<String, serde_json::Value> = self
             .tracker
             .errors
@@ -155,11 +146,6 @@ impl<'a, const D: usize> RankRun<'a, D> {
             .map(|(k, v)| (k.clone(), json!(v)))
             .collect();
         let per_s = |x: f64| if wall > 0.0 { x / wall } else { 0.0 };
-        let cost = self
-            .layout
-            .topology
-            .as_ref()
-            .map_or(DEFAULT_COST, |t: &Topology| t.cost);
         let mut summary = json!({
             "hsph_version": env!("CARGO_PKG_VERSION"),
             "build": provenance(self.layout.backend),
@@ -171,7 +157,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "fluid_particles": n_fluid,
             "solid_particles": n_solid,
             "wall_particles": n - n_fluid - n_solid,
-            "steps": steps,
+            "steps": sim.step,
             "t_end": self.scene.time.t_end,
             "t": sim.t,
             "wall_s": wall,
@@ -188,6 +174,37 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 json!(per_s(sim.pair_count as f64 * self.comm.size() as f64))
             },
             "threads": rayon::current_num_threads(),
+            "errors": errors,
+        });
+        if !self.tracker.measured.is_empty() {
+            summary["measured"] = json!(self.tracker.measured);
+        }
+        summary["hole"] = self.hole_summary();
+        self.add_parallel(&mut summary, r, wall);
+        self.add_population(&mut summary);
+        self.add_memory(&mut summary, r);
+        summary
+    }
+
+    /// The parallel layout's figures: decomposition, placement, traffic, ghosts, balance and
+    /// the timers (min, mean and max over the ranks, s).
+    fn add_parallel(&self, summary: &mut serde_json::Value, r: &Reduced, wall: f64) {
+        let sim = &self.sim;
+        let steps = sim.step;
+        let mut timers = serde_json::Map::new();
+        for (k, p) in PHASES.iter().enumerate() {
+            timers.insert(
+                format!("{p}_s"),
+                json!({"min": r.timers[k][0], "mean": r.timers[k][1], "max": r.timers[k][2]}),
+            );
+        }
+        let comm_s = r.mean(Timer::Halo) + r.mean(Timer::Migration);
+        let cost = self
+            .layout
+            .topology
+            .as_ref()
+            .map_or(DEFAULT_COST, |t: &Topology| t.cost);
+        let figures = json!({
             "ranks": self.comm.size(),
             "backend": self.layout.backend.name(),
             "decomposition": sim.map.decomp.factors().to_vec(),
@@ -196,49 +213,67 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "layout_warnings": self.layout.warnings,
             "nodes": self.layout.nodes(),
             "traffic": self.totals.json(&cost),
-            "ghost_fraction": r.remote as f64 / n.max(1) as f64,
+            "ghost_fraction": r.remote as f64 / (r.particles as usize).max(1) as f64,
             "imbalance": sim.balance.imbalance,
             "migrations": r.migrated,
             "migrations_per_step": r.migrated as f64 / steps.max(1) as f64,
-
-            "removed_particles": self.removed,
-            "removed_fraction": self.removed_fraction(),
-            "outflow": self.scene.domain.outflow,
             "rebalances": sim.balance.rebalance_steps.len(),
             "rebalance_steps": sim.balance.rebalance_steps,
             "max_plane_shift_m": sim.balance.max_plane_shift,
             "communication_fraction": comm_s / wall.max(1e-12),
             "balance_fraction": r.mean(Timer::Balance) / wall.max(1e-12),
             "timers": timers,
-            "errors": errors,
+            // ghost builds: the same on every rank (the rule is all-reduced), set-up's included
+            "ghost_builds": sim.ghost_builds(),
+            "skin": self.scene.performance.skin,
         });
-        // ghost builds: the same on every rank (the rule is all-reduced), set-up's included
-        summary["ghost_builds"] = json!(sim.ghost_builds());
-        summary["skin"] = json!(self.scene.performance.skin);
-        if !self.tracker.measured.is_empty() {
-            summary["measured"] = json!(self.tracker.measured);
+        merge_into(summary, figures);
+    }
+
+    /// How the population changed: particles removed by the outflow rule (count, fraction of
+    /// the moving mass, their mass in kg and energy in J) and, in a scene whose regions
+    /// `adapt`, the splits and merges of this segment and the population's start and peak.
+    fn add_population(&self, summary: &mut serde_json::Value) {
+        let mut figures = json!({
+            "removed_particles": self.removed,
+            "removed_fraction": self.removed_fraction(),
+            "outflow": self.scene.domain.outflow,
+            "removed_energy": self.removed_out[0],
+            "removed_mass": self.removed_out[1],
+        });
+        if self.sim.adapts() {
+            figures["splits"] = json!(self.sim.resized.splits);
+            figures["merges"] = json!(self.sim.resized.merges);
+            figures["particles_start"] = json!(self.n_total);
+            figures["particles_max"] = json!(self.population.1);
         }
-        // per rank, from the set-up on: O(N/P) with the distributed set-up
-        summary["particle_high_water"] = json!(r.high_water.iter().map(|h| h[0]).collect::<Vec<_>>());
-        summary["ghost_high_water"] = json!(r.high_water.iter().map(|h| h[1]).collect::<Vec<_>>());
-        // each process's peak (under MPI each rank is one; local ranks share one process)
-        summary["peak_rss_bytes_per_rank"] = json!(r.high_water.iter().map(|h| h[2]).collect::<Vec<_>>());
-        // machine dependent, like wall_s: summary.json is not compared across runs
+        merge_into(summary, figures);
+    }
+
+    /// Memory: per-rank particle and ghost high water (O(N/P) with the distributed set-up) and
+    /// peak resident set sizes in bytes (machine dependent, like `wall_s`: `summary.json` is not
+    /// compared across runs). Under MPI each rank is one process; local ranks share one.
+    fn add_memory(&self, summary: &mut serde_json::Value, r: &Reduced) {
+        let high = |k: usize| r.high_water.iter().map(|h| h[k]).collect::<Vec<_>>();
         let now = crate::memory::peak_rss();
-        summary["peak_rss_bytes"] = json!(now.max(self.setup_peak));
-        summary["setup_peak_rss_bytes"] = json!(self.setup_peak);
-        summary["step_peak_rss_bytes"] = json!(if self.peak_reset { self.loop_peak } else { None });
-        summary["removed_energy"] = json!(self.removed_out[0]);
-        summary["removed_mass"] = json!(self.removed_out[1]);
-        summary["hole"] = self.hole_summary();
-        if sim.adapts() {
-            // particles that changed size in this segment (`[[refine]] adapt`)
-            summary["splits"] = json!(sim.resized.splits);
-            summary["merges"] = json!(sim.resized.merges);
-            summary["particles_start"] = json!(self.n_total);
-            summary["particles_max"] = json!(self.population.1);
-        }
-        summary
+        merge_into(
+            summary,
+            json!({
+                "particle_high_water": high(0),
+                "ghost_high_water": high(1),
+                "peak_rss_bytes_per_rank": high(2),
+                "peak_rss_bytes": now.max(self.setup_peak),
+                "setup_peak_rss_bytes": self.setup_peak,
+                "step_peak_rss_bytes": if self.peak_reset { self.loop_peak } else { None },
+            }),
+        );
+    }
+}
+
+/// Add every key of the object `more` to the object `summary`.
+fn merge_into(summary: &mut serde_json::Value, more: serde_json::Value) {
+    if let (Some(to), serde_json::Value::Object(from)) = (summary.as_object_mut(), more) {
+        to.extend(from);
     }
 }
 

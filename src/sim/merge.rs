@@ -23,7 +23,7 @@
 //! records and accelerations (which ghosts do not carry) over to the leader.
 
 use super::Simulation;
-use crate::comm::Comm;
+use crate::comm::{Comm, Phase};
 use crate::error::{Error, Result};
 use crate::halo;
 use crate::particles::{Fields, Record, IMAGE_BITS};
@@ -157,6 +157,15 @@ impl<const D: usize> Simulation<D> {
                     hand.push((c.index, leader));
                 }
             }
+        }
+        // one integer all-reduce spares the steps without a merge anywhere the hand-over's
+        // and the id allocator's collectives
+        let mut any = [(led.len() + hand.len()) as u64];
+        let prev = comm.set_phase(Phase::Other);
+        comm.all_reduce_sum_u64(&mut any)?;
+        comm.set_phase(prev);
+        if any[0] == 0 {
+            return Ok(());
         }
         let got = halo::hand_over(&self.p, &hand, comm)?;
         let keys: Vec<crate::ids::Key> = led.iter().map(|g| (cands[g.start].id, 0)).collect();

@@ -72,6 +72,23 @@ pub fn hsph(args: &[&str]) -> (i32, String, String) {
     )
 }
 
+/// `hsph run --restart from -q --ranks R --set time.max_steps=0` (see [`hsph`]): continue the
+/// run or checkpoint `from` to its end on `ranks` ranks.
+pub fn restart_to_end(from: &Path, ranks: usize) -> (i32, String, String) {
+    let ranks = ranks.to_string();
+    let from = from.to_str().unwrap();
+    hsph(&[
+        "run",
+        "--restart",
+        from,
+        "-q",
+        "--ranks",
+        &ranks,
+        "--set",
+        "time.max_steps=0",
+    ])
+}
+
 /// `hsph run scene -q --out out --ranks R --threads T --set …` (see [`hsph`]).
 pub fn run_file(
     scene: &str,
@@ -92,6 +109,24 @@ pub fn id_bound_2d(scene: &str) -> u64 {
     let text = std::fs::read_to_string(repo_path(scene)).unwrap();
     let (s, _) = hsph::scene::load_scene_str(&text, Path::new(scene), "scene", &[]).unwrap();
     hsph::scene::lattice::id_bound::<2>(&s)
+}
+
+/// The second column (the value after the time) of every row of the probe `probe`'s CSV in
+/// the run directory `run`.
+pub fn probe_values(run: &Path, probe: &str) -> Vec<f64> {
+    let path = run.join("probes").join(format!("{probe}.csv"));
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    text.lines()
+        .skip(1)
+        .map(|l| {
+            let v = l
+                .split(',')
+                .nth(1)
+                .unwrap_or_else(|| panic!("{}: row {l:?}", path.display()));
+            v.parse()
+                .unwrap_or_else(|e| panic!("{}: {v:?}: {e}", path.display()))
+        })
+        .collect()
 }
 
 /// Values of the `<DataArray Name="name">` of a `.vtu` piece, as text tokens (vectors give
