@@ -585,7 +585,8 @@ impl NeighbourList {
                         xa.copy_from_slice(&xs[k * D..k * D + D]);
                         let c = grid.coords_of(cells.cell[i] as usize);
                         let w = list.len();
-                        sub.list(list, grid, &c, k, &xa, reach[k], want == Wants::Fluid);
+                        let copy = sized::Copy { xs, fluid, reach };
+                        sub.list(list, &copy, grid, &c, k, &xa, reach[k], want == Wants::Fluid);
                         list[w..].iter_mut().for_each(|s| *s = cells.order[*s as usize]);
                         continue;
                     }

@@ -304,7 +304,7 @@ fn a_gauge_beside_a_refined_wall_reads_the_still_water() {
     assert_eq!(code, 0, "{err}");
     let first = common::probe_values(&out, "wall")[0];
     assert!(
-        (first - 0.25).abs() < 1e-3,
+        (first - 0.24).abs() < 1e-3,
         "the wall gauge reads {first} m at t = 0"
     );
 }

@@ -17,6 +17,18 @@ use super::CellGrid;
 /// Largest number of sub-cells per axis of a cell.
 const MAX_SPLIT: usize = 4;
 
+/// ⌊x⌋ for finite |x| < 2^63 (sub-cell coordinates), as `f64::floor` up to the sign of a zero,
+/// without the library call that the baseline x86-64 target makes of `floor`.
+#[inline(always)]
+fn floor(x: f64) -> f64 {
+    let t = x as i64 as f64;
+    if t > x {
+        t - 1.0
+    } else {
+        t
+    }
+}
+
 /// Step `q` to the next index of the box `q0 ..= q1` over its first `axes` axes, the last of
 /// them fastest (ascending linear order); false once the box is done.
 fn advance<const D: usize>(q: &mut [usize; D], (q0, q1): (&[usize; D], &[usize; D]), axes: usize) -> bool {
@@ -44,6 +56,10 @@ pub(super) struct SubCells {
     rmax: Vec<f64>,
     /// The largest κh/2 of all (m).
     rglob: f64,
+    /// Per table: the largest κh/2 of the cell's particles (m).
+    cmax: Vec<f64>,
+    /// Per table: whether the cell holds a fluid particle.
+    cfluid: Vec<bool>,
     /// Slots in sub-cell order (`order[k]` is a slot of the cell list).
     order: Vec<u32>,
     /// Positions, reach and fluid flags in sub-cell order.
@@ -88,6 +104,8 @@ impl SubCells {
         self.table.resize(start.len() - 1, u32::MAX);
         self.start.clear();
         self.rmax.clear();
+        self.cmax.clear();
+        self.cfluid.clear();
         self.order.resize(n, 0);
         let mut sub = Vec::new();
         let mut count = vec![0u32; nsub + 1];
@@ -108,13 +126,15 @@ impl SubCells {
             for k in b..e {
                 let mut l = 0usize;
                 for a in 0..D {
-                    let f = ((copy.xs[k * D + a] - lo[a]) * s as f64 / grid.edge[a]).floor();
+                    let f = floor((copy.xs[k * D + a] - lo[a]) * s as f64 / grid.edge[a]);
                     l = l * s + (f.max(0.0) as usize).min(s - 1);
                 }
                 sub.push(l as u32);
                 count[l + 1] += 1;
                 rmax[l] = rmax[l].max(copy.reach[k]);
             }
+            self.cmax.push(rmax.iter().copied().fold(0.0, f64::max));
+            self.cfluid.push(copy.fluid[b..e].iter().any(|&f| f != 0));
             for q in 0..nsub {
                 count[q + 1] += count[q];
             }
@@ -143,6 +163,7 @@ impl SubCells {
     pub fn list<const D: usize>(
         &self,
         list: &mut Vec<u32>,
+        copy: &Copy<'_>,
         grid: &CellGrid<D>,
         c: &[usize; D],
         ki: usize,
@@ -171,11 +192,18 @@ impl SubCells {
         let mut cc = c0;
         loop {
             let t = self.table[grid.linear(&cc)];
-            if t != u32::MAX {
+            // a cell without fluid lists nothing for a particle that wants only fluid
+            if t != u32::MAX && (!fluid_only || self.cfluid[t as usize]) {
                 let lo = grid.cell_lo(&cc);
                 let from = list.len();
                 let base = t as usize * (nsub + 1);
-                self.scan_cell(list, grid, (&lo, base), ki, xa, ri, fluid_only);
+                if self.covers(grid, &lo, t as usize, xa, ri) {
+                    // the whole cell: its slots in cell order, ascending already
+                    let (b, e) = (self.start[base] as usize, self.start[base + nsub] as usize);
+                    scan_slots(list, copy, (b, e), ki, xa, ri, fluid_only);
+                } else {
+                    self.scan_cell(list, grid, (&lo, base), ki, xa, ri, fluid_only);
+                }
                 // within a cell each run of sub-cells is ascending: sort the cell's entries
                 let found = &mut list[from..];
                 if !found.is_sorted() {
@@ -186,6 +214,26 @@ impl SubCells {
                 return;
             }
         }
+    }
+
+    /// True if i's window, ri + the cell's largest reach around `xa`, covers every sub-cell
+    /// of the cell with corner `lo` and table `t` (the same test as [`SubCells::scan_cell`]'s,
+    /// which would then scan them all).
+    #[inline]
+    fn covers<const D: usize>(
+        &self,
+        grid: &CellGrid<D>,
+        lo: &crate::Vector<D>,
+        t: usize,
+        xa: &[f64; D],
+        ri: f64,
+    ) -> bool {
+        let s = self.s as f64;
+        (0..D).all(|a| {
+            let e = grid.edge[a];
+            let q = ri + self.cmax[t] + 1e-9 * e;
+            (xa[a] - q - lo[a]) * s / e < 1.0 && (xa[a] + q - lo[a]) * s / e >= s - 1.0
+        })
     }
 
     /// The neighbours of one cell (corner `lo`, table at `base`) among the sub-cells that
@@ -204,20 +252,23 @@ impl SubCells {
     ) {
         let s = self.s;
         let nsub = s.pow(D as u32);
-        let tb = base / (nsub + 1) * nsub;
-        // the sub-cells within ri + (the largest reach) of x_i per axis, with a margin of
-        // 1e-9 edges for a particle binned across a rounding of its position
+        let t = base / (nsub + 1);
+        let tb = t * nsub;
+        // the sub-cells within ri + (the cell's largest reach) of x_i per axis, with a margin
+        // of 1e-9 edges for a particle binned across a rounding of its position
         let (mut q0, mut q1) = ([0usize; D], [0usize; D]);
         for a in 0..D {
             let e = grid.edge[a];
-            let q = ri + self.rglob + 1e-9 * e;
-            let f0 = ((xa[a] - q - lo[a]) * s as f64 / e).floor();
-            let f1 = ((xa[a] + q - lo[a]) * s as f64 / e).floor();
-            if f1 < 0.0 || f0 >= s as f64 {
+            let q = ri + self.cmax[t] + 1e-9 * e;
+            // sub-cell coordinates; ⌊g⌋ < 0 iff g < 0 and ⌊g⌋ ≥ s iff g ≥ s, and truncation
+            // is ⌊g⌋ for g ≥ 0, so no floor is needed
+            let g0 = (xa[a] - q - lo[a]) * s as f64 / e;
+            let g1 = (xa[a] + q - lo[a]) * s as f64 / e;
+            if g1 < 0.0 || g0 >= s as f64 {
                 return;
             }
-            q0[a] = f0.max(0.0) as usize;
-            q1[a] = (f1 as usize).min(s - 1);
+            q0[a] = if g0 > 0.0 { g0 as usize } else { 0 };
+            q1[a] = (g1 as usize).min(s - 1);
         }
         // runs of sub-cells along the last axis are contiguous in the sub-cell order
         let last = D - 1;
@@ -297,4 +348,36 @@ impl SubCells {
         }
         list.truncate(w + m);
     }
+}
+
+/// The neighbours among the slots `b..e` of the cell-order copy `copy`: those with
+/// |x_ij| < r_i + r_j (fluid ones only if `fluid_only`), ascending.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn scan_slots<const D: usize>(
+    list: &mut Vec<u32>,
+    copy: &Copy<'_>,
+    (b, e): (usize, usize),
+    ki: usize,
+    xa: &[f64; D],
+    ri: f64,
+    fluid_only: bool,
+) {
+    let w = list.len();
+    list.resize(w + (e - b), 0);
+    let out = &mut list[w..];
+    let mut m = 0usize;
+    for k in b..e {
+        let xj = &copy.xs[k * D..k * D + D];
+        let mut d2 = 0.0;
+        for a in 0..D {
+            let d = xa[a] - xj[a];
+            d2 += d * d;
+        }
+        let sum = ri + copy.reach[k];
+        let keep = (d2 < sum * sum) & (k != ki) & (!fluid_only | (copy.fluid[k] != 0));
+        out[m] = k as u32;
+        m += keep as usize;
+    }
+    list.truncate(w + m);
 }

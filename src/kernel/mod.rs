@@ -71,7 +71,14 @@ impl Kernel {
             kind,
             h,
             support: kind.support_factor() * h,
-            sigma: kind.sigma(dim) / h.powi(dim as i32),
+            // h·h and h·(h·h) are h.powi(2) and h.powi(3) bit for bit (powi multiplies by
+            // repeated squaring), without the library call per pair of several sizes
+            sigma: kind.sigma(dim)
+                / match dim {
+                    2 => h * h,
+                    3 => h * (h * h),
+                    _ => h.powi(dim as i32),
+                },
             inv_h: 1.0 / h,
         }
     }

@@ -122,13 +122,35 @@ pub struct MeanH<'a> {
     pub sizes: &'a Sizes,
     /// Dimension (2 or 3).
     pub dim: usize,
+    /// The kernel of each level's core h, made once: most pairs take one of them.
+    cores: [Kernel; LEVELS],
+}
+
+impl<'a> MeanH<'a> {
+    /// The pair kernel of a scene of `sizes` in `dim` dimensions.
+    pub fn new(sizes: &'a Sizes, dim: usize) -> Self {
+        MeanH {
+            sizes,
+            dim,
+            cores: std::array::from_fn(|l| Kernel::new(sizes.kind, sizes.h[l], dim)),
+        }
+    }
 }
 
 impl PairKernel for MeanH<'_> {
     const VARIES: bool = true;
+    /// The kernel of h_ij = (h_i + h_j)/2: a level's core kernel when h_ij is that level's h
+    /// (the same bits as making it: [`Kernel::new`] is a function of h alone), else made here
+    /// (two divisions).
     #[inline(always)]
     fn of(&self, h: &[f64], i: usize, j: usize) -> Kernel {
-        Kernel::new(self.sizes.kind, 0.5 * (h[i] + h[j]), self.dim)
+        let hij = 0.5 * (h[i] + h[j]);
+        for k in &self.cores {
+            if k.h == hij {
+                return *k;
+            }
+        }
+        Kernel::new(self.sizes.kind, hij, self.dim)
     }
 }
 
@@ -146,7 +168,7 @@ macro_rules! with_pair_kernel {
                 $body
             }
             Some(s) => {
-                let $k = $crate::kernel::sizes::MeanH { sizes: s, dim: $dim };
+                let $k = $crate::kernel::sizes::MeanH::new(s, $dim);
                 $body
             }
         }
