@@ -200,7 +200,7 @@ impl SubCells {
                 if self.covers(grid, &lo, t as usize, xa, ri) {
                     // the whole cell: its slots in cell order, ascending already
                     let (b, e) = (self.start[base] as usize, self.start[base + nsub] as usize);
-                    scan_slots(list, copy, (b, e), ki, xa, ri, fluid_only);
+                    scan_slots(list, copy, (b, e), ki, xa, ri, fluid_only, |k| k as u32);
                 } else {
                     self.scan_cell(list, grid, (&lo, base), ki, xa, ri, fluid_only);
                 }
@@ -328,30 +328,18 @@ impl SubCells {
         if d2 >= reach * reach {
             return;
         }
-        // branch-free append: write every candidate, advance on a hit
-        let w = list.len();
-        list.resize(w + (e - b), 0);
-        let out = &mut list[w..];
-        let mut m = 0usize;
-        for q in b..e {
-            let xj = &self.xs[q * D..q * D + D];
-            let mut d2 = 0.0;
-            for a in 0..D {
-                let d = xa[a] - xj[a];
-                d2 += d * d;
-            }
-            let k = self.order[q];
-            let sum = ri + self.reach[q];
-            let keep = (d2 < sum * sum) & (k as usize != ki) & (!fluid_only | (self.fluid[q] != 0));
-            out[m] = k;
-            m += keep as usize;
-        }
-        list.truncate(w + m);
+        let sub = Copy {
+            xs: &self.xs,
+            fluid: &self.fluid,
+            reach: &self.reach,
+        };
+        scan_slots(list, &sub, (b, e), ki, xa, ri, fluid_only, |q| self.order[q]);
     }
 }
 
-/// The neighbours among the slots `b..e` of the cell-order copy `copy`: those with
-/// |x_ij| < r_i + r_j (fluid ones only if `fluid_only`), ascending.
+/// The neighbours among the entries `b..e` of `copy` (the cell-order copy, or the sub-cells'
+/// copy), as the slots `slot` gives them: those with |x_ij| < r_i + r_j (fluid ones only if
+/// `fluid_only`), in entry order.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn scan_slots<const D: usize>(
@@ -362,21 +350,24 @@ fn scan_slots<const D: usize>(
     xa: &[f64; D],
     ri: f64,
     fluid_only: bool,
+    slot: impl Fn(usize) -> u32,
 ) {
+    // branch-free append: write every candidate, advance on a hit
     let w = list.len();
     list.resize(w + (e - b), 0);
     let out = &mut list[w..];
     let mut m = 0usize;
-    for k in b..e {
-        let xj = &copy.xs[k * D..k * D + D];
+    for q in b..e {
+        let xj = &copy.xs[q * D..q * D + D];
         let mut d2 = 0.0;
         for a in 0..D {
             let d = xa[a] - xj[a];
             d2 += d * d;
         }
-        let sum = ri + copy.reach[k];
-        let keep = (d2 < sum * sum) & (k != ki) & (!fluid_only | (copy.fluid[k] != 0));
-        out[m] = k as u32;
+        let k = slot(q);
+        let sum = ri + copy.reach[q];
+        let keep = (d2 < sum * sum) & (k as usize != ki) & (!fluid_only | (copy.fluid[q] != 0));
+        out[m] = k;
         m += keep as usize;
     }
     list.truncate(w + m);
