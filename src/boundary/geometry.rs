@@ -22,6 +22,21 @@ pub struct WallSurface<const D: usize> {
     /// `Some(closed)` for a container, with closed[a][0] (lower face) and closed[a][1] (upper
     /// face) of each axis; `None` for a block.
     container: Option<[[bool; 2]; D]>,
+    /// Per axis: the wall spans the whole domain along it, so its faces have no edge there (a
+    /// plate along a periodic axis); set by [`WallSurface::spanning`].
+    span: [bool; D],
+}
+
+/// Where a moving wall is during one drift: its displacement from rest before and after it,
+/// and its velocity after it (m, m, m/s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallMove<const D: usize> {
+    /// Displacement from rest at the start of the drift (m).
+    pub from: Vector<D>,
+    /// Displacement from rest at its end (m).
+    pub to: Vector<D>,
+    /// The wall's velocity at its end (m/s).
+    pub u: Vector<D>,
 }
 
 impl<const D: usize> WallSurface<D> {
@@ -38,7 +53,78 @@ impl<const D: usize> WallSurface<D> {
             }
             closed
         });
-        WallSurface { lo, hi, container }
+        WallSurface {
+            lo,
+            hi,
+            container,
+            span: [false; D],
+        }
+    }
+
+    /// The same surface, its faces unbounded along every axis on which the wall covers the
+    /// domain `[min, max]` (m): a particle that a drift carries past the domain's end, before
+    /// it is wrapped, still meets the face.
+    pub fn spanning(mut self, min: &[f64], max: &[f64]) -> Self {
+        self.span = std::array::from_fn(|a| self.lo[a] <= min[a] && self.hi[a] >= max[a]);
+        self
+    }
+
+    /// A fluid particle that a drift carried from `old` to `x` through a face of this wall —
+    /// into a block, or out of a container's inner box through a closed face — bounces back:
+    /// its position is reflected across the face it crossed first and its normal velocity
+    /// about the wall's, v_n ← 2u_n − v_n (a specular bounce; the tangential velocity is
+    /// kept). The crossing is found in the wall's frame (`m`: where the wall was before and
+    /// after the drift), so a moving wall that sweeps over a particle bounces it too. Dummy
+    /// particles push fluid back through its pressure; where that push falls short (a jet
+    /// faster than the wall's pressure builds, or the spurious force where the smoothing
+    /// length varies, `docs/refinement.md` §1) the fluid would pass through the wall and be
+    /// lost. Returns true if it bounced.
+    pub fn bounce(&self, old: &Vector<D>, x: &mut Vector<D>, v: &mut Vector<D>, m: &WallMove<D>) -> bool {
+        let (o, mut n) = (old - m.from, *x - m.to);
+        let mut first: Option<(f64, usize, f64)> = None;
+        for a in 0..D {
+            for up in [false, true] {
+                let f = if up { self.hi[a] } else { self.lo[a] };
+                let crossed = match &self.container {
+                    // out of the inner box through a closed face
+                    Some(closed) => {
+                        closed[a][usize::from(up)]
+                            && if up {
+                                o[a] < f && n[a] >= f
+                            } else {
+                                o[a] > f && n[a] <= f
+                            }
+                    }
+                    // into the block
+                    None => {
+                        if up {
+                            o[a] >= f && n[a] < f
+                        } else {
+                            o[a] <= f && n[a] > f
+                        }
+                    }
+                };
+                if !crossed {
+                    continue;
+                }
+                // where the path meets the face's plane; it must meet the face itself
+                let s = (f - o[a]) / (n[a] - o[a]);
+                let on_face = (0..D).all(|b| {
+                    let c = o[b] + s * (n[b] - o[b]);
+                    b == a || self.span[b] || (self.lo[b]..=self.hi[b]).contains(&c)
+                });
+                if on_face && first.is_none_or(|(s0, _, _)| s < s0) {
+                    first = Some((s, a, f));
+                }
+            }
+        }
+        let Some((_, a, f)) = first else {
+            return false;
+        };
+        n[a] = 2.0 * f - n[a];
+        *x = n + m.to;
+        v[a] = 2.0 * m.u[a] - v[a];
+        true
     }
 
     /// (d_f, d_w) in metres: the fluid particle at `xf`'s distance to the tangent plane at its
@@ -157,6 +243,72 @@ mod tests {
         assert!(s
             .depths(&Vector::<2>::new(-0.01, 0.5), &Vector::<2>::new(-0.05, 0.5), &z)
             .is_none());
+    }
+
+    fn at_rest() -> WallMove<2> {
+        WallMove {
+            from: Vector::<2>::zeros(),
+            to: Vector::<2>::zeros(),
+            u: Vector::<2>::zeros(),
+        }
+    }
+
+    #[test]
+    fn a_container_bounces_fluid_back_through_its_closed_faces_only() {
+        let s = WallSurface::<2>::new(&wall(WallShape::Container, [0.0, 0.0], [1.0, 1.0], &["y+"]));
+        let m = at_rest();
+        // through the floor: reflected across y = 0, the normal velocity reversed
+        let (mut x, mut v) = (Vector::<2>::new(0.5, -0.004), Vector::<2>::new(0.3, -2.0));
+        assert!(s.bounce(&Vector::<2>::new(0.49, 0.006), &mut x, &mut v, &m));
+        assert!((x - Vector::<2>::new(0.5, 0.004)).norm() < 1e-15, "{x}");
+        assert_eq!(v, Vector::<2>::new(0.3, 2.0));
+        // through the open top: no bounce
+        let (mut x, mut v) = (Vector::<2>::new(0.5, 1.01), Vector::<2>::new(0.0, 1.0));
+        assert!(!s.bounce(&Vector::<2>::new(0.5, 0.99), &mut x, &mut v, &m));
+        // into the corner through both faces: the face crossed first (x = 1 at s = 0.25)
+        let (mut x, mut v) = (Vector::<2>::new(1.03, -0.01), Vector::<2>::new(4.0, -1.0));
+        assert!(s.bounce(&Vector::<2>::new(0.99, 0.03), &mut x, &mut v, &m));
+        assert!((x - Vector::<2>::new(0.97, -0.01)).norm() < 1e-15, "{x}");
+        assert_eq!(v, Vector::<2>::new(-4.0, -1.0));
+        // inside, or leaving beside the container (over the top of a side): nothing
+        let (mut x, mut v) = (Vector::<2>::new(0.5, 0.5), Vector::<2>::zeros());
+        assert!(!s.bounce(&Vector::<2>::new(0.4, 0.5), &mut x, &mut v, &m));
+        let (mut x, mut v) = (Vector::<2>::new(1.01, 1.2), Vector::<2>::new(1.0, 0.0));
+        assert!(!s.bounce(&Vector::<2>::new(0.99, 1.2), &mut x, &mut v, &m));
+    }
+
+    #[test]
+    fn a_block_bounces_fluid_that_enters_it_and_a_moving_one_what_it_sweeps() {
+        let s = WallSurface::<2>::new(&wall(WallShape::Block, [0.4, 0.0], [0.6, 0.2], &[]));
+        let m = at_rest();
+        // onto its top
+        let (mut x, mut v) = (Vector::<2>::new(0.5, 0.19), Vector::<2>::new(0.0, -1.0));
+        assert!(s.bounce(&Vector::<2>::new(0.5, 0.21), &mut x, &mut v, &m));
+        assert!((x[1] - 0.21).abs() < 1e-15 && v[1] == 1.0);
+        // past its corner without touching it: nothing
+        let (mut x, mut v) = (Vector::<2>::new(0.395, 0.19), Vector::<2>::new(0.0, -1.0));
+        assert!(!s.bounce(&Vector::<2>::new(0.395, 0.21), &mut x, &mut v, &m));
+        // a paddle moving +x by 0.01 at 1 m/s sweeps over a particle at rest 5 mm before it:
+        // in the paddle's frame the particle entered 5 mm deep; it is put 5 mm in front, at
+        // 2u - v = 2 m/s
+        let m = WallMove {
+            from: Vector::<2>::zeros(),
+            to: Vector::<2>::new(0.01, 0.0),
+            u: Vector::<2>::new(1.0, 0.0),
+        };
+        let (mut x, mut v) = (Vector::<2>::new(0.605, 0.1), Vector::<2>::zeros());
+        assert!(s.bounce(&Vector::<2>::new(0.605, 0.1), &mut x, &mut v, &m));
+        assert!((x - Vector::<2>::new(0.615, 0.1)).norm() < 1e-15, "{x}");
+        assert_eq!(v, Vector::<2>::new(2.0, 0.0));
+        // a plate over a periodic axis: its face has no end along that axis
+        let plate = WallSurface::<2>::new(&wall(WallShape::Block, [0.0, -0.2], [1.0, 0.0], &[]))
+            .spanning(&[0.0, -0.2], &[1.0, 1.0]);
+        let (mut x, mut v) = (Vector::<2>::new(1.003, -0.001), Vector::<2>::new(1.0, -1.0));
+        assert!(plate.bounce(&Vector::<2>::new(0.999, 0.001), &mut x, &mut v, &at_rest()));
+        assert!((x[1] - 0.001).abs() < 1e-15, "{x}");
+        let beside = WallSurface::<2>::new(&wall(WallShape::Block, [0.0, -0.2], [1.0, 0.0], &[]));
+        let (mut x, mut v) = (Vector::<2>::new(1.003, -0.001), Vector::<2>::new(1.0, -1.0));
+        assert!(!beside.bounce(&Vector::<2>::new(0.999, 0.001), &mut x, &mut v, &at_rest()));
     }
 
     #[test]

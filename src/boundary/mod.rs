@@ -7,7 +7,7 @@
 //! | mirror walls | [`mirror`] | image particles reflected across a container's inner faces |
 //! | periodic axes | [`periodic`] | wrap and image particles shifted by the box length |
 //! | moving walls | [`motion`] | motion laws applied to wall bodies |
-//! | wall surfaces | [`geometry`] | distances to a wall's surface (Morris et al. 1997 no-slip) |
+//! | wall surfaces | [`geometry`] | distances to a wall's surface (Morris et al. 1997 no-slip); fluid that a drift carries through a dummy wall's face bounces back |
 //!
 //! Image particles (periodic and mirror) are ghosts: [`images`] holds their geometry and
 //! [`crate::halo`] makes and refreshes them with the other ranks' ghosts.

@@ -231,6 +231,32 @@ impl Refine {
     }
 }
 
+/// Warnings for regions that give a fluid built under hydrostatic pressure (`hydrostatic =
+/// true` with a body force) its level's h: where h varies across the pressure gradient, the mean-h pair kernel's residual times the pressure is a force with
+/// a curl that no pressure field balances, and it drives a current (docs/refinement.md §1).
+pub fn level_h_warnings(s: &Scene) -> Vec<String> {
+    if s.physics.body_force.iter().all(|&g| g == 0.0) {
+        return Vec::new();
+    }
+    let support = s.discretisation.support();
+    (s.refine.iter().enumerate())
+        .filter(|(_, r)| r.smoothing_length == RegionH::Level)
+        .filter_map(|(k, r)| {
+            let fluid = s.fluids.iter().find(|f| f.hydrostatic && r.applies_to(&f.name))?;
+            Some(format!(
+                "refine[{k}] gives fluid `{}` its level's h (smoothing_length = \"level\") under \
+                 hydrostatic pressure: where h varies across the pressure gradient a spurious current starts \
+                 (the still tank with a level-1 box: 10 % of sqrt(gH) after 1 s with the default \
+                 transition, 2.8 % with transition = {}, 0.15 % with the scene's h; \
+                 docs/refinement.md §1); for water that should stay still use smoothing_length = \
+                 \"scene\" or a wider transition",
+                fluid.name,
+                2.0 * support
+            ))
+        })
+        .collect()
+}
+
 /// The finest level whose particles take their level's h (0: every particle has the scene's).
 pub fn finest_h(s: &Scene) -> u32 {
     (s.refine.iter().filter(|r| r.smoothing_length == RegionH::Level))

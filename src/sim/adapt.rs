@@ -81,9 +81,13 @@ impl<const D: usize> Simulation<D> {
             let s = dx / f64::from(1u32 << (l - 1));
             for c in 0..children {
                 let j = first + k * children + c;
+                // a child that the pattern would put behind a wall face (a parent within a
+                // quarter spacing of the face) is reflected back into the fluid
+                let site = self.p.x[j];
+                let x = self.faces_keep_inside(&site, site + child_offset::<D>(c, s));
                 let p = &mut self.p;
-                let offset = child_offset::<D>(c, s);
-                p.x[j] += offset;
+                p.x[j] = x;
+                let offset = p.x[j] - site;
                 // the density carried to the child's site by the parent's renormalised
                 // gradient, where δ-SPH computed one (a hydrostatic column keeps its profile)
                 if let Some(g) = p.grad_rho.get(j) {

@@ -124,6 +124,11 @@ pub struct Simulation<const D: usize> {
     /// Accumulators of the pair-mode passes (empty in gather mode).
     pair_scratch: crate::physics::pairs::PairScratch<D>,
     kinematics: Vec<WallKinematics>,
+    /// The surfaces of the dummy walls, by wall body: a fluid particle that a drift carries
+    /// through one bounces back ([`crate::boundary::geometry::WallSurface::bounce`]).
+    faces: Vec<(usize, crate::boundary::geometry::WallSurface<D>)>,
+    /// Where each of `faces` is during the current drift (scratch, one per face).
+    moves: Vec<crate::boundary::geometry::WallMove<D>>,
 }
 
 impl<const D: usize> Simulation<D> {
@@ -321,6 +326,8 @@ impl<const D: usize> Simulation<D> {
             pair_scratch: Default::default(),
             removed: Vec::new(),
             kinematics: WallKinematics::of(scene),
+            faces: dummy_faces(scene),
+            moves: Vec::new(),
         };
         Ok(sim)
     }
@@ -448,4 +455,19 @@ impl<const D: usize> Simulation<D> {
             None => Ok(()),
         }
     }
+}
+
+/// The surface of every dummy wall of `scene`, by wall body, its faces unbounded along the axes
+/// it spans ([`crate::boundary::geometry::WallSurface::spanning`]).
+fn dummy_faces<const D: usize>(scene: &Scene) -> Vec<(usize, crate::boundary::geometry::WallSurface<D>)> {
+    let dom = &scene.domain;
+    (scene.walls.iter().enumerate())
+        .filter(|(_, w)| w.method == crate::scene::WallMethod::Dummy)
+        .map(|(b, w)| {
+            (
+                b,
+                crate::boundary::geometry::WallSurface::new(w).spanning(&dom.min, &dom.max),
+            )
+        })
+        .collect()
 }

@@ -11,12 +11,14 @@
 
 use super::timers::Timer;
 use super::Simulation;
+use crate::boundary::geometry::WallMove;
 use crate::boundary::motion;
 use crate::cells::{HalfView, Neighbours, Subset, Wants};
 use crate::comm::Comm;
 use crate::error::Result;
 use crate::particles::{Fields, Kinds};
 use crate::physics::passes::{self, Ctx, Pass};
+use crate::Vector;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -113,12 +115,14 @@ impl<const D: usize> Simulation<D> {
     fn kick_drift(&mut self, dt: f64) -> Result<()> {
         let t0 = Instant::now();
         self.half_kick(dt);
+        self.wall_moves(dt);
         {
             let n = self.p.n_owned;
             let space = &self.space;
             let p = &mut self.p;
             let kind = &p.kind;
             let planes = &space.planes;
+            let (faces, moves) = (&self.faces, &self.moves);
             p.x[..n]
                 .par_iter_mut()
                 .zip(p.v[..n].par_iter_mut())
@@ -129,6 +133,9 @@ impl<const D: usize> Simulation<D> {
                         *x += *v * dt;
                         if kind[i].is_fluid() {
                             crate::boundary::mirror::bounce_all(planes, &old, x, v);
+                            for ((_, face), m) in faces.iter().zip(moves) {
+                                face.bounce(&old, x, v, m);
+                            }
                         }
                         space.wrap(x);
                     }
@@ -350,6 +357,52 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Move walls with a motion law from time `t0` to `t1`.
+    /// Where each dummy wall is during the drift from t to t + `dt` (`self.moves`): at rest
+    /// with its surface velocity, or moved by its motion law.
+    fn wall_moves(&mut self, dt: f64) {
+        let (t0, t1) = (self.t, self.t + dt);
+        self.moves.clear();
+        for &(b, _) in &self.faces {
+            let m = match self.kinematics.iter().find(|k| k.body == b) {
+                Some(k) => {
+                    let ((from, _, _), (to, u, _)) = (k.at::<D>(t0), k.at::<D>(t1));
+                    WallMove { from, to, u }
+                }
+                None => WallMove {
+                    from: Vector::<D>::zeros(),
+                    to: Vector::<D>::zeros(),
+                    u: Vector::<D>::from_fn(|a, _| {
+                        self.scene.walls[b].velocity.get(a).copied().unwrap_or(0.0)
+                    }),
+                },
+            };
+            self.moves.push(m);
+        }
+    }
+
+    /// `x`, reflected back across the mirror plane or dummy wall face that the segment from
+    /// `from` (in the fluid) to it crosses, if any, with the walls where they are now: the
+    /// drift's bounce applied to a particle placed rather than moved (a split's child).
+    pub(super) fn faces_keep_inside(&self, from: &Vector<D>, mut x: Vector<D>) -> Vector<D> {
+        let mut v = Vector::<D>::zeros();
+        crate::boundary::mirror::bounce_all(&self.space.planes, from, &mut x, &mut v);
+        for (b, face) in &self.faces {
+            let at = self
+                .model
+                .wall_shift
+                .get(*b)
+                .copied()
+                .unwrap_or_else(Vector::<D>::zeros);
+            let m = WallMove {
+                from: at,
+                to: at,
+                u: Vector::<D>::zeros(),
+            };
+            face.bounce(from, &mut x, &mut v, &m);
+        }
+        x
+    }
+
     pub(super) fn apply_wall_motion(&mut self, t0: f64, t1: f64) {
         let m = &mut self.model;
         motion::move_walls(
