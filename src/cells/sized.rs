@@ -47,6 +47,11 @@ fn advance<const D: usize>(q: &mut [usize; D], (q0, q1): (&[usize; D], &[usize; 
 pub(super) struct SubCells {
     /// Sub-cells per axis of a cell (≥ 2 when built).
     s: usize,
+    /// Per axis: sub-cells per metre, s / edge (1/m), and a sub-cell's edge, edge / s (m), so
+    /// that the scans multiply instead of dividing (a division per axis per stencil cell was
+    /// the list build's hottest instruction).
+    scale: [f64; 3],
+    sub: [f64; 3],
     /// Per cell: its table in `start` (`u32::MAX` for an empty cell).
     table: Vec<u32>,
     /// Per table: s^D + 1 offsets into the sub-cell order (absolute slots: a cell's particles
@@ -97,6 +102,10 @@ impl SubCells {
             return;
         }
         self.s = s;
+        for a in 0..D {
+            self.scale[a] = s as f64 / grid.edge[a];
+            self.sub[a] = grid.edge[a] / s as f64;
+        }
         self.rglob = copy.reach.iter().copied().fold(0.0, f64::max);
         let nsub = s.pow(D as u32);
         let n = copy.reach.len();
@@ -126,7 +135,7 @@ impl SubCells {
             for k in b..e {
                 let mut l = 0usize;
                 for a in 0..D {
-                    let f = floor((copy.xs[k * D + a] - lo[a]) * s as f64 / grid.edge[a]);
+                    let f = floor((copy.xs[k * D + a] - lo[a]) * self.scale[a]);
                     l = l * s + (f.max(0.0) as usize).min(s - 1);
                 }
                 sub.push(l as u32);
@@ -230,9 +239,8 @@ impl SubCells {
     ) -> bool {
         let s = self.s as f64;
         (0..D).all(|a| {
-            let e = grid.edge[a];
-            let q = ri + self.cmax[t] + 1e-9 * e;
-            (xa[a] - q - lo[a]) * s / e < 1.0 && (xa[a] + q - lo[a]) * s / e >= s - 1.0
+            let q = ri + self.cmax[t] + 1e-9 * grid.edge[a];
+            (xa[a] - q - lo[a]) * self.scale[a] < 1.0 && (xa[a] + q - lo[a]) * self.scale[a] >= s - 1.0
         })
     }
 
@@ -262,8 +270,8 @@ impl SubCells {
             let q = ri + self.cmax[t] + 1e-9 * e;
             // sub-cell coordinates; ⌊g⌋ < 0 iff g < 0 and ⌊g⌋ ≥ s iff g ≥ s, and truncation
             // is ⌊g⌋ for g ≥ 0, so no floor is needed
-            let g0 = (xa[a] - q - lo[a]) * s as f64 / e;
-            let g1 = (xa[a] + q - lo[a]) * s as f64 / e;
+            let g0 = (xa[a] - q - lo[a]) * self.scale[a];
+            let g1 = (xa[a] + q - lo[a]) * self.scale[a];
             if g1 < 0.0 || g0 >= s as f64 {
                 return;
             }
@@ -313,11 +321,10 @@ impl SubCells {
         ri: f64,
         fluid_only: bool,
     ) {
-        let s = self.s as f64;
         let reach = ri + rmax;
         let mut d2 = 0.0;
         for a in 0..D {
-            let sub = grid.edge[a] / s;
+            let sub = self.sub[a];
             let b0 = lo[a] + q[a] as f64 * sub;
             let b1 = lo[a] + (if a == D - 1 { q_end } else { q[a] } + 1) as f64 * sub;
             let d = (b0 - xa[a]).max(xa[a] - b1).max(0.0) - 1e-9 * grid.edge[a];

@@ -247,7 +247,7 @@ pub fn level_h_warnings(s: &Scene) -> Vec<String> {
                 "refine[{k}] gives fluid `{}` its level's h (smoothing_length = \"level\") under \
                  hydrostatic pressure: where h varies across the pressure gradient a spurious current starts \
                  (the still tank with a level-1 box: 10 % of sqrt(gH) after 1 s with the default \
-                 transition, 2.8 % with transition = {}, 0.15 % with the scene's h; \
+                 transition, 2.8 % with transition = {:.3} m, 0.15 % with the scene's h; \
                  docs/refinement.md §1); for water that should stay still use smoothing_length = \
                  \"scene\" or a wider transition",
                 fluid.name,
