@@ -356,7 +356,6 @@ impl<const D: usize> Simulation<D> {
         Ok(())
     }
 
-    /// Move walls with a motion law from time `t0` to `t1`.
     /// Where each dummy wall is during the drift from t to t + `dt` (`self.moves`): at rest
     /// with its surface velocity, or moved by its motion law.
     fn wall_moves(&mut self, dt: f64) {
@@ -403,6 +402,7 @@ impl<const D: usize> Simulation<D> {
         x
     }
 
+    /// Move walls with a motion law from time `t0` to `t1`.
     pub(super) fn apply_wall_motion(&mut self, t0: f64, t1: f64) {
         let m = &mut self.model;
         motion::move_walls(
