@@ -7,7 +7,8 @@
 //! brute-force oracle [`brute_force`] uses the same convention.
 //!
 //! **Order.** Particle i visits the 3ᴰ cells around its own in a fixed order of relative
-//! offsets, and within a cell its neighbours in ascending sort key (`id`, image code). The
+//! offsets, and within a cell its neighbours in ascending sort key (`id`, image code; by
+//! sub-cell first where particles of several sizes cut the cells, [`CellList::with_sub_cells`]). The
 //! order therefore depends only on global positions and ids, never on local indices, so
 //! sums come out bit-identical whatever the thread or rank count.
 
@@ -103,6 +104,21 @@ impl<const D: usize> CellGrid<D> {
         Some(c)
     }
 
+    /// The sub-cell of `x` within its cell when each cell is cut into `s` per axis: row-major,
+    /// the last axis fastest (`s`ᴰ ≤ 256). It rounds as [`CellGrid::coords`] does, from the
+    /// global origin, so every rank puts a particle in the same sub-cell.
+    #[inline]
+    pub fn sub_cell(&self, x: &Vector<D>, s: usize) -> u8 {
+        let mut l = 0usize;
+        for a in 0..D {
+            // ⌊t⌋ as `coords` takes it (t < 0 in a deeper margin)
+            let t = (x[a] - self.origin[a]) * self.inv_edge[a];
+            let f = ((t - t.floor()) * s as f64) as usize;
+            l = l * s + f.min(s - 1);
+        }
+        l as u8
+    }
+
     /// Linear index of cell coordinates (axis 0 slowest).
     #[inline]
     pub fn linear(&self, c: &[usize; D]) -> usize {
@@ -164,7 +180,7 @@ impl<const D: usize> CellGrid<D> {
 }
 
 /// Particles binned into cells: `order[start[c]..start[c+1]]` are the particles of cell `c`,
-/// ascending by sort key.
+/// ascending by sort key, or with [`CellList::with_sub_cells`] ascending by (sub-cell, key).
 #[derive(Debug, Clone, Default)]
 pub struct CellList {
     /// Offsets into `order`, one per cell plus one.
@@ -175,9 +191,47 @@ pub struct CellList {
     pub cell: Vec<u32>,
     /// Where each particle sits in `order`.
     pub slot: Vec<u32>,
+    /// Sub-cells per axis of a cell (0: none): particles of several sizes.
+    split: usize,
+    /// Sub-cell of each particle within its cell (row-major, last axis fastest; empty without
+    /// sub-cells).
+    sub: Vec<u8>,
 }
 
 impl CellList {
+    /// A cell list whose cells are cut into sub-cells about twice `smallest_reach` (m) wide,
+    /// the smallest κh/2 of a scene of several sizes (at most [`sized::MAX_SPLIT`] per axis;
+    /// none when that is one): each cell lists its particles by sub-cell, then by key, so a
+    /// fine particle's candidates in a run of sub-cells are a run of slots (issue 36). The
+    /// split is a function of the grid and the scene, the same on every rank, and so is the
+    /// order.
+    pub fn with_sub_cells<const D: usize>(grid: &CellGrid<D>, smallest_reach: f64) -> Self {
+        let emin = grid.edge.iter().copied().fold(f64::INFINITY, f64::min);
+        let s = if smallest_reach > 0.0 && smallest_reach.is_finite() {
+            ((emin / (2.0 * smallest_reach)).floor() as usize).clamp(1, sized::MAX_SPLIT)
+        } else {
+            1
+        };
+        CellList {
+            split: if s >= 2 { s } else { 0 },
+            ..Default::default()
+        }
+    }
+
+    /// Sub-cells per axis of a cell (0: none).
+    pub fn sub_cell_split(&self) -> usize {
+        self.split
+    }
+
+    /// Free every buffer, keeping the sub-cell split: the next [`CellList::build`] allocates
+    /// them again.
+    pub fn release(&mut self) {
+        *self = CellList {
+            split: self.split,
+            ..Default::default()
+        };
+    }
+
     /// Bin all particles (owned and ghost). Returns the index of a particle outside the grid
     /// as an error.
     pub fn build<const D: usize>(&mut self, grid: &CellGrid<D>, p: &Particles<D>) -> Result<(), usize> {
@@ -199,6 +253,12 @@ impl CellList {
         if bad != usize::MAX {
             return Err(bad);
         }
+        let split = self.split;
+        self.sub.clear();
+        if split > 0 {
+            self.sub
+                .par_extend(p.x[..n].par_iter().map(|x| grid.sub_cell(x, split)));
+        }
         // counting sort by cell
         let nc = grid.len();
         self.start.clear();
@@ -216,8 +276,9 @@ impl CellList {
             self.order[*f as usize] = i as u32;
             *f += 1;
         }
-        // ascending key within each cell
+        // ascending key (by sub-cell first, if cut) within each cell
         let keys = &p.key;
+        let sub = &self.sub;
         let start = &self.start;
         let mut slices: Vec<&mut [u32]> = Vec::with_capacity(nc);
         let mut rest: &mut [u32] = &mut self.order;
@@ -229,9 +290,15 @@ impl CellList {
             }
             rest = b;
         }
-        slices
-            .par_iter_mut()
-            .for_each(|s| s.sort_unstable_by_key(|&i| keys[i as usize]));
+        if split > 0 {
+            slices
+                .par_iter_mut()
+                .for_each(|s| s.sort_unstable_by_key(|&i| (sub[i as usize], keys[i as usize])));
+        } else {
+            slices
+                .par_iter_mut()
+                .for_each(|s| s.sort_unstable_by_key(|&i| keys[i as usize]));
+        }
         self.slot.resize(n, 0);
         for (k, &i) in self.order.iter().enumerate() {
             self.slot[i as usize] = k as u32;
@@ -553,7 +620,7 @@ impl NeighbourList {
             self.sub = Default::default();
         } else {
             let copy = sized::Copy { xs, fluid, reach };
-            self.sub.build(grid, &cells.start, &copy);
+            self.sub.build(grid, cells, &copy);
         }
         let sub = &self.sub;
         let nchunks = n.div_ceil(CHUNK);
@@ -579,7 +646,9 @@ impl NeighbourList {
                     if want == Wants::Nothing {
                         continue;
                     }
-                    if sub.split() > 0 {
+                    // a particle of the largest reach reaches the whole stencil: the row scan
+                    // lists the same neighbours with less overhead per cell
+                    if sub.split() > 0 && reach[cells.slot[i] as usize] < sub.largest_reach() {
                         let k = cells.slot[i] as usize;
                         let mut xa = [0.0f64; D];
                         xa.copy_from_slice(&xs[k * D..k * D + D]);

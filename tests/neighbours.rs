@@ -433,6 +433,67 @@ fn simulation_lists_match_brute_force() {
     assert!(total > 10_000);
 }
 
+/// A refined periodic channel in a simulation (issue 36): the cell list orders each cell by
+/// sub-cell, ghosts and periodic images included, and every stored list holds exactly the
+/// pairs within their own support κ (h_i + h_j)/2 (Wendland: κ = 2) of an oracle over every
+/// held particle, fluid and dummy wall lists alike, before and after the fluid is jittered.
+#[test]
+fn refined_simulation_lists_match_a_sized_oracle() {
+    let text = CHANNEL_2D.replace("METHOD", "dummy")
+        + r#"
+[[refine]]
+min = [0.08, -0.0625]
+max = [0.17, 0.3125]
+level = 1
+bodies = ["f", "plates"]
+smoothing_length = "level"
+"#;
+    let (scene, _) = load_scene_str(&text, Path::new("test.toml"), "t", &[]).unwrap();
+    let mut sim = Simulation::<2>::new(&scene, &SerialComm::new()).unwrap();
+    let check = |sim: &Simulation<2>, what: &str| {
+        let p = &sim.p;
+        assert_eq!(sim.cells.sub_cell_split(), 2, "{what}: sub-cells in use");
+        let mut pairs = 0;
+        let mut fine = 0;
+        for i in 0..p.n_owned {
+            let expect: Vec<u32> = (0..p.len())
+                .filter(|&j| j != i && (p.kind[j].is_fluid() || !p.kind[i].is_wall()))
+                .filter(|&j| (p.x[i] - p.x[j]).norm() < p.h[i] + p.h[j])
+                .map(|j| j as u32)
+                .collect();
+            assert_eq!(
+                sorted(sim.nl.of(i)),
+                expect,
+                "{what}: particle {i} at {:?}",
+                p.x[i]
+            );
+            pairs += expect.len();
+            fine += usize::from(p.h[i] < 0.9 * scene.discretisation.dx);
+        }
+        assert!(
+            fine > 50 && pairs > 5_000,
+            "{what}: {fine} fine particles, {pairs} pairs"
+        );
+    };
+    sim.compute_density_rate(&SerialComm::new()).unwrap();
+    check(&sim, "refined channel");
+    let mut rng = Rng(0x5b_ce11);
+    let dx = scene.discretisation.dx;
+    for i in 0..sim.p.n_owned {
+        if sim.p.kind[i] == Kind::Fluid {
+            let mut x = sim.p.x[i];
+            for a in 0..2 {
+                x[a] += rng.range(-0.3 * dx, 0.3 * dx);
+            }
+            sim.space.wrap(&mut x);
+            sim.p.x[i] = x;
+        }
+    }
+    sim.compute_density_rate(&SerialComm::new()).unwrap();
+    check(&sim, "refined channel, jittered");
+    assert!(!sim.halo.is_empty(), "the scene must make ghosts");
+}
+
 /// Particles of several smoothing lengths (issue 35): with `with_sizes(κ/2)` a pair is listed
 /// only within its own support κ (h_i + h_j)/2, the support of its mean-h kernel; the lists
 /// equal a brute-force oracle over every pair, in 2D and 3D, with h of three levels mixed at
@@ -453,7 +514,8 @@ fn lists_of_several_sizes_keep_each_pair_within_its_own_support() {
         }
         let (min, max) = (Vector::<D>::zeros(), Vector::<D>::from_element(1.0));
         let grid = CellGrid::new(&min, &max, support);
-        let mut cells = CellList::default();
+        // sub-cells about as wide as the smallest pair support (reach κh/2 = h here)
+        let mut cells = CellList::with_sub_cells(&grid, h0 / 4.0);
         cells.build(&grid, &p).unwrap();
         let mut nl = NeighbourList::default().with_sizes(1.0);
         nl.build(&grid, &cells, &p, support, |_| Wants::All);

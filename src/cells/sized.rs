@@ -5,29 +5,19 @@
 //!
 //! **Same lists.** A pair (i, j) is a neighbour when |x_ij| < r_i + r_j, r = κh/2, and
 //! r_i + r_j ≤ the support ≤ the cell edge, so every neighbour lies in i's 3^D stencil of
-//! cells; the stencil's rows cover ascending linear cells, each ascending by key, so the
-//! coarse scan lists i's neighbours in ascending **slot** (position in the cell list's order).
-//! Here a particle's candidates come from the sub-cells that its largest possible pair support
-//! reaches; the neighbours found (the same distance test on the same positions) are sorted by
-//! slot: the coarse scan's list, entry for entry, so the same bits whatever s. The sub-cells
-//! are a local index only: s may differ between ranks.
+//! cells; the stencil's rows cover ascending linear cells, so the coarse scan lists i's
+//! neighbours in ascending **slot** (position in the cell list's order). The cell list orders
+//! each cell's particles by sub-cell, then by key ([`super::CellList::with_sub_cells`]; s is a
+//! function of the grid and the scene, the same on every rank), so a run of sub-cells along
+//! the last axis is a run of slots, the runs of one cell ascend, and so do the cells: a
+//! particle's candidates come from the sub-cells that its largest possible pair support
+//! reaches and its list comes out in ascending slot, with no sort — the coarse scan's list,
+//! entry for entry.
 
 use super::CellGrid;
 
 /// Largest number of sub-cells per axis of a cell.
-const MAX_SPLIT: usize = 4;
-
-/// ⌊x⌋ for finite |x| < 2^63 (sub-cell coordinates), as `f64::floor` up to the sign of a zero,
-/// without the library call that the baseline x86-64 target makes of `floor`.
-#[inline(always)]
-fn floor(x: f64) -> f64 {
-    let t = x as i64 as f64;
-    if t > x {
-        t - 1.0
-    } else {
-        t
-    }
-}
+pub(super) const MAX_SPLIT: usize = 4;
 
 /// Step `q` to the next index of the box `q0 ..= q1` over its first `axes` axes, the last of
 /// them fastest (ascending linear order); false once the box is done.
@@ -42,7 +32,8 @@ fn advance<const D: usize>(q: &mut [usize; D], (q0, q1): (&[usize; D], &[usize; 
     false
 }
 
-/// Sub-cells of the occupied cells, over the build's cell-order copy of positions.
+/// Sub-cells of the occupied cells, over the cell list's order (which lists each cell's
+/// particles by sub-cell: [`super::CellList::with_sub_cells`]).
 #[derive(Debug, Clone, Default)]
 pub(super) struct SubCells {
     /// Sub-cells per axis of a cell (≥ 2 when built).
@@ -54,8 +45,8 @@ pub(super) struct SubCells {
     sub: [f64; 3],
     /// Per cell: its table in `start` (`u32::MAX` for an empty cell).
     table: Vec<u32>,
-    /// Per table: s^D + 1 offsets into the sub-cell order (absolute slots: a cell's particles
-    /// keep the range of slots they have in cell order).
+    /// Per table: s^D + 1 offsets, the slots of each sub-cell (a cell's particles are listed
+    /// by sub-cell, so each sub-cell is a run of slots).
     start: Vec<u32>,
     /// Per sub-cell of each table: the largest κh/2 of its particles (m).
     rmax: Vec<f64>,
@@ -65,12 +56,6 @@ pub(super) struct SubCells {
     cmax: Vec<f64>,
     /// Per table: whether the cell holds a fluid particle.
     cfluid: Vec<bool>,
-    /// Slots in sub-cell order (`order[k]` is a slot of the cell list).
-    order: Vec<u32>,
-    /// Positions, reach and fluid flags in sub-cell order.
-    xs: Vec<f64>,
-    reach: Vec<f64>,
-    fluid: Vec<u8>,
 }
 
 /// The cell-order copy the build made: positions (`D` per slot), fluid flags and κh/2 per slot.
@@ -81,64 +66,51 @@ pub(super) struct Copy<'a> {
 }
 
 impl SubCells {
-    /// Sub-cells per axis when built, 0 when the grid's cells are not much larger than the
-    /// smallest support (the coarse scan is used then).
+    /// Sub-cells per axis when built, 0 when the cell list has none (the coarse scan is used
+    /// then).
     pub fn split(&self) -> usize {
         self.s
     }
 
-    /// Cut every occupied cell of `grid` (cell list `start`) into sub-cells about as large as
-    /// twice the smallest reach of `copy`; no sub-cells (split 0) when that is one per axis.
-    pub fn build<const D: usize>(&mut self, grid: &CellGrid<D>, start: &[u32], copy: &Copy<'_>) {
-        let rmin = copy.reach.iter().copied().fold(f64::INFINITY, f64::min);
-        let emin = grid.edge.iter().copied().fold(f64::INFINITY, f64::min);
-        let s = if rmin > 0.0 && rmin.is_finite() {
-            ((emin / (2.0 * rmin)).floor() as usize).clamp(1, MAX_SPLIT)
-        } else {
-            1
-        };
+    /// The largest κh/2 of the build (m).
+    pub fn largest_reach(&self) -> f64 {
+        self.rglob
+    }
+
+    /// The sub-cells of every occupied cell of `grid` as `cells` lists them (no sub-cells,
+    /// split 0, when it has none).
+    pub fn build<const D: usize>(&mut self, grid: &CellGrid<D>, cells: &super::CellList, copy: &Copy<'_>) {
+        let s = cells.sub_cell_split();
+        self.s = s;
         if s < 2 {
-            self.s = 0;
             return;
         }
-        self.s = s;
+        let start = &cells.start;
         for a in 0..D {
             self.scale[a] = s as f64 / grid.edge[a];
             self.sub[a] = grid.edge[a] / s as f64;
         }
         self.rglob = copy.reach.iter().copied().fold(0.0, f64::max);
         let nsub = s.pow(D as u32);
-        let n = copy.reach.len();
         self.table.clear();
         self.table.resize(start.len() - 1, u32::MAX);
         self.start.clear();
         self.rmax.clear();
         self.cmax.clear();
         self.cfluid.clear();
-        self.order.resize(n, 0);
-        let mut sub = Vec::new();
         let mut count = vec![0u32; nsub + 1];
-        self.rmax.reserve(nsub);
         for c in 0..start.len() - 1 {
             let (b, e) = (start[c] as usize, start[c + 1] as usize);
             if b == e {
                 continue;
             }
             self.table[c] = (self.start.len() / (nsub + 1)) as u32;
-            let lo = grid.cell_lo(&grid.coords_of(c));
-            // counting sort of the cell's slots by sub-cell
-            sub.clear();
             count.iter_mut().for_each(|x| *x = 0);
             let r0 = self.rmax.len();
             self.rmax.resize(r0 + nsub, 0.0);
             let rmax = &mut self.rmax[r0..];
             for k in b..e {
-                let mut l = 0usize;
-                for a in 0..D {
-                    let f = floor((copy.xs[k * D + a] - lo[a]) * self.scale[a]);
-                    l = l * s + (f.max(0.0) as usize).min(s - 1);
-                }
-                sub.push(l as u32);
+                let l = cells.sub[cells.order[k] as usize] as usize;
                 count[l + 1] += 1;
                 rmax[l] = rmax[l].max(copy.reach[k]);
             }
@@ -148,20 +120,6 @@ impl SubCells {
                 count[q + 1] += count[q];
             }
             self.start.extend(count.iter().map(|&x| x + b as u32));
-            for (k, &l) in (b..e).zip(&sub) {
-                let f = &mut count[l as usize];
-                self.order[b + *f as usize] = k as u32;
-                *f += 1;
-            }
-        }
-        self.xs.resize(n * D, 0.0);
-        self.reach.resize(n, 0.0);
-        self.fluid.resize(n, 0);
-        for (q, &k) in self.order.iter().enumerate() {
-            let k = k as usize;
-            self.xs[q * D..q * D + D].copy_from_slice(&copy.xs[k * D..k * D + D]);
-            self.reach[q] = copy.reach[k];
-            self.fluid[q] = copy.fluid[k];
         }
     }
 
@@ -182,6 +140,8 @@ impl SubCells {
     ) {
         let s = self.s;
         let nsub = s.pow(D as u32);
+        // runs of sub-cells ascend within a cell and cells ascend: the list comes out in
+        // ascending slot, the coarse scan's order, with no sort
         // the cells of the 3^D stencil that i's largest pair support reaches (same margin as
         // the sub-cells'), in ascending linear order: ascending slot ranges
         let own = grid.cell_lo(c);
@@ -204,19 +164,13 @@ impl SubCells {
             // a cell without fluid lists nothing for a particle that wants only fluid
             if t != u32::MAX && (!fluid_only || self.cfluid[t as usize]) {
                 let lo = grid.cell_lo(&cc);
-                let from = list.len();
                 let base = t as usize * (nsub + 1);
                 if self.covers(grid, &lo, t as usize, xa, ri) {
-                    // the whole cell: its slots in cell order, ascending already
+                    // the whole cell: its slots in cell order
                     let (b, e) = (self.start[base] as usize, self.start[base + nsub] as usize);
-                    scan_slots(list, copy, (b, e), ki, xa, ri, fluid_only, |k| k as u32);
+                    scan_slots(list, copy, (b, e), ki, xa, ri, fluid_only);
                 } else {
-                    self.scan_cell(list, grid, (&lo, base), ki, xa, ri, fluid_only);
-                }
-                // within a cell each run of sub-cells is ascending: sort the cell's entries
-                let found = &mut list[from..];
-                if !found.is_sorted() {
-                    found.sort_unstable();
+                    self.scan_cell(list, copy, grid, (&lo, base), ki, xa, ri, fluid_only);
                 }
             }
             if !advance(&mut cc, (&c0, &c1), D) {
@@ -251,6 +205,7 @@ impl SubCells {
     fn scan_cell<const D: usize>(
         &self,
         list: &mut Vec<u32>,
+        copy: &Copy<'_>,
         grid: &CellGrid<D>,
         (lo, base): (&crate::Vector<D>, usize),
         ki: usize,
@@ -289,6 +244,7 @@ impl SubCells {
                 let rmax = self.rmax[tb + l..=tb + run].iter().copied().fold(0.0, f64::max);
                 self.scan_run(
                     list,
+                    copy,
                     grid,
                     (lo, &q, q1[last], rmax),
                     (b, e),
@@ -313,6 +269,7 @@ impl SubCells {
     fn scan_run<const D: usize>(
         &self,
         list: &mut Vec<u32>,
+        copy: &Copy<'_>,
         grid: &CellGrid<D>,
         (lo, q, q_end, rmax): (&crate::Vector<D>, &[usize; D], usize, f64),
         (b, e): (usize, usize),
@@ -335,17 +292,11 @@ impl SubCells {
         if d2 >= reach * reach {
             return;
         }
-        let sub = Copy {
-            xs: &self.xs,
-            fluid: &self.fluid,
-            reach: &self.reach,
-        };
-        scan_slots(list, &sub, (b, e), ki, xa, ri, fluid_only, |q| self.order[q]);
+        scan_slots(list, copy, (b, e), ki, xa, ri, fluid_only);
     }
 }
 
-/// The neighbours among the entries `b..e` of `copy` (the cell-order copy, or the sub-cells'
-/// copy), as the slots `slot` gives them: those with |x_ij| < r_i + r_j (fluid ones only if
+/// The neighbours among the slots `b..e` of the cell-order copy `copy`: those with |x_ij| < r_i + r_j (fluid ones only if
 /// `fluid_only`), in entry order.
 #[allow(clippy::too_many_arguments)]
 #[inline]
@@ -357,7 +308,6 @@ fn scan_slots<const D: usize>(
     xa: &[f64; D],
     ri: f64,
     fluid_only: bool,
-    slot: impl Fn(usize) -> u32,
 ) {
     // branch-free append: write every candidate, advance on a hit
     let w = list.len();
@@ -371,7 +321,7 @@ fn scan_slots<const D: usize>(
             let d = xa[a] - xj[a];
             d2 += d * d;
         }
-        let k = slot(q);
+        let k = q as u32;
         let sum = ri + copy.reach[q];
         let keep = (d2 < sum * sum) & (k as usize != ki) & (!fluid_only | (copy.fluid[q] != 0));
         out[m] = k;

@@ -58,6 +58,12 @@ impl Sizes {
         }
     }
 
+    /// The smallest smoothing length a particle may have (m): the core h of the finest level
+    /// that takes its own (a transition band rises from it to the scene's h).
+    pub fn smallest_h(&self) -> f64 {
+        self.h[self.finest_h as usize]
+    }
+
     /// The kernel of a pair of smoothing lengths `hi`, `hj` (m): W(r, (h_i + h_j)/2).
     #[inline(always)]
     pub fn kernel<const D: usize>(&self, hi: f64, hj: f64) -> Kernel {

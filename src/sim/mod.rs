@@ -285,10 +285,18 @@ impl<const D: usize> Simulation<D> {
         } else {
             NeighbourList::default()
         };
-        // several smoothing lengths: each pair listed within its own support
-        let nl = match model.sizes.as_ref().is_some_and(|z| z.varies_h) {
-            true => nl.with_sizes(0.5 * model.kernel.support / model.kernel.h),
-            false => nl,
+        // several smoothing lengths: each pair listed within its own support, the candidates
+        // of stored lists through sub-cells about as wide as the smallest pair support
+        let half_support_per_h = 0.5 * model.kernel.support / model.kernel.h;
+        let (nl, cells) = match model.sizes.as_ref().filter(|z| z.varies_h) {
+            Some(z) => {
+                let cells = match nl.is_lean() {
+                    true => CellList::default(),
+                    false => CellList::with_sub_cells(&grid, half_support_per_h * z.smallest_h()),
+                };
+                (nl.with_sizes(half_support_per_h), cells)
+            }
+            None => (nl, CellList::default()),
         };
         let build_fields = crate::physics::passes::build_fields(&schedule(&model));
         let sim = Simulation {
@@ -301,7 +309,7 @@ impl<const D: usize> Simulation<D> {
             p,
             space,
             grid,
-            cells: CellList::default(),
+            cells,
             nl,
             halo: HaloPlan::default(),
             map,

@@ -83,7 +83,7 @@ impl<const D: usize> Simulation<D> {
     /// [`Simulation::release_step_buffers`]).
     pub(super) fn free_step_buffers(&mut self) {
         self.nl.release();
-        self.cells = Default::default();
+        self.cells.release();
         self.pair_scratch = Default::default();
     }
 
@@ -275,12 +275,14 @@ impl<const D: usize> Simulation<D> {
             // the last step's lists are stale from here on: freed before the table's columns
             // are copied, so that the copies do not add to them
             self.free_step_buffers();
-            // owned particles in cell order (then key order) for memory locality
+            // owned particles in cell order (then sub-cell and key order) for memory locality
             let t0 = Instant::now();
             let grid = &self.grid;
             let (x, key) = (&self.p.x, &self.p.key);
+            let split = self.cells.sub_cell_split();
+            let sub = |x: &crate::Vector<D>| if split > 0 { grid.sub_cell(x, split) } else { 0 };
             let mut perm: Vec<usize> = (0..self.p.n_owned).collect();
-            perm.sort_unstable_by_key(|&i| (grid.coords(&x[i]).map(|c| grid.linear(&c)), key[i]));
+            perm.sort_unstable_by_key(|&i| (grid.coords(&x[i]).map(|c| grid.linear(&c)), sub(&x[i]), key[i]));
             self.p.permute_owned(&perm);
             self.timers.add(Timer::Neighbours, t0);
         }
