@@ -8,6 +8,7 @@
 //! region's shape.
 
 use super::checks::{err, in_domain};
+use super::walls::{WallMethod, WallShape};
 use super::{BodyShape, FluidBody, Scene};
 use crate::error::Result;
 use serde::{Deserialize, Serialize};
@@ -257,6 +258,100 @@ pub fn level_h_warnings(s: &Scene) -> Vec<String> {
         .collect()
 }
 
+/// The most lattice sites [`empty_region_warnings`] tests per region; a larger region is
+/// assumed to hold some (no warning rather than a slow check).
+const EMPTY_REGION_SITES: u64 = 1 << 24;
+
+/// Warnings for regions that refine nothing at set-up, so that the run is silently the uniform
+/// one: no site of the scene's lattice (`domain.min + (i + ½) dx`) lies in the region (it is
+/// smaller than a cell or between sites), or — for a region that does not adapt, whose
+/// particles cannot arrive later — none of the fluids and solids it refines has a site in it
+/// and no dummy wall it refines reaches it.
+pub fn empty_region_warnings(s: &Scene) -> Vec<String> {
+    let d = s.dimension;
+    let dx = s.discretisation.dx;
+    let dom = &s.domain;
+    let mut out = Vec::new();
+    for (k, r) in s.refine.iter().enumerate() {
+        // the sites i of each axis with x_i = dom.min + (i + ½) dx in [r.min, r.max)
+        let mut first = [0i64; 3];
+        let mut count = [0i64; 3];
+        for a in 0..d {
+            let lo = r.min[a].max(dom.min[a]);
+            let hi = r.max[a].min(dom.max[a]);
+            let i0 = ((lo - dom.min[a]) / dx - 0.5).ceil() as i64;
+            let i1 = ((hi - dom.min[a]) / dx - 0.5).ceil() as i64; // first site at or past hi
+            first[a] = i0;
+            count[a] = (i1 - i0).max(0);
+        }
+        let total: i64 = count[..d].iter().product();
+        if total as u64 > EMPTY_REGION_SITES {
+            continue;
+        }
+        let site = |n: i64| -> Vec<f64> {
+            let mut rest = n;
+            (0..d)
+                .map(|a| {
+                    let i = first[a] + rest % count[a];
+                    rest /= count[a];
+                    dom.min[a] + (i as f64 + 0.5) * dx
+                })
+                .collect()
+        };
+        let in_box =
+            |b: &FluidBody, x: &[f64]| (0..d).all(|a| x[a] >= b.min[a] && x[a] < b.max[a]) && b.contains(x);
+        let bodies: Vec<&FluidBody> = (s.fluids.iter().chain(&s.solids))
+            .filter(|b| r.applies_to(&b.name))
+            .collect();
+        let mut any_site = false;
+        let mut body_site = false;
+        for n in 0..total {
+            let x = site(n);
+            if !r.contains(&x) {
+                continue;
+            }
+            any_site = true;
+            if bodies.iter().any(|b| in_box(b, &x)) {
+                body_site = true;
+                break;
+            }
+        }
+        // a dummy wall's sites: its box (a block) or the layers outside its box (a container)
+        let on_wall = s.walls.iter().any(|w| {
+            let pad = match w.shape {
+                WallShape::Block => 0.0,
+                WallShape::Container => w.layers as f64 * dx,
+            };
+            let meets = (0..d).all(|a| w.min[a] - pad < r.max[a] && r.min[a] < w.max[a] + pad);
+            let within = (0..d).all(|a| w.min[a] <= r.min[a] && r.max[a] <= w.max[a]);
+            w.method == WallMethod::Dummy
+                && r.applies_to(&w.name)
+                && meets
+                && !(w.shape == WallShape::Container && within)
+        });
+        if !any_site {
+            out.push(format!(
+                "refine[{k}] holds no site of the scene's lattice (sites at domain.min + (i + ½)·dx, \
+                 dx = {dx} m): it refines nothing and the run is the uniform one; make the region \
+                 at least one dx wide on every axis"
+            ));
+        } else if !body_site && !on_wall && !r.adapt {
+            out.push(format!(
+                "refine[{k}] holds no site of the bodies it refines ({}) and does not adapt: it \
+                 refines nothing and the run is the uniform one; move the region onto a body, \
+                 name the bodies it should refine in `bodies`, or set adapt = true for fluid \
+                 that arrives later",
+                if r.bodies.is_empty() {
+                    "all bodies".to_string()
+                } else {
+                    r.bodies.join(", ")
+                }
+            ));
+        }
+    }
+    out
+}
+
 /// The finest level whose particles take their level's h (0: every particle has the scene's).
 pub fn finest_h(s: &Scene) -> u32 {
     (s.refine.iter().filter(|r| r.smoothing_length == RegionH::Level))
@@ -479,6 +574,42 @@ mod tests {
         let off = ["refine[0].adapt=false".to_string()];
         let (s, _) = crate::scene::load_scene_str(text, path, "scene", &off).unwrap();
         assert_eq!(super::adaptive_growth(&s), 0);
+    }
+
+    /// A region that refines nothing at set-up is named, with the reason; a region on the
+    /// water, one on the tank's wall layers only, and one that adapts (water may arrive) are
+    /// not.
+    #[test]
+    fn a_region_that_refines_nothing_is_named() {
+        let text = include_str!("../../inputs/hydrostatic_2d_refined.toml");
+        let path = std::path::Path::new("hydrostatic_2d_refined.toml");
+        let warn = |sets: &[&str]| {
+            let sets: Vec<String> = sets.iter().map(|x| x.to_string()).collect();
+            let (s, _) = crate::scene::load_scene_str(text, path, "scene", &sets).unwrap();
+            super::empty_region_warnings(&s)
+        };
+        assert!(warn(&[]).is_empty());
+        // 0.1 mm wide about (0.5, 0.2): the sites of dx = 2 cm lie at 0.49 and 0.51 m
+        let tiny = warn(&["refine[0].min=[0.5, 0.2]", "refine[0].max=[0.5001, 0.2001]"]);
+        assert_eq!(tiny.len(), 1);
+        assert!(
+            tiny[0].contains("refine[0] holds no site of the scene's lattice"),
+            "{tiny:?}"
+        );
+        let above = ["refine[0].min=[0.3, 0.6]", "refine[0].max=[0.7, 0.7]"];
+        let dry = warn(&above);
+        assert_eq!(dry.len(), 1);
+        assert!(dry[0].contains("no site of the bodies it refines"), "{dry:?}");
+        assert!(warn(&[above[0], above[1], "refine[0].adapt=true"]).is_empty());
+        // the tank's left wall layers (x < 0) above the water
+        assert!(warn(&["refine[0].min=[-0.1, 0.6]", "refine[0].max=[0.05, 0.7]"]).is_empty());
+        // the same band within the tank but only for the water
+        let water = warn(&[
+            "refine[0].min=[0.01, 0.6]",
+            "refine[0].max=[0.05, 0.7]",
+            "refine[0].bodies=[\"water\"]",
+        ]);
+        assert!(water[0].contains("(water)"), "{water:?}");
     }
 
     /// The distance from points around a block and a disc to the nearest of ~10⁵ sample points
