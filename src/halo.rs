@@ -22,6 +22,7 @@ use crate::error::{Error, Result};
 use crate::particles::wire::{Reader, Words};
 use crate::particles::{Fields, Kinds, Particles, Record};
 use crate::Vector;
+use rayon::prelude::*;
 
 /// Which rank owns which region: the decomposition's blocks and their placement on ranks.
 #[derive(Debug, Clone)]
@@ -137,6 +138,9 @@ pub fn field_bytes<const D: usize>(fields: Fields) -> u64 {
 }
 
 /// Tags of the halo protocol.
+/// Owned particles per parallel task when a ghost build finds each particle's ghosts.
+const HALO_CHUNK: usize = 4096;
+
 const TAG_GHOSTS: Tag = 102;
 const TAG_REFRESH: Tag = 103;
 const TAG_MIGRATE: Tag = 104;
@@ -276,24 +280,33 @@ impl<const D: usize> HaloPlan<D> {
         let (me, size) = (comm.rank(), comm.size());
         let prev = comm.set_phase(Phase::Halo);
         p.truncate_ghosts();
-        let mut per_dst: Vec<Vec<Entry<D>>> = vec![Vec::new(); size];
-        let mut targets = Targets::new();
-        for i in 0..p.n_owned {
-            targets.each(
-                &p.x[i],
-                p.kind[i].is_fluid(),
-                me,
-                space,
-                map,
-                boxes,
-                support,
-                |r, ops| {
-                    per_dst[r].push(Entry {
-                        src: i as u32,
-                        ops: *ops,
-                    })
-                },
-            );
+        // the owned particles' ghosts found by chunks in parallel, each chunk's lists joined
+        // in chunk order: the lists of a serial sweep, on any number of threads
+        let n = p.n_owned;
+        let chunks: Vec<Vec<Vec<Entry<D>>>> = (0..n.div_ceil(HALO_CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                let mut local: Vec<Vec<Entry<D>>> = vec![Vec::new(); size];
+                let mut targets = Targets::new();
+                for i in c * HALO_CHUNK..((c + 1) * HALO_CHUNK).min(n) {
+                    let to = |r: usize, ops: &[AxisOp; D]| {
+                        local[r].push(Entry {
+                            src: i as u32,
+                            ops: *ops,
+                        })
+                    };
+                    targets.each(&p.x[i], p.kind[i].is_fluid(), me, space, map, boxes, support, to);
+                }
+                local
+            })
+            .collect();
+        let mut per_dst: Vec<Vec<Entry<D>>> = (0..size)
+            .map(|r| Vec::with_capacity(chunks.iter().map(|c| c[r].len()).sum()))
+            .collect();
+        for chunk in chunks {
+            for (all, part) in per_dst.iter_mut().zip(chunk) {
+                all.extend(part);
+            }
         }
         let counts = incoming_counts(per_dst.iter().map(|l| l.len()), comm)?;
         self.inc = (0..size)

@@ -115,11 +115,16 @@ pub(crate) fn update_walls_in_waves<const D: usize, N: Neighbours>(
                     .collect_into_vec(&mut out)
             })
         }
-        for (k, &(pw, rw, vw)) in out.iter().enumerate() {
-            p.p[start + k] = pw;
-            p.rho[start + k] = rw;
-            p.vw[start + k] = vw;
-        }
+        let (pp, rr, vv) = (
+            &mut p.p[start..end],
+            &mut p.rho[start..end],
+            &mut p.vw[start..end],
+        );
+        (pp.par_iter_mut()
+            .zip(rr.par_iter_mut())
+            .zip(vv.par_iter_mut())
+            .zip(out.par_iter()))
+        .for_each(|(((pw, rw), vw), o)| (*pw, *rw, *vw) = *o);
     }
 }
 

@@ -281,8 +281,18 @@ impl<const D: usize> Simulation<D> {
             let (x, key) = (&self.p.x, &self.p.key);
             let split = self.cells.sub_cell_split();
             let sub = |x: &crate::Vector<D>| if split > 0 { grid.sub_cell(x, split) } else { 0 };
-            let mut perm: Vec<usize> = (0..self.p.n_owned).collect();
-            perm.sort_unstable_by_key(|&i| (grid.coords(&x[i]).map(|c| grid.linear(&c)), sub(&x[i]), key[i]));
+            // each particle's sort key made once, in parallel, then sorted in parallel: the
+            // keys are distinct (ids are), so the order is the same on any number of threads
+            // (cell + 1, 0 outside the grid, then sub-cell), key, index: 24 B a particle
+            let mut keyed: Vec<(u64, u64, u32)> = (0..self.p.n_owned)
+                .into_par_iter()
+                .map(|i| {
+                    let cell = grid.coords(&x[i]).map_or(0, |c| grid.linear(&c) as u64 + 1);
+                    (cell << 8 | u64::from(sub(&x[i])), key[i], i as u32)
+                })
+                .collect();
+            keyed.par_sort_unstable();
+            let perm: Vec<usize> = keyed.into_iter().map(|k| k.2 as usize).collect();
             self.p.permute_owned(&perm);
             self.timers.add(Timer::Neighbours, t0);
         }
