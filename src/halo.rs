@@ -137,10 +137,10 @@ pub fn field_bytes<const D: usize>(fields: Fields) -> u64 {
     (Particles::<D>::field_words(fields) * 8) as u64
 }
 
-/// Tags of the halo protocol.
 /// Owned particles per parallel task when a ghost build finds each particle's ghosts.
 const HALO_CHUNK: usize = 4096;
 
+/// Tags of the halo protocol.
 const TAG_GHOSTS: Tag = 102;
 const TAG_REFRESH: Tag = 103;
 const TAG_MIGRATE: Tag = 104;

@@ -472,7 +472,7 @@ pub fn scene_warnings<const D: usize>(s: &Scene) -> Vec<String> {
     let mut out = sphere_warnings::<D>(s);
     out.extend(coupling_warnings(s));
     out.extend(super::refine::level_h_warnings(s));
-    out.extend(super::refine::empty_region_warnings(s));
+    out.extend(super::refine::empty_region_warnings::<D>(s));
     if s.time.cfl > 1.0 && s.time.dt == 0.0 {
         out.push(format!(
             "time.cfl = {} is above 1: dt = CFL·h/(c0 + |v|max) then exceeds the time sound takes \

@@ -8,6 +8,7 @@
 //! region's shape.
 
 use super::checks::{err, in_domain};
+use super::lattice::{container_outer, Lattice};
 use super::walls::{WallMethod, WallShape};
 use super::{BodyShape, FluidBody, Scene};
 use crate::error::Result;
@@ -258,76 +259,55 @@ pub fn level_h_warnings(s: &Scene) -> Vec<String> {
         .collect()
 }
 
-/// The most lattice sites [`empty_region_warnings`] tests per region; a larger region is
+/// The most lattice sites [`empty_region_warnings`] visits per region; a larger region is
 /// assumed to hold some (no warning rather than a slow check).
 const EMPTY_REGION_SITES: u64 = 1 << 24;
 
 /// Warnings for regions that refine nothing at set-up, so that the run is silently the uniform
-/// one: no site of the scene's lattice (`domain.min + (i + ½) dx`) lies in the region (it is
-/// smaller than a cell or between sites), or — for a region that does not adapt, whose
-/// particles cannot arrive later — none of the fluids and solids it refines has a site in it
-/// and no dummy wall it refines reaches it.
-pub fn empty_region_warnings(s: &Scene) -> Vec<String> {
-    let d = s.dimension;
-    let dx = s.discretisation.dx;
-    let dom = &s.domain;
+/// one: no site of the scene's lattice ([`Lattice`]) lies in the region (it is smaller than a
+/// cell or between sites), or — for a region that does not adapt, whose particles cannot
+/// arrive later — none of the fluids and solids it refines has a site in it and no dummy wall
+/// it refines reaches it.
+pub fn empty_region_warnings<const D: usize>(s: &Scene) -> Vec<String> {
+    let lat = Lattice::<D>::new(s);
+    let dx = lat.dx;
     let mut out = Vec::new();
     for (k, r) in s.refine.iter().enumerate() {
-        // the sites i of each axis with x_i = dom.min + (i + ½) dx in [r.min, r.max)
-        let mut first = [0i64; 3];
-        let mut count = [0i64; 3];
-        for a in 0..d {
-            let lo = r.min[a].max(dom.min[a]);
-            let hi = r.max[a].min(dom.max[a]);
-            let i0 = ((lo - dom.min[a]) / dx - 0.5).ceil() as i64;
-            let i1 = ((hi - dom.min[a]) / dx - 0.5).ceil() as i64; // first site at or past hi
-            first[a] = i0;
-            count[a] = (i1 - i0).max(0);
-        }
-        let total: i64 = count[..d].iter().product();
-        if total as u64 > EMPTY_REGION_SITES {
+        let sites: u64 = (0..D)
+            .map(|a| {
+                let (lo, hi) = lat.range(a, r.min[a], r.max[a]);
+                hi.saturating_sub(lo)
+            })
+            .product();
+        if sites > EMPTY_REGION_SITES {
             continue;
         }
-        let site = |n: i64| -> Vec<f64> {
-            let mut rest = n;
-            (0..d)
-                .map(|a| {
-                    let i = first[a] + rest % count[a];
-                    rest /= count[a];
-                    dom.min[a] + (i as f64 + 0.5) * dx
-                })
-                .collect()
-        };
-        let in_box =
-            |b: &FluidBody, x: &[f64]| (0..d).all(|a| x[a] >= b.min[a] && x[a] < b.max[a]) && b.contains(x);
         let bodies: Vec<&FluidBody> = (s.fluids.iter().chain(&s.solids))
             .filter(|b| r.applies_to(&b.name))
             .collect();
-        let mut any_site = false;
-        let mut body_site = false;
-        for n in 0..total {
-            let x = site(n);
-            if !r.contains(&x) {
-                continue;
+        let (mut any_site, mut body_site) = (false, false);
+        lat.for_each_in(&r.min, &r.max, |_, _, x| {
+            if body_site || !r.contains(x.as_slice()) {
+                return;
             }
             any_site = true;
-            if bodies.iter().any(|b| in_box(b, &x)) {
-                body_site = true;
-                break;
-            }
-        }
-        // a dummy wall's sites: its box (a block) or the layers outside its box (a container)
+            body_site = bodies
+                .iter()
+                .any(|b| (0..D).all(|a| x[a] >= b.min[a] && x[a] < b.max[a]) && b.contains(x.as_slice()));
+        });
+        // a dummy wall's sites lie in its box (a block) or between its box and the box of
+        // its layers (a container)
         let on_wall = s.walls.iter().any(|w| {
-            let pad = match w.shape {
-                WallShape::Block => 0.0,
-                WallShape::Container => w.layers as f64 * dx,
+            let (lo, hi) = match w.shape {
+                WallShape::Block => (w.min.clone(), w.max.clone()),
+                WallShape::Container => container_outer(s, w),
             };
-            let meets = (0..d).all(|a| w.min[a] - pad < r.max[a] && r.min[a] < w.max[a] + pad);
-            let within = (0..d).all(|a| w.min[a] <= r.min[a] && r.max[a] <= w.max[a]);
+            let meets = (0..D).all(|a| lo[a] < r.max[a] && r.min[a] < hi[a]);
+            let inside = (0..D).all(|a| w.min[a] <= r.min[a] && r.max[a] <= w.max[a]);
             w.method == WallMethod::Dummy
                 && r.applies_to(&w.name)
                 && meets
-                && !(w.shape == WallShape::Container && within)
+                && !(w.shape == WallShape::Container && inside)
         });
         if !any_site {
             out.push(format!(
@@ -586,7 +566,7 @@ mod tests {
         let warn = |sets: &[&str]| {
             let sets: Vec<String> = sets.iter().map(|x| x.to_string()).collect();
             let (s, _) = crate::scene::load_scene_str(text, path, "scene", &sets).unwrap();
-            super::empty_region_warnings(&s)
+            super::empty_region_warnings::<2>(&s)
         };
         assert!(warn(&[]).is_empty());
         // 0.1 mm wide about (0.5, 0.2): the sites of dx = 2 cm lie at 0.49 and 0.51 m
