@@ -244,7 +244,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                 },
             });
         }
-        let fine = (1..=crate::scene::refine::finest(s))
+        let fine = (1..=s.finest_level())
             .map(|l| Lattice::<D>::at_level(s, l))
             .collect();
         Ok(SiteSource {

@@ -177,7 +177,7 @@ pub(super) fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
     for line in crate::scene::lattice::extent_lines::<D>(scene) {
         let _ = writeln!(w, "  - {line}");
     }
-    for warning in crate::scene::lattice::scene_warnings::<D>(scene) {
+    for warning in crate::scene::warnings::<D>(scene) {
         let _ = writeln!(w, "  warning: {warning}");
     }
     let _ = writeln!(w, "ghosts      {} (periodic and mirror images)", sim.halo.len());

@@ -9,11 +9,7 @@ use crate::scene::Scene;
 
 /// The layout's and the scene's set-up warnings, on rank 0's standard error.
 pub(super) fn print_warnings<const D: usize>(layout: &RunLayout, scene: &Scene) {
-    for w in layout
-        .warnings
-        .iter()
-        .chain(&crate::scene::lattice::scene_warnings::<D>(scene))
-    {
+    for w in layout.warnings.iter().chain(&crate::scene::warnings::<D>(scene)) {
         eprintln!("hsph: warning: {w}");
     }
 }

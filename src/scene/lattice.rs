@@ -128,7 +128,7 @@ impl<const D: usize> Lattice<D> {
 /// scene's to its finest refinement level (at most 585 times the scene's in 3D; validation
 /// bounds the scene's lattice so that `id << IMAGE_BITS` fits in 64 bits).
 pub fn id_bound<const D: usize>(s: &Scene) -> u64 {
-    Lattice::<D>::at_level(s, super::refine::finest(s) + 1).offset
+    Lattice::<D>::at_level(s, s.finest_level() + 1).offset
 }
 
 /// Number of particles the scene's bodies hold, counted from the lattice ranges without
@@ -471,8 +471,6 @@ pub fn coupling_warnings(s: &Scene) -> Vec<String> {
 pub fn scene_warnings<const D: usize>(s: &Scene) -> Vec<String> {
     let mut out = sphere_warnings::<D>(s);
     out.extend(coupling_warnings(s));
-    out.extend(super::refine::level_h_warnings(s));
-    out.extend(super::refine::empty_region_warnings::<D>(s));
     if s.time.cfl > 1.0 && s.time.dt == 0.0 {
         out.push(format!(
             "time.cfl = {} is above 1: dt = CFL·h/(c0 + |v|max) then exceeds the time sound takes \

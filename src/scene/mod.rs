@@ -95,6 +95,24 @@ pub struct Scene {
     pub constants: BTreeMap<String, f64>,
 }
 
+impl Scene {
+    /// The finest refinement level of the scene's `[[refine]]` regions (0 without regions):
+    /// its smallest spacing is dx / 2^level.
+    pub fn finest_level(&self) -> u32 {
+        self.refine.iter().map(|r| r.level).max().unwrap_or(0)
+    }
+}
+
+/// Every set-up warning of a scene: the lattice's (settings outside their tested range,
+/// uncoupled bodies that touch, bodies built off their scene size) and the refinement
+/// regions' (fine particles under a level-h pressure jump, regions that refine nothing).
+pub fn warnings<const D: usize>(s: &Scene) -> Vec<String> {
+    let mut out = lattice::scene_warnings::<D>(s);
+    out.extend(refine::level_h_warnings(s));
+    out.extend(refine::empty_region_warnings::<D>(s));
+    out
+}
+
 /// When checkpoints are written (`[checkpoint]`), under `<run>/checkpoints/step-<N>/`. A run
 /// stopped by a signal always writes one; with `every_steps` or `every` set, so does a run that
 /// reaches its end, so that it can be continued with a later `time.t_end`.

@@ -356,11 +356,6 @@ pub fn load_sizes(s: &Scene) -> Option<crate::kernel::sizes::Sizes> {
         .then(|| sizes(s).unwrap_or_else(|| crate::kernel::sizes::Sizes::new(d.kernel, d.dx, d.h_over_dx, 0)))
 }
 
-/// The finest level of the scene (0 without regions).
-pub fn finest(s: &Scene) -> u32 {
-    s.refine.iter().map(|r| r.level).max().unwrap_or(0)
-}
-
 /// The most particles the adaptive regions of `s` (`[[refine]] adapt`) can add to its set-up,
 /// for the memory estimate: each region's box, widened by the merge band dx/2^(ℓ−1) on every
 /// side (fine particles wait there to merge) and cut to the domain, filled with fluid of its
