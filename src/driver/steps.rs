@@ -17,7 +17,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
     /// Steps until the end, with the reference tracker, output steps and progress.
     pub(super) fn step_loop(&mut self) -> Result<()> {
         let interval = self.scene.output.interval;
-        let mut progress = Progress::new(self.quiet);
+        let mut progress = Progress::new(self.quiet, self.sim.t, self.scene.time.t_end);
         self.steps_start = Instant::now();
         self.checkpoint_clock.0 = Instant::now();
         let mut last_step = Instant::now();
