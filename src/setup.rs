@@ -373,8 +373,8 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                     return;
                 };
                 if keep(&parent, &x) {
-                    let dom = (&self.scene.domain.min[..], &self.scene.domain.max[..]);
-                    let h = r.smoothing_length(x.as_slice(), dom, sizes.h[0], sizes.h[level as usize]);
+                    let dom = crate::scene::refine::Bounds::of(self.scene);
+                    let h = r.smoothing_length(x.as_slice(), &dom, sizes.h[0], sizes.h[level as usize]);
                     f(id, x, level as u16, h)
                 }
             });

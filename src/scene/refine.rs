@@ -121,6 +121,35 @@ impl Refine {
     }
 }
 
+/// The domain as a region sees it: its bounds (m) and the period (m) of each periodic axis.
+#[derive(Debug, Clone, Copy)]
+pub struct Bounds<'s> {
+    /// `domain.min`.
+    pub min: &'s [f64],
+    /// `domain.max`.
+    pub max: &'s [f64],
+    /// The length of each periodic axis, `None` for a bounded one.
+    pub period: [Option<f64>; 3],
+}
+
+impl<'s> Bounds<'s> {
+    /// The bounds of `s`'s domain.
+    pub fn of(s: &'s Scene) -> Self {
+        let d = &s.domain;
+        let mut period = [None; 3];
+        for (a, p) in period.iter_mut().enumerate().take(d.min.len()) {
+            if d.periodic.get(a).copied().unwrap_or(false) {
+                *p = Some(d.max[a] - d.min[a]);
+            }
+        }
+        Bounds {
+            min: &d.min,
+            max: &d.max,
+            period,
+        }
+    }
+}
+
 /// The region refining the coarse site at `x` of body `name`, if any (validation refuses two
 /// regions of different levels that could both hold a site; of several of one level the
 /// first).
@@ -129,18 +158,31 @@ pub fn region_at<'s>(s: &'s Scene, name: &str, x: &[f64]) -> Option<&'s Refine> 
 }
 
 impl Refine {
-    /// Distance (m) from `x` inside the region to its boundary (≤ 0 outside). A block's faces
-    /// at or beyond the domain's bounds `dom` (min, max) are not counted: no coarse particle
-    /// lies beyond them (a band across a periodic axis has no interface there).
-    pub fn depth(&self, x: &[f64], dom: (&[f64], &[f64])) -> f64 {
+    /// True if the block's lower (`upper = false`) or upper face along axis `a` is no
+    /// interface with coarser particles: on a bounded axis a face at or beyond the domain's
+    /// bound (no coarse particle lies beyond it); on a periodic axis both faces of a region
+    /// that spans the whole period (a band along a channel), and no face of one that does not
+    /// (beyond its face at the bound the domain wraps to coarse particles).
+    fn open_face(&self, a: usize, upper: bool, b: &Bounds) -> bool {
+        let (at_lo, at_hi) = (self.min[a] <= b.min[a], self.max[a] >= b.max[a]);
+        match b.period[a] {
+            Some(_) => at_lo && at_hi,
+            None if upper => at_hi,
+            None => at_lo,
+        }
+    }
+
+    /// Distance (m) from `x` inside the region to its boundary (≤ 0 outside); a block's faces
+    /// that are no interface ([`Refine::open_face`]) are not counted.
+    pub fn depth(&self, x: &[f64], b: &Bounds) -> f64 {
         let d = x.len();
         let face = |a: usize| {
-            let lo = if self.min[a] <= dom.0[a] {
+            let lo = if self.open_face(a, false, b) {
                 f64::INFINITY
             } else {
                 x[a] - self.min[a]
             };
-            let hi = if self.max[a] >= dom.1[a] {
+            let hi = if self.open_face(a, true, b) {
                 f64::INFINITY
             } else {
                 self.max[a] - x[a]
@@ -165,15 +207,15 @@ impl Refine {
         }
     }
 
-    /// Distance (m) from `x` outside the region to it (0 inside), with `period[a]` the length
-    /// of a periodic axis (the nearest image counts). A block's faces at or beyond the domain's
-    /// bounds `dom` are not counted, as in [`Refine::depth`]: the region runs on past them.
-    pub fn clearance(&self, x: &[f64], dom: (&[f64], &[f64]), period: &[Option<f64>]) -> f64 {
+    /// Distance (m) from `x` outside the region to it (0 inside); on a periodic axis the
+    /// nearest image counts. A block's faces that are no interface ([`Refine::open_face`]) are
+    /// not counted, as in [`Refine::depth`]: the region runs on past them.
+    pub fn clearance(&self, x: &[f64], b: &Bounds) -> f64 {
         let d = x.len();
         // the offset from `c` along axis a, to the nearest image on a periodic axis
         let off = |a: usize, c: f64| {
             let r = x[a] - c;
-            match period.get(a).copied().flatten() {
+            match b.period[a] {
                 Some(l) => r - l * (r / l).round(),
                 None => r,
             }
@@ -185,13 +227,13 @@ impl Refine {
                     let c = 0.5 * (self.min[a] + self.max[a]);
                     let half = 0.5 * (self.max[a] - self.min[a]);
                     let r = off(a, c);
-                    // a face past the domain's bound: no distance on that side
-                    let lo = if self.min[a] <= dom.0[a] {
+                    // a face that is no interface: no distance on that side
+                    let lo = if self.open_face(a, false, b) {
                         0.0
                     } else {
                         pos(-r - half)
                     };
-                    let hi = if self.max[a] >= dom.1[a] {
+                    let hi = if self.open_face(a, true, b) {
                         0.0
                     } else {
                         pos(r - half)
@@ -219,8 +261,8 @@ impl Refine {
 
     /// Smoothing length (m) of a particle of this region's level at `x`: `h_fine` at a depth
     /// of at least the transition band, rising linearly to `h_scene` at the boundary (the
-    /// region's faces inside the domain `dom`, [`Refine::depth`]).
-    pub fn smoothing_length(&self, x: &[f64], dom: (&[f64], &[f64]), h_scene: f64, h_fine: f64) -> f64 {
+    /// region's faces that are interfaces, [`Refine::depth`]).
+    pub fn smoothing_length(&self, x: &[f64], b: &Bounds, h_scene: f64, h_fine: f64) -> f64 {
         if self.smoothing_length == RegionH::Scene {
             return h_scene;
         }
@@ -228,7 +270,7 @@ impl Refine {
         if band <= 0.0 {
             return h_fine;
         }
-        let t = (1.0 - self.depth(x, dom) / band).clamp(0.0, 1.0);
+        let t = (1.0 - self.depth(x, b) / band).clamp(0.0, 1.0);
         h_fine + (h_scene - h_fine) * t
     }
 }
@@ -531,7 +573,7 @@ fn overlap(a: &Refine, b: &Refine) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::Refine;
+    use super::{Bounds, Refine};
 
     fn region(text: &str) -> Refine {
         toml::from_str(text).unwrap()
@@ -592,8 +634,11 @@ mod tests {
     /// along x: the nearest image counts, and a block face on the domain's bound does not.
     #[test]
     fn clearance_is_the_distance_to_the_nearest_point_of_the_region() {
-        let dom = ([0.0, 0.0], [1.0, 1.0]);
-        let period = [Some(1.0), None];
+        let b = Bounds {
+            min: &[0.0, 0.0],
+            max: &[1.0, 1.0],
+            period: [Some(1.0), None, None],
+        };
         let block = region("min = [0.6, 0.0]\nmax = [0.9, 0.5]\nlevel = 1");
         let mut disc = region("shape = \"sphere\"\ncentre = [0.2, 0.7]\nradius = 0.15\nlevel = 1");
         (disc.min, disc.max) = (vec![0.05, 0.55], vec![0.35, 0.85]);
@@ -620,7 +665,7 @@ mod tests {
                         dx.min(1.0 - dx).hypot(x[1] - y[1])
                     })
                     .fold(f64::INFINITY, f64::min);
-                let got = r.clearance(&x, (&dom.0[..], &dom.1[..]), &period);
+                let got = r.clearance(&x, &b);
                 let inside_x = r.contains(&x);
                 assert_eq!(got == 0.0, inside_x, "{x:?}: {got}");
                 if !inside_x {
@@ -628,5 +673,32 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// On a periodic axis a block's face at the domain's bound is an interface (the domain
+    /// wraps to coarse particles beyond it) unless the block spans the whole period; on a
+    /// bounded axis it is not (no coarse particle lies beyond it).
+    #[test]
+    fn a_face_on_a_periodic_bound_is_an_interface_unless_the_region_spans_the_period() {
+        let periodic = Bounds {
+            min: &[0.0, 0.0],
+            max: &[0.4, 0.2],
+            period: [Some(0.4), None, None],
+        };
+        let bounded = Bounds {
+            period: [None; 3],
+            ..periodic
+        };
+        let edge = region("min = [0.3, 0.05]\nmax = [0.4, 0.15]\nlevel = 1");
+        // 5 cm past the face at x = 0.4, wrapped to x = 0.05
+        assert!((edge.clearance(&[0.05, 0.1], &periodic) - 0.05).abs() < 1e-12);
+        assert!((edge.clearance(&[0.05, 0.1], &bounded) - 0.25).abs() < 1e-12);
+        assert!((edge.depth(&[0.39, 0.1], &periodic) - 0.01).abs() < 1e-12);
+        assert!((edge.depth(&[0.39, 0.1], &bounded) - 0.05).abs() < 1e-12);
+        // a band along the whole periodic channel: interfaces only across it
+        let band = region("min = [0.0, 0.0]\nmax = [0.4, 0.05]\nlevel = 1");
+        assert!((band.depth(&[0.001, 0.01], &periodic) - 0.04).abs() < 1e-12);
+        assert_eq!(band.clearance(&[0.2, 0.04], &periodic), 0.0);
+        assert!((band.clearance(&[0.399, 0.08], &periodic) - 0.03).abs() < 1e-12);
     }
 }

@@ -35,10 +35,10 @@ impl<const D: usize> Simulation<D> {
         let p = &self.p;
         let name = &self.scene.fluids.get(p.body[i] as usize)?.name;
         let x = p.x[i].as_slice();
-        let dom = (&self.scene.domain.min[..], &self.scene.domain.max[..]);
+        let dom = crate::scene::refine::Bounds::of(&self.scene);
         let band = self.scene.discretisation.dx / f64::from(1u32 << l);
         let inside = |r: &&&Refine| {
-            r.level > u32::from(l) && r.applies_to(name) && r.contains(x) && r.depth(x, dom) >= band
+            r.level > u32::from(l) && r.applies_to(name) && r.contains(x) && r.depth(x, &dom) >= band
         };
         regions.iter().position(|r| inside(&r)).map(|k| (l + 1, k))
     }
@@ -76,7 +76,7 @@ impl<const D: usize> Simulation<D> {
         self.p.permute_owned(&perm);
         let dx = self.scene.discretisation.dx;
         let share = 1.0 / children as f64;
-        let dom = (&self.scene.domain.min[..], &self.scene.domain.max[..]);
+        let dom = crate::scene::refine::Bounds::of(&self.scene);
         for (k, &(_, (l, r))) in split.iter().enumerate() {
             let s = dx / f64::from(1u32 << (l - 1));
             for c in 0..children {
@@ -97,7 +97,7 @@ impl<const D: usize> Simulation<D> {
                 // the region's h at the child's site: the scene's, or with
                 // `smoothing_length = "level"` its level's ramped over the transition band
                 if let (Some(sz), Some(h)) = (self.model.sizes.as_ref(), p.h.get_mut(j)) {
-                    *h = regions[r].smoothing_length(p.x[j].as_slice(), dom, sz.h[0], sz.h[l as usize]);
+                    *h = regions[r].smoothing_length(p.x[j].as_slice(), &dom, sz.h[0], sz.h[l as usize]);
                 }
                 p.mass[j] *= share;
                 p.level[j] = l;

@@ -76,17 +76,7 @@ impl<const D: usize> Simulation<D> {
     /// (see the module docs).
     fn merge_candidates(&self) -> Vec<Candidate> {
         let s = &self.scene;
-        let dom = (&s.domain.min[..], &s.domain.max[..]);
-        let period: Vec<Option<f64>> = (0..D)
-            .map(|a| {
-                s.domain
-                    .periodic
-                    .get(a)
-                    .copied()
-                    .unwrap_or(false)
-                    .then(|| dom.1[a] - dom.0[a])
-            })
-            .collect();
+        let dom = crate::scene::refine::Bounds::of(s);
         let adaptive: Vec<bool> = s
             .fluids
             .iter()
@@ -108,11 +98,11 @@ impl<const D: usize> Simulation<D> {
                 .refine
                 .iter()
                 .filter(|r| r.level >= u32::from(l) && r.applies_to(name))
-                .all(|r| r.clearance(x, dom, &period) >= side);
+                .all(|r| r.clearance(x, &dom) >= side);
             if clear {
                 let mut cell = [0i64; 3];
                 for a in 0..D {
-                    cell[a] = ((x[a] - dom.0[a]) / side).floor() as i64;
+                    cell[a] = ((x[a] - dom.min[a]) / side).floor() as i64;
                 }
                 out.push(Candidate {
                     level: l,
@@ -211,11 +201,13 @@ impl<const D: usize> Simulation<D> {
     fn merged_h(&self, sz: &crate::kernel::sizes::Sizes, r: &Record<D>) -> f64 {
         let s = &self.scene;
         let (l, x) = (r.level, r.x.as_slice());
-        let dom = (&s.domain.min[..], &s.domain.max[..]);
+        let dom = crate::scene::refine::Bounds::of(s);
         let name = &s.fluids[r.body as usize].name;
         crate::scene::refine::region_at(s, name, x)
             .filter(|g| l > 0 && g.level == u32::from(l))
-            .map_or(sz.h[0], |g| g.smoothing_length(x, dom, sz.h[0], sz.h[l as usize]))
+            .map_or(sz.h[0], |g| {
+                g.smoothing_length(x, &dom, sz.h[0], sz.h[l as usize])
+            })
     }
 
     /// The particle a group `members` (records and accelerations, in id order) merges into,
