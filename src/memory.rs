@@ -18,16 +18,12 @@
 use crate::particles::Particles;
 use crate::scene::Scene;
 
-/// Neighbours per particle in the estimate: a sphere (disc) of the support radius on the
-/// lattice (≈ 21 in 2D and 74 in 3D for Wendland C2 with h = 1.3 dx).
-fn neighbours(scene: &Scene, d: usize) -> f64 {
-    // the support radius in units of dx
-    let r = scene.discretisation.h_over_dx * scene.discretisation.kernel.support_factor();
-    if d == 2 {
-        std::f64::consts::PI * r * r
-    } else {
-        4.0 / 3.0 * std::f64::consts::PI * r * r * r
-    }
+/// Neighbours per particle in the estimate: the lattice's
+/// ([`crate::scene::Discretisation::lattice_neighbours`]) times the mean list length of the
+/// scene's particles ([`crate::scene::lattice::list_weight`]: a refined particle with the
+/// scene's h lists 2^(ℓD) times as many).
+fn neighbours<const D: usize>(scene: &Scene) -> f64 {
+    scene.discretisation.lattice_neighbours(D) * crate::scene::lattice::list_weight::<D>(scene)
 }
 
 /// A memory estimate (bytes).
@@ -64,6 +60,7 @@ pub fn estimate<const D: usize>(
     // a block holds up to (1 + 2η)^D of the mean count (decomp docs): 1.05 in 3D, or, balanced
     // on pairs, up to the count cap `balance.max_count`
     let cap = scene.balance.count_cap().unwrap_or(1.0).max(1.05);
+    let listed = neighbours::<D>(scene);
     let per_rank = |owned: f64| {
         let setup = owned * ((store + 4.0 + 8.0) * growth + store) + counts;
         // owned + ghosts (ghost layers of a block: generously half the owned count at small
@@ -72,7 +69,7 @@ pub fn estimate<const D: usize>(
         let run = owned * store
             + ghosts * Particles::<D>::bytes_per_ghost_carried(dropped) as f64
             + (owned + ghosts) * 8.0
-            + owned * neighbours(scene, D) * 4.0
+            + owned * listed * 4.0
             + counts;
         (setup, run)
     };

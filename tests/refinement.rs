@@ -646,3 +646,48 @@ fn pairs_load_balances_a_refined_tank() {
         assert!(read(&one) == read(&three), "h {h}: final.csv differs on 3 ranks");
     }
 }
+
+/// `hsph check`'s count (`count_particles`, from the lattice ranges alone) is the number of
+/// particles the set-up builds for block regions over the fluid, over the tank's corner
+/// (its dummy wall refined too), over the fluid only and over one coarse site; and the memory
+/// estimate's list entries per particle (the lattice's neighbours times
+/// [`hsph::scene::lattice::list_weight`]) lie between 0.95 and 2 times those the set-up lists
+/// (they were 1.01–1.6 ×), with the scene's h at levels 1 and 2 (a fine particle then lists
+/// 2^(ℓD) times a coarse one's neighbours) and with the level's h.
+#[test]
+fn the_check_counts_the_particles_and_lists_that_the_set_up_builds() {
+    let text = include_str!("../inputs/hydrostatic_2d_refined.toml");
+    let path = Path::new("hydrostatic_2d_refined.toml");
+    let variants: [&[&str]; 6] = [
+        &[],
+        &["refine[0].min=[-0.1, -0.1]", "refine[0].max=[0.3, 0.3]"],
+        &[
+            "refine[0].bodies=[\"water\"]",
+            "refine[0].min=[-0.1, -0.1]",
+            "refine[0].max=[0.3, 0.3]",
+        ],
+        &["refine[0].min=[0.509, 0.249]", "refine[0].max=[0.511, 0.251]"],
+        &["refine[0].level=2"],
+        &["refine[0].smoothing_length=\"level\""],
+    ];
+    let comm = SerialComm::new();
+    for sets in variants {
+        let sets: Vec<String> = sets.iter().map(|x| x.to_string()).collect();
+        let (s, _) = load_scene_str(text, path, "scene", &sets).unwrap();
+        let sim = Simulation::<2>::new(&s, &comm).unwrap();
+        let built = sim.p.n_owned;
+        assert_eq!(
+            hsph::scene::lattice::count_particles::<2>(&s),
+            built as u64,
+            "{sets:?}"
+        );
+        // the set-up's lists (both directions) against the estimate's per particle
+        let listed = sim.nl.entries() as f64 / built as f64;
+        let full = if sim.pair_mode { 2.0 * listed } else { listed };
+        let estimate = s.discretisation.lattice_neighbours(2) * hsph::scene::lattice::list_weight::<2>(&s);
+        assert!(
+            estimate >= 0.95 * full && estimate <= 2.0 * full,
+            "{sets:?}: estimate {estimate:.1}, built {full:.1}"
+        );
+    }
+}

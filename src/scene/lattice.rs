@@ -145,8 +145,12 @@ pub struct BodySites {
     pub key: String,
     /// The body's name in the scene.
     pub name: String,
-    /// Sites of its box (a container: of its walls, the outer box less the inner one).
+    /// Sites of its box (a container: of its walls, the outer box less the inner one), a
+    /// refined coarse site counted as the 2^(ℓD) sites of level ℓ that replace it.
     pub sites: u64,
+    /// The neighbour-list entries its refined sites add, in units of a coarse particle's
+    /// (see [`refined`]).
+    pub list_extra: f64,
     /// True if the body claims at least one site: its box has sites and, for a sphere or a
     /// cylinder, the site nearest its centre lies inside it.
     pub builds: bool,
@@ -181,9 +185,8 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
     );
     for (key, f) in bodies {
         let r = ranges(&f.min, &f.max);
-        // an upper bound where regions refine the body: their fine sites are added, the
-        // coarse ones they replace not subtracted
-        let n = sites(&r) + fine_sites::<D>(s, &f.name, &f.min, &f.max);
+        let (added, list_extra) = refined::<D>(s, &lat, &f.name, &r, None);
+        let n = sites(&r) + added;
         // of the box's sites the one nearest the centre (per axis, so nearest overall) is
         // inside a sphere or cylinder if any is
         let builds = n > 0
@@ -201,6 +204,7 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
             key,
             name: f.name.clone(),
             sites: n,
+            list_extra,
             builds,
             smallest: smallest(&f.min, &f.max),
             all_open: false,
@@ -210,30 +214,27 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
         if w.method.particle_kind().is_none() {
             continue;
         }
-        let (n, outer) = match w.shape {
-            WallShape::Block => {
-                let core = block_core(s, w, &lat).map_or(0, |c| sites(&c));
-                (
-                    sites(&ranges(&w.min, &w.max)) - core,
-                    (w.min.clone(), w.max.clone()),
-                )
-            }
+        // the wall's box and the hole in it (a dummy block's core, a container's inside)
+        let (outer, hole) = match w.shape {
+            WallShape::Block => (ranges(&w.min, &w.max), block_core(s, w, &lat)),
             WallShape::Container => {
                 let (lo, hi) = container_outer(s, w);
-                let n = sites(&ranges(&lo, &hi)).saturating_sub(sites(&ranges(&w.min, &w.max)));
-                (n, (lo, hi))
+                (ranges(&lo, &hi), Some(ranges(&w.min, &w.max)))
             }
         };
-        // refined dummy walls: an upper bound, as for bodies (the regions' sites of the box)
-        let n = match w.method {
-            super::WallMethod::Dummy => n + fine_sites::<D>(s, &w.name, &outer.0, &outer.1),
-            _ => n,
+        let n = sites(&outer).saturating_sub(hole.as_ref().map_or(0, |h| sites(h)));
+        // only dummy walls are refined
+        let (added, list_extra) = match w.method {
+            super::WallMethod::Dummy => refined::<D>(s, &lat, &w.name, &outer, hole.as_deref()),
+            _ => (0, 0.0),
         };
+        let n = n + added;
         let open = |a: usize, up: bool| w.open.iter().any(|o| super::face_of(o, D) == Some((a, up)));
         out.push(BodySites {
             key: format!("wall[{i}]"),
             name: w.name.clone(),
             sites: n,
+            list_extra,
             builds: n > 0,
             smallest: smallest(&w.min, &w.max),
             all_open: w.shape == WallShape::Container && (0..D).all(|a| open(a, false) && open(a, true)),
@@ -259,20 +260,67 @@ pub(crate) fn block_core<const D: usize>(
         .collect()
 }
 
-/// The sites of the refinement levels of the body `name` of box `[min, max)`: of each region
-/// refining it, the sites of the region's level in the box the two share.
-fn fine_sites<const D: usize>(s: &Scene, name: &str, min: &[f64], max: &[f64]) -> u64 {
-    let mut n = 0;
+/// What the regions refining body `name` add to its coarse sites `boxr` (lattice ranges of
+/// `lat`, the scene's lattice) less those in `hole`: each coarse site whose centre lies in
+/// a region of level ℓ is replaced by the 2^(ℓD) sites of that level that subdivide its cell
+/// (`setup::SiteSource`). Returns the sites added (2^(ℓD) − 1 per refined coarse site) and the
+/// neighbour-list entries those sites add in units of a coarse particle's: a site of level ℓ
+/// with the scene's h lists 2^(ℓD) times a coarse particle's neighbours, one with its level's
+/// h as many ([`super::refine::Refine::list_factor`]), but no more than the region's sites of
+/// its level; and each coarse site within a support of the region lists its children. The
+/// sites are exact for block regions; a sphere or cylinder counts the coarse sites of its
+/// bounding box (an upper bound).
+fn refined<const D: usize>(
+    s: &Scene,
+    lat: &Lattice<D>,
+    name: &str,
+    boxr: &[(u64, u64)],
+    hole: Option<&[(u64, u64)]>,
+) -> (u64, f64) {
+    let within = |a: &[(u64, u64)], r: &[(u64, u64)]| -> u64 {
+        (0..D)
+            .map(|k| a[k].1.min(r[k].1).saturating_sub(a[k].0.max(r[k].0)))
+            .product()
+    };
+    let (base, support) = (s.discretisation.lattice_neighbours(D), s.discretisation.support());
+    let (mut added, mut extra) = (0u64, 0.0f64);
     for r in s.refine.iter().filter(|r| r.applies_to(name)) {
-        let lat = Lattice::<D>::at_level(s, r.level);
-        n += (0..D)
-            .map(|a| {
-                let (lo, hi) = lat.range(a, min[a].max(r.min[a]), max[a].min(r.max[a]));
-                hi.saturating_sub(lo)
-            })
-            .product::<u64>();
+        let rr: Vec<(u64, u64)> = (0..D).map(|a| lat.range(a, r.min[a], r.max[a])).collect();
+        let coarse = within(boxr, &rr).saturating_sub(hole.map_or(0, |h| within(h, &rr)));
+        let children = coarse << (D as u32 * r.level);
+        added += children - coarse;
+        // a child lists no more of its kind than the region holds
+        let factor = r.list_factor(D).min(1.0 + children as f64 / base);
+        extra += children as f64 * (factor - 1.0);
+        // the coarse sites within a support of the region list its children: on average
+        // the share of a support beyond a plane at a uniform distance below one support,
+        // 2/(3π) in 2D and 3/16 in 3D, at 2^(ℓD) times the coarse density
+        let wide: Vec<(u64, u64)> = (0..D)
+            .map(|a| lat.range(a, r.min[a] - support, r.max[a] + support))
+            .collect();
+        let shell = (within(boxr, &wide) - within(boxr, &rr))
+            .saturating_sub(hole.map_or(0, |h| within(h, &wide) - within(h, &rr)));
+        let share = if D == 2 {
+            2.0 / (3.0 * std::f64::consts::PI)
+        } else {
+            3.0 / 16.0
+        };
+        extra += shell as f64 * share * ((1u64 << (D as u32 * r.level)) - 1) as f64;
     }
-    n
+    (added, extra)
+}
+
+/// The mean neighbour-list length of the scene's particles in units of a coarse particle's
+/// (1 without refinement): what the memory estimate multiplies the lattice's neighbours by.
+pub fn list_weight<const D: usize>(s: &Scene) -> f64 {
+    let b = body_sites::<D>(s);
+    let n: u64 = b.iter().map(|b| b.sites).sum();
+    let extra: f64 = b.iter().map(|b| b.list_extra).sum();
+    if n == 0 {
+        1.0
+    } else {
+        (1.0 + extra / n as f64).max(1.0)
+    }
 }
 
 /// Every body builds at least one particle at the scene's dx: one that builds none is an

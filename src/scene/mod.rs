@@ -105,9 +105,11 @@ impl Scene {
 
 /// Every set-up warning of a scene: the lattice's (settings outside their tested range,
 /// uncoupled bodies that touch, bodies built off their scene size) and the refinement
-/// regions' (fine particles under a level-h pressure jump, regions that refine nothing).
+/// regions' (particles that list thousands of neighbours, fine particles under a level-h
+/// pressure jump, regions that refine nothing).
 pub fn warnings<const D: usize>(s: &Scene) -> Vec<String> {
     let mut out = lattice::scene_warnings::<D>(s);
+    out.extend(refine::list_warnings(s));
     out.extend(refine::level_h_warnings(s));
     out.extend(refine::empty_region_warnings::<D>(s));
     out
@@ -434,6 +436,18 @@ impl Discretisation {
     /// The kernel support κh of the scene's spacing (m).
     pub fn support(&self) -> f64 {
         self.kernel.support_factor() * self.h_over_dx * self.dx
+    }
+
+    /// Neighbours of a particle in the bulk of a `d`-dimensional lattice of spacing dx: the
+    /// sites in a disc (sphere) of the support radius, π r² (4/3 π r³) with r = support/dx
+    /// (≈ 21 in 2D and 74 in 3D for Wendland C2 with h = 1.3 dx).
+    pub fn lattice_neighbours(&self, d: usize) -> f64 {
+        let r = self.h_over_dx * self.kernel.support_factor();
+        if d == 2 {
+            std::f64::consts::PI * r * r
+        } else {
+            4.0 / 3.0 * std::f64::consts::PI * r * r * r
+        }
     }
 }
 

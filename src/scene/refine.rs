@@ -158,6 +158,16 @@ pub fn region_at<'s>(s: &'s Scene, name: &str, x: &[f64]) -> Option<&'s Refine> 
 }
 
 impl Refine {
+    /// Neighbour-list length of a particle of this region's level in units of a coarse
+    /// particle's: 2^(ℓD) with the scene's h (its support spans 2^ℓ of its own spacings per
+    /// dx along each axis), 1 with its level's h.
+    pub fn list_factor(&self, d: usize) -> f64 {
+        match self.smoothing_length {
+            RegionH::Scene => f64::from(1u32 << (d as u32 * self.level)),
+            _ => 1.0,
+        }
+    }
+
     /// True if the block's lower (`upper = false`) or upper face along axis `a` is no
     /// interface with coarser particles: on a bounded axis a face at or beyond the domain's
     /// bound (no coarse particle lies beyond it); on a periodic axis both faces of a region
@@ -273,6 +283,34 @@ impl Refine {
         let t = (1.0 - self.depth(x, b) / band).clamp(0.0, 1.0);
         h_fine + (h_scene - h_fine) * t
     }
+}
+
+/// A particle that lists more neighbours than this is worth a warning (m⁰; a coarse
+/// particle lists ~21 in 2D and ~74 in 3D).
+const MANY_NEIGHBOURS: f64 = 1000.0;
+
+/// Warnings for regions whose particles keep the scene's h at a level where each then lists
+/// more than [`MANY_NEIGHBOURS`] neighbours (2^(ℓD) times a coarse particle's): the lists'
+/// memory and the force loops' time grow as much.
+pub fn list_warnings(s: &Scene) -> Vec<String> {
+    let d = s.dimension;
+    let base = s.discretisation.lattice_neighbours(d);
+    (s.refine.iter().enumerate())
+        .filter(|(_, r)| base * r.list_factor(d) > MANY_NEIGHBOURS)
+        .map(|(k, r)| {
+            format!(
+                "refine[{k}] keeps the scene's h (smoothing_length = \"scene\") at level {}: each of its \
+                 particles lists about {:.0} neighbours, {} times a coarse particle's {:.0}, and the run's \
+                 memory and time per particle-step grow as much; smoothing_length = \"level\" gives them \
+                 their level's h and about {:.0} neighbours (docs/refinement.md §1)",
+                r.level,
+                base * r.list_factor(d),
+                r.list_factor(d),
+                base,
+                base
+            )
+        })
+        .collect()
 }
 
 /// Warnings for regions that give a fluid built under hydrostatic pressure (`hydrostatic =
@@ -700,5 +738,27 @@ mod tests {
         assert!((band.depth(&[0.001, 0.01], &periodic) - 0.04).abs() < 1e-12);
         assert_eq!(band.clearance(&[0.2, 0.04], &periodic), 0.0);
         assert!((band.clearance(&[0.399, 0.08], &periodic) - 0.03).abs() < 1e-12);
+    }
+
+    /// A region that keeps the scene's h at a level where each particle lists thousands of
+    /// neighbours is named, with the level's h as the way out.
+    #[test]
+    fn a_region_whose_particles_list_thousands_of_neighbours_is_named() {
+        let text = include_str!("../../inputs/hydrostatic_2d_refined.toml");
+        let path = std::path::Path::new("hydrostatic_2d_refined.toml");
+        let warn = |sets: &[&str]| {
+            let sets: Vec<String> = sets.iter().map(|x| x.to_string()).collect();
+            let (s, _) = crate::scene::load_scene_str(text, path, "scene", &sets).unwrap();
+            super::list_warnings(&s)
+        };
+        // h = 2 dx, Wendland C2: 50 neighbours; ×16 at level 2 (804), ×64 at level 3
+        assert!(warn(&["refine[0].level=2"]).is_empty());
+        let many = warn(&["refine[0].level=3"]);
+        assert_eq!(many.len(), 1, "{many:?}");
+        assert!(
+            many[0].contains("refine[0]") && many[0].contains("about 3217 neighbours"),
+            "{many:?}"
+        );
+        assert!(warn(&["refine[0].level=3", "refine[0].smoothing_length=\"level\""]).is_empty());
     }
 }
