@@ -210,11 +210,23 @@ fn a_restart_across_splits_gives_the_uninterrupted_bits() {
 /// (√D·dx): otherwise exit 2 naming the key.
 #[test]
 fn adapt_without_a_fluid_or_with_a_short_support_is_refused() {
-    for (set, needle) in [
-        ("refine[0].bodies=[\"nothing\"]", "refines no fluid"),
-        ("discretisation.h_over_dx=0.6", "h_over_dx to at least 0.707"),
+    for (scene, set, needle) in [
+        (DRIFT, "refine[0].bodies=[\"bottom\"]", "refine[0].adapt"),
+        (DRIFT, "refine[0].bodies=[\"bottom\"]", "refines no fluid"),
+        // a misspelt name is named as such, not as a region without fluid
+        (SCENE, "refine[0].bodies=[\"watr\"]", "refine[0].bodies[0]"),
+        (
+            SCENE,
+            "refine[0].bodies=[\"watr\"]",
+            "no fluid, solid or dummy wall is named `watr`",
+        ),
+        (
+            SCENE,
+            "discretisation.h_over_dx=0.6",
+            "h_over_dx to at least 0.707",
+        ),
     ] {
-        let (code, _, err) = hsph(&["check", SCENE, "--set", set]);
+        let (code, _, err) = hsph(&["check", scene, "--set", set]);
         assert_eq!(code, 2, "{set}: {err}");
         assert!(err.contains("refine[0]") && err.contains(needle), "{set}: {err}");
     }

@@ -111,7 +111,7 @@ pub fn warnings<const D: usize>(s: &Scene) -> Vec<String> {
     let mut out = lattice::scene_warnings::<D>(s);
     out.extend(refine::list_warnings(s));
     out.extend(refine::level_h_warnings(s));
-    out.extend(refine::empty_region_warnings::<D>(s));
+    out.extend(refine::region_warnings::<D>(s));
     out
 }
 

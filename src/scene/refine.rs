@@ -339,20 +339,47 @@ pub fn level_h_warnings(s: &Scene) -> Vec<String> {
         .collect()
 }
 
-/// The most lattice sites [`empty_region_warnings`] visits per region; a larger region is
+/// The most lattice sites [`region_warnings`] visits per region; a larger region is
 /// assumed to hold some (no warning rather than a slow check).
 const EMPTY_REGION_SITES: u64 = 1 << 24;
 
-/// Warnings for regions that refine nothing at set-up, so that the run is silently the uniform
-/// one: no site of the scene's lattice ([`Lattice`]) lies in the region (it is smaller than a
-/// cell or between sites), or — for a region that does not adapt, whose particles cannot
-/// arrive later — none of the fluids and solids it refines has a site in it and no dummy wall
-/// it refines reaches it.
-pub fn empty_region_warnings<const D: usize>(s: &Scene) -> Vec<String> {
+/// Warnings for regions that do not do what they say, so that the run is silently the uniform
+/// one or slower than it needs: an adaptive region that no point lies dx deep in (nothing
+/// that enters splits), a level-h region whose transition is wider than the region is deep
+/// (its h never reaches the level's, which still sets dt), no site of the scene's lattice
+/// ([`Lattice`]) in the region (it is smaller than a cell or between sites), or — for a region
+/// that does not adapt, whose particles cannot arrive later — none of the fluids and solids it
+/// refines has a site in it and no dummy wall it refines reaches it.
+pub fn region_warnings<const D: usize>(s: &Scene) -> Vec<String> {
     let lat = Lattice::<D>::new(s);
     let dx = lat.dx;
     let mut out = Vec::new();
+    let bounds = Bounds::of(s);
     for (k, r) in s.refine.iter().enumerate() {
+        // a particle splits once it lies its own spacing inside the region (sim/adapt.rs):
+        // a scene-spacing particle needs a depth of dx, which the centre has if any point has
+        let centre: Vec<f64> = match r.shape {
+            BodyShape::Block => (0..D).map(|a| 0.5 * (r.min[a] + r.max[a])).collect(),
+            _ => r.centre.clone(),
+        };
+        let deepest = r.depth(&centre, &bounds);
+        if r.adapt && deepest < dx {
+            out.push(format!(
+                "refine[{k}] adapts, but no point of it lies deeper than {deepest:.4e} m inside its \
+                 faces, and a particle of the scene's spacing splits only once it lies dx = {dx} m \
+                 inside: nothing that enters it splits (what the set-up refines leaves and merges); \
+                 make it at least 2·dx wide on every axis"
+            ));
+        }
+        let band = r.transition.unwrap_or(0.0);
+        if r.smoothing_length == RegionH::Level && band > deepest {
+            out.push(format!(
+                "refine[{k}].transition = {band:.4e} m is wider than the region is deep ({deepest:.4e} m \
+                 at most): its h ramps from the scene's without reaching the level's, yet the time \
+                 step is the level's h's, so the run takes smaller steps than its particles need; \
+                 narrow the transition below {deepest:.4e} m or widen the region"
+            ));
+        }
         let sites: u64 = (0..D)
             .map(|a| {
                 let (lo, hi) = lat.range(a, r.min[a], r.max[a]);
@@ -502,30 +529,6 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
             }
             Some(_) => {}
         }
-        let diagonal = (d as f64).sqrt() * s.discretisation.dx;
-        if r.adapt && support < diagonal {
-            return err(
-                format!("{k}.adapt"),
-                format!(
-                    "merges particles within a cell of side dx, whose diagonal √D·dx = {diagonal} m \
-                     must lie within the kernel support ({support} m): raise \
-                     discretisation.h_over_dx to at least {:.3}",
-                    diagonal / (s.discretisation.kernel.support_factor() * s.discretisation.dx)
-                ),
-            );
-        }
-        if r.adapt
-            && !s
-                .fluids
-                .iter()
-                .any(|f| r.bodies.is_empty() || r.bodies.contains(&f.name))
-        {
-            return err(
-                format!("{k}.adapt"),
-                "splits fluid particles, and the region refines no fluid: name a fluid in `bodies` \
-                 or set adapt = false",
-            );
-        }
         for (j, b) in r.bodies.iter().enumerate() {
             if bodies.contains(b) {
                 continue;
@@ -545,6 +548,30 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
                      all of them",
                     bodies.join(", ")
                 ),
+            );
+        }
+        let diagonal = (d as f64).sqrt() * s.discretisation.dx;
+        if r.adapt && support < diagonal {
+            return err(
+                format!("{k}.adapt"),
+                format!(
+                    "merges particles within a cell of side dx, whose diagonal √D·dx = {diagonal:.4e} m \
+                     must lie within the kernel support ({support:.4e} m): raise \
+                     discretisation.h_over_dx to at least {:.3}",
+                    diagonal / (s.discretisation.kernel.support_factor() * s.discretisation.dx)
+                ),
+            );
+        }
+        if r.adapt
+            && !s
+                .fluids
+                .iter()
+                .any(|f| r.bodies.is_empty() || r.bodies.contains(&f.name))
+        {
+            return err(
+                format!("{k}.adapt"),
+                "splits fluid particles, and the region refines no fluid: name a fluid in `bodies` \
+                 or set adapt = false",
             );
         }
     }
@@ -641,7 +668,7 @@ mod tests {
         let warn = |sets: &[&str]| {
             let sets: Vec<String> = sets.iter().map(|x| x.to_string()).collect();
             let (s, _) = crate::scene::load_scene_str(text, path, "scene", &sets).unwrap();
-            super::empty_region_warnings::<2>(&s)
+            super::region_warnings::<2>(&s)
         };
         assert!(warn(&[]).is_empty());
         // 0.1 mm wide about (0.5, 0.2): the sites of dx = 2 cm lie at 0.49 and 0.51 m
@@ -656,6 +683,25 @@ mod tests {
         assert_eq!(dry.len(), 1);
         assert!(dry[0].contains("no site of the bodies it refines"), "{dry:?}");
         assert!(warn(&[above[0], above[1], "refine[0].adapt=true"]).is_empty());
+        // an adaptive region 1.9 dx wide: nothing of the scene's spacing lies dx inside it
+        let narrow = [
+            "refine[0].min=[0.3, 0.1]",
+            "refine[0].max=[0.338, 0.4]",
+            "refine[0].adapt=true",
+        ];
+        let thin = warn(&narrow);
+        assert_eq!(thin.len(), 1, "{thin:?}");
+        assert!(
+            thin[0].contains("refine[0] adapts") && thin[0].contains("1.9000e-2 m"),
+            "{thin:?}"
+        );
+        assert!(warn(&[narrow[0], "refine[0].max=[0.342, 0.4]", narrow[2]]).is_empty());
+        // the shipped box is 0.3 m tall (0.15 m deep at most): a ramp of 0.2 m never ends
+        let level = "refine[0].smoothing_length=\"level\"";
+        let wide = warn(&[level, "refine[0].transition=0.2"]);
+        assert_eq!(wide.len(), 1, "{wide:?}");
+        assert!(wide[0].contains("refine[0].transition = 2.0000e-1 m"), "{wide:?}");
+        assert!(warn(&[level, "refine[0].transition=0.1"]).is_empty());
         // the tank's left wall layers (x < 0) above the water
         assert!(warn(&["refine[0].min=[-0.1, 0.6]", "refine[0].max=[0.05, 0.7]"]).is_empty());
         // the same band within the tank but only for the water
