@@ -184,7 +184,8 @@ fn with_the_levels_h_children_take_the_ramp_and_merged_particles_the_scenes() {
 }
 
 /// A run checkpointed on 2 ranks between splits and continued on 3 gives the uninterrupted
-/// bits: the counter `next_id` travels in the checkpoint.
+/// bits (the counter `next_id` travels in the checkpoint) and the uninterrupted run's counts
+/// of splits, merges and particles in `summary.json`.
 #[test]
 fn a_restart_across_splits_gives_the_uninterrupted_bits() {
     let dir = common::temp_dir("split-restart");
@@ -204,6 +205,19 @@ fn a_restart_across_splits_gives_the_uninterrupted_bits() {
     for f in ["timeseries.csv", "final.csv"] {
         assert!(read(&cut, f) == read(&whole, f), "{f} differs after the restart");
     }
+    // the summary counts the whole run, not the last segment
+    let summary = |d: &Path| -> serde_json::Value { serde_json::from_str(&read(d, "summary.json")).unwrap() };
+    let (a, b) = (summary(&cut), summary(&whole));
+    for k in [
+        "splits",
+        "merges",
+        "particles_start",
+        "particles_max",
+        "particles",
+    ] {
+        assert_eq!(a[k], b[k], "summary.json `{k}` after the restart");
+    }
+    assert_eq!(resized(&cut), resized(&whole));
 }
 
 /// `adapt` needs a region that refines a fluid and a kernel support that holds a merge's cell

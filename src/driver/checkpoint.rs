@@ -98,6 +98,10 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "snapshots": self.snapshots.as_ref().map(|w| w.state()),
             "wall_s": self.earlier.0 + self.steps_start.elapsed().as_secs_f64(),
             "segments": self.earlier.1 + 1,
+            "splits": self.sim.resized.splits,
+            "merges": self.sim.resized.merges,
+            "particles_start": self.particles_start,
+            "particles_max": self.population.1,
             "series": series,
         }))
     }
@@ -124,6 +128,17 @@ impl<'a, const D: usize> RankRun<'a, D> {
             s["wall_s"].as_f64().unwrap_or(0.0),
             s["segments"].as_u64().unwrap_or(0),
         );
+        // absent in checkpoints of older builds: counted from this segment on
+        let count = |k: &str| s[k].as_u64();
+        if let (Some(splits), Some(merges)) = (count("splits"), count("merges")) {
+            self.sim.resized = crate::sim::Resized { splits, merges };
+        }
+        if let Some(n) = count("particles_start") {
+            self.particles_start = n;
+        }
+        if let Some(n) = count("particles_max") {
+            self.population.1 = self.population.1.max(n);
+        }
         let root = self.comm.rank() == 0;
         if let Some(w) = self.snapshots.as_mut() {
             w.restore(&s["snapshots"], root)?;

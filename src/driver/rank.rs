@@ -69,6 +69,8 @@ pub(super) struct RankRun<'a, const D: usize> {
     /// Particles now over all ranks, counted from this segment's start by the splits, merges
     /// and removals (no collective), and the most there were.
     pub(super) population: (u64, u64),
+    /// Particles over all ranks when the run began (its first segment's set-up).
+    pub(super) particles_start: u64,
     /// Particle-steps of this segment: the population summed over its steps.
     pub(super) particle_steps: f64,
     /// Mass of the fluid and solid particles at the run's first step (kg, or kg/m in 2D): the

@@ -80,6 +80,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             n_fluid: n_total[1],
             removed: 0,
             population: (n_total[0], n_total[0]),
+            particles_start: n_total[0],
             particle_steps: 0.0,
             mass_start: 0.0,
             removed_out: [0.0; 2],

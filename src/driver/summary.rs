@@ -232,7 +232,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
 
     /// How the population changed: particles removed by the outflow rule (count, fraction of
     /// the moving mass, their mass in kg and energy in J) and, in a scene whose regions
-    /// `adapt`, the splits and merges of this segment and the population's start and peak.
+    /// `adapt`, the splits and merges since the run began (over every segment of a run
+    /// continued from checkpoints) and the population's start and peak.
     fn add_population(&self, summary: &mut serde_json::Value) {
         let mut figures = json!({
             "removed_particles": self.removed,
@@ -244,7 +245,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         if self.sim.adapts() {
             figures["splits"] = json!(self.sim.resized.splits);
             figures["merges"] = json!(self.sim.resized.merges);
-            figures["particles_start"] = json!(self.n_total);
+            figures["particles_start"] = json!(self.particles_start);
             figures["particles_max"] = json!(self.population.1);
         }
         merge_into(summary, figures);
