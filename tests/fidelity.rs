@@ -155,7 +155,7 @@ fn a_particle_leaving_the_domain_is_removed_and_counted() {
     let removed = std::fs::read_to_string(one.join("removed.csv")).unwrap();
     let rows: Vec<&str> = removed.lines().collect();
     assert_eq!(rows.len(), 2, "{removed}");
-    assert_eq!(rows[0], "step,t,id,reason,x,y,rho");
+    assert_eq!(rows[0], "step,t,id,reason,x,y,rho,mass,energy");
     let f: Vec<&str> = rows[1].split(',').collect();
     assert_eq!(f[3], "left the domain");
     assert!(
@@ -186,6 +186,8 @@ fn a_particle_leaving_the_domain_is_removed_and_counted() {
         m[0]
     );
     assert_eq!(s["removed_mass"].as_f64().unwrap(), *out.last().unwrap());
+    // removed.csv's mass column is what left (one particle here)
+    assert_eq!(f[7].parse::<f64>().unwrap(), *out.last().unwrap(), "{removed}");
     assert!(c["removed_energy"].last().unwrap() != &0.0);
     // same bits on 3 ranks
     let (code, err, three) = run("r3", &["--ranks", "3"]);

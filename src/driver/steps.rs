@@ -206,14 +206,13 @@ impl<'a, const D: usize> RankRun<'a, D> {
         if fraction > self.scene.domain.max_removed_fraction {
             let r = &rows[0];
             return Err(Error::run(format!(
-                "step {}, t = {:.6e} s: {} of {} moving (fluid and solid) particles removed, {:.3} % of \
-                 their mass, more than domain.max_removed_fraction = {}; among them particle id {} {} \
+                "step {}, t = {:.6e} s: {} moving (fluid and solid) particles removed, {:.3} % of the \
+                 moving mass, more than domain.max_removed_fraction = {}; among them particle id {} {} \
                  at position {:?} (see removed.csv; enlarge the domain, check the walls, or raise the \
                  fraction)",
                 self.sim.step,
                 self.sim.t,
                 self.removed,
-                self.n_fluid,
                 100.0 * fraction,
                 self.scene.domain.max_removed_fraction,
                 r.id,

@@ -345,7 +345,7 @@ impl<const D: usize> RunWriter<D> {
         )?;
         let removed = if scene.domain.outflow == crate::scene::Outflow::Remove {
             let xs: Vec<&str> = ["x", "y", "z"][..d].to_vec();
-            let head = format!("step,t,id,reason,{},rho", xs.join(","));
+            let head = format!("step,t,id,reason,{},rho,mass,energy", xs.join(","));
             Some(series(&dir.join("removed.csv"), &head, append)?)
         } else {
             None
@@ -436,13 +436,15 @@ impl<const D: usize> RunWriter<D> {
             let x: Vec<String> = r.x.iter().map(|c| format!("{c}")).collect();
             writeln!(
                 f,
-                "{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{}",
                 r.step,
                 r.t,
                 r.id,
                 r.reason,
                 x.join(","),
-                r.rho
+                r.rho,
+                r.mass,
+                r.energy
             )
             .map_err(|e| Error::io(&self.dir, e))?;
         }

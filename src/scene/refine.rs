@@ -328,10 +328,10 @@ pub fn level_h_warnings(s: &Scene) -> Vec<String> {
             Some(format!(
                 "refine[{k}] gives fluid `{}` its level's h (smoothing_length = \"level\") under \
                  hydrostatic pressure: where h varies across the pressure gradient a spurious current starts \
-                 (the still tank with a level-1 box: 10 % of sqrt(gH) after 1 s with the default \
-                 transition, 2.8 % with transition = {:.3} m, 0.15 % with the scene's h; \
-                 docs/refinement.md §1); for water that should stay still use smoothing_length = \
-                 \"scene\" or a wider transition",
+                 (measured in the reference still tank with a level-1 box, docs/refinement.md §1, not \
+                 in this scene: 10 % of sqrt(gH) after 1 s with the default transition, 2.8 % with a \
+                 transition of two supports, here {:.3} m, 0.15 % with the scene's h); for water that \
+                 should stay still use smoothing_length = \"scene\" or a wider transition",
                 fluid.name,
                 2.0 * support
             ))
