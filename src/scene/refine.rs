@@ -524,7 +524,7 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
             Some(w) if !(w >= 0.0 && w.is_finite()) => {
                 return err(
                     format!("{k}.transition"),
-                    format!("must be a width ≥ 0 (m), got {w}; e.g. transition = {support} (one kernel support, the default)"),
+                    format!("must be a width ≥ 0 (m), got {w}; e.g. transition = {support:.4e} (one kernel support, the default)"),
                 )
             }
             Some(_) => {}
