@@ -658,18 +658,22 @@ mod tests {
         assert_eq!(super::adaptive_growth(&s), 0);
     }
 
+    /// The shipped refined still tank with `sets` applied (`--set` syntax).
+    fn refined_tank(sets: &[&str]) -> crate::scene::Scene {
+        let text = include_str!("../../inputs/hydrostatic_2d_refined.toml");
+        let path = std::path::Path::new("hydrostatic_2d_refined.toml");
+        let sets: Vec<String> = sets.iter().map(|x| x.to_string()).collect();
+        crate::scene::load_scene_str(text, path, "scene", &sets)
+            .unwrap()
+            .0
+    }
+
     /// A region that refines nothing at set-up is named, with the reason; a region on the
     /// water, one on the tank's wall layers only, and one that adapts (water may arrive) are
     /// not.
     #[test]
     fn a_region_that_refines_nothing_is_named() {
-        let text = include_str!("../../inputs/hydrostatic_2d_refined.toml");
-        let path = std::path::Path::new("hydrostatic_2d_refined.toml");
-        let warn = |sets: &[&str]| {
-            let sets: Vec<String> = sets.iter().map(|x| x.to_string()).collect();
-            let (s, _) = crate::scene::load_scene_str(text, path, "scene", &sets).unwrap();
-            super::region_warnings::<2>(&s)
-        };
+        let warn = |sets: &[&str]| super::region_warnings::<2>(&refined_tank(sets));
         assert!(warn(&[]).is_empty());
         // 0.1 mm wide about (0.5, 0.2): the sites of dx = 2 cm lie at 0.49 and 0.51 m
         let tiny = warn(&["refine[0].min=[0.5, 0.2]", "refine[0].max=[0.5001, 0.2001]"]);
@@ -790,13 +794,7 @@ mod tests {
     /// neighbours is named, with the level's h as the way out.
     #[test]
     fn a_region_whose_particles_list_thousands_of_neighbours_is_named() {
-        let text = include_str!("../../inputs/hydrostatic_2d_refined.toml");
-        let path = std::path::Path::new("hydrostatic_2d_refined.toml");
-        let warn = |sets: &[&str]| {
-            let sets: Vec<String> = sets.iter().map(|x| x.to_string()).collect();
-            let (s, _) = crate::scene::load_scene_str(text, path, "scene", &sets).unwrap();
-            super::list_warnings(&s)
-        };
+        let warn = |sets: &[&str]| super::list_warnings(&refined_tank(sets));
         // h = 2 dx, Wendland C2: 50 neighbours; ×16 at level 2 (804), ×64 at level 3
         assert!(warn(&["refine[0].level=2"]).is_empty());
         let many = warn(&["refine[0].level=3"]);
