@@ -57,10 +57,14 @@ def read_run(run):
     out["major"] = float(hole[-1]["major"])
     out["minor"] = float(hole[-1]["minor"])
     summary = os.path.join(run, "summary.json")
-    out["finished"] = os.path.exists(summary)
-    if out["finished"]:
+    s = None
+    if os.path.exists(summary):
         with open(summary) as f:
             s = json.load(f)
+    # a run stopped by a signal or a wall-clock limit writes a summary that says
+    # "complete": false; it is continued with `hsph run --restart`
+    out["finished"] = s is not None and s.get("complete", True)
+    if out["finished"]:
         # `particles_start` in runs whose population changes, else `particles`
         out["particle_steps"] = s.get("particles_start", s["particles"]) * s["steps"]
         if "hole" in s:
