@@ -566,6 +566,21 @@ fn bad_refinement_input_is_exit_2_naming_the_key() {
         ],
     );
     refused(&["refine.0.transition=-1.0"], &["refine[0].transition", "≥ 0"]);
+    // an empty list would read as every body; a name given twice is a slip
+    refused(
+        &["refine.0.bodies=[]"],
+        &["refine[0].bodies", "names no body", "leave `bodies` out"],
+    );
+    refused(
+        &["refine.0.bodies=[\"water\", \"tank\", \"water\"]"],
+        &["refine[0].bodies[2]", "names `water` a second time", "bodies[0]"],
+    );
+    // a negative or fractional level gets the level's range, not its integer type's
+    refused(&["refine.0.level=-1"], &["refine[0].level", "expected 1, 2 or 3"]);
+    refused(
+        &["refine.0.level=1.5"],
+        &["refine[0].level", "expected 1, 2 or 3"],
+    );
     refused(
         &["refine.0.smoothing_length=\"half\""],
         &["smoothing_length", "scene", "level"],

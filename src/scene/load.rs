@@ -333,6 +333,14 @@ impl SceneSource {
             key = found;
             span = None;
         }
+        if let Some(range) = key_range(&key) {
+            // a key with a narrower range than its integer type: say the range, not the type's
+            if let Some(head) = message.split("expected a whole number from 0 to ").next() {
+                if head.len() < message.len() {
+                    message = format!("{head}expected {range}");
+                }
+            }
+        }
         if let Some(field) = message
             .strip_prefix("missing field `")
             .and_then(|r| r.split('`').next())
@@ -436,6 +444,14 @@ fn plain_types(message: &str) -> String {
         }
     }
     message.to_string()
+}
+
+/// The valid values of an integer key whose range is narrower than its type's, for the
+/// message of a value its type refuses (a negative or fractional `level`).
+fn key_range(key: &str) -> Option<&'static str> {
+    let last = key.rsplit('.').next()?;
+    (key.starts_with("refine[") && last == "level")
+        .then_some("1, 2 or 3 (particles of spacing dx/2, dx/4 or dx/8); e.g. level = 1")
 }
 
 /// "expected a whole number from 0 to `max`".

@@ -48,7 +48,11 @@ pub struct Refine {
     /// Names of the fluid and solid bodies and dummy walls the region refines (empty: every
     /// one of them). A fluid refined beside a wall needs the wall refined too: a dummy wall's
     /// extrapolation mirrors the fluid's spacing (docs/refinement.md §3).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        deserialize_with = "named_bodies"
+    )]
     pub bodies: Vec<String>,
     /// Width (m) of the band inside the region's boundary over which the particles' smoothing
     /// length falls from the scene's h to the level's (default: one kernel support of the
@@ -67,6 +71,19 @@ pub struct Refine {
     /// own spacing inside it. Off by default: the particles keep the size they were built with.
     #[serde(default, skip_serializing_if = "is_false")]
     pub adapt: bool,
+}
+
+/// `bodies` as written: a list of at least one name. An empty list would read as "every
+/// body" (the default when the key is left out), the opposite of what it says.
+fn named_bodies<'de, De: serde::Deserializer<'de>>(d: De) -> std::result::Result<Vec<String>, De::Error> {
+    let names = Vec::<String>::deserialize(d)?;
+    if names.is_empty() {
+        return Err(serde::de::Error::custom(
+            "an empty list names no body: leave `bodies` out to refine every fluid, solid and \
+             dummy wall, or name them, e.g. bodies = [\"water\"]",
+        ));
+    }
+    Ok(names)
 }
 
 fn is_false(b: &bool) -> bool {
@@ -372,6 +389,16 @@ pub fn region_warnings<const D: usize>(s: &Scene) -> Vec<String> {
             ));
         }
         let band = r.transition.unwrap_or(0.0);
+        if r.smoothing_length == RegionH::Scene && band != s.discretisation.support() {
+            // the check fills the default (one support) whatever the mode, so only a width
+            // the scene set differs from it
+            out.push(format!(
+                "refine[{k}].transition = {band:.4e} m has no effect: with smoothing_length = \"scene\" \
+                 (the default) every particle keeps the scene's h, so there is no h to ramp; set \
+                 smoothing_length = \"level\" for an h that falls to the level's over the \
+                 transition, or leave `transition` out"
+            ));
+        }
         if r.smoothing_length == RegionH::Level && band > deepest {
             out.push(format!(
                 "refine[{k}].transition = {band:.4e} m is wider than the region is deep ({deepest:.4e} m \
@@ -517,8 +544,7 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
         super::checks::check_box(&g.min, &g.max, &k)?;
         (r.min, r.max, r.axis) = (g.min, g.max, g.axis);
         in_domain(&r.min, &r.max, &k, &s.domain)?;
-        let support =
-            s.discretisation.kernel.support_factor() * s.discretisation.h_over_dx * s.discretisation.dx;
+        let support = s.discretisation.support();
         match r.transition {
             None => r.transition = Some(support),
             Some(w) if !(w >= 0.0 && w.is_finite()) => {
@@ -530,6 +556,12 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
             Some(_) => {}
         }
         for (j, b) in r.bodies.iter().enumerate() {
+            if let Some(first) = r.bodies[..j].iter().position(|o| o == b) {
+                return err(
+                    format!("{k}.bodies[{j}]"),
+                    format!("names `{b}` a second time (bodies[{first}] is `{b}`): name each body once"),
+                );
+            }
             if bodies.contains(b) {
                 continue;
             }
@@ -706,6 +738,15 @@ mod tests {
         assert_eq!(wide.len(), 1, "{wide:?}");
         assert!(wide[0].contains("refine[0].transition = 2.0000e-1 m"), "{wide:?}");
         assert!(warn(&[level, "refine[0].transition=0.1"]).is_empty());
+        // with the scene's h a transition does nothing; the default (one support, κh = 0.08 m)
+        // is filled in whatever the mode and is not warned about
+        let idle = warn(&["refine[0].transition=0.1"]);
+        assert_eq!(idle.len(), 1, "{idle:?}");
+        assert!(
+            idle[0].contains("refine[0].transition = 1.0000e-1 m has no effect"),
+            "{idle:?}"
+        );
+        assert!(warn(&["refine[0].transition=0.08"]).is_empty());
         // the tank's left wall layers (x < 0) above the water
         assert!(warn(&["refine[0].min=[-0.1, 0.6]", "refine[0].max=[0.05, 0.7]"]).is_empty());
         // the same band within the tank but only for the water
