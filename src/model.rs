@@ -138,7 +138,8 @@ pub struct Measured {
     pub nodes: usize,
     /// Placement that ran.
     pub placement: Placement,
-    /// Particles and steps.
+    /// Particles: the mean population over the steps of a scene whose regions adapt (its
+    /// `particles_mean`), else the count.
     pub particles: u64,
     /// Steps taken.
     pub steps: u64,
@@ -190,7 +191,12 @@ impl Measured {
             threads: num("threads")? as usize,
             nodes: num("nodes")?.max(1.0) as usize,
             placement,
-            particles: num("particles")? as u64,
+            // a population that changed (`[[refine]] adapt`) is taken at its mean over the
+            // steps: the final count would credit every step with the last step's particles
+            particles: s["particles_mean"]
+                .as_f64()
+                .map_or_else(|| num("particles"), Ok)?
+                .round() as u64,
             steps: num("steps")?.max(1.0) as u64,
             wall: num("wall_s")?,
             phases,

@@ -65,6 +65,15 @@ fn resized(dir: &Path) -> (usize, usize) {
         "summary.json: {start} → {end} particles"
     );
     assert!(most >= start.max(end), "summary.json: largest count {most}");
+    // the mean over the steps lies between the fewest the splits and merges allow and the most
+    let mean = s["particles_mean"]
+        .as_f64()
+        .expect("summary.json: no particles_mean");
+    let fewest = start.min(end).saturating_sub(3 * merges) as f64;
+    assert!(
+        (fewest..=most as f64).contains(&mean),
+        "summary.json: mean count {mean} outside {fewest}..={most}"
+    );
     (splits, merges)
 }
 

@@ -71,8 +71,10 @@ pub(super) struct RankRun<'a, const D: usize> {
     pub(super) population: (u64, u64),
     /// Particles over all ranks when the run began (its first segment's set-up).
     pub(super) particles_start: u64,
-    /// Particle-steps of this segment: the population summed over its steps.
+    /// Particle-steps of this segment: the population summed over its steps, and the steps.
     pub(super) particle_steps: f64,
+    /// Steps of this segment.
+    pub(super) segment_steps: u64,
     /// Mass of the fluid and solid particles at the run's first step (kg, or kg/m in 2D): the
     /// observables' exact Σm now plus what was removed before (a restart's). The outflow rule's
     /// budget and `removed_fraction` are fractions of it, so particles that split or merge

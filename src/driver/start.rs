@@ -82,6 +82,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             population: (n_total[0], n_total[0]),
             particles_start: n_total[0],
             particle_steps: 0.0,
+            segment_steps: 0,
             mass_start: 0.0,
             removed_out: [0.0; 2],
             next_out: scene.output.interval,

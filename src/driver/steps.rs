@@ -152,6 +152,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         let now = grown - k * (r.merges - before.0.merges) - (self.removed - before.1);
         self.population = (now, self.population.1.max(grown).max(now));
         self.particle_steps += now as f64;
+        self.segment_steps += 1;
     }
 
     /// The fraction of the moving mass the outflow rule removed so far (0 without removals).

@@ -233,7 +233,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
     /// How the population changed: particles removed by the outflow rule (count, fraction of
     /// the moving mass, their mass in kg and energy in J) and, in a scene whose regions
     /// `adapt`, the splits and merges since the run began (over every segment of a run
-    /// continued from checkpoints) and the population's start and peak.
+    /// continued from checkpoints), the population's start and peak, and its mean over this
+    /// segment's steps.
     fn add_population(&self, summary: &mut serde_json::Value) {
         let mut figures = json!({
             "removed_particles": self.removed,
@@ -247,6 +248,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
             figures["merges"] = json!(self.sim.resized.merges);
             figures["particles_start"] = json!(self.particles_start);
             figures["particles_max"] = json!(self.population.1);
+            // the population the segment's steps carried on average, which a cost per
+            // particle-step (`hsph model`'s calibration) divides by
+            figures["particles_mean"] = json!(self.particle_steps / self.segment_steps.max(1) as f64);
         }
         merge_into(summary, figures);
     }
