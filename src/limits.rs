@@ -160,9 +160,20 @@ pub fn threads(key: &str, threads: usize, ranks_in_process: usize) -> Result<Opt
         ));
     }
     Ok((total > cores).then(|| {
+        // name the ranks too when they, not the threads, fill the cores (--ranks 3 --threads 1)
+        let asked = if ranks_in_process > 1 {
+            format!("{threads} thread(s) per rank × {ranks_in_process} ranks in this process")
+        } else {
+            format!("{key} {threads}")
+        };
+        let fewer = if ranks_in_process > 1 {
+            "fewer ranks or threads per rank, or the ranks under MPI on more cores"
+        } else {
+            "at most one thread per core"
+        };
         format!(
-            "{key} {threads}: {total} threads on {cores} core(s) available; threads beyond the cores share them \
-             and the run is slower, not faster"
+            "{asked}: {total} threads on {cores} core(s) available; threads beyond the cores share them \
+             and the run is slower, not faster (use {fewer})"
         )
     }))
 }
@@ -232,6 +243,27 @@ mod tests {
         assert!(threads("--threads", 2, max_process_threads()).is_err());
         assert!(threads("--threads", 1, max_process_threads()).is_ok());
         assert!(ranks("--ranks", MAX_RANKS + 1).is_err());
+    }
+
+    /// More threads than cores is a warning that names what filled them: the threads of one
+    /// rank, or the ranks of this process.
+    #[test]
+    fn oversubscription_names_the_ranks_or_the_threads() {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        assert_eq!(threads("--threads", cores, 1).unwrap(), None);
+        let one = threads("--threads", cores + 1, 1).unwrap().unwrap();
+        assert!(
+            one.starts_with(&format!("--threads {}: {} threads", cores + 1, cores + 1)),
+            "{one}"
+        );
+        let ranks = threads("--threads", 1, cores + 1).unwrap().unwrap();
+        assert!(
+            ranks.starts_with(&format!(
+                "1 thread(s) per rank × {} ranks in this process",
+                cores + 1
+            )) && ranks.contains("fewer ranks"),
+            "{ranks}"
+        );
     }
 
     #[test]
