@@ -60,7 +60,8 @@ impl<const D: usize> BodyFields<D> {
 /// The shared particle fields a scene's run does not need: the solid fields when it has no
 /// solid body, the viscous lattice moment unless the operator is renormalised, level and h in
 /// a scene of one size, the walls' extrapolated velocity v_w unless a wall extrapolates from
-/// the fluid (dummy) (no storage, no traffic; see [`Particles::dropped`]).
+/// the fluid (dummy), the renormalised density gradient unless the density diffusion is
+/// Antuono's (no storage, no traffic; see [`Particles::dropped`]).
 pub fn dropped_fields(s: &Scene) -> Fields {
     let solid = if s.solids.is_empty() {
         Fields::SOLID
@@ -89,7 +90,13 @@ pub fn dropped_fields(s: &Scene) -> Fields {
     } else {
         Fields::VW
     };
-    solid.or(lap).or(level).or(h).or(vw)
+    // ⟨∇ρ⟩^L is Antuono's δ-SPH term's alone
+    let grad = if s.physics.density_diffusion == crate::scene::DensityDiffusion::Antuono {
+        Fields::NONE
+    } else {
+        Fields::GRAD_RHO
+    };
+    solid.or(lap).or(level).or(h).or(vw).or(grad)
 }
 
 /// Build every particle of a scene (sorted by id): [`SiteSource::build`] over the whole

@@ -58,6 +58,20 @@ fn pairs_and_gather_agree_to_round_off_on_one_step_2d_and_3d() {
     let (rho, acc, n) = step_difference::<2>(&s2);
     eprintln!("2D, {n} fluid particles: dρ/dt {rho:.2e}, acceleration {acc:.2e} (relative to the largest)");
     assert!(n > 10_000 && rho <= 1e-12 && acc <= 1e-12, "2D: {rho:e} {acc:e}");
+    // Fourtakas's hydrostatic correction, seen from either side of a pair
+    let f2 = scene(
+        "inputs/dam_break_2d_dsph.toml",
+        &[
+            "output.format=\"none\"",
+            "physics.density_diffusion=\"fourtakas\"",
+        ],
+    );
+    let (rho, acc, n) = step_difference::<2>(&f2);
+    eprintln!("2D Fourtakas: dρ/dt {rho:.2e}, acceleration {acc:.2e}");
+    assert!(
+        n > 10_000 && rho <= 1e-12 && acc <= 1e-12,
+        "2D Fourtakas: {rho:e} {acc:e}"
+    );
     let s3 = scene("inputs/dam_break_3d.toml", &["output.format=\"none\""]);
     let (rho, acc, n) = step_difference::<3>(&s3);
     eprintln!("3D, {n} fluid particles: dρ/dt {rho:.2e}, acceleration {acc:.2e} (relative to the largest)");
@@ -87,11 +101,17 @@ fn pairs_mode_gives_the_same_bits_on_any_ranks_and_threads_and_stays_near_gather
     // 2D dam break (walls, free surface, δ-SPH) and 3D dam break, each long enough that the
     // ranks rebalance and particles migrate
     type Case<'a> = (&'a str, &'a [&'a str], &'a [(usize, usize)]);
-    let cases: [Case; 6] = [
+    let cases: [Case; 7] = [
         (
             "inputs/dam_break_2d.toml",
             &["time.t_end=0.05"],
             &[(1, 1), (1, 2), (3, 1), (3, 2), (4, 2)],
+        ),
+        // Fourtakas's density diffusion (no gradient pass, no ⟨∇ρ⟩ field)
+        (
+            "inputs/dam_break_2d.toml",
+            &["time.t_end=0.05", "physics.density_diffusion=\"fourtakas\""],
+            &[(1, 1), (3, 2)],
         ),
         (
             "inputs/dam_break_3d.toml",

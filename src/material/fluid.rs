@@ -69,6 +69,28 @@ impl Eos {
         }
     }
 
+    /// Squared sound speed c²(ρ) = dp/dρ (m²/s²): Tait c0² (ρ/ρ0)^(γ−1), linear c0².
+    #[inline]
+    pub fn sound_speed2(&self, rho: f64) -> f64 {
+        let c02 = self.c0 * self.c0;
+        match self.kind {
+            EosKind::Tait => {
+                let r = rho / self.rho0;
+                // γ = 7 without powf
+                let rg = if self.gamma == 7.0 {
+                    let r2 = r * r;
+                    r2 * r2 * r2
+                } else {
+                    r.powf(self.gamma - 1.0)
+                };
+                c02 * rg
+            }
+            EosKind::Linear => c02,
+            #[cfg(test)]
+            EosKind::Toy => c02 * rho / self.rho0,
+        }
+    }
+
     /// Specific internal energy e(ρ) (J/kg), see [`MaterialModel::internal_energy`].
     pub fn internal_energy(&self, rho: f64) -> f64 {
         let r = rho / self.rho0;

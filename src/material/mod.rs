@@ -82,6 +82,16 @@ impl MaterialModel {
         }
     }
 
+    /// Squared sound speed dp/dρ at density ρ (m²/s²) on the reference isentrope (a solid's
+    /// acoustic c0²).
+    #[inline]
+    pub fn sound_speed2(&self, rho: f64) -> f64 {
+        match self {
+            MaterialModel::Fluid(eos) => eos.sound_speed2(rho),
+            MaterialModel::Solid(s) => s.eos.c0 * s.eos.c0,
+        }
+    }
+
     /// Sound speed used by the time-step limit and the numerical diffusion terms (m/s): the
     /// numerical c0 of a weakly compressible fluid.
     #[inline]

@@ -224,6 +224,10 @@ impl<const D: usize> Model<D> {
         match self.diffusion {
             DensityDiffusion::None => {}
             DensityDiffusion::Molteni => v.push(format!("δ-SPH Molteni–Colagrossi, δ = {}", self.delta)),
+            DensityDiffusion::Fourtakas => v.push(format!(
+                "δ-SPH Fourtakas (hydrostatic part removed), δ = {}",
+                self.delta
+            )),
             DensityDiffusion::Antuono => v.push(format!(
                 "δ-SPH Antuono (renormalised gradient), δ = {}",
                 self.delta

@@ -22,7 +22,7 @@
 //! layouts or thread counts.
 
 use super::delta::inverse_or_identity;
-use super::fluid::{pair_acceleration, psi_dot_grad, PairTerms};
+use super::fluid::{pair_acceleration, psi_dot_grad, Correction, PairTerms};
 use super::Model;
 use crate::cells::{HalfView, Window};
 use crate::kernel::sizes::PairKernel;
@@ -148,7 +148,7 @@ impl<const D: usize, K: PairKernel> Home<f64> for Continuity<'_, '_, D, K> {
         let fluid_a = kind_a.is_fluid();
         let kern = &model.kernel;
         let diffusion = model.diffusion != DensityDiffusion::None;
-        let antuono = model.diffusion == DensityDiffusion::Antuono;
+        let corr = Correction::of(model);
         let coef = |m: u16| model.delta * kern.h * model.materials[m as usize].c0();
         let coef_a = coef(p.mat[a]);
         let (xa, va, ma) = (p.x[a], p.v[a], p.mass[a]);
@@ -173,7 +173,7 @@ impl<const D: usize, K: PairKernel> Home<f64> for Continuity<'_, '_, D, K> {
                 da += p.mass[b] * vdot;
                 if diffusion && fluid_b {
                     let coef_a = if K::VARIES { sized(p.mat[a]) } else { coef_a };
-                    da += coef_a * psi_dot_grad(p, antuono, a, b, &mid, f) * vol[b];
+                    da += coef_a * psi_dot_grad(p, model, corr, a, b, &mid, f) * vol[b];
                 }
             }
             if fluid_b {
@@ -187,7 +187,7 @@ impl<const D: usize, K: PairKernel> Home<f64> for Continuity<'_, '_, D, K> {
                     } else {
                         coef(p.mat[b])
                     };
-                    *r += coef_b * psi_dot_grad(p, antuono, b, a, &-mid, f) * vol[a];
+                    *r += coef_b * psi_dot_grad(p, model, corr, b, a, &-mid, f) * vol[a];
                 }
             }
         }

@@ -471,13 +471,16 @@ pub enum DensityDiffusion {
     Molteni,
     /// Antuono et al. (2010): Molteni's term minus the renormalised gradients.
     Antuono,
+    /// Fourtakas et al. (2019): Molteni's term on the density difference less its hydrostatic
+    /// part, Δρ_ji − ρ̄ g·x_ji / c²(ρ̄) (no gradient pass; what DualSPHysics calls DDT2).
+    Fourtakas,
 }
 
 /// Physics switches: a scene switches on only what it needs.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Physics {
-    /// `none`, `molteni` or `antuono`.
+    /// `none`, `molteni`, `antuono` or `fourtakas`.
     #[serde(default)]
     pub density_diffusion: DensityDiffusion,
     /// δ coefficient of the density diffusion (dimensionless).
