@@ -62,13 +62,14 @@ const CLOSED_DAM_BREAK: &[&str] = &[
 ];
 
 fn dam_break_methods() -> Vec<(&'static str, Vec<String>)> {
-    ["none", "molteni", "antuono"]
+    ["none", "molteni", "antuono", "fourtakas"]
         .iter()
         .map(|d| {
             let name: &'static str = match *d {
                 "none" => "plain WCSPH",
                 "molteni" => "δ-SPH Molteni",
-                _ => "δ-SPH Antuono",
+                "antuono" => "δ-SPH Antuono",
+                _ => "δ-SPH Fourtakas",
             };
             (name, vec![format!("physics.density_diffusion=\"{d}\"")])
         })
