@@ -161,15 +161,13 @@ pub fn threads(key: &str, threads: usize, ranks_in_process: usize) -> Result<Opt
     }
     Ok((total > cores).then(|| {
         // name the ranks too when they, not the threads, fill the cores (--ranks 3 --threads 1)
-        let asked = if ranks_in_process > 1 {
-            format!("{threads} thread(s) per rank × {ranks_in_process} ranks in this process")
+        let (asked, fewer) = if ranks_in_process > 1 {
+            (
+                format!("{threads} thread(s) per rank × {ranks_in_process} ranks in this process"),
+                "fewer ranks or threads per rank, or the ranks under MPI on more cores",
+            )
         } else {
-            format!("{key} {threads}")
-        };
-        let fewer = if ranks_in_process > 1 {
-            "fewer ranks or threads per rank, or the ranks under MPI on more cores"
-        } else {
-            "at most one thread per core"
+            (format!("{key} {threads}"), "at most one thread per core")
         };
         format!(
             "{asked}: {total} threads on {cores} core(s) available; threads beyond the cores share them \

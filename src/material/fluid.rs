@@ -32,6 +32,19 @@ pub struct Eos {
     b: f64,
 }
 
+/// r^e of a density ratio r; the exponents of water's γ = 7 (7 for p, 6 for c²) without powf.
+#[inline]
+fn ratio_pow(r: f64, e: f64) -> f64 {
+    let r2 = r * r;
+    if e == 7.0 {
+        r2 * r2 * r2 * r
+    } else if e == 6.0 {
+        r2 * r2 * r2
+    } else {
+        r.powf(e)
+    }
+}
+
 impl Eos {
     /// The EOS of `kind` with reference density ρ0 (kg/m³), sound speed c0 (m/s) and Tait
     /// exponent γ.
@@ -49,17 +62,7 @@ impl Eos {
     #[inline]
     pub fn pressure(&self, rho: f64) -> f64 {
         match self.kind {
-            EosKind::Tait => {
-                let r = rho / self.rho0;
-                // γ = 7 (the usual water value) without powf
-                let rg = if self.gamma == 7.0 {
-                    let r2 = r * r;
-                    r2 * r2 * r2 * r
-                } else {
-                    r.powf(self.gamma)
-                };
-                self.b * (rg - 1.0)
-            }
+            EosKind::Tait => self.b * (ratio_pow(rho / self.rho0, self.gamma) - 1.0),
             EosKind::Linear => self.c0 * self.c0 * (rho - self.rho0),
             #[cfg(test)]
             EosKind::Toy => {
@@ -74,17 +77,7 @@ impl Eos {
     pub fn sound_speed2(&self, rho: f64) -> f64 {
         let c02 = self.c0 * self.c0;
         match self.kind {
-            EosKind::Tait => {
-                let r = rho / self.rho0;
-                // γ = 7 without powf
-                let rg = if self.gamma == 7.0 {
-                    let r2 = r * r;
-                    r2 * r2 * r2
-                } else {
-                    r.powf(self.gamma - 1.0)
-                };
-                c02 * rg
-            }
+            EosKind::Tait => c02 * ratio_pow(rho / self.rho0, self.gamma - 1.0),
             EosKind::Linear => c02,
             #[cfg(test)]
             EosKind::Toy => c02 * rho / self.rho0,

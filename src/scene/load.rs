@@ -335,10 +335,8 @@ impl SceneSource {
         }
         if let Some(range) = key_range(&key) {
             // a key with a narrower range than its integer type: say the range, not the type's
-            if let Some(head) = message.split("expected a whole number from 0 to ").next() {
-                if head.len() < message.len() {
-                    message = format!("{head}expected {range}");
-                }
+            if let Some((head, _)) = message.split_once("expected a whole number from 0 to ") {
+                message = format!("{head}expected {range}; e.g. level = 1");
             }
         }
         if let Some(field) = message
@@ -449,9 +447,7 @@ fn plain_types(message: &str) -> String {
 /// The valid values of an integer key whose range is narrower than its type's, for the
 /// message of a value its type refuses (a negative or fractional `level`).
 fn key_range(key: &str) -> Option<&'static str> {
-    let last = key.rsplit('.').next()?;
-    (key.starts_with("refine[") && last == "level")
-        .then_some("1, 2 or 3 (particles of spacing dx/2, dx/4 or dx/8); e.g. level = 1")
+    (key.starts_with("refine[") && key.ends_with(".level")).then_some(super::refine::LEVELS)
 }
 
 /// "expected a whole number from 0 to `max`".

@@ -17,6 +17,9 @@ use serde::{Deserialize, Serialize};
 /// Finest level a region may ask for (spacing dx / 8).
 pub const MAX_LEVEL: u32 = 3;
 
+/// The levels a region may take, as the messages that refuse another one name them.
+pub const LEVELS: &str = "1, 2 or 3 (particles of spacing dx/2, dx/4 or dx/8)";
+
 /// One refinement region.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -531,10 +534,7 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
         if !(1..=MAX_LEVEL).contains(&r.level) {
             return err(
                 format!("{k}.level"),
-                format!(
-                    "must be 1, 2 or 3 (spacing dx/2, dx/4 or dx/8), got {}; e.g. level = 1",
-                    r.level
-                ),
+                format!("must be {LEVELS}, got {}; e.g. level = 1", r.level),
             );
         }
         let mut g = r.as_body();

@@ -62,18 +62,15 @@ const CLOSED_DAM_BREAK: &[&str] = &[
 ];
 
 fn dam_break_methods() -> Vec<(&'static str, Vec<String>)> {
-    ["none", "molteni", "antuono", "fourtakas"]
-        .iter()
-        .map(|d| {
-            let name: &'static str = match *d {
-                "none" => "plain WCSPH",
-                "molteni" => "δ-SPH Molteni",
-                "antuono" => "δ-SPH Antuono",
-                _ => "δ-SPH Fourtakas",
-            };
-            (name, vec![format!("physics.density_diffusion=\"{d}\"")])
-        })
-        .collect()
+    [
+        ("none", "plain WCSPH"),
+        ("molteni", "δ-SPH Molteni"),
+        ("antuono", "δ-SPH Antuono"),
+        ("fourtakas", "δ-SPH Fourtakas"),
+    ]
+    .into_iter()
+    .map(|(d, name)| (name, vec![format!("physics.density_diffusion=\"{d}\"")]))
+    .collect()
 }
 
 fn diffusion() -> Study {
