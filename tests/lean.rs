@@ -65,6 +65,33 @@ fn cells_mode_gives_the_bits_of_stored_lists() {
             ],
             1,
         ),
+        // 3D rows of cells hold more candidates than one batch of the scan (64)
+        (
+            "inputs/dam_break_3d.toml",
+            vec![
+                "time.max_steps=10",
+                "output.format=\"none\"",
+                "performance.interactions=\"pairs\"",
+            ],
+            2,
+        ),
+        // particles of several sizes: each pair within its own support, the cells in their
+        // sub-cell order in both modes (gather with the set-up relaxation, then pairs)
+        (
+            "inputs/hydrostatic_2d_refined.toml",
+            vec!["time.max_steps=60", "refine.0.smoothing_length=\"level\""],
+            1,
+        ),
+        (
+            "inputs/hydrostatic_2d_refined.toml",
+            vec![
+                "time.max_steps=60",
+                "refine.0.smoothing_length=\"level\"",
+                "discretisation.relax=0",
+                "performance.interactions=\"pairs\"",
+            ],
+            2,
+        ),
     ] {
         let tag = format!(
             "{}-{}-r{ranks}",

@@ -286,16 +286,15 @@ impl<const D: usize> Simulation<D> {
             NeighbourList::default()
         };
         // several smoothing lengths: each pair listed within its own support, the candidates
-        // of stored lists through sub-cells about as wide as the smallest pair support
+        // of stored lists through sub-cells about as wide as the smallest pair support; the
+        // lean scan keeps the sub-cell order of the cells (not their tables), so that its
+        // pairs come in the stored lists' order and give their bits
         let half_support_per_h = 0.5 * model.kernel.support / model.kernel.h;
         let (nl, cells) = match model.sizes.as_ref().filter(|z| z.varies_h) {
-            Some(z) => {
-                let cells = match nl.is_lean() {
-                    true => CellList::default(),
-                    false => CellList::with_sub_cells(&grid, half_support_per_h * z.smallest_h()),
-                };
-                (nl.with_sizes(half_support_per_h), cells)
-            }
+            Some(z) => (
+                nl.with_sizes(half_support_per_h),
+                CellList::with_sub_cells(&grid, half_support_per_h * z.smallest_h()),
+            ),
             None => (nl, CellList::default()),
         };
         let build_fields = crate::physics::passes::build_fields(&schedule(&model));
