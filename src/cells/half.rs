@@ -358,6 +358,9 @@ impl<'a, const D: usize> HalfView<'a, D> {
             rows: 0,
             t: 0,
             e: 0,
+            buf: [0; BATCH],
+            i: 0,
+            n: 0,
         };
         if it.fa & ELIGIBLE != 0 {
             let xs = &self.nl.xs;
@@ -377,6 +380,24 @@ impl<'a, const D: usize> HalfView<'a, D> {
         fa & FLUID == 0 && self.nl.fluid_start[c1] == self.nl.fluid_start[c0]
     }
 
+    /// True if slot `t` (position `xb`, flags `fb`) is a partner of a home with flags `fa`,
+    /// reach `ra` and position `xa`: within the support, eligible, one of the two fluid and
+    /// one owned (the rule of the module docs). No branch on the outcome.
+    #[inline(always)]
+    fn keeps(&self, fa: u8, ra: f64, xa: &[f64; D], t: usize, xb: &[f64], fb: u8) -> bool {
+        let mut d2 = 0.0;
+        for (xa, xb) in xa.iter().zip(xb) {
+            let d = xa - xb;
+            d2 += d * d;
+        }
+        let both = fa | fb;
+        let near = match self.nl.reach.get(t) {
+            Some(r) => d2 < (ra + r) * (ra + r),
+            None => d2 < self.nl.r2max,
+        };
+        near & (fb & ELIGIBLE != 0) & (both & FLUID != 0) & (both & OWNED != 0)
+    }
+
     /// Append home slot `k`'s partners to `list`, delta-encoded ([`encode_run`]), and return
     /// how many (the list build: what [`HalfView::scan`] finds, with a branch-free append per
     /// stencil row).
@@ -385,8 +406,7 @@ impl<'a, const D: usize> HalfView<'a, D> {
         if it.rows == 0 {
             return 0;
         }
-        let (fl, xs, r2max, cells) = (&self.half.flags, &self.nl.xs, self.nl.r2max, self.cells);
-        let reach = &self.nl.reach;
+        let (fl, xs, cells) = (&self.half.flags, &self.nl.xs, self.cells);
         let (mut prev, mut pairs) = (k as u32, 0);
         for row in 0..it.rows {
             let Some((c0, c1)) = self.grid.stencil_run(&it.c, row) else {
@@ -399,17 +419,7 @@ impl<'a, const D: usize> HalfView<'a, D> {
             let s = (cells.start[c0] as usize).max(k + 1);
             let cand = xs[s * D..e * D].chunks_exact(D).zip(&fl[s..e]);
             pairs += encode_run(&mut prev, s, list, cand, |t, (xb, &fb)| {
-                let mut d2 = 0.0;
-                for (xa, xb) in it.xa.iter().zip(xb) {
-                    let d = xa - xb;
-                    d2 += d * d;
-                }
-                let both = it.fa | fb;
-                let near = match reach.get(t) {
-                    Some(r) => d2 < (it.ra + r) * (it.ra + r),
-                    None => d2 < r2max,
-                };
-                near & (fb & ELIGIBLE != 0) & (both & FLUID != 0) & (both & OWNED != 0)
+                self.keeps(it.fa, it.ra, &it.xa, t, xb, fb)
             });
         }
         pairs
@@ -505,7 +515,15 @@ impl<'a, const D: usize> HalfView<'a, D> {
     }
 }
 
+/// Candidates a lean scan tests per refill of its buffer (a power of two).
+const BATCH: usize = 64;
+
 /// One home's partners found by scanning (lean mode, and the list build).
+///
+/// The candidates of a stencil row are tested [`BATCH`] at a time without a branch on the
+/// outcome (each is written to the buffer, the end advances on a keep), then yielded from the
+/// buffer: a kept pair is a coin toss in a row of cells, which a branch per candidate
+/// mispredicts.
 pub struct HalfScan<'a, const D: usize> {
     view: HalfView<'a, D>,
     xa: [f64; D],
@@ -516,8 +534,13 @@ pub struct HalfScan<'a, const D: usize> {
     c: [usize; D],
     row: usize,
     rows: usize,
+    /// Next candidate slot of the current row, and the row's end.
     t: usize,
     e: usize,
+    /// Partners of the last refill: `buf[i..n]` are still to be yielded.
+    buf: [u32; BATCH],
+    i: usize,
+    n: usize,
 }
 
 impl<const D: usize> HalfScan<'_, D> {
@@ -540,6 +563,21 @@ impl<const D: usize> HalfScan<'_, D> {
         }
         false
     }
+
+    /// Test the next [`BATCH`] candidates of the current row into the buffer.
+    #[inline(always)]
+    fn refill(&mut self) {
+        let v = self.view;
+        let end = self.e.min(self.t + BATCH);
+        let mut m = 0;
+        for t in self.t..end {
+            let xb = &v.nl.xs[t * D..t * D + D];
+            let hit = v.keeps(self.fa, self.ra, &self.xa, t, xb, v.half.flags[t]);
+            self.buf[m & (BATCH - 1)] = t as u32;
+            m += usize::from(hit);
+        }
+        (self.t, self.i, self.n) = (end, 0, m);
+    }
 }
 
 impl<const D: usize> Iterator for HalfScan<'_, D> {
@@ -547,32 +585,16 @@ impl<const D: usize> Iterator for HalfScan<'_, D> {
 
     #[inline]
     fn next(&mut self) -> Option<u32> {
-        let fl = &self.view.half.flags;
-        let xs = &self.view.nl.xs;
-        let r2max = self.view.nl.r2max;
-        let reach = &self.view.nl.reach;
         loop {
-            while self.t < self.e {
-                let t = self.t;
-                self.t += 1;
-                let fb = fl[t];
-                let mut d2 = 0.0;
-                for a in 0..D {
-                    let d = self.xa[a] - xs[t * D + a];
-                    d2 += d * d;
-                }
-                let both = self.fa | fb;
-                let near = match reach.get(t) {
-                    Some(r) => d2 < (self.ra + r) * (self.ra + r),
-                    None => d2 < r2max,
-                };
-                if near & (fb & ELIGIBLE != 0) & (both & FLUID != 0) & (both & OWNED != 0) {
-                    return Some(t as u32);
-                }
+            if self.i < self.n {
+                let t = self.buf[self.i];
+                self.i += 1;
+                return Some(t);
             }
-            if !self.next_row() {
+            if self.t >= self.e && !self.next_row() {
                 return None;
             }
+            self.refill();
         }
     }
 }
