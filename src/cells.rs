@@ -196,6 +196,8 @@ pub struct CellList {
     /// Sub-cell of each particle within its cell (row-major, last axis fastest; empty without
     /// sub-cells).
     sub: Vec<u8>,
+    /// Scratch of the counting sort: the next free place of each cell.
+    fill: Vec<u32>,
 }
 
 impl CellList {
@@ -270,34 +272,23 @@ impl CellList {
             self.start[c + 1] += self.start[c];
         }
         self.order.resize(n, 0);
-        let mut fill = self.start.clone();
+        self.fill.clone_from(&self.start);
         for (i, &c) in self.cell.iter().enumerate() {
-            let f = &mut fill[c as usize];
+            let f = &mut self.fill[c as usize];
             self.order[*f as usize] = i as u32;
             *f += 1;
         }
-        // ascending key (by sub-cell first, if cut) within each cell
-        let keys = &p.key;
-        let sub = &self.sub;
-        let start = &self.start;
-        let mut slices: Vec<&mut [u32]> = Vec::with_capacity(nc);
-        let mut rest: &mut [u32] = &mut self.order;
-        for c in 0..nc {
-            let len = (start[c + 1] - start[c]) as usize;
-            let (a, b) = rest.split_at_mut(len);
-            if len > 1 {
-                slices.push(a);
-            }
-            rest = b;
-        }
+        // ascending key (by sub-cell first, if cut) within each cell: the cells' runs of
+        // `order`, found by comparing neighbours' cells (no list of slices is allocated)
+        let (keys, sub, cell) = (&p.key, &self.sub, &self.cell);
+        let cells = self
+            .order
+            .par_chunk_by_mut(|&a, &b| cell[a as usize] == cell[b as usize])
+            .filter(|s| s.len() > 1);
         if split > 0 {
-            slices
-                .par_iter_mut()
-                .for_each(|s| s.sort_unstable_by_key(|&i| (sub[i as usize], keys[i as usize])));
+            cells.for_each(|s| s.sort_unstable_by_key(|&i| (sub[i as usize], keys[i as usize])));
         } else {
-            slices
-                .par_iter_mut()
-                .for_each(|s| s.sort_unstable_by_key(|&i| keys[i as usize]));
+            cells.for_each(|s| s.sort_unstable_by_key(|&i| keys[i as usize]));
         }
         self.slot.resize(n, 0);
         for (k, &i) in self.order.iter().enumerate() {
