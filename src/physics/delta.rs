@@ -87,7 +87,8 @@ fn renormalised_gradient_with<const D: usize, N: Neighbours>(
             let (xi, fi) = (p.x[i], f[i]);
             for j in nl.iter(i) {
                 let j = j as usize;
-                if !p.kind[j].is_fluid() {
+                // the phase's own particles ([`super::fluid::diffuses`])
+                if !super::fluid::diffuses(p, i, j) {
                     continue;
                 }
                 let xij = xi - p.x[j];

@@ -123,7 +123,7 @@ pub fn diffusion_term<const D: usize, N: Neighbours>(
     let mut s = 0.0;
     for j in nl.iter(i) {
         let j = j as usize;
-        if !p.kind[j].is_fluid() {
+        if !diffuses(p, i, j) {
             continue;
         }
         let xij = p.x[i] - p.x[j];
@@ -137,6 +137,17 @@ pub fn diffusion_term<const D: usize, N: Neighbours>(
         s += coef * psi_dot_grad(p, model, corr, i, j, &xij, f) * (p.mass[j] / p.rho[j]);
     }
     s
+}
+
+/// True if the δ-SPH term (and Antuono's gradient that corrects it) pairs particle i, a fluid
+/// particle, with j: j is fluid **of the same material**. Between fluids of different rest
+/// densities ρ_j − ρ_i is the interface's jump, not a numerical gradient to be smoothed:
+/// diffused, it moves mass across the interface and the pressure with it (a stratified still
+/// tank gained 27 % of its energy in 0.3 s), so multiphase δ-SPH keeps the term within each
+/// phase. A scene of one fluid material is unchanged.
+#[inline(always)]
+pub(crate) fn diffuses<const D: usize>(p: &Particles<D>, i: usize, j: usize) -> bool {
+    p.kind[j].is_fluid() && p.mat[j] == p.mat[i]
 }
 
 /// What the δ-SPH term takes from a pair's density difference (`docs/methods.md` §2), chosen
@@ -239,7 +250,7 @@ fn continuity_of<const D: usize, N: Neighbours, K: PairKernel>(
         let kij = kern.of(&p.h, i, j);
         let f = kij.dw_dr_over_r(mid.norm());
         drho += p.mass[j] * (f * vij.dot(&mid));
-        if diffusion && kind_j.is_fluid() {
+        if diffusion && diffuses(p, i, j) {
             let coef = if K::VARIES {
                 model.delta * kij.h * c0
             } else {

@@ -22,7 +22,7 @@
 //! layouts or thread counts.
 
 use super::delta::inverse_or_identity;
-use super::fluid::{pair_acceleration, psi_dot_grad, Correction, PairTerms};
+use super::fluid::{diffuses, pair_acceleration, psi_dot_grad, Correction, PairTerms};
 use super::Model;
 use crate::cells::{HalfView, Window};
 use crate::kernel::sizes::PairKernel;
@@ -169,9 +169,11 @@ impl<const D: usize, K: PairKernel> Home<f64> for Continuity<'_, '_, D, K> {
             let vdot = f * vab.dot(&mid);
             // δ h c0 with the pair's mean h where particles have several sizes
             let sized = |m: u16| model.delta * kab.h * model.materials[m as usize].c0();
+            // fluids of one material only ([`diffuses`]): then a's δ h c0 is b's
+            let diffused = diffusion && fluid_a && diffuses(p, a, b);
             if fluid_a {
                 da += p.mass[b] * vdot;
-                if diffusion && fluid_b {
+                if diffused {
                     let coef_a = if K::VARIES { sized(p.mat[a]) } else { coef_a };
                     da += coef_a * psi_dot_grad(p, model, corr, a, b, &mid, f) * vol[b];
                 }
@@ -179,14 +181,8 @@ impl<const D: usize, K: PairKernel> Home<f64> for Continuity<'_, '_, D, K> {
             if fluid_b {
                 let r = w.one(t);
                 *r += ma * vdot;
-                if diffusion && fluid_a {
-                    let coef_b = if K::VARIES {
-                        sized(p.mat[b])
-                    } else if p.mat[b] == p.mat[a] {
-                        coef_a
-                    } else {
-                        coef(p.mat[b])
-                    };
+                if diffused {
+                    let coef_b = if K::VARIES { sized(p.mat[b]) } else { coef_a };
                     *r += coef_b * psi_dot_grad(p, model, corr, b, a, &-mid, f) * vol[a];
                 }
             }
@@ -421,7 +417,7 @@ impl<const D: usize, K: PairKernel> Home<f64> for Gradient<'_, '_, D, K> {
         for t in partners {
             let t = t as usize;
             let b = order[t] as usize;
-            if !p.kind[b].is_fluid() {
+            if !diffuses(p, a, b) {
                 continue;
             }
             let xab = xa - p.x[b];
