@@ -126,6 +126,11 @@ enum Claim<const D: usize> {
         /// Body force (m/s²) when the density is hydrostatic (non-zero), else `None`.
         hydrostatic: Option<Vector<D>>,
         top: f64,
+        /// The other fluid bodies whose box reaches above this one's top (hydrostatic bodies
+        /// only) with their ρ0 (kg/m³): the fluid that can rest on it.
+        over: Vec<(crate::scene::FluidBody, f64)>,
+        /// Contact distance (m): half the lattice spacing.
+        gap: f64,
         fields: Box<BodyFields<D>>,
     },
     /// A dummy or repulsive wall: every site of its box, except those of `inner` (site index
@@ -135,6 +140,41 @@ enum Claim<const D: usize> {
         v: Vector<D>,
         inner: Option<Vec<(u64, u64)>>,
     },
+}
+
+/// Σ ρ0_k L_k (kg/m²) of the fluid bodies `over` stacked on a body above the site `x`: along
+/// the ray x + s·`up` from the body's top (s = `top`), each body whose column starts within
+/// `gap` of where the last one ended adds its length L_k there, until a gap (a body that
+/// does not touch the stack, e.g. a drop above a pool, weighs nothing on it). Zero without.
+fn overburden<const D: usize>(
+    x: &Vector<D>,
+    up: &Vector<D>,
+    top: f64,
+    over: &[(crate::scene::FluidBody, f64)],
+    gap: f64,
+) -> f64 {
+    if over.is_empty() {
+        return 0.0;
+    }
+    let mut cols: Vec<(f64, f64, f64)> = over
+        .iter()
+        .filter_map(|(o, rho0)| {
+            o.chord(x.as_slice(), up.as_slice())
+                .map(|(s0, s1)| (s0, s1, *rho0))
+        })
+        .collect();
+    cols.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (mut reach, mut load) = (top, 0.0);
+    for (s0, s1, rho0) in cols {
+        if s0 > reach + gap {
+            break;
+        }
+        if s1 > reach {
+            load += rho0 * (s1 - s0.max(reach));
+            reach = s1;
+        }
+    }
+    load
 }
 
 /// One source of particles: a body of the scene, in the order bodies are added (fluids,
@@ -205,6 +245,20 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                 (true, false) => Kind::Solid,
             };
             let fields = Box::new(BodyFields::<D>::new(f, &key, s)?);
+            // fluid bodies whose box reaches above this one's top: what may rest on it
+            let height = |o: &crate::scene::FluidBody| {
+                (0..D)
+                    .map(|a| (o.min[a] * g[a]).min(o.max[a] * g[a]))
+                    .sum::<f64>()
+                    / gmag
+            };
+            let over = match !solid && f.hydrostatic && gmag > 0.0 {
+                true => (s.fluids.iter().enumerate())
+                    .filter(|&(k, o)| k != b && height(o) < top)
+                    .map(|(_, o)| (o.clone(), materials[mat_index(&o.material) as usize].rho0()))
+                    .collect(),
+                false => Vec::new(),
+            };
             sources.push(Source {
                 key,
                 kind,
@@ -219,6 +273,8 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                     v: Vector::<D>::from_fn(|a, _| f.velocity[a]),
                     hydrostatic: (f.hydrostatic && gmag > 0.0).then_some(g),
                     top,
+                    over,
+                    gap: 0.5 * lat.dx,
                     fields,
                 },
             });
@@ -450,6 +506,8 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                 v,
                 hydrostatic,
                 top,
+                over,
+                gap,
                 fields,
                 ..
             } => {
@@ -457,7 +515,8 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                     Some(g) => {
                         let gmag = g.norm();
                         let depth = x.dot(g) / gmag - top;
-                        e.density(e.rho0() * gmag * depth.max(0.0))
+                        let load = overburden(&x, &(-g / gmag), depth.max(0.0), over, *gap);
+                        e.density(e.rho0() * gmag * depth.max(0.0) + gmag * load)
                     }
                     None => e.rho0(),
                 };

@@ -260,3 +260,93 @@ fn a_cylinder_holds_exactly_the_sites_inside_it() {
         "{err}"
     );
 }
+
+/// `hydrostatic = true` under other fluid bodies: a body's pressure starts from the weight of
+/// the fluid that rests on it (directly or through others), not from zero at its own top. The
+/// tank of `hydrostatic_2d.toml` built as two stacked blocks starts with the densities of the
+/// one block (to round-off); under oil (ρ0 = 800) the water's densities are those of the exact
+/// pressure field 7848·0.24 + 9810·(0.26 − y) Pa; a drop above the pool, not touching it,
+/// weighs nothing on it (the pool's bits are those of the pool alone).
+#[test]
+fn hydrostatic_bodies_carry_the_fluid_stacked_on_them() {
+    use hsph::comm::serial::SerialComm;
+    use hsph::scene::load_scene_str;
+    use hsph::sim::Simulation;
+    use std::collections::HashMap;
+    use std::path::Path;
+    let base = std::fs::read_to_string(common::repo_path("inputs/hydrostatic_2d.toml")).unwrap();
+    let one_block = "[[fluid]]\nname = \"water\"\nmaterial = \"water\"\nmin = [0.0, 0.0]\nmax = [1.0, 0.5]\nhydrostatic = true\n";
+    assert!(
+        base.contains(one_block),
+        "hydrostatic_2d.toml's fluid block moved"
+    );
+    let densities = |text: &str| -> HashMap<u64, f64> {
+        let (scene, _) = load_scene_str(text, Path::new("t.toml"), "t", &[]).unwrap();
+        let sim = Simulation::<2>::new(&scene, &SerialComm::new()).unwrap();
+        (0..sim.p.n_owned)
+            .filter(|&i| sim.p.kind[i].is_fluid())
+            .map(|i| (sim.p.id[i], sim.p.rho[i]))
+            .collect()
+    };
+    let block = |name: &str, mat: &str, y0: f64, y1: f64, how: &str| {
+        format!("[[fluid]]\nname = \"{name}\"\nmaterial = \"{mat}\"\nmin = [0.0, {y0:?}]\nmax = [1.0, {y1:?}]\n{how}\n")
+    };
+    let one = densities(&base);
+    // the same water in two blocks, the upper one listed first
+    let two = base.replace(
+        one_block,
+        &(block("upper", "water", 0.26, 0.5, "hydrostatic = true")
+            + &block("lower", "water", 0.0, 0.26, "hydrostatic = true")),
+    );
+    let two = densities(&two);
+    assert_eq!(one.len(), two.len());
+    for (id, r) in &one {
+        let s = two[id];
+        assert!(
+            (s - r).abs() <= 1e-12 * r,
+            "particle {id}: {s} kg/m³ stacked, {r} in one block"
+        );
+    }
+    // water under oil against the exact pressure field
+    let oil = "[[material]]\nname = \"oil\"\nrho0 = 800.0\nc0 = 40.0\n";
+    let with_oil = |lower: &str| {
+        base.replace(
+            one_block,
+            &(block("oil", "oil", 0.26, 0.5, "hydrostatic = true") + lower),
+        )
+        .replace("[physics]", &format!("{oil}\n[physics]"))
+    };
+    let stacked = densities(&with_oil(&block(
+        "water",
+        "water",
+        0.0,
+        0.26,
+        "hydrostatic = true",
+    )));
+    let exact = densities(&with_oil(&block(
+        "water",
+        "water",
+        0.0,
+        0.26,
+        "pressure_field = \"800.0*9.81*0.24 + 1000.0*9.81*(0.26 - y)\"",
+    )));
+    assert_eq!(stacked.len(), exact.len());
+    for (id, r) in &exact {
+        let s = stacked[id];
+        assert!(
+            (s - r).abs() <= 1e-12 * r,
+            "particle {id}: {s} kg/m³ under oil, {r} exact"
+        );
+    }
+    // a drop above the pool, a gap of 0.05 m between them
+    let pool = "[[fluid]]\nname = \"water\"\nmaterial = \"water\"\nmin = [0.0, 0.0]\nmax = [1.0, 0.5]\nhydrostatic = true\n";
+    let with_drop = base.replace(one_block, &(block("drop", "water", 0.55, 0.6, "") + pool));
+    let with_drop = densities(&with_drop);
+    for (id, r) in &one {
+        assert_eq!(
+            with_drop[id].to_bits(),
+            r.to_bits(),
+            "particle {id} of the pool under a drop"
+        );
+    }
+}

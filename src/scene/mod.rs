@@ -606,7 +606,8 @@ pub struct FluidBody {
     #[serde(default)]
     pub velocity: Vec<f64>,
     /// Start from the hydrostatic density profile under the body force (free surface at the
-    /// top of the block along the body force), instead of ρ0 everywhere.
+    /// top of the block along the body force, under the weight of any fluid body that rests on
+    /// it there, directly or through others), instead of ρ0 everywhere.
     #[serde(default)]
     pub hydrostatic: bool,
     /// Initial velocity as one expression per axis of `x`, `y`[, `z`] (m) and the scene's
@@ -636,6 +637,53 @@ pub enum BodyShape {
 }
 
 impl FluidBody {
+    /// The stretch `(s0, s1)`, 0 ≤ s0 < s1 (m), of the ray x + s·u (s ≥ 0, u a unit vector)
+    /// that lies inside the body (its box and its shape), if any: the column of this body
+    /// above a site along u = −ĝ (the overburden of a hydrostatic body below it).
+    pub fn chord(&self, x: &[f64], u: &[f64]) -> Option<(f64, f64)> {
+        let (mut s0, mut s1) = (0.0f64, f64::INFINITY);
+        for a in 0..x.len() {
+            if u[a] == 0.0 {
+                if x[a] < self.min[a] || x[a] >= self.max[a] {
+                    return None;
+                }
+            } else {
+                let (t0, t1) = ((self.min[a] - x[a]) / u[a], (self.max[a] - x[a]) / u[a]);
+                s0 = s0.max(t0.min(t1));
+                s1 = s1.min(t0.max(t1));
+            }
+        }
+        // the shape: where |d + s u_⊥|² < r², d the offset from the centre (across the
+        // cylinder's axis only)
+        let across = |a: usize| match self.shape {
+            BodyShape::Cylinder => a != self.axis.unwrap_or(2),
+            _ => true,
+        };
+        if self.shape != BodyShape::Block {
+            let (mut qa, mut qb, mut qc) = (0.0, 0.0, -self.radius * self.radius);
+            for a in (0..x.len()).filter(|&a| across(a)) {
+                let d = x[a] - self.centre[a];
+                qa += u[a] * u[a];
+                qb += 2.0 * d * u[a];
+                qc += d * d;
+            }
+            if qa == 0.0 {
+                if qc >= 0.0 {
+                    return None;
+                }
+            } else {
+                let disc = qb * qb - 4.0 * qa * qc;
+                if disc <= 0.0 {
+                    return None;
+                }
+                let r = disc.sqrt();
+                s0 = s0.max((-qb - r) / (2.0 * qa));
+                s1 = s1.min((-qb + r) / (2.0 * qa));
+            }
+        }
+        (s1 > s0).then_some((s0, s1))
+    }
+
     /// True if the lattice site at `x` (inside [min, max)) belongs to the body.
     #[inline]
     pub fn contains(&self, x: &[f64]) -> bool {
@@ -745,5 +793,48 @@ impl Default for Output {
             fields: default_fields(),
             gather_limit: default_gather_limit(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::FluidBody;
+
+    fn body(text: &str) -> FluidBody {
+        toml::from_str(&format!("name = \"b\"\nmaterial = \"m\"\n{text}")).unwrap()
+    }
+
+    /// The column of a body above a point: a block's slab, a disc's chord, a cylinder's
+    /// across its axis and along it, nothing beside a body or below the ray's start.
+    #[test]
+    fn a_body_s_column_above_a_point_is_its_chord() {
+        let close = |a: Option<(f64, f64)>, b: (f64, f64)| {
+            let a = a.expect("a chord");
+            assert!(
+                (a.0 - b.0).abs() < 1e-12 && (a.1 - b.1).abs() < 1e-12,
+                "{a:?} against {b:?}"
+            );
+        };
+        let up2 = [0.0, 1.0];
+        let block = body("min = [0.0, 1.0]\nmax = [2.0, 3.0]");
+        close(block.chord(&[0.5, 0.0], &up2), (1.0, 3.0));
+        close(block.chord(&[0.5, 2.0], &up2), (0.0, 1.0));
+        assert_eq!(block.chord(&[2.5, 0.0], &up2), None);
+        assert_eq!(block.chord(&[0.5, 3.5], &up2), None);
+        // a slanted ray: x + s (0.6, 0.8) enters at y = 1 (s = 1.25), leaves at x = 2 (s = 10/3)
+        close(block.chord(&[0.0, 0.0], &[0.6, 0.8]), (1.25, 2.0 / 0.6));
+        let disc = body(
+            "shape = \"sphere\"\ncentre = [0.0, 2.0]\nradius = 1.0\nmin = [-1.0, 1.0]\nmax = [1.0, 3.0]",
+        );
+        close(disc.chord(&[0.0, 0.0], &up2), (1.0, 3.0));
+        let h = (1.0f64 - 0.36).sqrt();
+        close(disc.chord(&[0.6, 0.0], &up2), (2.0 - h, 2.0 + h));
+        assert_eq!(disc.chord(&[1.2, 0.0], &up2), None);
+        let cyl = body(
+            "shape = \"cylinder\"\ncentre = [0.0, 0.0, 2.0]\nradius = 1.0\naxis = 0\nlength = 4.0\nmin = [-2.0, -1.0, 1.0]\nmax = [2.0, 1.0, 3.0]",
+        );
+        let up3 = [0.0, 0.0, 1.0];
+        close(cyl.chord(&[1.5, 0.6, 0.0], &up3), (2.0 - 0.8, 2.0 + 0.8));
+        assert_eq!(cyl.chord(&[2.5, 0.0, 0.0], &up3), None);
     }
 }
