@@ -505,3 +505,47 @@ fn a_count_cap_below_one_is_refused() {
         &["most particles a rank may own", "got 0.8", "1 splits by counts"],
     );
 }
+
+/// A number where a name is due (an enum's value) lists the names the key takes, read from
+/// the parser's own refusal of an unknown name (`SceneSource::variants_at`).
+#[test]
+fn a_number_for_a_name_lists_the_names() {
+    let text = shipped().replace("density_diffusion = \"antuono\"", "density_diffusion = 1");
+    run_bad_scene(
+        "enum-number",
+        &text,
+        "physics.density_diffusion",
+        "density_diffusion = 1",
+        &["`molteni`", "`antuono`", "`fourtakas`", "in quotes"],
+    );
+    let text = shipped().replace("kernel = \"wendland_c2\"", "kernel = 2");
+    run_bad_scene(
+        "enum-kernel",
+        &text,
+        "discretisation.kernel",
+        "kernel = 2",
+        &["`wendland_c2`", "`cubic_spline`", "in quotes"],
+    );
+}
+
+/// A sphere region without its centre or radius says which is missing (not "got 0").
+#[test]
+fn a_sphere_without_centre_or_radius_names_the_missing_key() {
+    let sphere = "\n[[refine]]\nshape = \"sphere\"\nmin = [0.2, 0.1]\nmax = [0.4, 0.3]\nlevel = 1\n";
+    let text = shipped() + sphere;
+    run_bad_scene(
+        "sphere-centre",
+        &text,
+        "refine[0].centre",
+        "[[refine]]",
+        &["is missing", "centre = [", "min and max are a block's keys"],
+    );
+    let text = shipped() + &sphere.replace("min = [0.2, 0.1]\nmax = [0.4, 0.3]\n", "centre = [0.3, 0.2]\n");
+    run_bad_scene(
+        "sphere-radius",
+        &text,
+        "refine[0].radius",
+        "[[refine]]",
+        &["is missing", "radius = 0.05"],
+    );
+}

@@ -24,7 +24,7 @@ pub(super) fn positive(x: f64, key: &str, example: &str) -> Result<()> {
 /// `x` must be a finite number ≥ 0.
 pub(super) fn non_negative(x: f64, key: &str) -> Result<()> {
     if !(x >= 0.0 && x.is_finite()) {
-        return err(key, format!("must be ≥ 0 (got {x})"));
+        return err(key, format!("must be a finite number ≥ 0 (got {x})"));
     }
     Ok(())
 }
@@ -246,7 +246,30 @@ pub(super) fn sphere_box(f: &mut super::FluidBody, k: &str, d: usize) -> Result<
         }
         return Ok(());
     }
+    let shape = if f.shape == BodyShape::Sphere {
+        "sphere"
+    } else {
+        "cylinder"
+    };
+    let example = vec!["0.5"; d].join(", ");
+    if f.centre.is_empty() {
+        let boxed = if !f.min.is_empty() || !f.max.is_empty() {
+            " (min and max are a block's keys, or follow from these)"
+        } else {
+            ""
+        };
+        return err(
+            format!("{k}.centre"),
+            format!("is missing: a {shape} is placed by `centre` and `radius`{boxed}; e.g. centre = [{example}], radius = 0.05"),
+        );
+    }
     check_vec(&mut f.centre, d, &format!("{k}.centre"), false)?;
+    if f.radius == 0.0 {
+        return err(
+            format!("{k}.radius"),
+            format!("is missing: a {shape} needs a radius (m) > 0; e.g. radius = 0.05"),
+        );
+    }
     if !(f.radius > 0.0 && f.radius.is_finite()) {
         return err(
             format!("{k}.radius"),

@@ -333,6 +333,13 @@ impl SceneSource {
             key = found;
             span = None;
         }
+        if message.contains("string or table") {
+            // an enum's value that is not a string: name the valid ones, which the parser
+            // gives for a string it does not know (the value put back as one, parsed again)
+            if let Some(values) = span.clone().and_then(|s| self.variants_at(s)) {
+                message = format!("expected {values}, in quotes");
+            }
+        }
         if let Some(range) = key_range(&key) {
             // a key with a narrower range than its integer type: say the range, not the type's
             if let Some((head, _)) = message.split_once("expected a whole number from 0 to ") {
@@ -363,6 +370,20 @@ impl SceneSource {
             key,
             message,
         }
+    }
+}
+
+impl SceneSource {
+    /// The valid values of the enum whose value sits at `span` of the text: the text parsed
+    /// again with a string no enum holds there, whose refusal lists them.
+    fn variants_at(&self, span: std::ops::Range<usize>) -> Option<String> {
+        const PROBE: &str = r"\u0001";
+        let text =
+            self.text.get(..span.start)?.to_string() + "\"" + PROBE + "\"" + self.text.get(span.end..)?;
+        let e = toml::from_str::<Scene>(&text).err()?;
+        let m = first_line(e.message());
+        m.strip_prefix("unknown variant `\u{1}`, expected ")
+            .map(str::to_string)
     }
 }
 
