@@ -309,8 +309,8 @@ impl Tracker {
         let face: f64 = (0..e.len())
             .map(|k| (e[k] * wall.min[k]).max(e[k] * wall.max[k]))
             .sum();
-        // (still-water reading, crest reading, crest time) of a gauge
-        let crest = |name: &str| -> Option<(f64, f64, f64)> {
+        // (still-water reading, crest reading, crest time, last time) of a gauge's series
+        let series = |name: &str| -> Option<(f64, f64, f64, f64)> {
             let text = std::fs::read_to_string(dir.join(format!("{name}.csv"))).ok()?;
             let rows: Vec<(f64, f64)> = text
                 .lines()
@@ -325,7 +325,7 @@ impl Tracker {
                 .iter()
                 .copied()
                 .fold((0.0, f64::MIN), |m, r| if r.1 > m.1 { r } else { m });
-            Some((z0, top.1, top.0))
+            Some((z0, top.1, top.0, rows.last()?.0))
         };
         let distance = |name: &str| -> f64 {
             scene
@@ -339,9 +339,25 @@ impl Tracker {
                 })
                 .unwrap_or(f64::NAN)
         };
+        // a gauge's crest, once the wave has passed it: the run reaches the crest's time by
+        // Goring's celerity and the series' highest reading is not its last (a run stopped
+        // before the wave arrived, or while it rises, measures nothing there, and says so)
+        let crest = |name: &str| -> Option<(f64, f64, f64)> {
+            let (z0, z1, t, last) = series(name)?;
+            let due = law.crest_time(distance(name));
+            if last < due || t >= last {
+                eprintln!(
+                    "hsph: warning: the solitary wave has not passed gauge `{name}` by the end of the \
+                     run (t = {last:.4} s; its crest is due at about {due:.4} s): its error is not measured"
+                );
+                return None;
+            }
+            Some((z0, z1, t))
+        };
         self.measured.insert("wave_height_m".into(), a);
         self.measured.insert("celerity_m_per_s".into(), law.c);
-        if let Some((z0, z1, _)) = crest(crest_gauge) {
+        let at_crest_gauge = crest(crest_gauge);
+        if let Some((z0, z1, _)) = at_crest_gauge {
             self.measured.insert("crest_height_m".into(), z1 - z0);
             self.errors
                 .insert("solitary_crest".into(), ((z1 - z0) / a - 1.0).abs());
@@ -352,7 +368,7 @@ impl Tracker {
             self.measured.insert("arrival_time_reference_s".into(), t_ref);
             self.errors
                 .insert("solitary_arrival".into(), (t / t_ref - 1.0).abs());
-            if let Some((_, _, t0)) = crest(crest_gauge) {
+            if let Some((_, _, t0)) = at_crest_gauge {
                 let dx = distance(arrival_gauge) - distance(crest_gauge);
                 self.measured
                     .insert("celerity_between_gauges_m_per_s".into(), dx / (t - t0));

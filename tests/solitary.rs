@@ -62,3 +62,35 @@ fn solitary_wave_crest_arrival_and_runup_within_their_committed_bounds() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("reference.runup_gauge"), "{err}");
 }
+
+/// A run stopped before the wave reaches the gauges measures no crest, arrival or run-up
+/// error (it said 100 %, 98 % and 100 %), and says why, naming the gauges.
+#[test]
+fn a_run_that_ends_before_the_wave_arrives_measures_no_error() {
+    let out = common::temp_dir("solitary-short");
+    let o = out.join("run");
+    let (code, _, err) = hsph(&[
+        "run",
+        "inputs/solitary_wave.toml",
+        "--out",
+        o.to_str().unwrap(),
+        "--threads",
+        "1",
+        "--set",
+        "discretisation.dx=0.025",
+        "--set",
+        "time.t_end=0.2",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(o.join("summary.json")).unwrap()).unwrap();
+    for k in ["solitary_crest", "solitary_arrival", "solitary_runup"] {
+        assert!(
+            s["errors"].get(k).is_none(),
+            "{k} measured before the wave arrived: {s}"
+        );
+    }
+    for g in ["`G2`", "`G8`", "`wall`"] {
+        assert!(err.contains(&format!("has not passed gauge {g}")), "{g}: {err}");
+    }
+}
