@@ -494,14 +494,23 @@ pub fn extent_lines<const D: usize>(s: &Scene) -> Vec<String> {
 /// A fluid body and a solid body whose boxes overlap or come within a kernel support of each
 /// other: they would pass through each other, since fluids and solids do not interact yet.
 pub fn coupling_warnings(s: &Scene) -> Vec<String> {
-    let reach = s.discretisation.h_over_dx * s.discretisation.dx * 3.0;
+    let reach = s.discretisation.support();
     let mut out = Vec::new();
     for (i, f) in s.fluids.iter().enumerate() {
         for (j, b) in s.solids.iter().enumerate() {
-            let near = (0..s.dimension).all(|a| f.min[a] - reach < b.max[a] && b.min[a] - reach < f.max[a]);
-            if near {
+            let within =
+                |r: f64| (0..s.dimension).all(|a| f.min[a] - r < b.max[a] && b.min[a] - r < f.max[a]);
+            if within(reach) {
+                let how = if within(0.0) {
+                    "overlap".to_string()
+                } else {
+                    format!(
+                        "lie within a kernel support ({} m) of each other",
+                        super::checks::num(reach)
+                    )
+                };
                 out.push(format!(
-                    "fluid[{i}] `{}` and solid[{j}] `{}` touch or overlap, but fluids and solids do not \
+                    "fluid[{i}] `{}` and solid[{j}] `{}` {how}, but fluids and solids do not \
                      interact yet (no coupling): each moves through the other",
                     f.name, b.name
                 ));
@@ -684,5 +693,27 @@ mod tests {
     fn a_hole_is_jumped_over_in_the_visiting_order() {
         check::<2>(9);
         check::<3>(7);
+    }
+
+    /// A fluid and a solid are warned about when they overlap or lie within a kernel support
+    /// (here 2h = 0.08 m) of each other, each said as it is, and not when farther apart.
+    #[test]
+    fn fluids_and_solids_are_warned_about_within_a_support_only() {
+        let text = include_str!("../../inputs/hydrostatic_2d.toml").to_string()
+            + "[[material]]\nname = \"al\"\nmodel = \"solid\"\nlibrary = \"al6061-t6\"\n\
+               [[solid]]\nname = \"brick\"\nmaterial = \"al\"\nmin = [0.4, Y0]\nmax = [0.6, 0.7]\n";
+        let warned = |y0: &str| {
+            let t = text.replace("Y0", y0);
+            let (s, _) = crate::scene::load_scene_str(&t, std::path::Path::new("t.toml"), "t", &[]).unwrap();
+            super::coupling_warnings(&s)
+        };
+        assert!(warned("0.6").is_empty(), "0.1 m apart: {:?}", warned("0.6"));
+        let near = warned("0.55");
+        assert!(
+            near.len() == 1 && near[0].contains("within a kernel support (0.08 m)"),
+            "{near:?}"
+        );
+        let over = warned("0.45");
+        assert!(over.len() == 1 && over[0].contains("overlap,"), "{over:?}");
     }
 }
