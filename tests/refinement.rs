@@ -706,3 +706,31 @@ fn the_check_counts_the_particles_and_lists_that_the_set_up_builds() {
         );
     }
 }
+
+/// `hsph check` on a sphere region: the estimate counts the region's box before building; when
+/// the built count differs, a note says so and which way the memory estimate errs.
+#[test]
+fn the_check_notes_an_estimate_counted_on_boxes() {
+    let text = include_str!("../inputs/hydrostatic_2d_refined.toml").replace(
+        "min = [0.3, 0.1]\nmax = [0.7, 0.4]\nlevel = 1",
+        "shape = \"sphere\"\ncentre = [0.5, 0.25]\nradius = 0.1\nlevel = 1",
+    );
+    let dir = common::temp_dir("check-note");
+    let scene = dir.join("sphere.toml");
+    std::fs::write(&scene, &text).unwrap();
+    let (code, out, err) = common::hsph(&["check", scene.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let number = |prefix: &str| -> u64 {
+        let line = out.lines().find_map(|l| l.strip_prefix(prefix)).expect(prefix);
+        line.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    let (estimated, built) = (number("estimate    "), number("particles   "));
+    assert!(
+        estimated > built,
+        "a sphere fills part of its box: {estimated} against {built}"
+    );
+    assert!(
+        out.contains(&format!("{built} are built")) && out.contains("upper bound"),
+        "{out}"
+    );
+}

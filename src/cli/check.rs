@@ -18,8 +18,31 @@ pub(super) fn cmd_check(
     };
     let est = driver::check_limits(&scene, ranks, ranks, &opts).map_err(|e| locate(&src, e))?;
     say(&estimate_report(&est, ranks, max_memory));
-    say(&check_report(&scene).map_err(|e| locate(&src, e))?);
+    let report = check_report(&scene).map_err(|e| locate(&src, e))?;
+    say(&report);
+    if let Some(n) = built_count(&report).filter(|&n| n != est.particles) {
+        let memory = if n < est.particles {
+            "so the memory above is an upper bound".to_string()
+        } else {
+            format!(
+                "so the memory above is low by about {:.0} %",
+                100.0 * (n as f64 / est.particles as f64 - 1.0)
+            )
+        };
+        say(&format!(
+            "note        the estimate counts {} sites of the bodies' and refinement regions' boxes, before \
+             any is built; {n} are built (spheres, cylinders and refinement regions fill part of their \
+             box), {memory}\n",
+            est.particles
+        ));
+    }
     Ok(0)
+}
+
+/// The particle count of a [`check_report`]'s `particles` line.
+fn built_count(report: &str) -> Option<u64> {
+    let line = report.lines().find_map(|l| l.strip_prefix("particles   "))?;
+    line.split_whitespace().next()?.parse().ok()
 }
 
 /// The limits `hsph run` applies to `ranks` ranks of `scene` (the same function: ranks, particles
