@@ -9,25 +9,25 @@ use crate::common;
 
 use common::hsph;
 
+/// `hsph run inputs/solitary_wave.toml` at dx = 2.5 cm on one thread (many steps of a small
+/// scene: see `common::hsph`) with the extra `--set`s: the run directory, its summary.json
+/// and stderr.
+fn run_coarse(tag: &str, sets: &[&str]) -> (std::path::PathBuf, serde_json::Value, String) {
+    let o = common::temp_dir(tag).join("run");
+    let mut args = vec!["run", "inputs/solitary_wave.toml", "--out", o.to_str().unwrap()];
+    args.extend(["--threads", "1", "--set", "discretisation.dx=0.025"]);
+    for s in sets {
+        args.extend(["--set", s]);
+    }
+    let (code, _, err) = hsph(&args);
+    assert_eq!(code, 0, "{err}");
+    let s = serde_json::from_str(&std::fs::read_to_string(o.join("summary.json")).unwrap()).unwrap();
+    (o, s, err)
+}
+
 #[test]
 fn solitary_wave_crest_arrival_and_runup_within_their_committed_bounds() {
-    let out = common::temp_dir("solitary");
-    let o = out.join("run");
-    let (code, _, err) = hsph(&[
-        "run",
-        "inputs/solitary_wave.toml",
-        "--out",
-        o.to_str().unwrap(),
-        "-q",
-        // many steps of a small scene: one thread (see `common::hsph`)
-        "--threads",
-        "1",
-        "--set",
-        "discretisation.dx=0.025",
-    ]);
-    assert_eq!(code, 0, "{err}");
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(o.join("summary.json")).unwrap()).unwrap();
+    let (o, s, _) = run_coarse("solitary", &[]);
     let e = |k: &str| s["errors"][k].as_f64().unwrap_or_else(|| panic!("{k}: {s}"));
     let m = |k: &str| s["measured"][k].as_f64().unwrap_or_else(|| panic!("{k}: {s}"));
     assert!(e("solitary_crest") <= 1.5 * 0.0144, "{}", s["measured"]);
@@ -67,23 +67,7 @@ fn solitary_wave_crest_arrival_and_runup_within_their_committed_bounds() {
 /// error (it said 100 %, 98 % and 100 %), and says why, naming the gauges.
 #[test]
 fn a_run_that_ends_before_the_wave_arrives_measures_no_error() {
-    let out = common::temp_dir("solitary-short");
-    let o = out.join("run");
-    let (code, _, err) = hsph(&[
-        "run",
-        "inputs/solitary_wave.toml",
-        "--out",
-        o.to_str().unwrap(),
-        "--threads",
-        "1",
-        "--set",
-        "discretisation.dx=0.025",
-        "--set",
-        "time.t_end=0.2",
-    ]);
-    assert_eq!(code, 0, "{err}");
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(o.join("summary.json")).unwrap()).unwrap();
+    let (_, s, err) = run_coarse("solitary-short", &["time.t_end=0.2"]);
     for k in ["solitary_crest", "solitary_arrival", "solitary_runup"] {
         assert!(
             s["errors"].get(k).is_none(),
