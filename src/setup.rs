@@ -142,6 +142,20 @@ enum Claim<const D: usize> {
     },
 }
 
+/// The top of a body's box along −ĝ, as the coordinate x·ĝ of its highest corner (m; smaller
+/// is higher), for the hydrostatic profile; 0 without a body force.
+fn top_along<const D: usize>(f: &crate::scene::FluidBody, g: &Vector<D>) -> f64 {
+    let gmag = g.norm();
+    if gmag > 0.0 {
+        (0..D)
+            .map(|a| (f.min[a] * g[a]).min(f.max[a] * g[a]))
+            .sum::<f64>()
+            / gmag
+    } else {
+        0.0
+    }
+}
+
 /// Σ ρ0_k L_k (kg/m²) of the fluid bodies `over` stacked on a body above the site `x`: along
 /// the ray x + s·`up` from the body's top (s = `top`), each body whose column starts within
 /// `gap` of where the last one ended adds its length L_k there, until a gap (a body that
@@ -230,15 +244,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
         for (b, f, solid) in bodies {
             let key = format!("{}[{b}]", if solid { "solid" } else { "fluid" });
             let mat = mat_index(&f.material);
-            // top of the block along -ĝ, for the hydrostatic profile
-            let top = if gmag > 0.0 {
-                (0..D)
-                    .map(|a| (f.min[a] * g[a]).min(f.max[a] * g[a]))
-                    .sum::<f64>()
-                    / gmag
-            } else {
-                0.0
-            };
+            let top = top_along(f, &g);
             let kind = match (solid, f.clamped) {
                 (false, _) => Kind::Fluid,
                 (true, true) => Kind::Clamped,
@@ -246,15 +252,9 @@ impl<'s, const D: usize> SiteSource<'s, D> {
             };
             let fields = Box::new(BodyFields::<D>::new(f, &key, s)?);
             // fluid bodies whose box reaches above this one's top: what may rest on it
-            let height = |o: &crate::scene::FluidBody| {
-                (0..D)
-                    .map(|a| (o.min[a] * g[a]).min(o.max[a] * g[a]))
-                    .sum::<f64>()
-                    / gmag
-            };
             let over = match !solid && f.hydrostatic && gmag > 0.0 {
                 true => (s.fluids.iter().enumerate())
-                    .filter(|&(k, o)| k != b && height(o) < top)
+                    .filter(|&(k, o)| k != b && top_along(o, &g) < top)
                     .map(|(_, o)| (o.clone(), materials[mat_index(&o.material) as usize].rho0()))
                     .collect(),
                 false => Vec::new(),

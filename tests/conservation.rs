@@ -359,49 +359,19 @@ fn closed_periodic_box_keeps_its_mean_density() {
 /// hydrostatic gradient), in gather and pair mode.
 #[test]
 fn density_diffusion_stops_at_an_interface_of_two_fluids() {
-    let text = r#"
-dimension = 2
-[domain]
-min = [-0.1, -0.1]
-max = [1.1, 1.1]
-[discretisation]
-dx = 0.02
-h_over_dx = 2.0
-[[material]]
-name = "water"
-rho0 = 1000.0
-c0 = 35.0
-[[material]]
-name = "oil"
-rho0 = 800.0
-c0 = 40.0
-[physics]
-delta = 0.1
-artificial_viscosity = 0.02
-body_force = [0.0, -9.81]
-[[fluid]]
-name = "water"
-material = "water"
-min = [0.0, 0.0]
-max = [1.0, 0.26]
-pressure_field = "1883.52 + 9810.0*(0.26 - y)"
-[[fluid]]
-name = "oil"
-material = "oil"
-min = [0.0, 0.26]
-max = [1.0, 0.5]
-pressure_field = "7848.0*(0.5 - y)"
-[[wall]]
-name = "tank"
-shape = "container"
-min = [0.0, 0.0]
-max = [1.0, 0.8]
-open = ["y+"]
-method = "dummy"
-slip = "free_slip"
-[time]
-t_end = 0.1
-"#;
+    // the tank of hydrostatic_2d.toml, its water in two layers of two materials
+    let base = std::fs::read_to_string(common::repo_path("inputs/hydrostatic_2d.toml")).unwrap();
+    let one_block = "[[fluid]]\nname = \"water\"\nmaterial = \"water\"\nmin = [0.0, 0.0]\nmax = [1.0, 0.5]\nhydrostatic = true\n";
+    assert!(
+        base.contains(one_block),
+        "hydrostatic_2d.toml's fluid block moved"
+    );
+    let layers = "[[fluid]]\nname = \"water\"\nmaterial = \"water\"\nmin = [0.0, 0.0]\nmax = [1.0, 0.26]\n\
+                  pressure_field = \"1883.52 + 9810.0*(0.26 - y)\"\n\
+                  [[fluid]]\nname = \"oil\"\nmaterial = \"oil\"\nmin = [0.0, 0.26]\nmax = [1.0, 0.5]\n\
+                  pressure_field = \"7848.0*(0.5 - y)\"\n";
+    let oil = "[[material]]\nname = \"oil\"\nrho0 = 800.0\nc0 = 40.0\n\n[physics]";
+    let text = &base.replace(one_block, layers).replacen("[physics]", oil, 1);
     let comm = SerialComm::new();
     for diffusion in ["molteni", "antuono", "fourtakas"] {
         for interactions in ["gather", "pairs"] {
