@@ -106,6 +106,26 @@ fn dam_break_2d_same_bits_on_1_to_8_ranks() {
     same_bits_on_any_rank_count(&s, "par-db2", None);
 }
 
+/// Dynamic walls (DualSPHysics's boundary) integrate their density from the fluid round them:
+/// a wall particle's ρ is state that migrates, is sent to ghosts and is summed in the order of
+/// its neighbours' ids on any layout.
+#[test]
+fn dynamic_walls_same_bits_on_1_to_8_ranks() {
+    let s = scene(
+        "inputs/dam_break_2d.toml",
+        &[
+            "time.t_end=0.04",
+            "output.format=\"none\"",
+            "balance.check_every=10",
+            "balance.threshold=1.05",
+            "wall[0].method=\"dynamic\"",
+            "wall[0].slip=\"no_slip\"",
+        ],
+    );
+    assert_eq!(s.walls[0].method, hsph::scene::WallMethod::Dynamic);
+    same_bits_on_any_rank_count(&s, "par-dynamic", None);
+}
+
 /// The Poiseuille channel with 100 × the body force, so that particles travel a few spacings
 /// along the periodic axis, round the seam and across the slabs, in a short run that
 /// rebalances often.

@@ -189,6 +189,30 @@ fn a_moving_wall_restarts_where_it_was() {
     assert_same(&dir.join("ref"), &dir.join("cut"), "paddle 2 → 3");
 }
 
+/// Dynamic walls carry their integrated density in the checkpoint: checkpointed on 2 ranks at
+/// step 60, continued on 3, the run writes the uninterrupted run's bytes.
+#[test]
+fn dynamic_walls_restart_with_their_density() {
+    let dir = common::temp_dir("restart-dynamic");
+    let dynamic = [
+        "--set",
+        "wall[0].method=\"dynamic\"",
+        "--set",
+        "wall[0].slip=\"no_slip\"",
+    ];
+    let reference = dir.join("ref");
+    let (code, err) = run(&reference, "1", &dynamic, &[]);
+    assert_eq!(code, 0, "{err}");
+    let cut = dir.join("cut");
+    let mut first_leg = dynamic.to_vec();
+    first_leg.extend(["--set", "time.max_steps=60", "--set", "checkpoint.every_steps=60"]);
+    let (code, err) = run(&cut, "2", &first_leg, &[]);
+    assert_eq!(code, 0, "{err}");
+    let (code, err) = restart(&cut, "3", &["--set", "time.max_steps=0"]);
+    assert_eq!(code, 0, "{err}");
+    assert_same(&reference, &cut, "dynamic walls 2 → 3");
+}
+
 /// kill -9 while a checkpoint is written (after the parts, before the manifest): the torn
 /// checkpoint is skipped and the run continues from the previous one with the same bits.
 #[test]

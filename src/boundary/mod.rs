@@ -3,6 +3,7 @@
 //! | method | file | how |
 //! |---|---|---|
 //! | dummy walls | [`dummy`] | fixed particles whose p, ρ and viscous velocity are extrapolated from the fluid (Adami et al. 2012) |
+//! | dynamic walls | [`dynamic`] | fixed particles whose ρ follows the continuity equation and p the EOS (Crespo et al. 2007; DualSPHysics's boundary) |
 //! | repulsive walls | [`repulsive`] | a pair force from wall particles (Monaghan 1994) |
 //! | mirror walls | [`mirror`] | image particles reflected across a container's inner faces |
 //! | periodic axes | [`periodic`] | wrap and image particles shifted by the box length |
@@ -21,6 +22,7 @@
 
 pub mod axis_op;
 pub mod dummy;
+pub mod dynamic;
 pub mod geometry;
 pub mod images;
 pub mod mirror;
@@ -43,6 +45,8 @@ use rayon::prelude::*;
 
 /// What wall kernels read besides the particles (the physics model lends it).
 pub struct WallContext<'a, const D: usize> {
+    /// The step (s) over which a wall that integrates its density does so; 0 at the set-up.
+    pub dt: f64,
     /// The smoothing kernel.
     pub kernel: &'a Kernel,
     /// The kernels of pairs of sizes, in a scene of several (`[[refine]]`).
@@ -63,7 +67,7 @@ pub struct WallContext<'a, const D: usize> {
 /// in [`update_walls`]).
 pub fn updates(method: WallMethod) -> bool {
     match method {
-        WallMethod::Dummy => true,
+        WallMethod::Dummy | WallMethod::Dynamic => true,
         #[cfg(test)]
         WallMethod::Toy => true,
         WallMethod::Repulsive | WallMethod::Mirror => false,
@@ -77,8 +81,8 @@ const WAVE: usize = 1 << 14;
 
 /// Set p, ρ and v_w of every owned wall particle whose method [`updates`] them, each by its
 /// wall body's method from its neighbours; other particles keep theirs. A wall's values are
-/// read from fluid neighbours only, so computing a wave of particles and writing it back before
-/// the next gives the bits of one sweep.
+/// read from its fluid neighbours and its own (a dynamic wall's ρ) only, so computing a wave of
+/// particles and writing it back before the next gives the bits of one sweep.
 pub fn update_walls<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, c: &WallContext<D>) {
     update_walls_in_waves(p, nl, c, WAVE);
 }
@@ -107,6 +111,7 @@ pub(crate) fn update_walls_in_waves<const D: usize, N: Neighbours>(
                         }
                         match c.methods[p.body[w] as usize] {
                             WallMethod::Dummy => dummy::extrapolated(p, w, nl.iter(w), c, kern),
+                            WallMethod::Dynamic => dynamic::integrated(p, w, nl.iter(w), c, kern),
                             #[cfg(test)]
                             WallMethod::Toy => toy::shepard_pressure(p, w, nl.iter(w), c),
                             WallMethod::Repulsive | WallMethod::Mirror => keep,

@@ -78,7 +78,7 @@ mod tests {
         }
         // the oracle: every particle of the tank within the support, no neighbour list
         let s = &mut sims[0];
-        let c = s.model.wall_context();
+        let c = s.model.wall_context(0.0);
         let support = s.model.kernel.support;
         let all: Vec<u32> = (0..s.p.n_owned as u32).collect();
         for &w in &walls(s) {

@@ -173,7 +173,15 @@ pub(super) fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
     let sim = crate::sim::Simulation::<D>::new(scene, &crate::comm::serial::SerialComm::new())?;
     let n = sim.p.n_owned;
     let count = |k: Kind| sim.p.kind[..n].iter().filter(|&&x| x == k).count();
-    let (fluid, dummy, rep) = (count(Kind::Fluid), count(Kind::Dummy), count(Kind::Repulsive));
+    let (fluid, rep) = (count(Kind::Fluid), count(Kind::Repulsive));
+    // dynamic walls' particles are of the dummy kind: told apart by their body's method
+    let dynamic = (0..n)
+        .filter(|&i| {
+            sim.p.kind[i] == Kind::Dummy
+                && scene.walls[sim.p.body[i] as usize].method == crate::scene::WallMethod::Dynamic
+        })
+        .count();
+    let dummy = count(Kind::Dummy) - dynamic;
     let (solid, clamped) = (count(Kind::Solid), count(Kind::Clamped));
     let mut s = String::new();
     let w = &mut s;
@@ -189,9 +197,14 @@ pub(super) fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
     } else {
         String::new()
     };
+    let dynamic = if dynamic > 0 {
+        format!(" + {dynamic} dynamic wall")
+    } else {
+        String::new()
+    };
     let _ = writeln!(
         w,
-        "particles   {n} = {fluid} fluid + {dummy} dummy wall + {rep} repulsive wall{solids}"
+        "particles   {n} = {fluid} fluid + {dummy} dummy wall{dynamic} + {rep} repulsive wall{solids}"
     );
     let _ = writeln!(
         w,

@@ -77,9 +77,11 @@ pub struct Model<const D: usize> {
 }
 
 impl<const D: usize> Model<D> {
-    /// What wall kernels read to set their particles' p, ρ and v_w.
-    pub fn wall_context(&self) -> crate::boundary::WallContext<'_, D> {
+    /// What wall kernels read to set their particles' p, ρ and v_w in a step of `dt` (s; 0 at
+    /// the set-up, when a wall whose density is integrated keeps it).
+    pub fn wall_context(&self, dt: f64) -> crate::boundary::WallContext<'_, D> {
         crate::boundary::WallContext {
+            dt,
             kernel: &self.kernel,
             sizes: self.sizes.as_ref(),
             materials: &self.materials,

@@ -27,6 +27,9 @@ pub enum WallMethod {
     Repulsive,
     /// Mirror (image) particles across the inner faces of a container; no wall particles.
     Mirror,
+    /// Fixed particles whose density follows the continuity equation and pressure the EOS
+    /// (Crespo et al. 2007, DualSPHysics's dynamic boundary); no-slip.
+    Dynamic,
     /// Test only (`crate::boundary::toy`): dummy-like particles holding the Shepard mean of
     /// the fluid pressure round them, with no body-force term; proves that a wall method is
     /// its file in `boundary/`, one arm of `boundary::update_walls` and a variant here.
@@ -39,7 +42,7 @@ impl WallMethod {
     /// particles of their own).
     pub fn particle_kind(self) -> Option<crate::particles::Kind> {
         match self {
-            WallMethod::Dummy => Some(crate::particles::Kind::Dummy),
+            WallMethod::Dummy | WallMethod::Dynamic => Some(crate::particles::Kind::Dummy),
             WallMethod::Repulsive => Some(crate::particles::Kind::Repulsive),
             WallMethod::Mirror => None,
             #[cfg(test)]
@@ -125,15 +128,16 @@ pub struct WallBody {
     pub min: Vec<f64>,
     /// Upper corner (m).
     pub max: Vec<f64>,
-    /// Container wall thickness in particle layers (default: enough to cover the support; a
-    /// dummy wall builds at most the rows within the support of fluid at its face,
-    /// [`rows_reaching`]).
+    /// Container wall thickness in particle layers outside each closed face, or rows kept
+    /// inside each face of a dummy or dynamic block (default: enough to cover the support; a
+    /// dummy or dynamic wall builds at most the rows within the support of fluid at its face,
+    /// [`rows_reaching`]; `layers = 1` is DualSPHysics's layout for dynamic walls).
     #[serde(default)]
     pub layers: usize,
     /// Open faces of a container, e.g. `["y+"]` for an open-top tank.
     #[serde(default)]
     pub open: Vec<String>,
-    /// `dummy`, `repulsive` or `mirror`.
+    /// `dummy`, `dynamic`, `repulsive` or `mirror`.
     #[serde(default = "default_method")]
     pub method: WallMethod,
     /// `no_slip` or `free_slip`.
@@ -168,16 +172,23 @@ impl WallBody {
     /// Layers of a container built (`layers`, a dummy wall's at most [`rows_reaching`]).
     pub fn built_layers(&self, support: f64, dx: f64) -> usize {
         match self.method {
-            WallMethod::Dummy => self.layers.min(rows_reaching(support, dx).max(1)),
+            WallMethod::Dummy | WallMethod::Dynamic => self.layers.min(rows_reaching(support, dx).max(1)),
             _ => self.layers,
         }
     }
 
-    /// Rows kept inside each face of a dummy block wall ([`rows_reaching`]: its core is in no
-    /// fluid particle's support and is not built); `None` for other walls.
+    /// Rows kept inside each face of a dummy or dynamic block wall: `layers` if set, at most
+    /// [`rows_reaching`] (the core beyond is in no fluid particle's support and is not built);
+    /// `None` for other walls.
     pub fn shell_rows(&self, support: f64, dx: f64) -> Option<u64> {
-        (self.shape == WallShape::Block && self.method == WallMethod::Dummy)
-            .then(|| rows_reaching(support, dx).max(1) as u64)
+        let reach = rows_reaching(support, dx).max(1);
+        let rows = if self.layers > 0 {
+            self.layers.min(reach)
+        } else {
+            reach
+        };
+        (self.shape == WallShape::Block && matches!(self.method, WallMethod::Dummy | WallMethod::Dynamic))
+            .then_some(rows as u64)
     }
 }
 
@@ -239,7 +250,7 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
                 }
                 if w.layers == 0 {
                     w.layers = match w.method {
-                        WallMethod::Dummy => rows_reaching(support, dx).max(1),
+                        WallMethod::Dummy | WallMethod::Dynamic => rows_reaching(support, dx).max(1),
                         _ => (support / dx - 1e-9).ceil().max(1.0) as usize,
                     };
                 }
@@ -272,6 +283,12 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
             }
         }
         validate_motion(w, &k, d)?;
+        if w.method == WallMethod::Dynamic && w.slip == Slip::FreeSlip {
+            return err(
+                format!("{k}.slip"),
+                "a dynamic wall shows the fluid its own velocity (DualSPHysics's dynamic boundary),                  so it is no-slip: remove slip = \"free_slip\", or use method = \"dummy\" for a                  free-slip wall",
+            );
+        }
         if w.no_slip == crate::scene::NoSlipMethod::Morris
             && (!matches!(w.method, WallMethod::Dummy | WallMethod::Mirror)
                 || w.slip != crate::scene::Slip::NoSlip)

@@ -469,7 +469,9 @@ impl<const D: usize> Simulation<D> {
 fn dummy_faces<const D: usize>(scene: &Scene) -> Vec<(usize, crate::boundary::geometry::WallSurface<D>)> {
     let dom = &scene.domain;
     (scene.walls.iter().enumerate())
-        .filter(|(_, w)| w.method == crate::scene::WallMethod::Dummy)
+        .filter(|(_, w)| {
+            crate::scene::WallMethod::Dummy == w.method || crate::scene::WallMethod::Dynamic == w.method
+        })
         .map(|(b, w)| {
             (
                 b,

@@ -566,7 +566,7 @@ mod tests {
         };
         let walls = |wave: usize| {
             let mut p = cleared.clone();
-            crate::boundary::update_walls_in_waves(&mut p, &sim.nl, &sim.model.wall_context(), wave);
+            crate::boundary::update_walls_in_waves(&mut p, &sim.nl, &sim.model.wall_context(0.0), wave);
             show(&p)
         };
         let whole = walls(n);

@@ -1,5 +1,6 @@
-//! p, ρ and v_w of wall particles, extrapolated from the fluid by their wall's method
-//! (dummy walls: Adami et al. 2012, `crate::boundary::dummy`; `crate::boundary::update_walls`).
+//! p, ρ and v_w of wall particles, from the fluid by their wall's method (dummy walls
+//! extrapolate: Adami et al. 2012, `crate::boundary::dummy`; dynamic walls integrate their
+//! density: `crate::boundary::dynamic`; `crate::boundary::update_walls`).
 
 use super::{geometry, Ctx, Row};
 use crate::boundary::update_walls;
@@ -41,6 +42,6 @@ impl Row for WallExtrapolation {
     }
 
     fn gather<const D: usize, N: Neighbours>(c: &mut Ctx<'_, D>, nb: &N) {
-        update_walls(c.p, nb, &c.model.wall_context());
+        update_walls(c.p, nb, &c.model.wall_context(c.dt));
     }
 }
