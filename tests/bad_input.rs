@@ -466,19 +466,6 @@ fn morris_no_slip_needs_a_no_slip_dummy_or_mirror_wall() {
 }
 
 #[test]
-fn a_dynamic_wall_is_no_slip() {
-    // the shipped dam break's tank is free-slip: a dynamic wall shows the fluid its own velocity
-    let text = shipped().replace("method = \"dummy\"", "method = \"dynamic\"");
-    run_bad_scene(
-        "dynamic-free-slip",
-        &text,
-        "wall[0].slip",
-        "slip = \"free_slip\"",
-        &["no-slip", "remove slip = \"free_slip\"", "method = \"dummy\""],
-    );
-}
-
-#[test]
 fn renormalised_viscous_operator_needs_a_laminar_viscosity() {
     let text = shipped().replace(
         "artificial_viscosity = 0.02",

@@ -10,10 +10,12 @@
 //!
 //! Over a step of dt (s), for wall particle w and its fluid neighbours f, x_wf = x_w − x_f:
 //!   dρ_w/dt = Σ_f m_f (u_w − v_f) · ∇_w W_wf,   ∇_w W_wf = (1/r ∂W/∂r) x_wf   (kg m⁻³ s⁻¹),
-//!   ρ_w ← max(ρ0, ρ_w + dt dρ_w/dt),   p_w = p(ρ_w) (Pa),   v_w = u_w (m/s),
+//!   ρ_w ← max(ρ0, ρ_w + dt dρ_w/dt),   p_w = p(ρ_w) (Pa),
 //! u_w the wall's velocity. The floor at ρ0 keeps a wall from pulling (DualSPHysics bounds its
-//! boundary density the same way); the fluid sees the wall's own velocity in its viscous
-//! terms, so a dynamic wall is no-slip. At the set-up (dt = 0) a wall starts from the density
+//! boundary density the same way). The velocity the fluid sees in its viscous terms is
+//! v_w = u_w on a no-slip wall (DualSPHysics's: its artificial viscosity acts against the wall)
+//! and on a free-slip wall the kernel-weighted mean of the fluid velocities round it,
+//! ṽ_w = Σ_f v_f W_wf / Σ_f W_wf (m/s), as for free-slip dummy walls. At the set-up (dt = 0) a wall starts from the density
 //! of Adami's extrapolated pressure (`super::dummy`), floored at ρ0: with `hydrostatic = true`
 //! the wall holds the water's weight from the first step instead of being compressed into it
 //! (a restart does not run the set-up and keeps the checkpoint's ρ_w).
@@ -23,26 +25,35 @@ use crate::particles::Particles;
 use crate::Vector;
 
 /// dρ_w/dt (kg m⁻³ s⁻¹) of wall particle `w` from the fluid among its `neighbours` (module
-/// docs).
+/// docs) and, if `shepard`, the kernel-weighted mean ṽ_w (m/s) of their velocities (`None`
+/// without fluid round it, or without `shepard`).
 #[inline]
 pub fn density_rate<const D: usize>(
     p: &Particles<D>,
     w: usize,
     neighbours: impl Iterator<Item = u32>,
     kern: impl crate::kernel::sizes::PairKernel,
-) -> f64 {
+    shepard: bool,
+) -> (f64, Option<Vector<D>>) {
     let u_w = p.v[w];
     let mut rate = 0.0;
+    let (mut sw, mut sv) = (0.0, Vector::<D>::zeros());
     for f in neighbours {
         let f = f as usize;
         if !p.kind[f].is_fluid() {
             continue;
         }
         let x_wf = p.x[w] - p.x[f];
-        let grad = kern.of(&p.h, w, f).dw_dr_over_r(x_wf.norm());
-        rate += p.mass[f] * grad * (u_w - p.v[f]).dot(&x_wf);
+        let r = x_wf.norm();
+        let k = kern.of(&p.h, w, f);
+        rate += p.mass[f] * k.dw_dr_over_r(r) * (u_w - p.v[f]).dot(&x_wf);
+        if shepard {
+            let wgt = k.w(r);
+            sw += wgt;
+            sv += p.v[f] * wgt;
+        }
     }
-    rate
+    (rate, (sw > 0.0).then(|| sv / sw))
 }
 
 /// p_w, ρ_w and v_w of dynamic wall particle `w` after a step of `c.dt` (module docs).
@@ -55,13 +66,18 @@ pub fn integrated<const D: usize>(
     kern: impl crate::kernel::sizes::PairKernel,
 ) -> (f64, f64, Vector<D>) {
     let mat = &c.materials[p.mat[w] as usize];
-    let rho = if c.dt > 0.0 {
-        p.rho[w] + c.dt * density_rate(p, w, neighbours, kern)
+    let u_w = p.v[w];
+    let free_slip = !c.no_slip[p.body[w] as usize];
+    let (rho, vw) = if c.dt > 0.0 {
+        let (rate, mean) = density_rate(p, w, neighbours, kern, free_slip);
+        (p.rho[w] + c.dt * rate, mean.unwrap_or(u_w))
     } else {
-        super::dummy::extrapolated(p, w, neighbours, c, kern).1
-    }
-    .max(mat.rho0());
-    (mat.pressure(rho, 0.0), rho, p.v[w])
+        // the set-up: Adami's density; its free-slip v_w is the Shepard mean
+        let (_, rho, vt) = super::dummy::extrapolated(p, w, neighbours, c, kern);
+        (rho, if free_slip { vt } else { u_w })
+    };
+    let rho = rho.max(mat.rho0());
+    (mat.pressure(rho, 0.0), rho, vw)
 }
 
 #[cfg(test)]
@@ -71,11 +87,11 @@ mod tests {
     use crate::sim::Simulation;
 
     /// The hydrostatic tank of `inputs/hydrostatic_2d.toml` with its wall's method replaced.
-    fn tank(method: &str) -> crate::scene::Scene {
+    fn tank(method: &str, slip: &str) -> crate::scene::Scene {
         let text = std::fs::read_to_string("inputs/hydrostatic_2d.toml")
             .unwrap()
             .replace("method = \"dummy\"", &format!("method = \"{method}\""))
-            .replace("slip = \"free_slip\"", "slip = \"no_slip\"");
+            .replace("slip = \"free_slip\"", &format!("slip = \"{slip}\""));
         crate::scene::load_scene_str(&text, std::path::Path::new("dynamic.toml"), "dynamic", &[])
             .unwrap()
             .0
@@ -91,8 +107,8 @@ mod tests {
     #[test]
     fn a_dynamic_wall_starts_from_the_extrapolated_density() {
         let comm = SerialComm::new();
-        let dynamic = Simulation::<2>::new(&tank("dynamic"), &comm).unwrap();
-        let dummy = Simulation::<2>::new(&tank("dummy"), &comm).unwrap();
+        let dynamic = Simulation::<2>::new(&tank("dynamic", "no_slip"), &comm).unwrap();
+        let dummy = Simulation::<2>::new(&tank("dummy", "no_slip"), &comm).unwrap();
         let (wd, wa) = (walls(&dynamic), walls(&dummy));
         assert_eq!(wd.len(), wa.len());
         let rho0 = 1000.0;
@@ -114,44 +130,61 @@ mod tests {
     }
 
     /// A step's wall density is ρ_w + dt Σ_f m_f (u_w − v_f)·∇_w W_wf over every fluid particle
-    /// within the support (a brute-force sum, no neighbour list), floored at ρ0; after 60 steps
-    /// of still water some walls are above the floor and the rate is not zero everywhere.
+    /// within the support (a brute-force sum, no neighbour list), floored at ρ0, and v_w is
+    /// the wall's velocity (no-slip) or the W-weighted mean of the fluid's (free-slip); after
+    /// 60 steps of still water some walls are above the floor and the rate is not zero.
     #[test]
     fn the_wall_density_follows_continuity_from_the_fluid() {
         let comm = SerialComm::new();
-        let mut s = Simulation::<2>::new(&tank("dynamic"), &comm).unwrap();
-        for _ in 0..60 {
-            s.advance(&comm).unwrap();
-        }
-        let dt = 1e-4;
-        let c = s.model.wall_context(dt);
-        let k = &s.model.kernel;
-        let all: Vec<u32> = (0..s.p.n_owned as u32).collect();
-        let (mut moved, mut above) = (0, 0);
-        for &w in &walls(&s) {
-            let near = all
-                .iter()
-                .copied()
-                .filter(|&f| (s.p.x[w] - s.p.x[f as usize]).norm() < k.support);
-            let (pw, rho, vw) = super::integrated(&s.p, w, near, &c, crate::kernel::sizes::OneKernel(*k));
-            let mut rate = 0.0;
-            for f in (0..s.p.n_owned).filter(|&f| s.p.kind[f].is_fluid()) {
-                let x = s.p.x[w] - s.p.x[f];
-                let r = x.norm();
-                if r < k.support {
-                    rate += s.p.mass[f] * k.dw_dr(r) / r * (s.p.v[w] - s.p.v[f]).dot(&x);
-                }
+        for slip in ["no_slip", "free_slip"] {
+            let mut s = Simulation::<2>::new(&tank("dynamic", slip), &comm).unwrap();
+            for _ in 0..60 {
+                s.advance(&comm).unwrap();
             }
-            let want = (s.p.rho[w] + dt * rate).max(1000.0);
+            let dt = 1e-4;
+            let c = s.model.wall_context(dt);
+            let k = &s.model.kernel;
+            let all: Vec<u32> = (0..s.p.n_owned as u32).collect();
+            let (mut moved, mut above) = (0, 0);
+            for &w in &walls(&s) {
+                let near = all
+                    .iter()
+                    .copied()
+                    .filter(|&f| (s.p.x[w] - s.p.x[f as usize]).norm() < k.support);
+                let kern = crate::kernel::sizes::OneKernel(*k);
+                let (pw, rho, vw) = super::integrated(&s.p, w, near, &c, kern);
+                let (mut rate, mut sw, mut sv) = (0.0, 0.0, crate::Vector::<2>::zeros());
+                for f in (0..s.p.n_owned).filter(|&f| s.p.kind[f].is_fluid()) {
+                    let x = s.p.x[w] - s.p.x[f];
+                    let r = x.norm();
+                    if r < k.support {
+                        rate += s.p.mass[f] * k.dw_dr(r) / r * (s.p.v[w] - s.p.v[f]).dot(&x);
+                        sw += k.w(r);
+                        sv += s.p.v[f] * k.w(r);
+                    }
+                }
+                let want = (s.p.rho[w] + dt * rate).max(1000.0);
+                assert!(
+                    (rho - want).abs() <= 1e-12 * want,
+                    "{slip} wall {w}: {rho} against {want}"
+                );
+                assert_eq!(pw, c.materials[0].pressure(rho, 0.0));
+                let want_v = if slip == "no_slip" || sw == 0.0 {
+                    s.p.v[w]
+                } else {
+                    sv / sw
+                };
+                assert!(
+                    (vw - want_v).norm() <= 1e-12 * (1.0 + want_v.norm()),
+                    "{slip} wall {w}"
+                );
+                moved += usize::from(rate != 0.0);
+                above += usize::from(rho > 1000.0);
+            }
             assert!(
-                (rho - want).abs() <= 1e-12 * want,
-                "wall {w}: {rho} against {want}"
+                moved > 50 && above > 50,
+                "{slip}: rates {moved}, above ρ0 {above}"
             );
-            assert_eq!(pw, c.materials[0].pressure(rho, 0.0));
-            assert_eq!(vw, s.p.v[w]);
-            moved += usize::from(rate != 0.0);
-            above += usize::from(rho > 1000.0);
         }
-        assert!(moved > 50 && above > 50, "rates {moved}, above ρ0 {above}");
     }
 }

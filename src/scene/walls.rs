@@ -28,7 +28,7 @@ pub enum WallMethod {
     /// Mirror (image) particles across the inner faces of a container; no wall particles.
     Mirror,
     /// Fixed particles whose density follows the continuity equation and pressure the EOS
-    /// (Crespo et al. 2007, DualSPHysics's dynamic boundary); no-slip.
+    /// (Crespo et al. 2007, DualSPHysics's dynamic boundary).
     Dynamic,
     /// Test only (`crate::boundary::toy`): dummy-like particles holding the Shepard mean of
     /// the fluid pressure round them, with no body-force term; proves that a wall method is
@@ -283,12 +283,6 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
             }
         }
         validate_motion(w, &k, d)?;
-        if w.method == WallMethod::Dynamic && w.slip == Slip::FreeSlip {
-            return err(
-                format!("{k}.slip"),
-                "a dynamic wall shows the fluid its own velocity (DualSPHysics's dynamic boundary),                  so it is no-slip: remove slip = \"free_slip\", or use method = \"dummy\" for a                  free-slip wall",
-            );
-        }
         if w.no_slip == crate::scene::NoSlipMethod::Morris
             && (!matches!(w.method, WallMethod::Dummy | WallMethod::Mirror)
                 || w.slip != crate::scene::Slip::NoSlip)
