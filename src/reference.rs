@@ -221,7 +221,8 @@ impl Tracker {
             }
             Some(Reference::Hydrostatic { surface, bottom }) => {
                 let g = sim.model.g.norm();
-                let rho0 = sim.model.materials[0].rho0();
+                // the fluid's own ρ0 (a wall's or another material listed first would not do)
+                let rho0_of = |i: usize| sim.model.materials[sim.p.mat[i] as usize].rho0();
                 let h = surface - bottom;
                 let mid = bottom + 0.5 * h;
                 let mut ep: f64 = 0.0;
@@ -234,6 +235,7 @@ impl Tracker {
                     }
                     let y = sim.p.x[i][D - 1];
                     if y < mid {
+                        let rho0 = rho0_of(i);
                         let exact = rho0 * g * (surface - y);
                         ep = ep.max((sim.p.p[i] - exact).abs() / (rho0 * g * h));
                     }

@@ -351,3 +351,33 @@ fn mirror_walls_keep_a_jet_in_the_corner_inside_the_box() {
     assert_eq!(fluid, 400);
     assert!(one == run("3"), "final.csv differs on 3 ranks");
 }
+
+/// A wall that its motion law carries out of the domain stops the run naming the wall particle
+/// and the motion, not the fluid's outflow (which never removes walls): a paddle rising at
+/// 2 m/s in the still tank leaves the top of the domain in about 0.1 s.
+#[test]
+fn a_wall_carried_out_of_the_domain_is_named_as_a_wall() {
+    let dir = common::temp_dir("wall-out");
+    let text = std::fs::read_to_string(common::repo_path("inputs/hydrostatic_2d.toml")).unwrap()
+        + "\n[[wall]]\nname = \"paddle\"\nshape = \"block\"\nmin = [0.4, 0.6]\nmax = [0.44, 0.7]\n\
+           motion = { law = \"constant_velocity\", velocity = [0.0, 2.0] }\n";
+    let scene = dir.join("paddle.toml");
+    std::fs::write(&scene, text).unwrap();
+    let out = dir.join("run");
+    let (code, _, err) = hsph(&[
+        "run",
+        scene.to_str().unwrap(),
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "time.t_end=0.3",
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("is a wall particle that its motion law carried out of the domain"),
+        "{err}"
+    );
+    assert!(!err.contains("outflow = \"remove\")"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

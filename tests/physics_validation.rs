@@ -172,6 +172,32 @@ fn a_tank_on_dynamic_walls_holds_still_water() {
     assert_eq!(ew, 0.0, "fluid particles inside or beyond a wall");
 }
 
+/// A material listed before the water (air) changes neither the tank's walls (they take the
+/// fluid's material) nor the hydrostatic reference (it reads each fluid particle's ρ0): the
+/// errors equal the plain tank's, where air's ρ0 once gave 1000/1.2 × the error.
+#[test]
+fn a_material_listed_first_changes_neither_walls_nor_reference() {
+    let sets = ["time.t_end=0.05".to_string()];
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("inputs/hydrostatic_2d.toml"))
+            .unwrap();
+    let air = "[[material]]\nname = \"air\"\nrho0 = 1.2\nc0 = 35.0\neos = \"tait\"\ngamma = 7.0\n\n";
+    let with_air = text.replacen("[[material]]", &format!("{air}[[material]]"), 1);
+    let load = |t: &str| {
+        hsph::scene::load_scene_str(t, Path::new("t.toml"), "t", &sets)
+            .unwrap()
+            .0
+    };
+    let plain = run(&load(&text), "first-material-plain");
+    let aired = run(&load(&with_air), "first-material-air");
+    assert!(
+        plain.errors["pressure_linf_below_mid_depth"] < 0.05,
+        "{:?}",
+        plain.errors
+    );
+    assert_eq!(plain.errors, aired.errors);
+}
+
 /// The benchmark and 3D scenes load and have the particle counts their comments state.
 #[test]
 fn dam_break_scenes_have_the_documented_particle_counts() {

@@ -5,8 +5,10 @@
 //! so its pressure, which pushes it back; the fluid's own sums treat the wall particle as a
 //! neighbour with that p and ρ (`crate::physics::fluid`). One layer holds the fluid where
 //! dummy walls need the kernel's reach (three at h = √3 dx in 3D), so a tank costs a third of
-//! the wall particles, at the price of a gap of about h between the water and the wall and a
-//! pressure that is not extrapolated from the fluid.
+//! the wall particles (DualSPHysics's layout), but the row beside it lacks part of its support:
+//! in the still tank it sinks half a spacing onto the wall and its pressure is far off. In the
+//! rows the support reaches the still tank reads its pressure better than on dummy walls
+//! (docs/methods.md §2).
 //!
 //! Over a step of dt (s), for wall particle w and its fluid neighbours f, x_wf = x_w − x_f:
 //!   dρ_w/dt = Σ_f m_f (u_w − v_f) · ∇_w W_wf,   ∇_w W_wf = (1/r ∂W/∂r) x_wf   (kg m⁻³ s⁻¹),
@@ -15,10 +17,11 @@
 //! boundary density the same way). The velocity the fluid sees in its viscous terms is
 //! v_w = u_w on a no-slip wall (DualSPHysics's: its artificial viscosity acts against the wall)
 //! and on a free-slip wall the kernel-weighted mean of the fluid velocities round it,
-//! ṽ_w = Σ_f v_f W_wf / Σ_f W_wf (m/s), as for free-slip dummy walls. At the set-up (dt = 0) a wall starts from the density
-//! of Adami's extrapolated pressure (`super::dummy`), floored at ρ0: with `hydrostatic = true`
-//! the wall holds the water's weight from the first step instead of being compressed into it
-//! (a restart does not run the set-up and keeps the checkpoint's ρ_w).
+//! ṽ_w = Σ_f v_f W_wf / Σ_f W_wf (m/s), as for free-slip dummy walls. At the set-up (dt = 0)
+//! a wall starts from the density of Adami's extrapolated pressure (`super::dummy`), floored
+//! at ρ0: with `hydrostatic = true` the wall holds the water's weight from the first step
+//! instead of being compressed into it (a restart does not run the set-up and keeps the
+//! checkpoint's ρ_w).
 
 use super::WallContext;
 use crate::particles::Particles;

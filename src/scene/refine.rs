@@ -441,7 +441,7 @@ pub fn region_warnings<const D: usize>(s: &Scene) -> Vec<String> {
             };
             let meets = (0..D).all(|a| lo[a] < r.max[a] && r.min[a] < hi[a]);
             let inside = (0..D).all(|a| w.min[a] <= r.min[a] && r.max[a] <= w.max[a]);
-            w.method == WallMethod::Dummy
+            matches!(w.method, WallMethod::Dummy | WallMethod::Dynamic)
                 && r.applies_to(&w.name)
                 && meets
                 && !(w.shape == WallShape::Container && inside)
@@ -610,9 +610,11 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
     check_overlaps(s)
 }
 
-/// The names of the bodies a region may refine: fluids, solids and dummy walls.
+/// The names of the bodies a region may refine: fluids, solids and dummy and dynamic walls
+/// (particles of the dummy kind, which the set-up refines).
 fn refinable(s: &Scene) -> Vec<String> {
-    let dummy = s.walls.iter().filter(|w| w.method == super::WallMethod::Dummy);
+    use super::WallMethod::{Dummy, Dynamic};
+    let dummy = s.walls.iter().filter(|w| matches!(w.method, Dummy | Dynamic));
     (s.fluids.iter().chain(&s.solids).map(|b| b.name.clone()))
         .chain(dummy.map(|w| w.name.clone()))
         .collect()

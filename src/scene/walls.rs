@@ -147,7 +147,8 @@ pub struct WallBody {
     /// `adami` (default) or `morris` (Morris et al. 1997's distance ratio).
     #[serde(default, skip_serializing_if = "NoSlipMethod::is_adami")]
     pub no_slip: NoSlipMethod,
-    /// Material whose EOS converts extrapolated pressure to density (default: the first).
+    /// Material whose EOS converts the wall's pressure to density and back (default: the first
+    /// fluid body's, else the first material).
     #[serde(default)]
     pub material: String,
     /// Surface velocity (m/s) seen by the fluid while the particles stay put (a sliding lid or
@@ -203,6 +204,12 @@ fn default_slip() -> Slip {
 pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> Result<()> {
     let d = s.dimension;
     let dx = s.discretisation.dx;
+    // a wall's EOS is the fluid's beside it: the first fluid body's material, not the first
+    // material listed (air or steel listed first gave a water tank's walls their EOS)
+    let default_material = s
+        .fluids
+        .first()
+        .map_or_else(|| mat_names.list[0].clone(), |f| f.material.clone());
     for (i, w) in s.walls.iter_mut().enumerate() {
         let k = format!("wall[{i}]");
         check_vec(&mut w.min, d, &format!("{k}.min"), false)?;
@@ -211,7 +218,7 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
         check_vec(&mut w.velocity, d, &format!("{k}.velocity"), true)?;
         speed_at_most(&w.velocity, &format!("{k}.velocity"))?;
         if w.material.is_empty() {
-            w.material = mat_names.list[0].clone();
+            w.material = default_material.clone();
         } else if !mat_names.contains(&w.material) {
             return unknown_material(&k, &w.material, mat_names);
         }
@@ -254,14 +261,16 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
                         _ => (support / dx - 1e-9).ceil().max(1.0) as usize,
                     };
                 }
+                // the layers built: a dummy or dynamic wall's beyond the support's reach are not
+                let built = w.built_layers(support, dx) as f64;
                 let mut lo = w.min.clone();
                 let mut hi = w.max.clone();
                 for a in 0..d {
                     if !w.open.iter().any(|o| face(o, d) == Some((a, false))) {
-                        lo[a] -= w.layers as f64 * dx;
+                        lo[a] -= built * dx;
                     }
                     if !w.open.iter().any(|o| face(o, d) == Some((a, true))) {
-                        hi[a] += w.layers as f64 * dx;
+                        hi[a] += built * dx;
                     }
                 }
                 if w.method != WallMethod::Mirror {
@@ -360,4 +369,45 @@ fn validate_motion(w: &mut crate::scene::WallBody, k: &str, d: usize) -> Result<
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    /// The still tank with `extra` inserted before its material and `sets` applied.
+    fn tank(extra: &str, sets: &[&str]) -> crate::error::Result<crate::scene::Scene> {
+        let text = include_str!("../../inputs/hydrostatic_2d.toml")
+            .replace("[[material]]", &format!("{extra}[[material]]"));
+        let sets: Vec<String> = sets.iter().map(|x| x.to_string()).collect();
+        crate::scene::load_scene_str(&text, std::path::Path::new("t.toml"), "t", &sets).map(|s| s.0)
+    }
+
+    /// A wall without `material` takes the first fluid body's, not the first material listed
+    /// (air listed first gave the water tank's walls air's EOS, and the run blew up).
+    #[test]
+    fn a_wall_takes_the_fluids_material_by_default() {
+        let air = "[[material]]\nname = \"air\"\nrho0 = 1.2\nc0 = 35.0\neos = \"tait\"\ngamma = 7.0\n\n";
+        let s = tank(air, &[]).unwrap();
+        assert_eq!(s.materials[0].name, "air");
+        assert_eq!(s.walls[0].material, "water");
+        let s = tank(air, &["wall.0.material=\"air\""]).unwrap();
+        assert_eq!(s.walls[0].material, "air", "an explicit material stays");
+    }
+
+    /// `layers` beyond the support's reach on a dummy or dynamic container is built as the
+    /// rows in reach, and the domain is checked against those (it was refused as outside the
+    /// domain, though those rows would never be built); a repulsive wall builds them all.
+    #[test]
+    fn layers_beyond_the_reach_are_checked_as_built() {
+        for method in ["dummy", "dynamic"] {
+            let m = format!("wall.0.method=\"{method}\"");
+            let s = tank("", &[&m, "wall.0.layers=10"]).unwrap_or_else(|e| panic!("{method}: {e}"));
+            let (support, dx) = (s.discretisation.support(), s.discretisation.dx);
+            assert_eq!(
+                s.walls[0].built_layers(support, dx),
+                super::rows_reaching(support, dx)
+            );
+        }
+        let e = tank("", &["wall.0.method=\"repulsive\"", "wall.0.layers=10"]).unwrap_err();
+        assert!(e.to_string().contains("outside the domain"), "{e}");
+    }
 }

@@ -407,6 +407,7 @@ impl<const D: usize> Simulation<D> {
             Some(i) if !self.p.x[i].iter().all(|c| c.is_finite()) => {
                 Err(self.particle_error(i, "has a non-finite position (the run blew up: try a smaller time.cfl, more artificial viscosity or density diffusion)"))
             }
+            Some(i) if self.p.kind[i].is_wall() => Err(self.particle_error(i, "is a wall particle that its motion law carried out of the domain (outflow never removes wall particles): enlarge domain.min/domain.max or shorten the motion")),
             Some(i) => Err(self.particle_error(i, "left the domain (enlarge domain.min/domain.max, check the walls, or let such particles go with domain.outflow = \"remove\")")),
             None => Ok(()),
         }
