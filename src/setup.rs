@@ -127,8 +127,9 @@ enum Claim<const D: usize> {
         hydrostatic: Option<Vector<D>>,
         top: f64,
         /// The other fluid bodies whose box reaches above this one's top (hydrostatic bodies
-        /// only) with their ρ0 (kg/m³): the fluid that can rest on it.
-        over: Vec<(crate::scene::FluidBody, f64)>,
+        /// only) with their ρ0 (kg/m³): the fluid that can rest on it; and the wall blocks
+        /// (ρ0 `None`), which water above and around a submerged one bridges.
+        over: Vec<(crate::scene::FluidBody, Option<f64>)>,
         /// Contact distance (m): half the lattice spacing.
         gap: f64,
         fields: Box<BodyFields<D>>,
@@ -159,18 +160,21 @@ fn top_along<const D: usize>(f: &crate::scene::FluidBody, g: &Vector<D>) -> f64 
 /// Σ ρ0_k L_k (kg/m²) of the fluid bodies `over` stacked on a body above the site `x`: along
 /// the ray x + s·`up` from the body's top (s = `top`), each body whose column starts within
 /// `gap` of where the last one ended adds its length L_k there, until a gap (a body that
-/// does not touch the stack, e.g. a drop above a pool, weighs nothing on it). Zero without.
+/// does not touch the stack, e.g. a drop above a pool, weighs nothing on it). A wall block on
+/// the ray (ρ0 `None`) is bridged: if fluid rests on it, its length counts at that fluid's
+/// ρ0, the pressure of the water beside a submerged body at its depth; with nothing on it, it
+/// ends the stack. Zero without.
 fn overburden<const D: usize>(
     x: &Vector<D>,
     up: &Vector<D>,
     top: f64,
-    over: &[(crate::scene::FluidBody, f64)],
+    over: &[(crate::scene::FluidBody, Option<f64>)],
     gap: f64,
 ) -> f64 {
     if over.is_empty() {
         return 0.0;
     }
-    let mut cols: Vec<(f64, f64, f64)> = over
+    let mut cols: Vec<(f64, f64, Option<f64>)> = over
         .iter()
         .filter_map(|(o, rho0)| {
             o.chord(x.as_slice(), up.as_slice())
@@ -178,13 +182,21 @@ fn overburden<const D: usize>(
         })
         .collect();
     cols.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let (mut reach, mut load) = (top, 0.0);
+    // `bridged`: the length of wall crossed since the last fluid (m)
+    let (mut reach, mut load, mut bridged) = (top, 0.0, 0.0);
     for (s0, s1, rho0) in cols {
         if s0 > reach + gap {
             break;
         }
         if s1 > reach {
-            load += rho0 * (s1 - s0.max(reach));
+            let length = s1 - s0.max(reach);
+            match rho0 {
+                Some(rho0) => {
+                    load += rho0 * (length + bridged);
+                    bridged = 0.0;
+                }
+                None => bridged += length,
+            }
             reach = s1;
         }
     }
@@ -235,6 +247,27 @@ impl<'s, const D: usize> SiteSource<'s, D> {
         let g = Vector::<D>::from_fn(|a, _| s.physics.body_force[a]);
         let gmag = g.norm();
         let mut sources = Vec::new();
+        // wall blocks, as block bodies for the overburden's rays (a container holds the water
+        // from outside and is never above it)
+        let wall_blocks: Vec<crate::scene::FluidBody> = (s.walls.iter())
+            .filter(|w| w.shape == WallShape::Block)
+            .map(|w| crate::scene::FluidBody {
+                name: w.name.clone(),
+                material: String::new(),
+                shape: crate::scene::BodyShape::Block,
+                min: w.min.clone(),
+                max: w.max.clone(),
+                centre: Vec::new(),
+                radius: 0.0,
+                axis: None,
+                length: 0.0,
+                velocity: Vec::new(),
+                hydrostatic: false,
+                velocity_field: None,
+                pressure_field: None,
+                clamped: false,
+            })
+            .collect();
         let bodies = s
             .fluids
             .iter()
@@ -255,7 +288,8 @@ impl<'s, const D: usize> SiteSource<'s, D> {
             let over = match !solid && f.hydrostatic && gmag > 0.0 {
                 true => (s.fluids.iter().enumerate())
                     .filter(|&(k, o)| k != b && top_along(o, &g) < top)
-                    .map(|(_, o)| (o.clone(), materials[mat_index(&o.material) as usize].rho0()))
+                    .map(|(_, o)| (o.clone(), Some(materials[mat_index(&o.material) as usize].rho0())))
+                    .chain(wall_blocks.iter().map(|w| (w.clone(), None)))
                     .collect(),
                 false => Vec::new(),
             };

@@ -350,3 +350,46 @@ fn hydrostatic_bodies_carry_the_fluid_stacked_on_them() {
         );
     }
 }
+
+/// `hydrostatic = true` round a submerged wall block: the water under the block starts with
+/// the pressure of its depth below the free surface, as the water beside it does, not of its
+/// depth below the block (an outside user's tank: 1 864 Pa under the block where 4 807 Pa was
+/// due, and the force on the block pointed down at t = 0). The tank of `hydrostatic_2d.toml`
+/// with a dummy block at 0.4–0.6 × 0.2–0.3 m and the water as four blocks round it: every
+/// fluid particle's pressure within 1e-9 of ρ0 g (0.5 m − y).
+#[test]
+fn water_under_a_submerged_wall_starts_from_its_depth_below_the_surface() {
+    use hsph::comm::serial::SerialComm;
+    use hsph::scene::load_scene_str;
+    use hsph::sim::Simulation;
+    use std::path::Path;
+    let base = std::fs::read_to_string(common::repo_path("inputs/hydrostatic_2d.toml")).unwrap();
+    let one_block = "[[fluid]]\nname = \"water\"\nmaterial = \"water\"\nmin = [0.0, 0.0]\nmax = [1.0, 0.5]\nhydrostatic = true\n";
+    assert!(
+        base.contains(one_block),
+        "hydrostatic_2d.toml's fluid block moved"
+    );
+    let block = |name: &str, (x0, y0): (f64, f64), (x1, y1): (f64, f64)| {
+        format!("[[fluid]]\nname = \"{name}\"\nmaterial = \"water\"\nmin = [{x0:?}, {y0:?}]\nmax = [{x1:?}, {y1:?}]\nhydrostatic = true\n")
+    };
+    let around = block("bottom", (0.0, 0.0), (1.0, 0.2))
+        + &block("left", (0.0, 0.2), (0.4, 0.3))
+        + &block("right", (0.6, 0.2), (1.0, 0.3))
+        + &block("top", (0.0, 0.3), (1.0, 0.5));
+    let text = base.replace(one_block, &around)
+        + "\n[[wall]]\nname = \"obstacle\"\nshape = \"block\"\nmin = [0.4, 0.2]\nmax = [0.6, 0.3]\n";
+    let (scene, _) = load_scene_str(&text, Path::new("t.toml"), "t", &[]).unwrap();
+    let sim = Simulation::<2>::new(&scene, &SerialComm::new()).unwrap();
+    let mut under = 0;
+    for i in (0..sim.p.n_owned).filter(|&i| sim.p.kind[i].is_fluid()) {
+        let (x, y) = (sim.p.x[i][0], sim.p.x[i][1]);
+        let exact = 1000.0 * 9.81 * (0.5 - y);
+        assert!(
+            (sim.p.p[i] - exact).abs() <= 1e-9 * 4905.0,
+            "particle at ({x}, {y}): {} Pa, {exact} Pa due",
+            sim.p.p[i]
+        );
+        under += usize::from((0.4..0.6).contains(&x) && y < 0.2);
+    }
+    assert!(under > 50, "only {under} particles under the block");
+}
