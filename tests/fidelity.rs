@@ -381,3 +381,24 @@ fn a_wall_carried_out_of_the_domain_is_named_as_a_wall() {
     assert!(!err.contains("outflow = \"remove\")"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `hsph check` names each wall's method, rows built, slip and material, and warns about a
+/// dynamic wall thinner than the support's rows.
+#[test]
+fn check_describes_the_walls() {
+    let (code, out, err) = hsph(&[
+        "check",
+        "inputs/hydrostatic_2d.toml",
+        "--set",
+        "wall[0].method=\"dynamic\"",
+        "--set",
+        "wall[0].layers=1",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let all = out + &err;
+    assert!(
+        all.contains("wall[0] `tank`: dynamic, 1 layer(s) outside, free-slip, material `water`"),
+        "{all}"
+    );
+    assert!(all.contains("is a dynamic wall in 1 of the 3 rows"), "{all}");
+}

@@ -167,6 +167,36 @@ pub fn check_report(scene: &Scene) -> Result<String> {
     crate::with_dim!(scene.dimension, D => check_dim::<D>(scene))
 }
 
+/// One line per wall body: method, rows built, slip and the material of its EOS.
+fn wall_lines(scene: &Scene) -> Vec<String> {
+    let (support, dx) = (scene.discretisation.support(), scene.discretisation.dx);
+    (scene.walls.iter().enumerate())
+        .map(|(i, w)| {
+            let method = serde_json::to_value(w.method)
+                .map_or(String::new(), |v| v.as_str().unwrap_or("").to_string());
+            let slip = if w.slip == crate::scene::Slip::NoSlip {
+                "no-slip"
+            } else {
+                "free-slip"
+            };
+            let rows = match (w.shape, w.method) {
+                (_, crate::scene::WallMethod::Mirror) => "images, no particles".to_string(),
+                (crate::scene::WallShape::Container, _) => {
+                    format!("{} layer(s) outside", w.built_layers(support, dx))
+                }
+                (crate::scene::WallShape::Block, _) => match w.shell_rows(support, dx) {
+                    Some(r) => format!("a shell {r} row(s) deep"),
+                    None => "solid".to_string(),
+                },
+            };
+            format!(
+                "wall[{i}] `{}`: {method}, {rows}, {slip}, material `{}`",
+                w.name, w.material
+            )
+        })
+        .collect()
+}
+
 pub(super) fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
     use crate::particles::{Kind, Particles};
     use std::fmt::Write;
@@ -215,6 +245,9 @@ pub(super) fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
     }
     for warning in crate::scene::warnings::<D>(scene) {
         let _ = writeln!(w, "  warning: {warning}");
+    }
+    for line in wall_lines(scene) {
+        let _ = writeln!(w, "walls       {line}");
     }
     let _ = writeln!(w, "ghosts      {} (periodic and mirror images)", sim.halo.len());
     let per = sim.nl.entries() as f64 / n.max(1) as f64;
