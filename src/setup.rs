@@ -157,6 +157,30 @@ fn top_along<const D: usize>(f: &crate::scene::FluidBody, g: &Vector<D>) -> f64 
     }
 }
 
+/// The scene's wall blocks as block bodies, for the overburden's rays (a container holds the
+/// water from outside and is never above it).
+fn wall_blocks(s: &Scene) -> Vec<crate::scene::FluidBody> {
+    (s.walls.iter())
+        .filter(|w| w.shape == WallShape::Block)
+        .map(|w| crate::scene::FluidBody {
+            name: w.name.clone(),
+            material: String::new(),
+            shape: crate::scene::BodyShape::Block,
+            min: w.min.clone(),
+            max: w.max.clone(),
+            centre: Vec::new(),
+            radius: 0.0,
+            axis: None,
+            length: 0.0,
+            velocity: Vec::new(),
+            hydrostatic: false,
+            velocity_field: None,
+            pressure_field: None,
+            clamped: false,
+        })
+        .collect()
+}
+
 /// Σ ρ0_k L_k (kg/m²) of the fluid bodies `over` stacked on a body above the site `x`: along
 /// the ray x + s·`up` from the body's top (s = `top`), each body whose column starts within
 /// `gap` of where the last one ended adds its length L_k there, until a gap (a body that
@@ -247,27 +271,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
         let g = Vector::<D>::from_fn(|a, _| s.physics.body_force[a]);
         let gmag = g.norm();
         let mut sources = Vec::new();
-        // wall blocks, as block bodies for the overburden's rays (a container holds the water
-        // from outside and is never above it)
-        let wall_blocks: Vec<crate::scene::FluidBody> = (s.walls.iter())
-            .filter(|w| w.shape == WallShape::Block)
-            .map(|w| crate::scene::FluidBody {
-                name: w.name.clone(),
-                material: String::new(),
-                shape: crate::scene::BodyShape::Block,
-                min: w.min.clone(),
-                max: w.max.clone(),
-                centre: Vec::new(),
-                radius: 0.0,
-                axis: None,
-                length: 0.0,
-                velocity: Vec::new(),
-                hydrostatic: false,
-                velocity_field: None,
-                pressure_field: None,
-                clamped: false,
-            })
-            .collect();
+        let wall_blocks = wall_blocks(s);
         let bodies = s
             .fluids
             .iter()

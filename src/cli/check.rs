@@ -167,6 +167,34 @@ pub fn check_report(scene: &Scene) -> Result<String> {
     crate::with_dim!(scene.dimension, D => check_dim::<D>(scene))
 }
 
+/// The `particles` line: the count by kind, dynamic walls (particles of the dummy kind) told
+/// apart by their body's method.
+fn particles_line<const D: usize>(scene: &Scene, p: &crate::particles::Particles<D>) -> String {
+    use crate::particles::Kind;
+    let n = p.n_owned;
+    let count = |k: Kind| p.kind[..n].iter().filter(|&&x| x == k).count();
+    let (fluid, rep) = (count(Kind::Fluid), count(Kind::Repulsive));
+    let dynamic = (0..n)
+        .filter(|&i| {
+            p.kind[i] == Kind::Dummy
+                && scene.walls[p.body[i] as usize].method == crate::scene::WallMethod::Dynamic
+        })
+        .count();
+    let dummy = count(Kind::Dummy) - dynamic;
+    let (solid, clamped) = (count(Kind::Solid), count(Kind::Clamped));
+    let solids = if solid + clamped > 0 {
+        format!(" + {solid} solid + {clamped} clamped solid")
+    } else {
+        String::new()
+    };
+    let dynamic = if dynamic > 0 {
+        format!(" + {dynamic} dynamic wall")
+    } else {
+        String::new()
+    };
+    format!("particles   {n} = {fluid} fluid + {dummy} dummy wall{dynamic} + {rep} repulsive wall{solids}")
+}
+
 /// One line per wall body: method, rows built, slip and the material of its EOS.
 fn wall_lines(scene: &Scene) -> Vec<String> {
     let (support, dx) = (scene.discretisation.support(), scene.discretisation.dx);
@@ -198,21 +226,10 @@ fn wall_lines(scene: &Scene) -> Vec<String> {
 }
 
 pub(super) fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
-    use crate::particles::{Kind, Particles};
+    use crate::particles::Particles;
     use std::fmt::Write;
     let sim = crate::sim::Simulation::<D>::new(scene, &crate::comm::serial::SerialComm::new())?;
     let n = sim.p.n_owned;
-    let count = |k: Kind| sim.p.kind[..n].iter().filter(|&&x| x == k).count();
-    let (fluid, rep) = (count(Kind::Fluid), count(Kind::Repulsive));
-    // dynamic walls' particles are of the dummy kind: told apart by their body's method
-    let dynamic = (0..n)
-        .filter(|&i| {
-            sim.p.kind[i] == Kind::Dummy
-                && scene.walls[sim.p.body[i] as usize].method == crate::scene::WallMethod::Dynamic
-        })
-        .count();
-    let dummy = count(Kind::Dummy) - dynamic;
-    let (solid, clamped) = (count(Kind::Solid), count(Kind::Clamped));
     let mut s = String::new();
     let w = &mut s;
     let _ = writeln!(
@@ -222,20 +239,7 @@ pub(super) fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
         D,
         scene.description.trim()
     );
-    let solids = if solid + clamped > 0 {
-        format!(" + {solid} solid + {clamped} clamped solid")
-    } else {
-        String::new()
-    };
-    let dynamic = if dynamic > 0 {
-        format!(" + {dynamic} dynamic wall")
-    } else {
-        String::new()
-    };
-    let _ = writeln!(
-        w,
-        "particles   {n} = {fluid} fluid + {dummy} dummy wall{dynamic} + {rep} repulsive wall{solids}"
-    );
+    let _ = writeln!(w, "{}", particles_line(scene, &sim.p));
     let _ = writeln!(
         w,
         "bodies      as built on the lattice (each particle fills a cell of dx)"

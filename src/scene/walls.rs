@@ -236,25 +236,7 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
         }
         match w.shape {
             WallShape::Container => {
-                let axes = ["x", "y", "z"];
-                for (a, axis) in axes.iter().enumerate().take(d) {
-                    let closed: Vec<String> = [(false, "-"), (true, "+")]
-                        .iter()
-                        .filter(|(up, _)| !w.open.iter().any(|o| face(o, d) == Some((a, *up))))
-                        .map(|(_, sign)| format!("\"{axis}{sign}\""))
-                        .collect();
-                    if s.domain.periodic[a] && !closed.is_empty() {
-                        return err(
-                            format!("{k}.open"),
-                            format!(
-                                "the container closes face(s) {} across the periodic axis {axis}: \
-                                 fluid could never cross the periodic seam; open them (open = [\"{axis}-\", \"{axis}+\"]) \
-                                 or make axis {axis} non-periodic (domain.periodic)",
-                                closed.join(", ")
-                            ),
-                        );
-                    }
-                }
+                seams_open(w, &k, &s.domain.periodic, d)?;
                 if w.layers == 0 {
                     w.layers = match w.method {
                         WallMethod::Dummy | WallMethod::Dynamic => rows_reaching(support, dx).max(1),
@@ -301,6 +283,30 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
                 "`morris` sets the velocity a no-slip dummy or mirror wall shows the fluid: it \
                  needs method = \"dummy\" or \"mirror\" and slip = \"no_slip\"; remove it, or use \
                  no_slip = \"adami\"",
+            );
+        }
+    }
+    Ok(())
+}
+
+/// A container across a periodic axis must leave both faces on it open: fluid could never
+/// cross the seam.
+fn seams_open(w: &crate::scene::WallBody, k: &str, periodic: &[bool], d: usize) -> Result<()> {
+    for (a, axis) in ["x", "y", "z"].iter().enumerate().take(d) {
+        let closed: Vec<String> = [(false, "-"), (true, "+")]
+            .iter()
+            .filter(|(up, _)| !w.open.iter().any(|o| face(o, d) == Some((a, *up))))
+            .map(|(_, sign)| format!("\"{axis}{sign}\""))
+            .collect();
+        if periodic[a] && !closed.is_empty() {
+            return err(
+                format!("{k}.open"),
+                format!(
+                    "the container closes face(s) {} across the periodic axis {axis}: \
+                     fluid could never cross the periodic seam; open them (open = [\"{axis}-\", \"{axis}+\"]) \
+                     or make axis {axis} non-periodic (domain.periodic)",
+                    closed.join(", ")
+                ),
             );
         }
     }
