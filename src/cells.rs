@@ -18,7 +18,9 @@ use rayon::prelude::*;
 
 mod half;
 mod sized;
+mod verlet;
 pub use half::{HalfPairs, HalfView, Stored, Window};
+pub use verlet::{Kept, Near};
 
 /// The global cell grid.
 #[derive(Debug, Clone)]
@@ -395,6 +397,9 @@ pub struct NeighbourList {
     half: HalfPairs,
     /// True if the last build made half lists.
     has_half: bool,
+    /// Verlet lists (`verlet`): the support squared (m²) within which a pass keeps a listed
+    /// pair of the current positions; 0 for lists built every step.
+    within2: f64,
 }
 
 /// Particles per block of the parallel neighbour-list build.
@@ -754,6 +759,7 @@ impl NeighbourList {
     pub fn release(&mut self) {
         *self = NeighbourList {
             lean: self.lean,
+            within2: self.within2,
             reach_per_h: self.reach_per_h,
             no_sub_cells: self.no_sub_cells,
             ..Default::default()

@@ -303,7 +303,7 @@ fn the_id_counter_is_checkpointed_and_checked() {
     let m: hsph::checkpoint::Manifest = serde_json::from_str(&good).unwrap();
     let bound = common::id_bound_2d(SCENE);
     assert_eq!(m.next_id, Some(bound));
-    let (p, _) = hsph::checkpoint::particles::<2>(&ck, &m).unwrap();
+    let (p, _, _) = hsph::checkpoint::particles::<2>(&ck, &m).unwrap();
     let largest = *p.id.iter().max().unwrap();
     assert!(largest + 1 < bound, "the lattice has sites beyond the bodies");
     // the continued runs write no checkpoint: the one read stays as it is

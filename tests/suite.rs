@@ -44,3 +44,4 @@ mod solids;
 mod solitary;
 mod splitting;
 mod validate;
+mod verlet;

@@ -4,7 +4,8 @@
 //! Layout: `<run>/checkpoints/step-<N>/part-<rank>.bin` (one per rank: its owned particles
 //! sorted by id — every field of the particle table through the wire format, then the
 //! acceleration a_n, which the next half kick needs and which cannot be recomputed because it
-//! was evaluated with v_{n−½}) and `manifest.json` (format, code version, step, t, dt, the
+//! was evaluated with v_{n−½}, and with Verlet lists the positions at the last neighbour build,
+//! from which a restart lists the same pairs in the same order) and `manifest.json` (format, code version, step, t, dt, the
 //! resolved scene, the driver's state, and per part its particle count, byte length and
 //! FNV-1a 64 checksum). Every file is written to a temporary name, synced and renamed; the
 //! manifest is written last, so a checkpoint without one is incomplete and is skipped. Once a
@@ -68,6 +69,10 @@ pub struct Manifest {
     /// hsph before issue 36, which created none (the set-up's id bound then).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub next_id: Option<u64>,
+    /// True if each part ends with its particles' positions at the last neighbour build
+    /// (Verlet lists, `performance.neighbours = "verlet"`).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub build_positions: bool,
     /// Ranks that wrote it (one part each).
     pub ranks: usize,
     /// The parts.
@@ -126,8 +131,10 @@ pub fn dir_of(run: &Path, step: u64) -> PathBuf {
     run.join("checkpoints").join(format!("step-{step:010}"))
 }
 
-/// This rank's part: header, owned records of `p` sorted by id, then their accelerations.
-fn encode<const D: usize>(p: &Particles<D>) -> Vec<u8> {
+/// This rank's part: header, owned records of `p` sorted by id, then their accelerations, then
+/// (Verlet lists; `built` in storage order, empty otherwise) their positions at the last
+/// neighbour build.
+fn encode<const D: usize>(p: &Particles<D>, built: &[Vector<D>]) -> Vec<u8> {
     let mut order: Vec<usize> = (0..p.n_owned).collect();
     order.sort_unstable_by_key(|&i| p.id[i]);
     let mut buf = Vec::with_capacity(24 + order.len() * (Record::<D>::words() + D) * 8);
@@ -143,15 +150,27 @@ fn encode<const D: usize>(p: &Particles<D>) -> Vec<u8> {
             buf.extend_from_slice(&p.acc[i][a].to_le_bytes());
         }
     }
+    if !built.is_empty() {
+        for &i in &order {
+            for c in built[i].iter() {
+                buf.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+    }
     buf
 }
 
+/// A rank's share of a checkpoint: particles sorted by id, their accelerations (m/s²) and,
+/// from a run with Verlet lists, their positions at the last neighbour build (m; else empty).
+pub type Share<const D: usize> = (Particles<D>, Vec<Vector<D>>, Vec<Vector<D>>);
+
 /// Collective: write the checkpoint of step `clock.step` under `run` — every rank its part
-/// (its owned particles `p` with their accelerations), then rank 0 the manifest with the
+/// (its owned particles `p` with their accelerations and, with Verlet lists, `built`: their
+/// positions at the last neighbour build, in storage order), then rank 0 the manifest with the
 /// clock, the resolved `scene` and `state` (the driver's state, rank 0's) — and delete the
 /// oldest beyond `keep`. Returns the checkpoint's directory.
 pub fn write<const D: usize>(
-    (p, clock, scene): (&Particles<D>, Clock, &Scene),
+    (p, clock, scene, built): (&Particles<D>, Clock, &Scene, &[Vector<D>]),
     comm: &dyn Comm,
     run: &Path,
     state: Option<serde_json::Value>,
@@ -159,7 +178,7 @@ pub fn write<const D: usize>(
 ) -> Result<PathBuf> {
     let dir = dir_of(run, clock.step);
     fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    let bytes = encode(p);
+    let bytes = encode(p, built);
     let file = format!("part-{:05}.bin", comm.rank());
     if let Err(e) = write_synced(&dir.join(&file), &bytes) {
         // the checkpoint is incomplete (no manifest will follow): leave no empty directory
@@ -198,6 +217,7 @@ pub fn write<const D: usize>(
         t: clock.t,
         dt: clock.dt,
         next_id: Some(clock.next_id),
+        build_positions: !built.is_empty(),
         ranks: comm.size(),
         parts,
         scene: toml::to_string(scene).map_err(|e| Error::run(format!("checkpoint scene: {e}")))?,
@@ -369,7 +389,7 @@ impl Manifest {
 
 /// Every particle of a checkpoint, sorted by id, with the acceleration of each (m/s²), after
 /// checking every part against the manifest.
-pub fn particles<const D: usize>(dir: &Path, m: &Manifest) -> Result<(Particles<D>, Vec<Vector<D>>)> {
+pub fn particles<const D: usize>(dir: &Path, m: &Manifest) -> Result<Share<D>> {
     particles_of_parts(dir, m, |_| true)
 }
 
@@ -377,22 +397,17 @@ pub fn particles<const D: usize>(dir: &Path, m: &Manifest) -> Result<(Particles<
 /// `k % ranks == rank` (sorted by id), each part checked against the manifest. A restart
 /// reads the checkpoint this way, so no rank holds the whole of it (issue 17); the particles
 /// then migrate to their owners.
-pub fn share<const D: usize>(
-    dir: &Path,
-    m: &Manifest,
-    rank: usize,
-    ranks: usize,
-) -> Result<(Particles<D>, Vec<Vector<D>>)> {
+pub fn share<const D: usize>(dir: &Path, m: &Manifest, rank: usize, ranks: usize) -> Result<Share<D>> {
     particles_of_parts(dir, m, |k| k % ranks.max(1) == rank)
 }
 
 /// The particles of the parts that `read` selects (by index in the manifest), sorted by id,
-/// with their accelerations.
+/// with their accelerations (and build positions).
 fn particles_of_parts<const D: usize>(
     dir: &Path,
     m: &Manifest,
     read: impl Fn(usize) -> bool,
-) -> Result<(Particles<D>, Vec<Vector<D>>)> {
+) -> Result<Share<D>> {
     if m.dimension != D {
         return Err(bad(
             &dir.join("manifest.json"),
@@ -401,12 +416,15 @@ fn particles_of_parts<const D: usize>(
     }
     let mut all = Particles::<D>::default();
     let mut acc = Vec::new();
+    let mut built = Vec::new();
+    // vectors per particle after its record: a, then the build position
+    let vectors = 1 + usize::from(m.build_positions);
     for (k, part) in m.parts.iter().enumerate() {
         if !read(k) {
             continue;
         }
         let path = dir.join(&part.file);
-        let need = 24 + part.particles as u128 * ((Record::<D>::words() + D) * 8) as u128;
+        let need = 24 + part.particles as u128 * ((Record::<D>::words() + vectors * D) * 8) as u128;
         if need != part.bytes as u128 {
             return Err(bad(
                 &path,
@@ -446,7 +464,9 @@ fn particles_of_parts<const D: usize>(
                 "checkpoint part is corrupt: its checksum differs from the manifest's",
             ));
         }
-        decode(&bytes, part.particles as usize, &mut all, &mut acc).map_err(|e| bad(&path, e))?;
+        let into = (&mut acc, &mut built);
+        decode(&bytes, part.particles as usize, &mut all, into, m.build_positions)
+            .map_err(|e| bad(&path, e))?;
     }
     let mut perm: Vec<usize> = (0..all.n_owned).collect();
     perm.sort_unstable_by_key(|&i| all.id[i]);
@@ -460,18 +480,25 @@ fn particles_of_parts<const D: usize>(
         }
     }
     let acc = perm.iter().map(|&i| acc[i]).collect();
-    Ok((all, acc))
+    let built = if built.is_empty() {
+        built
+    } else {
+        perm.iter().map(|&i| built[i]).collect()
+    };
+    Ok((all, acc, built))
 }
 
-/// Append the particles of one part to `all` and their accelerations to `acc`.
+/// Append the particles of one part to `all`, their accelerations to `acc` and, if the part
+/// holds them (`with_built`), their build positions to `built`.
 fn decode<const D: usize>(
     bytes: &[u8],
     n: usize,
     all: &mut Particles<D>,
-    acc: &mut Vec<Vector<D>>,
+    (acc, built): (&mut Vec<Vector<D>>, &mut Vec<Vector<D>>),
+    with_built: bool,
 ) -> std::result::Result<(), String> {
     let rec = Record::<D>::words() * 8;
-    let need = 24 + n * (rec + D * 8);
+    let need = 24 + n * (rec + (1 + usize::from(with_built)) * D * 8);
     if bytes.len() != need || &bytes[..8] != MAGIC {
         return Err(format!("not a {D}D checkpoint part of {n} particles"));
     }
@@ -483,12 +510,15 @@ fn decode<const D: usize>(
     for _ in 0..n {
         all.push_owned(Record::get(&mut r).map_err(|e| e.to_string())?);
     }
-    let a0 = 24 + n * rec;
-    for k in 0..n {
-        acc.push(Vector::<D>::from_fn(|a, _| {
-            let o = a0 + (k * D + a) * 8;
+    let vector = |k: usize| {
+        Vector::<D>::from_fn(|a, _| {
+            let o = 24 + n * rec + (k * D + a) * 8;
             f64::from_le_bytes(bytes[o..o + 8].try_into().unwrap())
-        }));
+        })
+    };
+    acc.extend((0..n).map(vector));
+    if with_built {
+        built.extend((n..2 * n).map(vector));
     }
     Ok(())
 }

@@ -49,8 +49,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
             }
             None => None,
         };
+        let built = self.sim.build_positions(self.comm)?;
         let dir = crate::checkpoint::write(
-            (&self.sim.p, self.sim.clock(), &self.sim.scene),
+            (&self.sim.p, self.sim.clock(), &self.sim.scene, built),
             self.comm,
             self.dir,
             state,

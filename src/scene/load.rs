@@ -56,6 +56,21 @@ impl SceneFlags {
         if given.is_empty() {
             return Ok(());
         }
+        // a flag's value meets the scene's other keys here, after the scene's own checks
+        super::validate::check_verlet(scene).map_err(|e| match e {
+            Error::Input { key, message, .. } => {
+                let flag = given.iter().find(|g| g.1 == key).map_or("--neighbours", |g| g.0);
+                Error::Input {
+                    at: Some(Location {
+                        file: PathBuf::from(flag),
+                        line: None,
+                    }),
+                    key,
+                    message,
+                }
+            }
+            other => other,
+        })?;
         let mut doc: DocumentMut = src
             .text
             .parse()

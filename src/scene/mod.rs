@@ -193,7 +193,7 @@ pub struct Performance {
     /// ([`Interactions`]).
     #[serde(default)]
     pub interactions: Interactions,
-    /// How passes find neighbours: `lists` (default) or `cells` ([`NeighbourMode`]).
+    /// How passes find neighbours: `lists` (default), `cells` or `verlet` ([`NeighbourMode`]).
     #[serde(default)]
     pub neighbours: NeighbourMode,
     /// Whether a halo refresh overlaps the interior's compute: `off` (default) or `on`
@@ -265,6 +265,13 @@ pub enum NeighbourMode {
     /// No stored lists: every pass scans the stencil cells again, in the same order, so the
     /// bits are those of `lists` (the lean-memory mode).
     Cells,
+    /// Verlet lists: built with the ghosts, to the support·(1 + `skin`), and kept until the
+    /// ghosts are built again (some particle moved half the skin, wrapped or left, or the
+    /// planes moved); each pass takes a listed pair only within the support of the current
+    /// positions. Fewer builds, about (1 + skin)^D times the stored pairs. The same bits on
+    /// any number of ranks and threads (builds are decided on all-reduced displacements), not
+    /// `lists`' bits (another order of the sums, set by the positions at the build).
+    Verlet,
 }
 
 impl NeighbourMode {
@@ -273,6 +280,7 @@ impl NeighbourMode {
         match self {
             NeighbourMode::Lists => "lists",
             NeighbourMode::Cells => "cells",
+            NeighbourMode::Verlet => "verlet",
         }
     }
 }

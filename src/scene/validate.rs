@@ -185,11 +185,47 @@ pub fn validate(s: &mut Scene) -> Result<()> {
             ),
         );
     }
+    check_verlet(s)?;
     validate_probes(s)?;
     validate_checkpoint(&s.checkpoint)?;
     validate_reference(s)?;
     check_sound_speed(s)?;
     check_step_budget(s)
+}
+
+/// Verlet lists (`performance.neighbours = "verlet"`) need a skin to keep, and one
+/// smoothing length per pair support: a region with the level's h lists each pair within its
+/// own support, which the skin does not widen.
+pub(super) fn check_verlet(s: &Scene) -> Result<()> {
+    if s.performance.neighbours != NeighbourMode::Verlet {
+        return Ok(());
+    }
+    if s.performance.skin <= 0.0 {
+        return err(
+            "performance.skin",
+            format!(
+                "must be above 0 with neighbours = \"verlet\" (the lists reach the support plus \
+                 the skin and are kept while no particle has moved half of it); e.g. skin = {}, \
+                 or neighbours = \"lists\" to build them every step",
+                DEFAULT_SKIN
+            ),
+        );
+    }
+    if let Some(k) = s
+        .refine
+        .iter()
+        .position(|r| r.smoothing_length == refine::RegionH::Level)
+    {
+        return err(
+            "performance.neighbours",
+            format!(
+                "\"verlet\" lists need one smoothing length, and refine[{k}] gives its particles \
+                 the level's h; use neighbours = \"lists\" (or \"cells\"), or \
+                 refine[{k}].smoothing_length = \"scene\""
+            ),
+        );
+    }
+    Ok(())
 }
 
 /// Materials and bodies of each kind: at most [`crate::limits::MAX_BODIES`] (a particle stores

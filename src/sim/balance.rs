@@ -31,6 +31,9 @@ pub struct BalanceStats {
     pub particle_high_water: u64,
     /// Most ghosts this rank has held at once.
     pub ghost_high_water: u64,
+    /// A balance check fell due at a step without a ghost build (Verlet lists): it waits for
+    /// the next build ([`Simulation::check_balance_at_build`]).
+    pub deferred: bool,
 }
 
 impl BalanceStats {
@@ -92,6 +95,24 @@ impl<const D: usize> Simulation<D> {
         if !self.balance_checked_at(self.step) {
             return Ok(false);
         }
+        self.balance_check(comm)
+    }
+
+    /// With Verlet lists the builds come from the particles' motion alone, so that they fall
+    /// on the same steps on any layout (the lists, hence the sums' order, are those of the
+    /// last build): a check that falls due between builds waits for the next one (`built`:
+    /// this step builds). True if the planes moved.
+    pub(super) fn check_balance_at_build(&mut self, built: bool, comm: &dyn Comm) -> Result<bool> {
+        self.balance.deferred |= self.balance_checked_at(self.step);
+        if !(built && self.balance.deferred) {
+            return Ok(false);
+        }
+        self.balance.deferred = false;
+        self.balance_check(comm)
+    }
+
+    /// Check the load balance now and, above the threshold, move the cut planes.
+    fn balance_check(&mut self, comm: &dyn Comm) -> Result<bool> {
         let b = &self.scene.balance;
         let t0 = Instant::now();
         self.balance.checks += 1;

@@ -175,7 +175,7 @@ impl<const D: usize> Simulation<D> {
         m: &crate::checkpoint::Manifest,
     ) -> Result<Self> {
         let read = crate::checkpoint::share::<D>(dir, m, comm.rank(), comm.size());
-        let (share, acc) = decompose::agree(read, comm)?;
+        let (share, acc, built) = decompose::agree(read, comm)?;
         let bound = crate::scene::lattice::id_bound::<D>(scene);
         let clock = crate::checkpoint::Clock {
             step: m.step,
@@ -183,12 +183,15 @@ impl<const D: usize> Simulation<D> {
             dt: m.dt,
             next_id: crate::checkpoint::next_id(dir, m, bound)?,
         };
-        Self::resume(scene, comm, layout, share, &acc, clock)
+        let built = m.build_positions.then_some(&built[..]);
+        Self::resume(scene, comm, layout, share, (&acc, built), clock)
     }
 
     /// Continue from a checkpoint's state: this rank's share of its particles (any subset of
-    /// them) with their accelerations `acc` (m/s²), at the checkpoint's `clock` (step, time,
-    /// next time step, next id). The
+    /// them) with their accelerations `acc` (m/s²) and, from a run with Verlet lists, their
+    /// positions at the last neighbour build `built` (m; the same `Some` or `None` on every
+    /// rank), at the
+    /// checkpoint's `clock` (step, time, next time step, next id). The
     /// domain is decomposed afresh over `comm.size()` ranks; nothing is recomputed, so the next
     /// step is the step the checkpointed run would have taken.
     pub fn resume(
@@ -196,7 +199,7 @@ impl<const D: usize> Simulation<D> {
         comm: &dyn Comm,
         layout: &RunLayout,
         share: Particles<D>,
-        acc: &[Vector<D>],
+        (acc, built): (&[Vector<D>], Option<&[Vector<D>]>),
         clock: crate::checkpoint::Clock,
     ) -> Result<Self> {
         // `share`: the particles of the checkpoint parts this rank read (any subset; all of
@@ -234,6 +237,12 @@ impl<const D: usize> Simulation<D> {
             comm,
         )?;
         let accs = crate::halo::route_to_owners(&p, acc, &map, comm)?;
+        let verlet = scene.performance.neighbours == crate::scene::NeighbourMode::Verlet;
+        // the same answer on every rank: the manifest says whether the parts hold them
+        let builts = match built.filter(|_| verlet) {
+            Some(b) => Some(crate::halo::route_to_owners(&p, b, &map, comm)?),
+            None => None,
+        };
         crate::halo::migrate(&mut p, &map, &map.boxes(), comm)?;
         let mut perm: Vec<usize> = (0..p.n_owned).collect();
         perm.sort_unstable_by_key(|&i| p.id[i]);
@@ -245,6 +254,16 @@ impl<const D: usize> Simulation<D> {
                 .binary_search_by_key(&sim.p.id[i], |e| e.0)
                 .map_err(|_| Error::run("resume: a particle lost its acceleration"))?;
             sim.p.acc[i] = accs[k].1;
+        }
+        if let Some(b) = builts {
+            // the lists of the uninterrupted run: those of its last build's positions
+            let by_id = |id: u64| b.binary_search_by_key(&id, |e| e.0).map(|k| b[k].1);
+            let at = (0..sim.p.n_owned)
+                .map(|i| {
+                    by_id(sim.p.id[i]).map_err(|_| Error::run("resume: a particle lost its build position"))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            sim.list_as_built(at, comm)?;
         }
         (sim.step, sim.t, sim.dt) = (clock.step, clock.t, clock.dt);
         sim.ids = crate::ids::IdCounter::starting_at(clock.next_id);
@@ -270,20 +289,23 @@ impl<const D: usize> Simulation<D> {
         let space = image_space::<D>(scene);
         let support = model.kernel.support;
         // one rank without periodic axes or mirror planes has no ghost to keep: no skin, and
-        // no build positions stored
+        // no build positions stored, unless the neighbour lists are kept with one
+        let verlet = scene.performance.neighbours == crate::scene::NeighbourMode::Verlet;
         let ghostless = ranks == 1 && !space.periodic.iter().any(|&p| p) && space.planes.is_empty();
-        let skin = skin::Skin::new(if ghostless {
+        let skin = skin::Skin::new(if ghostless && !verlet {
             0.0
         } else {
             scene.performance.skin * support
         });
-        // a kept ghost lies within support + w of a box and moves w/2 before a build
-        let grid = CellGrid::with_reach(&space.min, &space.max, support, support + 2.0 * skin.width);
+        // a kept ghost lies within support + w of a box and moves w/2 before a build; Verlet
+        // lists reach support + w, so the stencil's cells are at least that wide
+        let edge = if verlet { support + skin.width } else { support };
+        let grid = CellGrid::with_reach(&space.min, &space.max, edge, support + 2.0 * skin.width);
         let boxes = map.boxes();
-        let nl = if scene.performance.neighbours == crate::scene::NeighbourMode::Cells {
-            NeighbourList::lean()
-        } else {
-            NeighbourList::default()
+        let nl = match scene.performance.neighbours {
+            crate::scene::NeighbourMode::Cells => NeighbourList::lean(),
+            crate::scene::NeighbourMode::Verlet => NeighbourList::verlet(support),
+            crate::scene::NeighbourMode::Lists => NeighbourList::default(),
         };
         // several smoothing lengths: each pair listed within its own support, the candidates
         // of stored lists through sub-cells about as wide as the smallest pair support; the

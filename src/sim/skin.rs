@@ -52,6 +52,17 @@ impl<const D: usize> Skin<D> {
         }
     }
 
+    /// The owned positions at the last build, in storage order, if they still describe the
+    /// owned particles (none added, removed or reordered since; else empty: the next step
+    /// builds anyway).
+    pub fn positions(&self, p: &Particles<D>) -> &[Vector<D>] {
+        if self.held == (p.n_owned, p.len()) && self.built.len() == p.n_owned {
+            &self.built
+        } else {
+            &[]
+        }
+    }
+
     /// Forget the last build: the ghosts are built again at the next check (particles were
     /// created, so the owned set no longer matches the one the ghosts were built from).
     pub fn forget(&mut self) {

@@ -49,8 +49,15 @@ impl<const D: usize> Simulation<D> {
         if self.adapts() {
             self.split_entering(comm)?;
         }
-        let planes_moved = self.check_balance(comm)?;
-        if self.ghosts_expired(planes_moved, comm)? {
+        let build = if self.nl.is_verlet() {
+            let build = self.ghosts_expired(false, comm)?;
+            self.check_balance_at_build(build, comm)?;
+            build
+        } else {
+            let planes_moved = self.check_balance(comm)?;
+            self.ghosts_expired(planes_moved, comm)?
+        };
+        if build {
             self.migrate(comm)?;
             self.rebuild_neighbours(comm)?;
         } else {
@@ -74,7 +81,8 @@ impl<const D: usize> Simulation<D> {
     /// memory (BENCHMARKS.md, issue 33). The lists are kept when the next step's balance check
     /// reads them. Changes no bit.
     pub fn release_step_buffers(&mut self) {
-        if !self.next_check_reads_lists() {
+        // Verlet lists serve the steps until the next build
+        if !self.next_check_reads_lists() && !self.nl.is_verlet() {
             self.free_step_buffers();
         }
     }
@@ -222,6 +230,9 @@ impl<const D: usize> Simulation<D> {
         if self.nl.is_lean() {
             let nb = self.nl.scan(&self.grid, &self.cells);
             run_over(pass, &mut c, &nb, part, half);
+        } else if self.nl.is_verlet() {
+            let nb = self.nl.kept::<D>(&self.cells);
+            run_over(pass, &mut c, &nb, part, half);
         } else {
             run_over(pass, &mut c, &self.nl, part, half);
         }
@@ -263,11 +274,58 @@ impl<const D: usize> Simulation<D> {
         }
         let held = self.p.len();
         self.balance.note_held(held, held - self.p.n_owned);
+        if self.nl.is_verlet() {
+            // the lists of the build hold every pair within the support now: the passes
+            // measure the current positions in the build's cell order
+            let t0 = Instant::now();
+            self.nl.follow(&self.cells, &self.p);
+            self.timers.add(Timer::Neighbours, t0);
+            return Ok(());
+        }
         self.list_neighbours()
     }
 
     /// Ghosts (positions and every field), binning and neighbour lists at the current state.
     pub(super) fn rebuild_neighbours(&mut self, comm: &dyn Comm) -> Result<()> {
+        self.build_neighbours(self.skin.width, comm)
+    }
+
+    /// Verlet lists on a restart: the lists of the uninterrupted run, built from its last
+    /// build's positions `at` (owned, in storage order). Those positions are swapped in, the
+    /// ghosts (reaching support + 2w: a particle owned here lies within w/2 of this box, its
+    /// build position within w/2 of it), cells and lists built, and the current positions
+    /// swapped back; the next step refreshes the ghosts' positions before any pass.
+    pub(super) fn list_as_built(&mut self, mut at: Vec<Vector<D>>, comm: &dyn Comm) -> Result<()> {
+        let n = self.p.n_owned;
+        self.p.x[..n].swap_with_slice(&mut at);
+        // no reorder: `at` is in this storage order
+        self.reordered_at = Some(self.step);
+        let built = self.build_neighbours(2.0 * self.skin.width, comm);
+        self.p.x[..n].swap_with_slice(&mut at);
+        self.fresh.wrote(Fields::X);
+        built
+    }
+
+    /// Collective: the owned positions at the last neighbour build, in storage order, for a
+    /// checkpoint of a run with Verlet lists — empty without them, or when some rank's owned
+    /// particles changed since the build (the next step builds on every rank then).
+    pub fn build_positions(&self, comm: &dyn Comm) -> Result<&[Vector<D>]> {
+        if !self.nl.is_verlet() {
+            return Ok(&[]);
+        }
+        let built = self.skin.positions(&self.p);
+        let stale = built.len() != self.p.n_owned;
+        let mut m = [f64::from(u8::from(stale))];
+        let prev = comm.set_phase(crate::comm::Phase::Other);
+        let r = comm.all_reduce_max_f64(&mut m);
+        comm.set_phase(prev);
+        r?;
+        Ok(if m[0] > 0.0 { &[] } else { built })
+    }
+
+    /// Ghosts within the support + `extra` (m), binning and neighbour lists at the current
+    /// state.
+    fn build_neighbours(&mut self, extra: f64, comm: &dyn Comm) -> Result<()> {
         let support = self.model.kernel.support;
         self.p.truncate_ghosts();
         if self.reordered_at.is_none_or(|s| self.step >= s + REORDER_EVERY) {
@@ -303,7 +361,7 @@ impl<const D: usize> Simulation<D> {
             &self.space,
             &self.map,
             &self.boxes,
-            support + self.skin.width,
+            support + extra,
             sent,
             comm,
         )?;
@@ -316,9 +374,13 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Bin owned particles and ghosts, mark the interior (with overlap) and build the
-    /// neighbour lists: within the support, whatever the ghosts' reach.
+    /// neighbour lists: within the support, whatever the ghosts' reach (Verlet lists: within
+    /// the support + the skin, kept until the next ghost build).
     fn list_neighbours(&mut self) -> Result<()> {
-        let support = self.model.kernel.support;
+        let mut support = self.model.kernel.support;
+        if self.nl.is_verlet() {
+            support += self.skin.width;
+        }
         let t0 = Instant::now();
         self.bin()?;
         if self.overlap && !self.halo.is_empty() {
