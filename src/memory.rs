@@ -60,7 +60,10 @@ pub fn estimate<const D: usize>(
     // a block holds up to (1 + 2η)^D of the mean count (decomp docs): 1.05 in 3D, or, balanced
     // on pairs, up to the count cap `balance.max_count`
     let cap = scene.balance.count_cap().unwrap_or(1.0).max(1.05);
-    let listed = neighbours::<D>(scene);
+    // Verlet lists reach support·(1 + skin): (1 + skin)^D the neighbours
+    let verlet = scene.performance.neighbours == crate::scene::NeighbourMode::Verlet;
+    let reach = if verlet { 1.0 + scene.performance.skin } else { 1.0 };
+    let listed = neighbours::<D>(scene) * reach.powi(D as i32);
     let per_rank = |owned: f64| {
         let setup = owned * ((store + 4.0 + 8.0) * growth + store) + counts;
         // owned + ghosts (ghost layers of a block: generously half the owned count at small
@@ -195,6 +198,30 @@ pub fn reset_peak() -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Verlet lists add the skin's neighbours to the list term: (1 + skin)^D − 1 of it, here
+    /// in 3D at skin 0.3 (owned · listed · 4 B, one rank).
+    #[test]
+    fn verlet_lists_count_the_skins_neighbours() {
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/data/dam_break_3d_small.toml"
+        ))
+        .unwrap();
+        let path = std::path::Path::new("small.toml");
+        let (mut scene, _) = crate::scene::load_scene_str(&text, path, "s", &[]).unwrap();
+        let n = 10_000u64;
+        let lists = estimate::<3>(&scene, n, 1, 1).rank_run;
+        scene.performance.neighbours = crate::scene::NeighbourMode::Verlet;
+        scene.performance.skin = 0.3;
+        let verlet = estimate::<3>(&scene, n, 1, 1).rank_run;
+        let owned = n as f64 * 1.05;
+        let term = owned * neighbours::<3>(&scene) * 4.0 * (1.3f64.powi(3) - 1.0);
+        assert!(
+            ((verlet - lists) / term - 1.0).abs() < 1e-12,
+            "{verlet} {lists} {term}"
+        );
+    }
 
     #[test]
     fn sizes_parse() {
