@@ -32,8 +32,11 @@ fn read(dir: &Path, name: &str) -> String {
     fs::read_to_string(dir.join(name)).unwrap_or_else(|e| panic!("{}/{name}: {e}", dir.display()))
 }
 
+/// `final.csv`: its header and its rows keyed by id.
+type Table = (Vec<String>, std::collections::BTreeMap<u64, Vec<f64>>);
+
 /// `final.csv` as (header, rows keyed by id).
-fn table(dir: &Path) -> (Vec<String>, std::collections::BTreeMap<u64, Vec<f64>>) {
+fn table(dir: &Path) -> Table {
     let text = read(dir, "final.csv");
     let mut lines = text.lines();
     let head: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
@@ -47,11 +50,7 @@ fn table(dir: &Path) -> (Vec<String>, std::collections::BTreeMap<u64, Vec<f64>>)
 }
 
 /// Largest difference of column `col` between two `final.csv` tables with the same ids.
-fn largest_difference(
-    a: &(Vec<String>, std::collections::BTreeMap<u64, Vec<f64>>),
-    b: &(Vec<String>, std::collections::BTreeMap<u64, Vec<f64>>),
-    col: &str,
-) -> f64 {
+fn largest_difference(a: &Table, b: &Table, col: &str) -> f64 {
     let k = a.0.iter().position(|h| h == col).unwrap();
     assert_eq!(a.1.len(), b.1.len(), "the same particles");
     a.1.iter()
