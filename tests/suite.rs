@@ -38,6 +38,7 @@ mod report;
 mod restart;
 mod scaleout;
 mod scene_limits;
+mod settle;
 mod shifting;
 mod signals;
 mod solids;

@@ -736,6 +736,15 @@ pub struct Time {
     /// is then bounded by it.
     #[serde(default)]
     pub max_steps: u64,
+    /// Settling before t = 0 (s of simulated time; 0, the default, settles nothing): the scene
+    /// runs this long with every velocity damped each step by exp(−dt/τ), τ = settle/8, then
+    /// the velocities are zeroed and the clock starts at t = 0 from the settled positions and
+    /// densities ([`crate::sim::Simulation`]'s set-up). Still water then starts in the
+    /// equilibrium of its own discretisation, without the acoustic transient of a lattice
+    /// set-up (docs/refinement.md §2). For scenes at rest: refused with initial velocities,
+    /// wall velocities or wall motion.
+    #[serde(default)]
+    pub settle: f64,
 }
 
 fn default_cfl() -> f64 {

@@ -581,6 +581,7 @@ fn validate_time_output(s: &mut Scene) -> Result<()> {
         "MAX_T_END",
         "dt = 1.0e-4, or 0 for the adaptive step",
     )?;
+    check_settle(s)?;
     non_negative(s.output.interval, "output.interval")?;
     if s.output.interval == 0.0 {
         s.output.interval = s.time.t_end / 50.0;
@@ -828,14 +829,71 @@ pub fn dt_upper_bound(s: &Scene) -> (f64, String) {
     (dt, why)
 }
 
+/// `time.settle`: a span like `t_end`'s, for a scene that starts at rest (the settling damps
+/// every velocity away and zeroes it at its end).
+fn check_settle(s: &Scene) -> Result<()> {
+    let settle = s.time.settle;
+    in_range(
+        settle,
+        "time.settle",
+        (0.0, MAX_T_END),
+        "s",
+        "MAX_T_END",
+        "settle = 0.3, or 0 to start from the set-up's lattice",
+    )?;
+    if settle == 0.0 {
+        return Ok(());
+    }
+    let moving = |v: &[f64]| v.iter().any(|c| *c != 0.0);
+    let bodies = s
+        .fluids
+        .iter()
+        .map(|f| ("fluid", f))
+        .chain(s.solids.iter().map(|f| ("solid", f)));
+    let mut i = (0, 0);
+    for (kind, f) in bodies {
+        let k = if kind == "fluid" { &mut i.0 } else { &mut i.1 };
+        if moving(&f.velocity) || f.velocity_field.is_some() {
+            return err(
+                "time.settle",
+                format!(
+                    "settles a scene at rest, but {kind}[{k}] ('{}') starts with a velocity, which the \
+                     settling would damp away; remove time.settle or the initial velocity",
+                    f.name
+                ),
+            );
+        }
+        *k += 1;
+    }
+    if let Some((j, w)) = s
+        .walls
+        .iter()
+        .enumerate()
+        .find(|(_, w)| w.motion.is_some() || moving(&w.velocity))
+    {
+        return err(
+            "time.settle",
+            format!(
+                "settles a scene at rest, but wall[{j}] ('{}') moves; remove time.settle or the \
+                 wall's motion and velocity",
+                w.name
+            ),
+        );
+    }
+    Ok(())
+}
+
 /// The step budget: a run that needs more than [`MAX_STEPS`] steps (t_end over
-/// [`dt_upper_bound`]) is refused unless `time.max_steps` bounds it.
+/// [`dt_upper_bound`]) is refused unless `time.max_steps` bounds it; the steps of
+/// `time.settle` count in any case.
 fn check_step_budget(s: &Scene) -> Result<()> {
-    if s.time.max_steps > 0 {
+    // time.max_steps bounds the run, not the settling's steps before it
+    let run = if s.time.max_steps > 0 { 0.0 } else { s.time.t_end };
+    if run == 0.0 && s.time.settle == 0.0 {
         return Ok(());
     }
     let (dt, why) = dt_upper_bound(s);
-    let steps = s.time.t_end / dt;
+    let steps = (run + s.time.settle) / dt;
     if steps <= MAX_STEPS {
         return Ok(());
     }
@@ -843,10 +901,11 @@ fn check_step_budget(s: &Scene) -> Result<()> {
     err(
         key,
         format!(
-            "time.t_end = {} s needs at least {steps:.3e} steps of dt ≤ {dt:.4e} s ({why}), above the \
-             step budget of {MAX_STEPS:e} steps; shorten time.t_end, coarsen discretisation.dx, \
-             or set time.max_steps to run it anyway",
-            num(s.time.t_end)
+            "time.t_end = {} s (and time.settle = {} s) needs at least {steps:.3e} steps of dt ≤ \
+             {dt:.4e} s ({why}), above the step budget of {MAX_STEPS:e} steps; shorten time.t_end, \
+             coarsen discretisation.dx, or set time.max_steps to run it anyway",
+            num(s.time.t_end),
+            num(s.time.settle)
         ),
     )
 }

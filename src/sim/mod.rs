@@ -156,9 +156,11 @@ impl<const D: usize> Simulation<D> {
         sim.update_pressure();
         sim.relax(comm)?;
         // the set-up runs the passes of a whole step at dt = 0 (its dρ/dt is recomputed before
-        // use), so its halo traffic is one step's, as `hsph plan` predicts
+        // use), so its halo traffic is one step's, as `hsph plan` predicts (and a settling's
+        // steps more)
         sim.rebuild_neighbours(comm)?;
         sim.run_passes(0.0, comm, None)?;
+        sim.settle(comm)?;
         sim.balance.imbalance = sim.load_imbalance(comm)?;
         sim.balance.imbalance_history.push(sim.balance.imbalance);
         sim.dt = sim.next_dt(comm)?;

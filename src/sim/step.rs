@@ -40,6 +40,9 @@ fn run_over<const D: usize, N: Neighbours>(
 /// Steps between reorderings of the owned particles into cell order.
 const REORDER_EVERY: u64 = 16;
 
+/// The settling's span over its damping time τ (`time.settle`, [`Simulation::settle`]).
+pub const SETTLE_DECAYS: f64 = 8.0;
+
 impl<const D: usize> Simulation<D> {
     /// Advance one step (see the module docs): balance check and migration, ghosts and
     /// neighbours, the passes, the closing half kick and the next dt.
@@ -117,6 +120,54 @@ impl<const D: usize> Simulation<D> {
         // relaxation's precede them
         self.skin.builds = builds;
         self.migrate(comm)
+    }
+
+    /// The set-up's settling (`time.settle` seconds of simulated time, none by default): the
+    /// scene's own steps before t = 0, each followed by v ← v·exp(−dt/τ) for every integrated
+    /// particle, τ = settle/[`SETTLE_DECAYS`] (s), so that an oscillation's velocity decays by
+    /// e^−8 over the span (its amplitude by about e^−4 when it is slower than the damping);
+    /// then v = 0, t = 0, step 0, and the set-up's passes at dt = 0 again. The positions and densities keep what the discretisation
+    /// holds at rest, so still water starts without the acoustic transient of its lattice
+    /// (docs/refinement.md §2). The scene's walls are still and its bodies at rest (checked
+    /// in `scene/validate.rs`). Every rank takes the same steps: the same bits on any layout.
+    /// The timers, pair count and ghost-build count are the run's alone afterwards; balance,
+    /// migration and split/merge counts include the settling.
+    pub(super) fn settle(&mut self, comm: &dyn Comm) -> Result<()> {
+        let span = self.scene.time.settle;
+        if span <= 0.0 {
+            return Ok(());
+        }
+        let tau = span / SETTLE_DECAYS;
+        let kept = (self.timers.clone(), self.pair_count, self.skin.builds);
+        self.dt = self.next_dt(comm)?;
+        while self.t < span {
+            let dt = self.dt;
+            self.advance(comm)?;
+            let keep = (-dt / tau).exp();
+            self.damp(keep);
+        }
+        self.damp(0.0);
+        (self.timers, self.pair_count, self.skin.builds) = kept;
+        self.t = 0.0;
+        self.step = 0;
+        self.reordered_at = None;
+        self.migrate(comm)?;
+        self.rebuild_neighbours(comm)?;
+        self.run_passes(0.0, comm, None)
+    }
+
+    /// v ← keep·v for every owned integrated particle.
+    fn damp(&mut self, keep: f64) {
+        let n = self.p.n_owned;
+        let kind = &self.p.kind;
+        self.p.v[..n]
+            .par_iter_mut()
+            .zip(kind[..n].par_iter())
+            .for_each(|(v, k)| {
+                if k.is_integrated() {
+                    *v *= keep;
+                }
+            });
     }
 
     /// v += ½dt a, x += dt v (wrapped), walls moved, t and step advanced, positions checked.
