@@ -332,18 +332,43 @@ fn a_refined_run_restarts_to_the_uninterrupted_bits() {
     }
 }
 
-/// The shipped still-water scene with a refined box and its set-up relaxation, over 1 s (70
-/// acoustic periods): speeds below 0.5 % of sqrt(gH) (measured 0.15 %), no fluid pair closer
-/// than half the fine spacing, no particle in a wall, and the pressure error of
-/// docs/validation.md §2 within 1.3 % of ρ0 g H over the tank (measured 1.11 %, at the coarse
-/// bottom corners; 1.39 % without the relaxation) and within 0.8 % around the box (measured
-/// 0.67 %, the uniform dx/2 tank's; 1.34 % without it; docs/refinement.md §2).
+/// The still water: the shipped scene with a refined box and its set-up relaxation,
+/// settled for 0.3 s before t = 0 (`time.settle`: without it the lattice's acoustic transient
+/// decides which run reads best at any instant; docs/refinement.md §2), then 1 s (70 acoustic
+/// periods). Facts: the largest speed over the whole second below 1 % of sqrt(gH) (measured
+/// 0.56 %, at the surface's corners; 1.16 % unsettled), no fluid pair closer than half the fine
+/// spacing, no particle in a wall, and the pressure error of docs/validation.md §2 at t = 1 s
+/// within 0.9 % of ρ0 g H over the tank (measured 0.80 %, at the coarse bottom corners; the
+/// settled uniform dx/2 tank's 0.59 %) and within 0.5 % around the box (measured 0.42 %; the
+/// uniform tanks' 0.19–0.21 %: the box's upper interface carries a pressure step of about
+/// 20 Pa).
 #[test]
 fn still_water_with_a_refined_box_stays_still() {
-    let s = load_scene(&common::repo_path("inputs/hydrostatic_2d_refined.toml"), &[])
-        .unwrap()
-        .0;
+    let s = load_scene(
+        &common::repo_path("inputs/hydrostatic_2d_refined.toml"),
+        &["time.settle=0.3".to_string(), "output.interval=0.01".to_string()],
+    )
+    .unwrap()
+    .0;
     let out = common::run_layout(&s, 1, 2, "refined-still");
+    // the largest speed over the second (every 10 ms), not only at its end
+    let series = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
+    let mut rows = series.lines();
+    let k = rows
+        .next()
+        .unwrap()
+        .split(',')
+        .position(|c| c == "max_speed")
+        .unwrap();
+    let fastest = rows
+        .map(|l| l.split(',').nth(k).unwrap().parse::<f64>().unwrap())
+        .fold(0.0, f64::max);
+    let over = fastest / (9.81f64 * 0.5).sqrt();
+    assert!(
+        over < 0.01,
+        "largest speed over 1 s {:.3} % of sqrt(gH)",
+        100.0 * over
+    );
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     let e = |k: &str| summary["errors"][k].as_f64().unwrap();
@@ -354,7 +379,7 @@ fn still_water_with_a_refined_box_stays_still() {
         100.0 * ep
     );
     assert!(ev < 0.005, "max speed {:.3} % of sqrt(gH)", 100.0 * ev);
-    assert!(ep <= 0.013, "pressure error {:.3} %", 100.0 * ep);
+    assert!(ep <= 0.009, "pressure error {:.3} %", 100.0 * ep);
     assert_eq!(e("fluid_in_walls_fraction"), 0.0);
     // closest pair of fluid particles, by brute force over final.csv
     let text = std::fs::read_to_string(out.join("final.csv")).unwrap();
@@ -383,7 +408,7 @@ fn still_water_with_a_refined_box_stays_still() {
     assert_eq!(fine, 1200, "the box holds 20 × 15 cells of four particles");
     eprintln!("around the box: pressure {:.3} %", 100.0 * box_error);
     assert!(
-        box_error <= 0.008,
+        box_error <= 0.005,
         "pressure error around the box {:.3} %",
         100.0 * box_error
     );
