@@ -174,11 +174,18 @@ impl<const D: usize, K: PairKernel> Home<f64> for Continuity<'_, '_, D, K> {
             let sized = |m: u16| model.delta * kab.h * model.materials[m as usize].c0();
             // fluids of one material only ([`diffuses`]): then a's δ h c0 is b's
             let diffused = diffusion && fluid_a && diffuses(p, a, b);
+            // ψ_ba·∇_b W = −ψ_ab·∇_a W to the bit for one material (every sum and difference
+            // in it changes sign exactly), so one evaluation serves both sides
+            let psi = if diffused {
+                psi_dot_grad(p, model, corr, a, b, &mid, f)
+            } else {
+                0.0
+            };
             if fluid_a {
                 da += p.mass[b] * vdot;
                 if diffused {
                     let coef_a = if K::VARIES { sized(p.mat[a]) } else { coef_a };
-                    da += coef_a * psi_dot_grad(p, model, corr, a, b, &mid, f) * vol[b];
+                    da += coef_a * psi * vol[b];
                 }
             }
             if fluid_b {
@@ -186,7 +193,7 @@ impl<const D: usize, K: PairKernel> Home<f64> for Continuity<'_, '_, D, K> {
                 *r += ma * vdot;
                 if diffused {
                     let coef_b = if K::VARIES { sized(p.mat[b]) } else { coef_a };
-                    *r += coef_b * psi_dot_grad(p, model, corr, b, a, &-mid, f) * vol[a];
+                    *r += coef_b * -psi * vol[a];
                 }
             }
         }
