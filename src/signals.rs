@@ -43,11 +43,6 @@ pub fn install() -> Result<()> {
     Ok(())
 }
 
-/// Record `sig` as if it had been received (tests; the test-only fault `signal`).
-pub fn raise_for_test(sig: i32) {
-    flag().store(sig as usize, Ordering::SeqCst);
-}
-
 /// The signal this process has received, if any (0: none).
 pub fn pending() -> usize {
     flag().load(Ordering::SeqCst)
@@ -64,13 +59,15 @@ pub fn name(sig: usize) -> &'static str {
 /// Collective: the signal any rank has received (the largest number), or `None`. Every rank
 /// gets the same answer, so all stop after the same step.
 pub fn agreed_stop(comm: &dyn Comm) -> Result<Option<&'static str>> {
-    agreed_stop_with(comm, &mut [])
+    agreed_stop_with(comm, 0, &mut [])
 }
 
-/// [`agreed_stop`], max-reducing this rank's `flags` (wall-clock decisions) in the same
-/// collective: on return they hold the largest value over the ranks.
-pub fn agreed_stop_with(comm: &dyn Comm, flags: &mut [f64]) -> Result<Option<&'static str>> {
-    let mut m = vec![pending() as f64];
+/// [`agreed_stop`], with `injected` (a signal number, 0 for none) taken as received on this
+/// rank besides the process's own (the test-only fault `signal`, scoped to one run), and
+/// max-reducing this rank's `flags` (wall-clock decisions) in the same collective: on return
+/// they hold the largest value over the ranks.
+pub fn agreed_stop_with(comm: &dyn Comm, injected: usize, flags: &mut [f64]) -> Result<Option<&'static str>> {
+    let mut m = vec![pending().max(injected) as f64];
     m.extend_from_slice(flags);
     let prev = comm.set_phase(Phase::Other);
     comm.all_reduce_max_f64(&mut m)?;

@@ -41,7 +41,8 @@ pub enum FaultKind {
     Panic,
     /// One of the rank's particles gets a non-finite position (caught by the state check).
     Nan,
-    /// The process records a SIGTERM at that step, as if one had arrived (the stop contract).
+    /// The rank records a SIGTERM at that step, as if one had arrived (the stop contract), for
+    /// this run only: other runs in the process (the test suite's) never see it.
     Signal,
 }
 
@@ -65,7 +66,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 match f.kind {
                     FaultKind::Panic => panic!("injected fault on rank {} at step {}", f.rank, f.step),
                     FaultKind::Nan => self.sim.p.x[0][0] = f64::NAN,
-                    FaultKind::Signal => crate::signals::raise_for_test(signal_hook::consts::SIGTERM),
+                    FaultKind::Signal => self.injected_signal = signal_hook::consts::SIGTERM as usize,
                 }
             }
         }

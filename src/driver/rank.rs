@@ -56,6 +56,9 @@ pub(super) struct RankRun<'a, const D: usize> {
     pub(super) quiet: bool,
     /// The signal all ranks agreed to stop on, if any.
     pub(super) stopped_by: Option<&'static str>,
+    /// A signal the test-only fault `signal` recorded for this run alone (0: none). Not the
+    /// process's flag: runs of other tests in the same process must not see it.
+    pub(super) injected_signal: usize,
     /// Peak resident set size of the process at the end of the set-up (bytes).
     pub(super) setup_peak: Option<u64>,
     /// True if the peak was reset after the set-up: the final peak is then the step loop's.

@@ -74,6 +74,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             steps_start: Instant::now(),
             quiet: opts.quiet || !root,
             stopped_by: None,
+            injected_signal: 0,
             setup_peak,
             peak_reset,
             loop_peak: None,

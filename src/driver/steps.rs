@@ -49,7 +49,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             // a step boundary: stop here if any rank has received a stopping signal or is about
             // to run out of wall-clock time (one collective decides for all)
             let mut clock = self.wall_clock_flags(&mut last_step);
-            self.stopped_by = crate::signals::agreed_stop_with(self.comm, &mut clock)?;
+            self.stopped_by = crate::signals::agreed_stop_with(self.comm, self.injected_signal, &mut clock)?;
             if self.stopped_by.is_none() && clock[0] > 0.0 {
                 self.stopped_by = Some("max-wall");
             }
