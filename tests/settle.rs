@@ -150,3 +150,22 @@ fn settling_refuses_a_scene_that_moves() {
         }
     }
 }
+
+/// `hsph check` builds the set-up without the settling (a run's work) and counts its steps.
+#[test]
+fn check_counts_the_settling_without_running_it() {
+    let dir = common::temp_dir("settle-check");
+    let text = fs::read_to_string(common::repo_path("inputs/hydrostatic_2d.toml"))
+        .unwrap()
+        .replace("t_end = 0.5", "t_end = 0.5\nsettle = 0.3");
+    assert!(text.contains("settle = 0.3"));
+    let scene = dir.join("settled.toml");
+    fs::write(&scene, text).unwrap();
+    let (code, out, err) = common::hsph(&["check", scene.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let line = out.lines().find(|l| l.starts_with("time")).unwrap_or_default();
+    assert!(
+        line.contains("settling 0.3 s before t = 0") && line.contains("steps more"),
+        "{out}"
+    );
+}

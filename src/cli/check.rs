@@ -228,7 +228,11 @@ fn wall_lines(scene: &Scene) -> Vec<String> {
 pub(super) fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
     use crate::particles::Particles;
     use std::fmt::Write;
-    let sim = crate::sim::Simulation::<D>::new(scene, &crate::comm::serial::SerialComm::new())?;
+    // the set-up as a run builds it, without the settling's steps (a run's work, not a check's;
+    // the `time` line counts them)
+    let mut unsettled = scene.clone();
+    unsettled.time.settle = 0.0;
+    let sim = crate::sim::Simulation::<D>::new(&unsettled, &crate::comm::serial::SerialComm::new())?;
     let n = sim.p.n_owned;
     let mut s = String::new();
     let w = &mut s;
@@ -278,9 +282,18 @@ pub(super) fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
         let _ = writeln!(w, "{line}");
     }
     let steps = (scene.time.t_end / sim.dt).ceil();
+    let settle = scene.time.settle;
+    let settling = if settle > 0.0 {
+        format!(
+            "; settling {settle} s before t = 0 (about {:.0} steps more)",
+            (settle / sim.dt).ceil()
+        )
+    } else {
+        String::new()
+    };
     let _ = writeln!(
         w,
-        "time        t_end {} s, dt₀ {:.4e} s, about {:.0} steps, {} output steps",
+        "time        t_end {} s, dt₀ {:.4e} s, about {:.0} steps, {} output steps{settling}",
         scene.time.t_end,
         sim.dt,
         steps,
