@@ -10,8 +10,8 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 /// Run the binary on `scene` with `sets` on (ranks, threads): the run directory and its
-/// summary. A process of its own: the suite's in-process signal test leaves a stop request
-/// in the test process's signal flag.
+/// summary. (A process of its own was once needed because the signal test's injected stop sat in
+/// the test process's signal flag; the injected stop is now the run's own.)
 fn run(
     scene: &str,
     sets: &[String],
