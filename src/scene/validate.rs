@@ -845,25 +845,21 @@ fn check_settle(s: &Scene) -> Result<()> {
         return Ok(());
     }
     let moving = |v: &[f64]| v.iter().any(|c| *c != 0.0);
-    let bodies = s
-        .fluids
-        .iter()
-        .map(|f| ("fluid", f))
-        .chain(s.solids.iter().map(|f| ("solid", f)));
-    let mut i = (0, 0);
-    for (kind, f) in bodies {
-        let k = if kind == "fluid" { &mut i.0 } else { &mut i.1 };
-        if moving(&f.velocity) || f.velocity_field.is_some() {
+    for (kind, bodies) in [("fluid", &s.fluids), ("solid", &s.solids)] {
+        if let Some((k, f)) = bodies
+            .iter()
+            .enumerate()
+            .find(|(_, f)| moving(&f.velocity) || f.velocity_field.is_some())
+        {
             return err(
                 "time.settle",
                 format!(
-                    "settles a scene at rest, but {kind}[{k}] ('{}') starts with a velocity, which the \
-                     settling would damp away; remove time.settle or the initial velocity",
+                    "settles a scene at rest, but {kind}[{k}] ('{}') starts with a velocity, which \
+                     the settling would damp away; remove time.settle or the initial velocity",
                     f.name
                 ),
             );
         }
-        *k += 1;
     }
     if let Some((j, w)) = s
         .walls

@@ -126,9 +126,9 @@ impl<const D: usize> Simulation<D> {
     /// scene's own steps before t = 0, each followed by v ← v·exp(−dt/τ) for every integrated
     /// particle, τ = settle/[`SETTLE_DECAYS`] (s), so that an oscillation's velocity decays by
     /// e^−8 over the span (its amplitude by about e^−4 when it is slower than the damping);
-    /// then v = 0, t = 0, step 0, and the set-up's passes at dt = 0 again. The positions and densities keep what the discretisation
-    /// holds at rest, so still water starts without the acoustic transient of its lattice
-    /// (docs/refinement.md §2). The scene's walls are still and its bodies at rest (checked
+    /// then v = 0, t = 0, step 0, and the set-up's passes at dt = 0 again. The positions and
+    /// densities keep what the discretisation holds at rest, so still water starts without the
+    /// acoustic transient of its lattice (docs/refinement.md §2). The scene's walls are still and its bodies at rest (checked
     /// in `scene/validate.rs`). Every rank takes the same steps: the same bits on any layout.
     /// The timers, pair count and ghost-build count are the run's alone afterwards; balance,
     /// migration and split/merge counts include the settling.
