@@ -30,6 +30,9 @@ pub struct Eos {
     pub gamma: f64,
     /// Tait stiffness B = ρ0 c0²/γ (Pa).
     b: f64,
+    /// ρ0⁶/c0² (kg⁶ m⁻²⁰ s²): ρ/c²(ρ) = this / ρ⁵ for Tait with γ = 7
+    /// ([`Eos::density_over_sound_speed2`]).
+    rho0_6_over_c02: f64,
 }
 
 /// r^e of a density ratio r; the exponents of water's γ = 7 (7 for p, 6 for c²) without powf.
@@ -55,6 +58,7 @@ impl Eos {
             c0,
             gamma,
             b: rho0 * c0 * c0 / gamma,
+            rho0_6_over_c02: rho0.powi(6) / (c0 * c0),
         }
     }
 
@@ -81,6 +85,20 @@ impl Eos {
             EosKind::Linear => c02,
             #[cfg(test)]
             EosKind::Toy => c02 * rho / self.rho0,
+        }
+    }
+
+    /// ρ/c²(ρ) (kg s² m⁻⁵), what Fourtakas's hydrostatic density difference ρ g·x/c² needs per
+    /// pair: for water's Tait γ = 7, c² = c0² (ρ/ρ0)⁶ gives ρ/c² = (ρ0⁶/c0²)/ρ⁵, one division
+    /// per pair where ρ/(c0² (ρ/ρ0)⁶) takes two (the pair pass waits on its divisions); to
+    /// round-off the same value.
+    #[inline]
+    pub fn density_over_sound_speed2(&self, rho: f64) -> f64 {
+        if self.kind == EosKind::Tait && self.gamma == 7.0 {
+            let r2 = rho * rho;
+            self.rho0_6_over_c02 / (r2 * r2 * rho)
+        } else {
+            rho / self.sound_speed2(rho)
         }
     }
 
@@ -114,6 +132,25 @@ impl Eos {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn density_over_sound_speed2_is_rho_over_c2_to_round_off() {
+        // Tait γ = 7 takes (ρ0⁶/c0²)/ρ⁵; the others ρ/c² itself
+        for (kind, gamma) in [(EosKind::Tait, 7.0), (EosKind::Tait, 1.4), (EosKind::Linear, 7.0)] {
+            let eos = Eos::new(kind, 1000.0, 35.0, gamma);
+            for rho in [950.0, 999.0, 1000.0, 1003.7, 1100.0] {
+                let want = rho / eos.sound_speed2(rho);
+                let got = eos.density_over_sound_speed2(rho);
+                assert!(
+                    (got - want).abs() <= 4.0 * f64::EPSILON * want,
+                    "{kind:?} γ {gamma} ρ {rho}"
+                );
+            }
+        }
+        // c² = c0² at ρ0: ρ0/c0²
+        let eos = Eos::new(EosKind::Tait, 1000.0, 35.0, 7.0);
+        assert!((eos.density_over_sound_speed2(1000.0) - 1000.0 / 1225.0).abs() < 1e-15);
+    }
 
     #[test]
     fn pressure_and_density_are_inverse_and_match_hand_values() {

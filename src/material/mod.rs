@@ -92,6 +92,16 @@ impl MaterialModel {
         }
     }
 
+    /// ρ/c²(ρ) (kg s² m⁻⁵), with one division for water's Tait EOS
+    /// ([`fluid::Eos::density_over_sound_speed2`]).
+    #[inline]
+    pub fn density_over_sound_speed2(&self, rho: f64) -> f64 {
+        match self {
+            MaterialModel::Fluid(eos) => eos.density_over_sound_speed2(rho),
+            MaterialModel::Solid(_) => rho / self.sound_speed2(rho),
+        }
+    }
+
     /// Sound speed used by the time-step limit and the numerical diffusion terms (m/s): the
     /// numerical c0 of a weakly compressible fluid.
     #[inline]

@@ -201,8 +201,8 @@ pub(crate) fn psi_dot_grad<const D: usize>(
         Correction::Gradients => base - (p.grad_rho[i] + p.grad_rho[j]).dot(xij),
         Correction::Hydrostatic(g) => {
             let rho = 0.5 * (p.rho[i] + p.rho[j]);
-            // ρ^H_ji = ρ̄ g·x_ji / c², x_ji = −x_ij
-            let hydro = -rho * g.dot(xij) / model.materials[p.mat[i] as usize].sound_speed2(rho);
+            // ρ^H_ji = ρ̄ g·x_ji / c², x_ji = −x_ij, with ρ̄/c² in one division
+            let hydro = -g.dot(xij) * model.materials[p.mat[i] as usize].density_over_sound_speed2(rho);
             base + 2.0 * hydro
         }
     };

@@ -321,14 +321,15 @@ fn fluid_pair<const D: usize, K: PairKernel>(
     let (mut pi, mut pj) = (base, base);
     let vx = vij.dot(&xij);
     if model.alpha > 0.0 && vx < 0.0 {
-        let av_j = if p.mat[j] == p.mat[i] {
-            av_i
-        } else {
-            -2.0 * model.alpha * model.materials[p.mat[j] as usize].c0() * k.h
-        };
         let den = (r2 + eta2) * (rhoi + rhoj);
-        pi += av_i * vx / den;
-        pj += av_j * vx / den;
+        let pi_i = av_i * vx / den;
+        pi += pi_i;
+        // one material: Π_ji is Π_ij, the same operations, so one division serves both
+        pj += if p.mat[j] == p.mat[i] {
+            pi_i
+        } else {
+            -2.0 * model.alpha * model.materials[p.mat[j] as usize].c0() * k.h * vx / den
+        };
     }
     let mut a_i = xij * (-f * mj * pi);
     let mut a_j = xij * (-f * mi * pj);
