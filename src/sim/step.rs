@@ -572,6 +572,8 @@ impl<const D: usize> Simulation<D> {
             let (kind, v, a) = (&self.p.kind, &self.p.v, &self.p.acc);
             let (rho, drho) = (&self.p.rho, &self.p.drho);
             let solids = self.model.has_solid;
+            type Max4 = (f64, f64, f64, f64);
+            let max4 = |x: Max4, y: Max4| (x.0.max(y.0), x.1.max(y.1), x.2.max(y.2), x.3.max(y.3));
             // squared norms, one square root after the reduction: sqrt is correctly rounded and
             // monotone, so √(max |v|²) is max |v| to the bit, at one root per rank instead of
             // two per particle; a scene without solids skips their signal and strain rate
@@ -591,13 +593,10 @@ impl<const D: usize> Simulation<D> {
                         } else {
                             (0.0, 0.0)
                         };
-                        (m.0.max(v2), m.1.max(a2), m.2.max(s), m.3.max(d))
+                        max4(m, (v2, a2, s, d))
                     },
                 )
-                .reduce(
-                    || (0.0f64, 0.0f64, 0.0f64, 0.0f64),
-                    |x, y| (x.0.max(y.0), x.1.max(y.1), x.2.max(y.2), x.3.max(y.3)),
-                );
+                .reduce(|| (0.0f64, 0.0f64, 0.0f64, 0.0f64), max4);
             let (vmax, amax) = (v2.sqrt(), a2.sqrt());
             // max is exact, so the all-reduce gives the same bits on any number of ranks
             let mut m = [vmax, amax, smax, dmax];
