@@ -338,10 +338,11 @@ fn a_refined_run_restarts_to_the_uninterrupted_bits() {
 /// periods). Facts: the largest speed over the whole second below 1 % of sqrt(gH) (measured
 /// 0.56 %, at the surface's corners; 1.16 % unsettled), no fluid pair closer than half the fine
 /// spacing, no particle in a wall, and the pressure error of docs/validation.md §2 at t = 1 s
-/// within 0.9 % of ρ0 g H over the tank (measured 0.80 %, at the coarse bottom corners; the
-/// settled uniform dx/2 tank's 0.59 %) and within 0.5 % around the box (measured 0.42 %; the
-/// uniform tanks' 0.19–0.21 %: the box's upper interface carries a pressure step of about
-/// 20 Pa).
+/// within 0.68 % of ρ0 g H over the tank (measured 0.661 %, at the coarse bottom corners, which
+/// read 0.673 % in the settled uniform dx tank; the uniform dx/2 tank's 0.588 %) and within
+/// 0.21 % around the box, 1.1 × the settled uniform dx/2 tank's 0.186 % there (measured
+/// 0.190 %; 0.42 % before the set-up relaxation moved the rows whose support the surface cuts
+/// along the surface only, when the box's upper interface carried a step of 20 Pa).
 #[test]
 fn still_water_with_a_refined_box_stays_still() {
     let s = load_scene(
@@ -379,7 +380,7 @@ fn still_water_with_a_refined_box_stays_still() {
         100.0 * ep
     );
     assert!(ev < 0.005, "max speed {:.3} % of sqrt(gH)", 100.0 * ev);
-    assert!(ep <= 0.009, "pressure error {:.3} %", 100.0 * ep);
+    assert!(ep <= 0.0068, "pressure error {:.3} %", 100.0 * ep);
     assert_eq!(e("fluid_in_walls_fraction"), 0.0);
     // closest pair of fluid particles, by brute force over final.csv
     let text = std::fs::read_to_string(out.join("final.csv")).unwrap();
@@ -408,7 +409,7 @@ fn still_water_with_a_refined_box_stays_still() {
     assert_eq!(fine, 1200, "the box holds 20 × 15 cells of four particles");
     eprintln!("around the box: pressure {:.3} %", 100.0 * box_error);
     assert!(
-        box_error <= 0.005,
+        box_error <= 0.0021,
         "pressure error around the box {:.3} %",
         100.0 * box_error
     );

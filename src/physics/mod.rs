@@ -132,8 +132,15 @@ impl<const D: usize> Model<D> {
             c_max,
             shifting,
             relaxation: (s.discretisation.relax > 0).then(|| {
+                // the smallest ∇·r of a full support on the scene's lattices: a level of the
+                // scene's h has h/Δp 2^ℓ times the scene's, one of its own h the scene's ratio
+                let finest = s.refine.iter().map(|r| r.level).max().unwrap_or(0);
+                let full = (0..=finest)
+                    .map(|l| shifting::lattice_divergence(&kernel, dx / f64::from(1u32 << l), D))
+                    .fold(f64::INFINITY, f64::min);
+                let near = shifting::RELAX_NEAR * full;
                 (
-                    shifting::Shifting::relaxation(h, dx, kernel.w(dx)),
+                    shifting::Shifting::relaxation(h, dx, kernel.w(dx), near),
                     s.discretisation.relax,
                 )
             }),
@@ -267,8 +274,9 @@ impl<const D: usize> Model<D> {
         }
         if let Some((s, n)) = &self.relaxation {
             v.push(format!(
-                "set-up relaxation: {n} iterations of δr = −{:.3e} m² Σ V_j ∇W_ij (fluid, at rest)",
-                s.coefficient
+                "set-up relaxation: {n} iterations of δr = −{:.3e} m² Σ V_j ∇W_ij (fluid, at rest; \
+                 along the free surface where ∇·r < {:.4} D)",
+                s.coefficient, s.near
             ));
         }
         v
