@@ -336,11 +336,11 @@ fn a_refined_run_restarts_to_the_uninterrupted_bits() {
 /// settled for 0.3 s before t = 0 (`time.settle`: without it the lattice's acoustic transient
 /// decides which run reads best at any instant; docs/refinement.md §2), then 1 s (70 acoustic
 /// periods). Facts: the largest speed over the whole second below 1 % of sqrt(gH) (measured
-/// 0.56 %, at the surface's corners; 1.16 % unsettled), no fluid pair closer than half the fine
+/// 0.33 %, at the surface's corners; 1.51 % unsettled), no fluid pair closer than half the fine
 /// spacing, no particle in a wall, and the pressure error of docs/validation.md §2 at t = 1 s
 /// within 0.68 % of ρ0 g H over the tank (measured 0.661 %, at the coarse bottom corners, which
 /// read 0.673 % in the settled uniform dx tank; the uniform dx/2 tank's 0.588 %) and within
-/// 0.21 % around the box, 1.1 × the settled uniform dx/2 tank's 0.186 % there (measured
+/// 0.21 % around the box, 1.13 × the settled uniform dx/2 tank's 0.186 % there (measured
 /// 0.190 %; 0.42 % before the set-up relaxation moved the rows whose support the surface cuts
 /// along the surface only, when the box's upper interface carried a step of 20 Pa).
 #[test]

@@ -259,7 +259,7 @@ const DRIFT: &str = "inputs/hydrostatic_2d_drift_adaptive.toml";
 
 /// Still water drifting at U = 0.1 m/s through an adaptive box (issue 36's acceptance, the
 /// scene's header): over 1 s, at every output, no fluid particle deviates from the drift by
-/// 1 % of √(gH) (measured 0.0209 of 0.0221 m/s; 0.0032 with the box's particles keeping
+/// 1 % of √(gH) (measured 0.0208 of 0.0221 m/s; 0.0032 with the box's particles keeping
 /// their size); the mass stays what it was through every split and merge; no two fluid
 /// particles end closer than half the fine spacing.
 #[test]

@@ -275,7 +275,7 @@ impl<const D: usize> Model<D> {
         if let Some((s, n)) = &self.relaxation {
             v.push(format!(
                 "set-up relaxation: {n} iterations of δr = −{:.3e} m² Σ V_j ∇W_ij (fluid, at rest; \
-                 along the free surface where ∇·r < {:.4} D)",
+                 held where ∇·r < {:.4} D, a support cut by the free surface)",
                 s.coefficient, s.near
             ));
         }

@@ -42,7 +42,8 @@ pub const SURFACE: f64 = 0.75;
 /// ∇·r below this fraction of D: near the free surface (tangential shift only).
 pub const NEAR_SURFACE: f64 = 0.9;
 /// In the set-up relaxation, ∇·r below this fraction of the lattice's own (a full support,
-/// [`lattice_divergence`]): the support is cut by the free surface (tangential shift only).
+/// [`lattice_divergence`]): the support is cut by the free surface, and the particle stays
+/// where it is (without the anti-clumping term the push is ∇C itself, all of it normal).
 pub const RELAX_NEAR: f64 = 0.99;
 
 /// The shifting of a model: β (2h)² (m²) and W(Δx).
@@ -84,7 +85,8 @@ impl Shifting {
     /// surface rows, and the whole column after them: in the refined still water of
     /// docs/refinement.md §2 the column stretched by 0.2 % in 50 iterations and kept growing
     /// with more, and the box's upper interface took a pressure step of 20 Pa. So every
-    /// particle whose support the surface cuts moves along the surface only: ∇·r below
+    /// particle whose support the surface cuts stays where it is (the tangential rule of a
+    /// step, with no anti-clumping term, leaves nothing of δr ∝ ∇C_i): ∇·r below
     /// `near`·D, where `near` is [`RELAX_NEAR`] times the smallest ∇·r/D of the scene's
     /// lattices in a full support ([`lattice_divergence`]), which is not D on a lattice
     /// (0.9992 for Wendland C2 at h = 2 dx in 2D, 0.964 at h = 1.2 dx). A step's threshold

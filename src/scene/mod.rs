@@ -433,7 +433,8 @@ pub struct Discretisation {
     #[serde(default = "default_kernel")]
     pub kernel: KernelKind,
     /// Iterations of the set-up relaxation (0, the default: none): before t = 0 the fluid
-    /// particles move, at rest and walls fixed, until Σ_j V_j ∇W_ij vanishes
+    /// particles move, at rest and walls fixed, until Σ_j V_j ∇W_ij vanishes, except those
+    /// whose support the free surface cuts, which are held
     /// ([`crate::physics::shifting::Shifting::relaxation`]); for the interfaces of refinement
     /// regions, where the lattices of two sizes leave it non-zero.
     #[serde(default)]
