@@ -426,6 +426,54 @@ fn still_water_with_a_refined_box_stays_still() {
     );
 }
 
+/// The uniform still tank's lattice is the set-up relaxation's fixed point: in a full support
+/// Σ V_j ∇W_ij vanishes by symmetry, walls count as filled space, and the rows whose support the
+/// free surface cuts are held (`shifting::RELAX_NEAR`). 50 iterations move no fluid particle
+/// by more than 1e-9 dx (measured 4e-15 dx). Under δ⁺ shifting's 0.9 D rule (the rule
+/// before 2026-11-29) the row 2 dx below the top row (∇·r = 0.969 D) climbed into the surface
+/// rows and the column below followed: this test read a particle moved by 7.8 mm = 0.39 dx,
+/// and the refined tank took a 20 Pa step from it (docs/refinement.md §2).
+#[test]
+fn relaxing_a_uniform_tank_leaves_its_lattice() {
+    let dir = common::temp_dir("relax-uniform");
+    let final_positions = |relax: u32| {
+        let out = dir.join(format!("relax{relax}"));
+        let set = format!("discretisation.relax={relax}");
+        let (code, _, err) = common::run_file(
+            "inputs/hydrostatic_2d.toml",
+            &out,
+            (1, 1),
+            &[&set, "time.t_end=1e-9"],
+        );
+        assert_eq!(code, 0, "{err}");
+        let text = std::fs::read_to_string(out.join("final.csv")).unwrap();
+        let mut lines = text.lines();
+        let cols: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let at = |name: &str| cols.iter().position(|c| *c == name).unwrap();
+        let (ki, kk, kx, ky) = (at("id"), at("kind"), at("x"), at("y"));
+        lines
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .filter(|v| v[kk] == "0")
+            .map(|v| {
+                let f = |k: usize| v[k].parse::<f64>().unwrap();
+                (v[ki].parse::<u64>().unwrap(), (f(kx), f(ky)))
+            })
+            .collect::<std::collections::BTreeMap<_, _>>()
+    };
+    let (lattice, relaxed) = (final_positions(0), final_positions(50));
+    assert_eq!(lattice.len(), 1250);
+    assert_eq!(lattice.len(), relaxed.len());
+    let dx = 0.02;
+    let moved = lattice
+        .iter()
+        .map(|(id, a)| {
+            let b = relaxed[id];
+            (a.0 - b.0).hypot(a.1 - b.1)
+        })
+        .fold(0.0f64, f64::max);
+    assert!(moved < 1e-9 * dx, "a fluid particle moved {moved} m");
+}
+
 /// A dummy wall keeps the water in where the smoothing length varies beside it. The refined
 /// tank with the box taken down through the floor and the level's h: the spurious force of
 /// the h ramp at the floor (`docs/refinement.md` §1) carried two fluid particles 3.8 mm
