@@ -54,15 +54,21 @@ fn step_difference<const D: usize>(scene: &Scene) -> (f64, f64, usize) {
 
 #[test]
 fn pairs_and_gather_agree_to_round_off_on_one_step_2d_and_3d() {
-    // the scene ships pair mode with Verlet lists; this test starts both runs in gather mode
-    // with lists built every step and switches one of them
+    // the scene ships pair mode with Verlet lists and Fourtakas's term; this test starts both
+    // runs in gather mode with lists built every step and switches one of them, first with
+    // Antuono's term
     let gather = [
         "performance.interactions=\"gather\"",
         "performance.neighbours=\"lists\"",
     ];
     let s2 = scene(
         "inputs/dam_break_2d_dsph.toml",
-        &["output.format=\"none\"", gather[0], gather[1]],
+        &[
+            "output.format=\"none\"",
+            "physics.density_diffusion=\"antuono\"",
+            gather[0],
+            gather[1],
+        ],
     );
     let (rho, acc, n) = step_difference::<2>(&s2);
     eprintln!("2D, {n} fluid particles: dρ/dt {rho:.2e}, acceleration {acc:.2e} (relative to the largest)");
