@@ -22,6 +22,7 @@ mod hardening_ii;
 mod initial_fields;
 mod injection;
 mod jobscript;
+mod lagged_gradient;
 mod layers;
 mod layout_report;
 mod lean;

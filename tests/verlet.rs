@@ -151,15 +151,7 @@ fn a_restart_between_builds_continues_the_uninterrupted_bits() {
         "performance.neighbours=\"verlet\"",
         "output.interval=0.01",
     ];
-    let reference = dir.join("ref");
-    let (code, _, err) = common::run_file("inputs/dam_break_2d.toml", &reference, (1, 1), &sets);
-    assert_eq!(code, 0, "{err}");
-    let cut = dir.join("cut");
-    let mut first = sets.to_vec();
-    first.extend(["time.max_steps=90", "checkpoint.every_steps=90"]);
-    let (code, _, err) = common::run_file("inputs/dam_break_2d.toml", &cut, (2, 1), &first);
-    assert_eq!(code, 0, "{err}");
-    let ck = cut.join("checkpoints/step-0000000090");
+    let (reference, cut, ck) = common::reference_and_cut(&dir, "inputs/dam_break_2d.toml", &sets, 90);
     let manifest = read(&ck, "manifest.json");
     assert!(manifest.contains("\"build_positions\": true"), "{manifest}");
     let summary: serde_json::Value = serde_json::from_str(&read(&cut, "summary.json")).unwrap();
@@ -170,12 +162,11 @@ fn a_restart_between_builds_continues_the_uninterrupted_bits() {
     );
     let (code, _, err) = common::restart_to_end(&ck, 3);
     assert_eq!(code, 0, "{err}");
-    for f in ["timeseries.csv", "final.csv", "probes/front.csv"] {
-        assert!(
-            read(&reference, f) == read(&cut, f),
-            "{f} differs after the restart"
-        );
-    }
+    common::assert_same_files(
+        &reference,
+        &cut,
+        &["timeseries.csv", "final.csv", "probes/front.csv"],
+    );
 }
 
 /// Verlet lists without a skin, or with a region that gives its particles the level's h, are

@@ -33,6 +33,9 @@ pub struct Model<const D: usize> {
     pub materials: Vec<MaterialModel>,
     /// Density diffusion variant.
     pub diffusion: DensityDiffusion,
+    /// Antuono's gradient is the previous step's, computed with the momentum pass
+    /// (`physics.density_gradient = "lagged"`).
+    pub lagged_gradient: bool,
     /// δ coefficient.
     pub delta: f64,
     /// Monaghan α.
@@ -108,6 +111,8 @@ impl<const D: usize> Model<D> {
         Model {
             kernel,
             diffusion: s.physics.density_diffusion,
+            lagged_gradient: s.physics.density_diffusion == DensityDiffusion::Antuono
+                && s.physics.density_gradient == crate::scene::DensityGradient::Lagged,
             delta: s.physics.delta,
             alpha: s.physics.artificial_viscosity,
             beta: s.physics.artificial_viscosity_beta,
@@ -238,7 +243,12 @@ impl<const D: usize> Model<D> {
                 self.delta
             )),
             DensityDiffusion::Antuono => v.push(format!(
-                "δ-SPH Antuono (renormalised gradient), δ = {}",
+                "δ-SPH Antuono (renormalised gradient{}), δ = {}",
+                if self.lagged_gradient {
+                    " of the previous step, with the momentum pass"
+                } else {
+                    ""
+                },
                 self.delta
             )),
         }

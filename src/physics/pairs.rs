@@ -211,34 +211,64 @@ pub fn momentum<const D: usize>(
     model: &Model<D>,
     s: &mut PairScratch<D>,
 ) {
+    momentum_pass::<D, false>(p, half, model, s);
+}
+
+/// Momentum in pair mode with Antuono's ⟨∇ρ⟩^L of the same state (`physics.density_gradient
+/// = "lagged"`): `p.acc` as [`momentum`] and `p.grad_rho` as [`renormalised_gradient`], to
+/// the bit, in one visit of each pair (the kernel derivative and separation serve both).
+pub fn momentum_with_gradient<const D: usize>(
+    p: &mut Particles<D>,
+    half: &HalfView<'_, D>,
+    model: &Model<D>,
+    s: &mut PairScratch<D>,
+) {
+    momentum_pass::<D, true>(p, half, model, s);
+}
+
+/// [`momentum`], and with `G` the gradient's matrix and vector after each slot's D values.
+fn momentum_pass<const D: usize, const G: bool>(
+    p: &mut Particles<D>,
+    half: &HalfView<'_, D>,
+    model: &Model<D>,
+    s: &mut PairScratch<D>,
+) {
     s.p_rho2.resize(p.len(), 0.0);
     s.p_rho2
         .par_iter_mut()
         .zip(p.p.par_iter().zip(p.rho.par_iter()))
         .for_each(|(q, (&pj, &rj))| *q = pj / (rj * rj));
+    if G {
+        s.volumes(p);
+    }
+    let stride = if G { D + gradient_stride::<D>() } else { D };
     crate::with_pair_kernel!(model.varying(), model.kernel, D, k => {
-        let pass = Momentum {
+        let pass = Momentum::<D, _, G> {
             kern: k,
             p: &*p,
             half,
             model,
             p_rho2: &s.p_rho2,
+            vol: &s.vol,
         };
-        run_homes(half, &mut s.flat, D, 0.0, &pass);
+        run_homes(half, &mut s.flat, stride, 0.0, &pass);
     });
     let n = p.n_owned;
     let (acc, kind, g) = (&s.flat, &p.kind, model.g);
     p.acc[..n].par_iter_mut().enumerate().for_each(|(i, a)| {
         *a = if kind[i].is_fluid() {
-            Vector::<D>::from_column_slice(&acc[half.entry(i) * D..][..D]) + g
+            Vector::<D>::from_column_slice(&acc[half.entry(i) * stride..][..D]) + g
         } else {
             Vector::zeros()
         };
     });
+    if G {
+        gradients_from(p, half, &s.flat, stride, D);
+    }
 }
 
 /// The momentum pass's inputs.
-struct Momentum<'a, 'h, const D: usize, K> {
+struct Momentum<'a, 'h, const D: usize, K, const G: bool> {
     /// The kernel of each pair.
     kern: K,
     p: &'a Particles<D>,
@@ -246,6 +276,8 @@ struct Momentum<'a, 'h, const D: usize, K> {
     model: &'a Model<D>,
     /// p_j/ρ_j² of every particle (m⁵ kg⁻¹ s⁻²).
     p_rho2: &'a [f64],
+    /// V_j of every particle (m³), with `G` (the gradient) only.
+    vol: &'a [f64],
 }
 
 /// Add `v` to the D values `out` (one slot's dv/dt in the flat accumulator).
@@ -256,7 +288,7 @@ fn add<const D: usize>(out: &mut [f64], v: &Vector<D>) {
     }
 }
 
-impl<const D: usize, K: PairKernel> Home<f64> for Momentum<'_, '_, D, K> {
+impl<const D: usize, K: PairKernel, const G: bool> Home<f64> for Momentum<'_, '_, D, K, G> {
     /// Home slot k's pairs.
     #[inline]
     fn home<I: Iterator<Item = u32>>(&self, k: usize, w: &mut Window<'_, f64>, partners: I) {
@@ -264,7 +296,8 @@ impl<const D: usize, K: PairKernel> Home<f64> for Momentum<'_, '_, D, K> {
         let order = self.half.order();
         let a = order[k] as usize;
         if p.kind[a] != Kind::Fluid {
-            // a wall home: only its fluid partners receive (the lists hold no other pair)
+            // a wall home: only its fluid partners receive (the lists hold no other pair),
+            // and no gradient (walls do not diffuse)
             for t in partners {
                 let t = t as usize;
                 let b = order[t] as usize;
@@ -278,23 +311,40 @@ impl<const D: usize, K: PairKernel> Home<f64> for Momentum<'_, '_, D, K> {
         }
         let ta = PairTerms::of(p, model, a, p_rho2[a]);
         let mut sum = Vector::<D>::zeros();
+        let mut grad = GradientSum::<D>::default();
         for t in partners {
             let t = t as usize;
             let b = order[t] as usize;
             if p.kind[b].is_fluid() {
-                let (d_a, d_b) = fluid_pair(p, model, self.kern, &ta, p_rho2, a, b);
+                let (d_a, d_b, f) = fluid_pair(p, model, self.kern, &ta, p_rho2, a, b);
                 sum += d_a;
-                add(w.at(t), &d_b);
+                let out = w.at(t);
+                add(out, &d_b);
+                if G && diffuses(p, a, b) {
+                    let xab = ta.x - p.x[b];
+                    grad.pair(
+                        &xab,
+                        f,
+                        (self.vol[a], self.vol[b]),
+                        (ta.rho, p.rho[b]),
+                        &mut out[D..],
+                    );
+                }
             } else {
                 sum += pair_acceleration(p, model, self.kern, &ta, p_rho2[b], b);
             }
         }
-        add(w.at(k), &sum);
+        let out = w.at(k);
+        add(out, &sum);
+        if G {
+            grad.flush(&mut out[D..]);
+        }
     }
 }
 
 /// Both sides of the momentum pair of fluid particles i (`ti`) and j: (dv_i, dv_j) without
-/// the body force, each computed as [`pair_acceleration`] computes it from its side.
+/// the body force, each computed as [`pair_acceleration`] computes it from its side, and the
+/// pair's (1/r) dW/dr (m^-(D+2)).
 #[inline(always)]
 fn fluid_pair<const D: usize, K: PairKernel>(
     p: &Particles<D>,
@@ -304,7 +354,7 @@ fn fluid_pair<const D: usize, K: PairKernel>(
     p_rho2: &[f64],
     i: usize,
     j: usize,
-) -> (Vector<D>, Vector<D>) {
+) -> (Vector<D>, Vector<D>, f64) {
     let xij = ti.x - p.x[j];
     let r2 = xij.norm_squared();
     let k = kern.of(&p.h, i, j);
@@ -351,13 +401,19 @@ fn fluid_pair<const D: usize, K: PairKernel>(
         a_i += vi * (mj * mu_sum * f / rr);
         a_j += vj * (mi * mu_sum * f / rr);
     }
-    (a_i, -a_j)
+    (a_i, -a_j, f)
 }
 
 /// Index of (r, c), r ≤ c, in the upper triangle of a D×D matrix stored row by row.
 #[inline(always)]
 fn tri<const D: usize>(r: usize, c: usize) -> usize {
     r * D - r * (r + 1) / 2 + c
+}
+
+/// Values per slot of the gradient's accumulator: the upper triangle of −Σ V_j f x_ij ⊗ x_ij
+/// (D(D+1)/2), then Σ V_j f (ρ_j − ρ_i) x_ij (D).
+const fn gradient_stride<const D: usize>() -> usize {
+    D * (D + 1) / 2 + D
 }
 
 /// Antuono's ⟨∇ρ⟩^L in pair mode, written to `p.grad_rho` (zero for all but owned fluid
@@ -368,9 +424,7 @@ pub fn renormalised_gradient<const D: usize>(
     model: &Model<D>,
     s: &mut PairScratch<D>,
 ) {
-    // per slot: the upper triangle of −Σ V_j ∇W ⊗ x_ij, then Σ V_j (ρ_j − ρ_i) ∇W
-    let m = D * (D + 1) / 2;
-    let stride = m + D;
+    let stride = gradient_stride::<D>();
     s.volumes(p);
     crate::with_pair_kernel!(model.varying(), model.kernel, D, k => {
         let pass = Gradient {
@@ -381,14 +435,28 @@ pub fn renormalised_gradient<const D: usize>(
         };
         run_homes(half, &mut s.flat, stride, 0.0, &pass);
     });
+    gradients_from(p, half, &s.flat, stride, 0);
+}
+
+/// `p.grad_rho` of every owned particle from the accumulator `acc` (`stride` values per fluid
+/// slot, the gradient's from `offset` on): L⁻¹ times the vector for fluid particles, zero for
+/// the others.
+fn gradients_from<const D: usize>(
+    p: &mut Particles<D>,
+    half: &HalfView<'_, D>,
+    acc: &[f64],
+    stride: usize,
+    offset: usize,
+) {
+    let m = D * (D + 1) / 2;
     let n = p.n_owned;
-    let (acc, kind) = (&s.flat, &p.kind);
+    let kind = &p.kind;
     p.grad_rho[..n].par_iter_mut().enumerate().for_each(|(i, g)| {
         *g = Vector::zeros();
         if !kind[i].is_fluid() {
             return;
         }
-        let at = &acc[half.entry(i) * stride..][..stride];
+        let at = &acc[half.entry(i) * stride + offset..][..m + D];
         let mat = Matrix::<D>::from_fn(|r, c| {
             if r <= c {
                 at[tri::<D>(r, c)]
@@ -399,6 +467,73 @@ pub fn renormalised_gradient<const D: usize>(
         let v = Vector::<D>::from_fn(|a, _| at[m + a]);
         *g = inverse_or_identity(&mat) * v;
     });
+}
+
+/// A home's own side of the gradient's sums, accumulated over its pairs and written once
+/// ([`GradientSum::flush`]); each partner's side goes straight to its window.
+struct GradientSum<const D: usize> {
+    /// −Σ V_b f x_ab ⊗ x_ab (upper triangle used).
+    mat: [[f64; D]; D],
+    /// Σ V_b f (ρ_b − ρ_a) x_ab.
+    vec: Vector<D>,
+}
+
+impl<const D: usize> Default for GradientSum<D> {
+    fn default() -> Self {
+        GradientSum {
+            mat: [[0.0; D]; D],
+            vec: Vector::zeros(),
+        }
+    }
+}
+
+impl<const D: usize> GradientSum<D> {
+    /// The pair (a, b) of separation `xab` = x_a − x_b, (1/r) dW/dr `f`, volumes (V_a, V_b)
+    /// and densities (ρ_a, ρ_b): a's side here, b's into `out` (its slot's gradient values).
+    #[inline(always)]
+    fn pair(
+        &mut self,
+        xab: &Vector<D>,
+        f: f64,
+        (va, vb): (f64, f64),
+        (rhoa, rhob): (f64, f64),
+        out: &mut [f64],
+    ) {
+        let m = D * (D + 1) / 2;
+        let wa = f * vb;
+        for r in 0..D {
+            let wr = xab[r] * wa;
+            for c in r..D {
+                self.mat[r][c] -= wr * xab[c];
+            }
+        }
+        self.vec += xab * (wa * (rhob - rhoa));
+        let wb = f * va;
+        for r in 0..D {
+            let wr = xab[r] * wb;
+            for c in r..D {
+                out[tri::<D>(r, c)] -= wr * xab[c];
+            }
+        }
+        let sb = -(xab * (wb * (rhoa - rhob)));
+        for c in 0..D {
+            out[m + c] += sb[c];
+        }
+    }
+
+    /// Add the home's side to its own slot's gradient values `out`.
+    #[inline(always)]
+    fn flush(&self, out: &mut [f64]) {
+        let m = D * (D + 1) / 2;
+        for r in 0..D {
+            for c in r..D {
+                out[tri::<D>(r, c)] += self.mat[r][c];
+            }
+        }
+        for c in 0..D {
+            out[m + c] += self.vec[c];
+        }
+    }
 }
 
 /// The gradient pass's inputs.
@@ -421,10 +556,8 @@ impl<const D: usize, K: PairKernel> Home<f64> for Gradient<'_, '_, D, K> {
         if !p.kind[a].is_fluid() {
             return;
         }
-        let m = D * (D + 1) / 2;
         let (xa, rhoa) = (p.x[a], p.rho[a]);
-        let mut mat = [[0.0f64; D]; D];
-        let mut sa = Vector::<D>::zeros();
+        let mut sum = GradientSum::<D>::default();
         for t in partners {
             let t = t as usize;
             let b = order[t] as usize;
@@ -433,36 +566,9 @@ impl<const D: usize, K: PairKernel> Home<f64> for Gradient<'_, '_, D, K> {
             }
             let xab = xa - p.x[b];
             let f = self.kern.of(&p.h, a, b).dw_dr_over_r(xab.norm());
-            let wa = f * vol[b];
-            for r in 0..D {
-                let wr = xab[r] * wa;
-                for c in r..D {
-                    mat[r][c] -= wr * xab[c];
-                }
-            }
-            sa += xab * (wa * (p.rho[b] - rhoa));
-            let wb = f * vol[a];
-            let out = w.at(t);
-            for r in 0..D {
-                let wr = xab[r] * wb;
-                for c in r..D {
-                    out[tri::<D>(r, c)] -= wr * xab[c];
-                }
-            }
-            let sb = -(xab * (wb * (rhoa - p.rho[b])));
-            for c in 0..D {
-                out[m + c] += sb[c];
-            }
+            sum.pair(&xab, f, (vol[a], vol[b]), (rhoa, p.rho[b]), w.at(t));
         }
-        let out = w.at(k);
-        for r in 0..D {
-            for c in r..D {
-                out[tri::<D>(r, c)] += mat[r][c];
-            }
-        }
-        for c in 0..D {
-            out[m + c] += sa[c];
-        }
+        sum.flush(w.at(k));
     }
 }
 

@@ -521,6 +521,34 @@ pub struct Physics {
     /// exact for quadratic fields on any regular lattice: [`crate::physics::viscous`]).
     #[serde(default, skip_serializing_if = "ViscousOperator::is_morris")]
     pub viscous_operator: ViscousOperator,
+    /// Which state Antuono's renormalised density gradient is taken of: `step` (default, its
+    /// own pass before continuity) or `lagged` (the previous step's momentum pass, computed
+    /// in the same visit of each pair: [`DensityGradient`]).
+    #[serde(default, skip_serializing_if = "DensityGradient::is_step")]
+    pub density_gradient: DensityGradient,
+}
+
+/// When Antuono's renormalised density gradient ⟨∇ρ⟩^L is computed
+/// (`physics.density_gradient`).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum DensityGradient {
+    /// In its own pass at the start of each step's passes, of the drifted positions x^{n+1}
+    /// and the densities ρ^n that continuity reads.
+    #[default]
+    Step,
+    /// With the momentum pass, of x^n and ρ^n, and read by the next step's continuity: the
+    /// same densities, positions one drift older (|Δx| = dt |v|, a fraction CFL·Ma of h). In
+    /// pair mode one visit of each pair serves both, which saves a pass over the lists; the
+    /// gradient is then part of the state (checkpoints carry it).
+    Lagged,
+}
+
+impl DensityGradient {
+    /// True for `step` (left out of a written scene).
+    pub fn is_step(&self) -> bool {
+        *self == DensityGradient::Step
+    }
 }
 
 /// The discrete laminar viscous operator.
@@ -575,6 +603,7 @@ impl Default for Physics {
             artificial_stress: 0.0,
             shifting: ShiftingKind::None,
             viscous_operator: ViscousOperator::Morris,
+            density_gradient: DensityGradient::Step,
         }
     }
 }

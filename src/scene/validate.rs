@@ -481,6 +481,16 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
              physics.laminar_viscosity (m²/s), or remove viscous_operator",
         );
     }
+    if ph.density_gradient != crate::scene::DensityGradient::Step
+        && ph.density_diffusion != crate::scene::DensityDiffusion::Antuono
+    {
+        return err(
+            "physics.density_gradient",
+            "`lagged` times the renormalised density gradient of Antuono's δ-SPH term, and this \
+             scene's density_diffusion is not `antuono`: set density_diffusion = \"antuono\", or \
+             remove density_gradient",
+        );
+    }
 
     Ok(())
 }

@@ -104,6 +104,34 @@ pub fn run_file(
     hsph(&args)
 }
 
+/// A run of `scene` with `sets` to its end on one rank (`dir/ref`), and the same run cut by a
+/// checkpoint after `steps` steps on 2 ranks (`dir/cut`): (reference, cut, its checkpoint).
+/// Continue the checkpoint with [`restart_to_end`], then compare with [`assert_same_files`].
+pub fn reference_and_cut(dir: &Path, scene: &str, sets: &[&str], steps: u64) -> (PathBuf, PathBuf, PathBuf) {
+    let reference = dir.join("ref");
+    let (code, _, err) = run_file(scene, &reference, (1, 1), sets);
+    assert_eq!(code, 0, "{err}");
+    let cut = dir.join("cut");
+    let (max, every) = (
+        format!("time.max_steps={steps}"),
+        format!("checkpoint.every_steps={steps}"),
+    );
+    let mut first = sets.to_vec();
+    first.extend([max.as_str(), every.as_str()]);
+    let (code, _, err) = run_file(scene, &cut, (2, 1), &first);
+    assert_eq!(code, 0, "{err}");
+    let ck = cut.join(format!("checkpoints/step-{steps:010}"));
+    (reference, cut, ck)
+}
+
+/// The files `files` of run directories `a` and `b` hold the same bytes.
+pub fn assert_same_files(a: &Path, b: &Path, files: &[&str]) {
+    for f in files {
+        let read = |d: &Path| std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{}/{f}: {e}", d.display()));
+        assert!(read(a) == read(b), "{f} differs after the restart");
+    }
+}
+
 /// The lattice's id bound of the 2D scene file `scene` (the first id a created particle takes).
 pub fn id_bound_2d(scene: &str) -> u64 {
     let text = std::fs::read_to_string(repo_path(scene)).unwrap();

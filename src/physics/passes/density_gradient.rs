@@ -1,5 +1,7 @@
 //! ⟨∇ρ⟩^L of fluid particles for Antuono's δ-SPH density diffusion (`docs/methods.md` §2),
-//! with the renormalisation matrix L of each particle (kg/m⁴).
+//! with the renormalisation matrix L of each particle (kg/m⁴). With
+//! `physics.density_gradient = "lagged"` the momentum pass computes it instead
+//! ([`super::momentum_gradient`]).
 
 use super::{geometry, Ctx, Row};
 use crate::cells::{HalfView, Neighbours};
@@ -29,7 +31,7 @@ impl Row for DensityGradient {
     }
 
     fn runs<const D: usize>(m: &Model<D>) -> bool {
-        m.has_fluid && m.diffusion == DensityDiffusion::Antuono
+        m.has_fluid && m.diffusion == DensityDiffusion::Antuono && !m.lagged_gradient
     }
 
     fn gather<const D: usize, N: Neighbours>(c: &mut Ctx<'_, D>, nb: &N) {

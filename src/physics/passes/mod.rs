@@ -21,6 +21,7 @@ mod density_gradient;
 mod density_update;
 mod kick;
 mod momentum;
+mod momentum_gradient;
 mod shift;
 mod solid_correction;
 mod solid_momentum;
@@ -202,6 +203,7 @@ passes! {
     SolidUpdate => solid_update::SolidUpdate,
     WallExtrapolation => wall_extrapolation::WallExtrapolation,
     Momentum => momentum::Momentum,
+    MomentumGradient => momentum_gradient::MomentumGradient,
     SolidMomentum => solid_momentum::SolidMomentum,
     Kick => kick::Kick,
     Shift => shift::Shift,

@@ -28,8 +28,10 @@ impl Row for Momentum {
         Fields::NONE
     }
 
+    /// Fluid scenes, unless the momentum pass also computes the lagged density gradient
+    /// ([`super::momentum_gradient`]).
     fn runs<const D: usize>(m: &Model<D>) -> bool {
-        m.has_fluid
+        m.has_fluid && !m.lagged_gradient
     }
 
     fn gather<const D: usize, N: Neighbours>(c: &mut Ctx<'_, D>, nb: &N) {
