@@ -32,32 +32,6 @@ fn read(dir: &Path, name: &str) -> String {
     fs::read_to_string(dir.join(name)).unwrap_or_else(|e| panic!("{}/{name}: {e}", dir.display()))
 }
 
-/// `final.csv`: its header and its rows keyed by id.
-type Table = (Vec<String>, std::collections::BTreeMap<u64, Vec<f64>>);
-
-/// `final.csv` as (header, rows keyed by id).
-fn table(dir: &Path) -> Table {
-    let text = read(dir, "final.csv");
-    let mut lines = text.lines();
-    let head: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
-    let rows = lines
-        .map(|l| {
-            let v: Vec<f64> = l.split(',').map(|c| c.parse().unwrap()).collect();
-            (v[0] as u64, v)
-        })
-        .collect();
-    (head, rows)
-}
-
-/// Largest difference of column `col` between two `final.csv` tables with the same ids.
-fn largest_difference(a: &Table, b: &Table, col: &str) -> f64 {
-    let k = a.0.iter().position(|h| h == col).unwrap();
-    assert_eq!(a.1.len(), b.1.len(), "the same particles");
-    a.1.iter()
-        .map(|(id, ra)| (ra[k] - b.1[id][k]).abs())
-        .fold(0.0, f64::max)
-}
-
 /// Each case: fluids in gather and pair mode, a periodic channel with shifting and the
 /// renormalised viscous operator (particles wrap), mirror walls, the 3D dam break in pair
 /// mode, an elastic solid, and a refined tank (particles of two masses, the scene's h). With
@@ -128,9 +102,9 @@ fn verlet_lists_give_the_same_bits_on_any_layout_and_the_fresh_lists_results() {
         }
         // lists built every step: the same pairs, summed in another order
         let (fresh, _) = run(path, &with("lists"), (1, 1), &format!("vl{k}-lists"));
-        let (a, b) = (table(&base), table(&fresh));
-        let dx = largest_difference(&a, &b, "x").max(largest_difference(&a, &b, "y"));
-        let drho = largest_difference(&a, &b, "rho");
+        let (a, b) = (common::table(&base), common::table(&fresh));
+        let dx = common::largest_difference(&a, &b, "x").max(common::largest_difference(&a, &b, "y"));
+        let drho = common::largest_difference(&a, &b, "rho");
         assert!(
             dx < 1e-9 && drho < 1e-5,
             "{path} {sets:?}: Verlet lists end {dx:e} m and {drho:e} kg/m³ from fresh lists"

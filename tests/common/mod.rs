@@ -198,3 +198,29 @@ pub fn run_layout(scene: &hsph::scene::Scene, ranks: usize, threads: usize, tag:
     run_scene(scene, &opts).unwrap_or_else(|e| panic!("{tag}: {e}"));
     out
 }
+
+/// `final.csv`: its header and its rows keyed by id.
+pub type Table = (Vec<String>, std::collections::BTreeMap<u64, Vec<f64>>);
+
+/// `final.csv` as (header, rows keyed by id).
+pub fn table(dir: &Path) -> Table {
+    let text = std::fs::read_to_string(dir.join("final.csv")).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|c| c.parse().unwrap()).collect();
+            (v[0] as u64, v)
+        })
+        .collect();
+    (head, rows)
+}
+
+/// Largest difference of column `col` between two `final.csv` tables with the same ids.
+pub fn largest_difference(a: &Table, b: &Table, col: &str) -> f64 {
+    let k = a.0.iter().position(|h| h == col).unwrap();
+    assert_eq!(a.1.len(), b.1.len(), "the same particles");
+    a.1.iter()
+        .map(|(id, ra)| (ra[k] - b.1[id][k]).abs())
+        .fold(0.0, f64::max)
+}
