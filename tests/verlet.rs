@@ -102,9 +102,7 @@ fn verlet_lists_give_the_same_bits_on_any_layout_and_the_fresh_lists_results() {
         }
         // lists built every step: the same pairs, summed in another order
         let (fresh, _) = run(path, &with("lists"), (1, 1), &format!("vl{k}-lists"));
-        let (a, b) = (common::table(&base), common::table(&fresh));
-        let dx = common::largest_difference(&a, &b, "x").max(common::largest_difference(&a, &b, "y"));
-        let drho = common::largest_difference(&a, &b, "rho");
+        let (dx, drho) = common::position_and_density_gap(&base, &fresh);
         assert!(
             dx < 1e-9 && drho < 1e-5,
             "{path} {sets:?}: Verlet lists end {dx:e} m and {drho:e} kg/m³ from fresh lists"

@@ -224,3 +224,11 @@ pub fn largest_difference(a: &Table, b: &Table, col: &str) -> f64 {
         .map(|(id, ra)| (ra[k] - b.1[id][k]).abs())
         .fold(0.0, f64::max)
 }
+
+/// The largest difference in x or y and in density (m, kg/m³) between the `final.csv` of two
+/// runs of the same particles.
+pub fn position_and_density_gap(a: &Path, b: &Path) -> (f64, f64) {
+    let (a, b) = (table(a), table(b));
+    let dx = largest_difference(&a, &b, "x").max(largest_difference(&a, &b, "y"));
+    (dx, largest_difference(&a, &b, "rho"))
+}
