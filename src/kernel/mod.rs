@@ -105,7 +105,54 @@ impl Kernel {
         let q = r * self.inv_h;
         self.sigma * self.inv_h * self.inv_h * dshape_over_q(self.kind, q)
     }
+
+    /// (1/r) dW/dr (m⁻ᴰ⁻²) of [`BATCH`] squared separations `r2` (m²) into `out`: for each,
+    /// to the bit what [`Kernel::dw_dr_over_r`] gives of `r2.sqrt()`. Written without a
+    /// branch, every piece of the kernel computed and one selected, so that the compiler
+    /// evaluates the square roots and divisions of several pairs in one instruction and no
+    /// branch on q is mispredicted (a pair pass's kernel evaluations were a quarter of the 3D
+    /// dam break's step, BENCHMARKS.md).
+    #[inline(always)]
+    pub fn dw_dr_over_r_batch(&self, r2: &[f64; BATCH], out: &mut [f64; BATCH]) {
+        let s = self.sigma * self.inv_h * self.inv_h;
+        let inv_h = self.inv_h;
+        match self.kind {
+            KernelKind::CubicSpline => {
+                for (o, &r2) in out.iter_mut().zip(r2) {
+                    let q = r2.sqrt() * inv_h;
+                    let a = 2.0 - q;
+                    // the pieces of `dshape_over_q`, each in its own order of operations
+                    let near = -3.0 + 2.25 * q;
+                    let far = -0.75 * a * a / q;
+                    let d = if q < 1.0 {
+                        near
+                    } else if q < 2.0 {
+                        far
+                    } else {
+                        0.0
+                    };
+                    *o = s * d;
+                }
+            }
+            KernelKind::WendlandC2 => {
+                for (o, &r2) in out.iter_mut().zip(r2) {
+                    let q = r2.sqrt() * inv_h;
+                    let a = (1.0 - 0.5 * q).max(0.0);
+                    *o = s * (0.0 - 5.0 * a * a * a);
+                }
+            }
+            KernelKind::QuinticSpline => {
+                for (o, &r2) in out.iter_mut().zip(r2) {
+                    *o = self.dw_dr_over_r(r2.sqrt());
+                }
+            }
+        }
+    }
 }
+
+/// Pairs per batch of [`Kernel::dw_dr_over_r_batch`]: four vector registers' worth of f64 at
+/// SSE2's two lanes, two at AVX's four.
+pub const BATCH: usize = 8;
 
 /// Dimensionless shape f(q), W = σ_D/hᴰ · f(q).
 #[inline]
@@ -204,6 +251,31 @@ mod tests {
         KernelKind::CubicSpline,
         KernelKind::QuinticSpline,
     ];
+
+    /// The batch gives each pair's (1/r) dW/dr to the bit, inside, at and beyond the support
+    /// (Verlet lists hold pairs beyond it), at the pieces' joints and at r = 0.
+    #[test]
+    fn the_batch_gives_each_pairs_bits() {
+        for kind in ALL {
+            for dim in [2usize, 3] {
+                let k = Kernel::new(kind, 0.0147, dim);
+                let mut r: Vec<f64> = (0..4001).map(|i| 1.25 * k.support * i as f64 / 4000.0).collect();
+                r.extend([0.0, k.h, 2.0 * k.h, 3.0 * k.h, k.support, k.h * (1.0 + 1e-16)]);
+                for chunk in r.chunks(BATCH) {
+                    let mut r2 = [0.0; BATCH];
+                    for (a, b) in r2.iter_mut().zip(chunk) {
+                        *a = b * b;
+                    }
+                    let mut out = [f64::NAN; BATCH];
+                    k.dw_dr_over_r_batch(&r2, &mut out);
+                    for (o, r2) in out.iter().zip(r2) {
+                        let one = k.dw_dr_over_r(r2.sqrt());
+                        assert_eq!(o.to_bits(), one.to_bits(), "{kind:?} {dim}D r² = {r2}");
+                    }
+                }
+            }
+        }
+    }
 
     /// ∫W dV = 1, by the midpoint rule in polar (2D) and spherical (3D) shells.
     #[test]

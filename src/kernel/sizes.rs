@@ -24,7 +24,7 @@
 //! neighbour lists keep a pair only within its own support κ (h_i + h_j)/2
 //! (`crate::cells::NeighbourList::with_sizes`), beyond which its kernel is zero.
 
-use super::{Kernel, KernelKind};
+use super::{Kernel, KernelKind, BATCH};
 
 /// Levels a scene may hold: 0 (the scene's dx) to [`crate::scene::refine::MAX_LEVEL`] (3).
 pub const LEVELS: usize = 4;
@@ -107,6 +107,22 @@ pub trait PairKernel: Copy + Send + Sync {
     const VARIES: bool;
     /// The kernel of the pair (i, j).
     fn of(&self, h: &[f64], i: usize, j: usize) -> Kernel;
+
+    /// (1/r) dW/dr (m⁻ᴰ⁻²) of the pairs (i, `js[n]`) at squared separations `r2[n]` (m²), each
+    /// to the bit what `self.of(h, i, js[n]).dw_dr_over_r(r2[n].sqrt())` gives.
+    #[inline(always)]
+    fn dw_dr_over_r_batch(
+        &self,
+        h: &[f64],
+        i: usize,
+        js: &[usize; BATCH],
+        r2: &[f64; BATCH],
+        out: &mut [f64; BATCH],
+    ) {
+        for ((o, &j), &r2) in out.iter_mut().zip(js).zip(r2) {
+            *o = self.of(h, i, j).dw_dr_over_r(r2.sqrt());
+        }
+    }
 }
 
 /// One kernel for every pair (a scene of one smoothing length).
@@ -118,6 +134,19 @@ impl PairKernel for OneKernel {
     #[inline(always)]
     fn of(&self, _h: &[f64], _i: usize, _j: usize) -> Kernel {
         self.0
+    }
+
+    /// One kernel: the vectorised batch ([`Kernel::dw_dr_over_r_batch`]).
+    #[inline(always)]
+    fn dw_dr_over_r_batch(
+        &self,
+        _h: &[f64],
+        _i: usize,
+        _js: &[usize; BATCH],
+        r2: &[f64; BATCH],
+        out: &mut [f64; BATCH],
+    ) {
+        self.0.dw_dr_over_r_batch(r2, out);
     }
 }
 

@@ -5,6 +5,7 @@
 //! exact wherever the matrix is invertible; where it is ill-conditioned (free surface, sparse
 //! neighbourhoods) L_i falls back to the identity.
 
+use super::batch::{batched, itself};
 use super::Model;
 use crate::cells::Neighbours;
 use crate::particles::Particles;
@@ -85,15 +86,15 @@ fn renormalised_gradient_with<const D: usize, N: Neighbours>(
             let mut a = [[0.0f64; D]; D];
             let mut s = Vector::<D>::zeros();
             let (xi, fi) = (p.x[i], f[i]);
-            for j in nl.iter(i) {
-                let j = j as usize;
+            let r2_of = |j: usize| (xi - p.x[j]).norm_squared();
+            batched(&kern, &p.h, i, nl.iter(i), itself, r2_of, |_, j, fij| {
                 // the phase's own particles ([`super::fluid::diffuses`])
                 if !super::fluid::diffuses(p, i, j) {
-                    continue;
+                    return;
                 }
                 let xij = xi - p.x[j];
                 // ∇_i W_ij V_j = x_ij (1/r) dW/dr V_j
-                let w = kern.of(&p.h, i, j).dw_dr_over_r(xij.norm()) * vol[j];
+                let w = fij * vol[j];
                 for r in 0..D {
                     let wr = xij[r] * w;
                     for c in r..D {
@@ -101,7 +102,7 @@ fn renormalised_gradient_with<const D: usize, N: Neighbours>(
                     }
                 }
                 s += xij * (w * (f[j] - fi));
-            }
+            });
             let m = Matrix::<D>::from_fn(|r, c| if r <= c { a[r][c] } else { a[c][r] });
             *g = inverse_or_identity(&m) * s;
         })

@@ -27,6 +27,7 @@
 //! shipped dam break with no-slip walls particles sat 0.6 dx inside the upstream wall at
 //! t = 0.3 s (tests/fidelity.rs).
 
+use super::batch::{batched, itself};
 use super::Model;
 use crate::cells::Neighbours;
 use crate::particles::{Kind, Particles};
@@ -236,29 +237,35 @@ fn continuity_of<const D: usize, N: Neighbours, K: PairKernel>(
     let corr = Correction::of(model);
     let delta_coef = model.delta * k.h * c0;
     let (xi, vi) = (p.x[i], p.v[i]);
+    // walls enter with their own (prescribed) velocity
+    let mid_of = |j: usize| (xi - p.x[j]) - (vi - p.v[j]) * half_dt;
     let mut drho = 0.0;
-    for j in nl.iter(i) {
-        let j = j as usize;
-        let kind_j = p.kind[j];
-        if !kind_j.is_smoothed() || kind_j.is_solid() {
-            continue;
-        }
-        let xij = xi - p.x[j];
-        // walls enter with their own (prescribed) velocity
-        let vij = vi - p.v[j];
-        let mid = xij - vij * half_dt;
-        let kij = kern.of(&p.h, i, j);
-        let f = kij.dw_dr_over_r(mid.norm());
-        drho += p.mass[j] * (f * vij.dot(&mid));
-        if diffusion && diffuses(p, i, j) {
-            let coef = if K::VARIES {
-                model.delta * kij.h * c0
-            } else {
-                delta_coef
-            };
-            drho += coef * psi_dot_grad(p, model, corr, i, j, &mid, f) * vol[j];
-        }
-    }
+    batched(
+        &kern,
+        &p.h,
+        i,
+        nl.iter(i),
+        itself,
+        |j| mid_of(j).norm_squared(),
+        |_, j, f| {
+            let kind_j = p.kind[j];
+            if !kind_j.is_smoothed() || kind_j.is_solid() {
+                return;
+            }
+            let vij = vi - p.v[j];
+            let mid = mid_of(j);
+            let kij = kern.of(&p.h, i, j);
+            drho += p.mass[j] * (f * vij.dot(&mid));
+            if diffusion && diffuses(p, i, j) {
+                let coef = if K::VARIES {
+                    model.delta * kij.h * c0
+                } else {
+                    delta_coef
+                };
+                drho += coef * psi_dot_grad(p, model, corr, i, j, &mid, f) * vol[j];
+            }
+        },
+    );
     drho
 }
 
@@ -278,14 +285,13 @@ fn momentum_of<const D: usize, N: Neighbours, K: PairKernel>(
     }
     let terms = PairTerms::of(p, model, i, p_rho2[i]);
     let mut acc = Vector::<D>::zeros();
-    for j in nl.iter(i) {
-        let j = j as usize;
+    let r2_of = |j: usize| (terms.x - p.x[j]).norm_squared();
+    batched(&kern, &p.h, i, nl.iter(i), itself, r2_of, |_, j, f| {
         // fluids and solids are not coupled (yet)
-        if p.kind[j].is_solid() {
-            continue;
+        if !p.kind[j].is_solid() {
+            acc += pair_acceleration_with(p, model, kern, &terms, p_rho2[j], j, f);
         }
-        acc += pair_acceleration(p, model, kern, &terms, p_rho2[j], j);
-    }
+    });
     acc + model.g
 }
 
@@ -344,14 +350,30 @@ pub fn pair_acceleration<const D: usize, K: PairKernel>(
     pj_term: f64,
     j: usize,
 ) -> Vector<D> {
+    let r = (terms.x - p.x[j]).norm_squared().sqrt();
+    let f = kern.of(&p.h, terms.i, j).dw_dr_over_r(r);
+    pair_acceleration_with(p, model, kern, terms, pj_term, j, f)
+}
+
+/// [`pair_acceleration`] with the pair's (1/r) dW/dr `f` (m⁻ᴰ⁻²) given (pair mode evaluates
+/// a batch of them at once); `f` is not read for a repulsive j.
+#[inline(always)]
+pub fn pair_acceleration_with<const D: usize, K: PairKernel>(
+    p: &Particles<D>,
+    model: &Model<D>,
+    kern: K,
+    terms: &PairTerms<D>,
+    pj_term: f64,
+    j: usize,
+    f: f64,
+) -> Vector<D> {
     let xij = terms.x - p.x[j];
     let r2 = xij.norm_squared();
-    let r = r2.sqrt();
     let kind_j = p.kind[j];
     if !kind_j.is_smoothed() {
         return model
             .repulsive
-            .acceleration(&xij, r2, r)
+            .acceleration(&xij, r2, r2.sqrt())
             .unwrap_or_else(Vector::zeros);
     }
     let k = kern.of(&p.h, terms.i, j);
@@ -360,7 +382,6 @@ pub fn pair_acceleration<const D: usize, K: PairKernel>(
     } else {
         (terms.av_coef, terms.eta2)
     };
-    let f = k.dw_dr_over_r(r);
     let (rhoi, mj, rhoj) = (terms.rho, p.mass[j], p.rho[j]);
     let dummy = kind_j == Kind::Dummy;
     // viscous terms see the extrapolated velocity of dummy walls

@@ -8,6 +8,7 @@
 //! [`crate::boundary::update_walls`] (wall particles' p, ρ, v_w) and [`fluid::momentum`].
 //! Materials answer through [`crate::material::MaterialModel`].
 
+mod batch;
 pub mod delta;
 pub mod fluid;
 pub mod pairs;

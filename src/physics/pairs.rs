@@ -21,8 +21,9 @@
 //! operations. The bits differ from gather mode's (another order of the sums), not between
 //! layouts or thread counts.
 
+use super::batch::{batched, slot_of};
 use super::delta::inverse_or_identity;
-use super::fluid::{diffuses, pair_acceleration, psi_dot_grad, Correction, PairTerms};
+use super::fluid::{diffuses, pair_acceleration_with, psi_dot_grad, Correction, PairTerms};
 use super::Model;
 use crate::cells::{HalfView, Window};
 use crate::kernel::sizes::PairKernel;
@@ -155,48 +156,53 @@ impl<const D: usize, K: PairKernel> Home<f64> for Continuity<'_, '_, D, K> {
         let coef = |m: u16| model.delta * kern.h * model.materials[m as usize].c0();
         let coef_a = coef(p.mat[a]);
         let (xa, va, ma) = (p.x[a], p.v[a], p.mass[a]);
+        let mid_of = |b: usize| (xa - p.x[b]) - (va - p.v[b]) * self.half_dt;
         let mut da = 0.0;
-        for t in partners {
-            let t = t as usize;
-            let b = order[t] as usize;
-            let kind_b = p.kind[b];
-            if !kind_b.is_smoothed() {
-                continue;
-            }
-            let fluid_b = kind_b.is_fluid();
-            let xab = xa - p.x[b];
-            let vab = va - p.v[b];
-            let mid = xab - vab * self.half_dt;
-            let kab = self.kern.of(&p.h, a, b);
-            let f = kab.dw_dr_over_r(mid.norm());
-            let vdot = f * vab.dot(&mid);
-            // δ h c0 with the pair's mean h where particles have several sizes
-            let sized = |m: u16| model.delta * kab.h * model.materials[m as usize].c0();
-            // fluids of one material only ([`diffuses`]): then a's δ h c0 is b's
-            let diffused = diffusion && fluid_a && diffuses(p, a, b);
-            // ψ_ba·∇_b W = −ψ_ab·∇_a W to the bit for one material (every sum and difference
-            // in it changes sign exactly), so one evaluation serves both sides
-            let psi = if diffused {
-                psi_dot_grad(p, model, corr, a, b, &mid, f)
-            } else {
-                0.0
-            };
-            if fluid_a {
-                da += p.mass[b] * vdot;
-                if diffused {
-                    let coef_a = if K::VARIES { sized(p.mat[a]) } else { coef_a };
-                    da += coef_a * psi * vol[b];
+        batched(
+            &self.kern,
+            &p.h,
+            a,
+            partners,
+            slot_of(order),
+            |b| mid_of(b).norm_squared(),
+            |t, b, f| {
+                let kind_b = p.kind[b];
+                if !kind_b.is_smoothed() {
+                    return;
                 }
-            }
-            if fluid_b {
-                let r = w.one(t);
-                *r += ma * vdot;
-                if diffused {
-                    let coef_b = if K::VARIES { sized(p.mat[b]) } else { coef_a };
-                    *r += coef_b * -psi * vol[a];
+                let fluid_b = kind_b.is_fluid();
+                let vab = va - p.v[b];
+                let mid = mid_of(b);
+                let kab = self.kern.of(&p.h, a, b);
+                let vdot = f * vab.dot(&mid);
+                // δ h c0 with the pair's mean h where particles have several sizes
+                let sized = |m: u16| model.delta * kab.h * model.materials[m as usize].c0();
+                // fluids of one material only ([`diffuses`]): then a's δ h c0 is b's
+                let diffused = diffusion && fluid_a && diffuses(p, a, b);
+                // ψ_ba·∇_b W = −ψ_ab·∇_a W to the bit for one material (every sum and difference
+                // in it changes sign exactly), so one evaluation serves both sides
+                let psi = if diffused {
+                    psi_dot_grad(p, model, corr, a, b, &mid, f)
+                } else {
+                    0.0
+                };
+                if fluid_a {
+                    da += p.mass[b] * vdot;
+                    if diffused {
+                        let coef_a = if K::VARIES { sized(p.mat[a]) } else { coef_a };
+                        da += coef_a * psi * vol[b];
+                    }
                 }
-            }
-        }
+                if fluid_b {
+                    let r = w.one(t);
+                    *r += ma * vdot;
+                    if diffused {
+                        let coef_b = if K::VARIES { sized(p.mat[b]) } else { coef_a };
+                        *r += coef_b * -psi * vol[a];
+                    }
+                }
+            },
+        );
         if fluid_a {
             *w.one(k) += da;
         }
@@ -298,25 +304,25 @@ impl<const D: usize, K: PairKernel, const G: bool> Home<f64> for Momentum<'_, '_
         if p.kind[a] != Kind::Fluid {
             // a wall home: only its fluid partners receive (the lists hold no other pair),
             // and no gradient (walls do not diffuse)
-            for t in partners {
-                let t = t as usize;
-                let b = order[t] as usize;
+            // |x_b − x_a|² is |x_a − x_b|² to the bit (negation is exact)
+            let xa = p.x[a];
+            let r2_of = |b: usize| (xa - p.x[b]).norm_squared();
+            batched(&self.kern, &p.h, a, partners, slot_of(order), r2_of, |t, b, f| {
                 let tb = PairTerms::of(p, model, b, p_rho2[b]);
                 add(
                     w.at(t),
-                    &pair_acceleration(p, model, self.kern, &tb, p_rho2[a], a),
+                    &pair_acceleration_with(p, model, self.kern, &tb, p_rho2[a], a, f),
                 );
-            }
+            });
             return;
         }
         let ta = PairTerms::of(p, model, a, p_rho2[a]);
         let mut sum = Vector::<D>::zeros();
         let mut grad = GradientSum::<D>::default();
-        for t in partners {
-            let t = t as usize;
-            let b = order[t] as usize;
+        let r2_of = |b: usize| (ta.x - p.x[b]).norm_squared();
+        batched(&self.kern, &p.h, a, partners, slot_of(order), r2_of, |t, b, f| {
             if p.kind[b].is_fluid() {
-                let (d_a, d_b, f) = fluid_pair(p, model, self.kern, &ta, p_rho2, a, b);
+                let (d_a, d_b) = fluid_pair(p, model, self.kern, &ta, p_rho2, a, b, f);
                 sum += d_a;
                 let out = w.at(t);
                 add(out, &d_b);
@@ -331,9 +337,9 @@ impl<const D: usize, K: PairKernel, const G: bool> Home<f64> for Momentum<'_, '_
                     );
                 }
             } else {
-                sum += pair_acceleration(p, model, self.kern, &ta, p_rho2[b], b);
+                sum += pair_acceleration_with(p, model, self.kern, &ta, p_rho2[b], b, f);
             }
-        }
+        });
         let out = w.at(k);
         add(out, &sum);
         if G {
@@ -342,9 +348,10 @@ impl<const D: usize, K: PairKernel, const G: bool> Home<f64> for Momentum<'_, '_
     }
 }
 
-/// Both sides of the momentum pair of fluid particles i (`ti`) and j: (dv_i, dv_j) without
-/// the body force, each computed as [`pair_acceleration`] computes it from its side, and the
-/// pair's (1/r) dW/dr (m^-(D+2)).
+/// Both sides of the momentum pair of fluid particles i (`ti`) and j with the pair's (1/r)
+/// dW/dr `f` (m^-(D+2)): (dv_i, dv_j) without the body force, each computed as
+/// [`pair_acceleration`] computes it from its side.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn fluid_pair<const D: usize, K: PairKernel>(
     p: &Particles<D>,
@@ -354,7 +361,8 @@ fn fluid_pair<const D: usize, K: PairKernel>(
     p_rho2: &[f64],
     i: usize,
     j: usize,
-) -> (Vector<D>, Vector<D>, f64) {
+    f: f64,
+) -> (Vector<D>, Vector<D>) {
     let xij = ti.x - p.x[j];
     let r2 = xij.norm_squared();
     let k = kern.of(&p.h, i, j);
@@ -363,7 +371,6 @@ fn fluid_pair<const D: usize, K: PairKernel>(
     } else {
         (ti.av_coef, ti.eta2)
     };
-    let f = k.dw_dr_over_r(r2.sqrt());
     let (rhoi, rhoj) = (ti.rho, p.rho[j]);
     let (mi, mj) = (p.mass[i], p.mass[j]);
     let vij = ti.v - p.v[j];
@@ -401,7 +408,7 @@ fn fluid_pair<const D: usize, K: PairKernel>(
         a_i += vi * (mj * mu_sum * f / rr);
         a_j += vj * (mi * mu_sum * f / rr);
     }
-    (a_i, -a_j, f)
+    (a_i, -a_j)
 }
 
 /// Index of (r, c), r ≤ c, in the upper triangle of a D×D matrix stored row by row.
@@ -558,16 +565,13 @@ impl<const D: usize, K: PairKernel> Home<f64> for Gradient<'_, '_, D, K> {
         }
         let (xa, rhoa) = (p.x[a], p.rho[a]);
         let mut sum = GradientSum::<D>::default();
-        for t in partners {
-            let t = t as usize;
-            let b = order[t] as usize;
-            if !diffuses(p, a, b) {
-                continue;
+        let r2_of = |b: usize| (xa - p.x[b]).norm_squared();
+        batched(&self.kern, &p.h, a, partners, slot_of(order), r2_of, |t, b, f| {
+            if diffuses(p, a, b) {
+                let xab = xa - p.x[b];
+                sum.pair(&xab, f, (vol[a], vol[b]), (rhoa, p.rho[b]), w.at(t));
             }
-            let xab = xa - p.x[b];
-            let f = self.kern.of(&p.h, a, b).dw_dr_over_r(xab.norm());
-            sum.pair(&xab, f, (vol[a], vol[b]), (rhoa, p.rho[b]), w.at(t));
-        }
+        });
         sum.flush(w.at(k));
     }
 }
