@@ -355,8 +355,9 @@ pub fn pair_acceleration<const D: usize, K: PairKernel>(
     pair_acceleration_with(p, model, kern, terms, pj_term, j, f)
 }
 
-/// [`pair_acceleration`] with the pair's (1/r) dW/dr `f` (m⁻ᴰ⁻²) given (pair mode evaluates
-/// a batch of them at once); `f` is not read for a repulsive j.
+/// [`pair_acceleration`] with the pair's (1/r) dW/dr `f` (m⁻ᴰ⁻²) given (the pair loops of both
+/// modes evaluate a batch of them at once, `physics/batch.rs`); `f` is not read for a
+/// repulsive j.
 #[inline(always)]
 pub fn pair_acceleration_with<const D: usize, K: PairKernel>(
     p: &Particles<D>,
