@@ -11,7 +11,9 @@ use crate::kernel::BATCH;
 /// mode; `particle` maps an entry to its particle) in batches: `r2_of(b)` is the squared
 /// separation (m²) at which the pair (a, b) takes its kernel, and `pair(e, b, f)` runs for
 /// each neighbour in order with its entry e, particle b and (1/r) dW/dr `f` (m⁻ᴰ⁻²). Pairs
-/// that a pass skips still have their factor evaluated (finite, not read).
+/// that a pass skips still have their factor evaluated (finite, not read). `pair` may compute
+/// the separation again from the particles: the same operations give the same bits, and two
+/// subtractions per pair cost less than storing the batch's vectors.
 #[inline(always)]
 pub fn batched<K: PairKernel, I: Iterator<Item = u32>>(
     kern: &K,
