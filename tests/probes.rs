@@ -58,7 +58,9 @@ fn probes_keep_their_own_clock_and_their_bits_across_ranks() {
     let scene = shipped("dam_break_2d.toml")
         + "\n[[probe]]\nname = \"every\"\nkind = \"pressure\"\npoint = [0.0, 0.03]\ninterval = 0.0\n"
         + "\n[[probe]]\nname = \"coarse\"\nkind = \"gauge\"\npoint = [0.1, 0.0]\ninterval = 0.005\n"
-        + "\n[[probe]]\nname = \"wall\"\nkind = \"force\"\nbody = \"tank\"\nabout = [0.292, 0.0]\ninterval = 0.0\n";
+        + "\n[[probe]]\nname = \"wall\"\nkind = \"force\"\nbody = \"tank\"\nabout = [0.292, 0.0]\ninterval = 0.0\n"
+        // a front every step: off the output steps it is gathered alone, with positions only
+        + "\n[[probe]]\nname = \"front_every\"\nkind = \"front\"\naxis = 0\ninterval = 0.0\n";
     let sets = [
         "--set",
         "time.t_end=0.02",
@@ -72,6 +74,17 @@ fn probes_keep_their_own_clock_and_their_bits_across_ranks() {
     assert!(steps > 20, "{steps} steps");
     assert_eq!(rows(&one, "every").len(), steps + 1);
     assert_eq!(rows(&one, "wall").len(), steps + 1);
+    // at the output steps (t = 0, 0.01, 0.02) the front read from the view of every field
+    // is the front read from positions alone at every step
+    let every = rows(&one, "front_every");
+    assert_eq!(every.len(), steps + 1);
+    for row in rows(&one, "front") {
+        let same = every
+            .iter()
+            .find(|r| r[0] == row[0])
+            .expect("a row at each output step");
+        assert_eq!(same[1].to_bits(), row[1].to_bits(), "front at t = {}", row[0]);
+    }
     let coarse: Vec<f64> = rows(&one, "coarse").iter().map(|r| r[0]).collect();
     assert_eq!(coarse.len(), 5, "{coarse:?}");
     for (k, t) in coarse.iter().enumerate() {
@@ -94,7 +107,7 @@ fn probes_keep_their_own_clock_and_their_bits_across_ranks() {
     let mut three = sets.to_vec();
     three.extend(["--ranks", "3"]);
     let three = run("clock3", &scene, &three);
-    for name in ["every", "coarse", "wall", "front", "p_right_wall"] {
+    for name in ["every", "coarse", "wall", "front", "front_every", "p_right_wall"] {
         let f = |r: &Path| std::fs::read(r.join("probes").join(format!("{name}.csv"))).unwrap();
         assert!(
             f(&one) == f(&three),

@@ -38,6 +38,17 @@ pub use sensors::{columns, sample};
 /// that probe at its first sample.
 const PROBED: Fields = Fields::ALL.without(Fields::KEY.or(Fields::GRAD_RHO).or(Fields::SOLID));
 
+/// The fields probe `probe` reads. A front probe reads where the fluid is and nothing else:
+/// its view, which holds every fluid particle of the run (the largest of a run's views), is
+/// then 33 B a particle in 3D (id, kind, position) instead of PROBED's ~115 B. Every other
+/// probe reads [`PROBED`] over its small region.
+fn fields_of(probe: &Probe) -> Fields {
+    match probe {
+        Probe::Front { .. } => Fields::ID.or(Fields::KIND).or(Fields::X),
+        _ => PROBED,
+    }
+}
+
 /// When a probe writes a row.
 #[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 enum Clock {
@@ -154,10 +165,12 @@ impl<const D: usize> ProbeSet<D> {
     /// that are due now or average over a window, and write the rows of those that are due.
     /// `output` says this is an output step. With `output_only` (a second call for the same
     /// step: the run's last state, off the output schedule) only the probes on the output clock
-    /// write, and windows are not sampled again. With `fluid` the gather also takes every fluid
-    /// particle, and the gathered particles are returned (rank 0) for the reference tracker, so
-    /// an output step gathers once. A probe reads the same bits with or without the extra
-    /// particles: each sums over what lies within its reach, in id order.
+    /// write, and windows are not sampled again. The probes that read the same fields
+    /// ([`fields_of`]) share one gather, so a front probe's view of every fluid particle holds
+    /// only positions. With `fluid` a single gather takes every fluid particle with every
+    /// probed field, and the gathered particles are returned (rank 0) for the reference
+    /// tracker, so an output step gathers once. A probe reads the same bits with or without
+    /// the extra particles and fields: each sums over what lies within its reach, in id order.
     pub fn after_step<'s>(
         &mut self,
         sim: &'s Simulation<D>,
@@ -177,33 +190,59 @@ impl<const D: usize> ProbeSet<D> {
         let sampled: Vec<bool> = (0..self.probes.len())
             .map(|k| samples(due[k], &self.probes[k], output_only))
             .collect();
-        let mut regions = Vec::new();
+        // one gather per set of fields, the probes that read it sampled from it and the view
+        // dropped before the next (in the probes' order: the same collectives on every rank);
+        // with `fluid` one gather of every field serves every probe and the tracker
+        let mut groups: Vec<(Fields, Vec<usize>)> = Vec::new();
         for k in (0..self.probes.len()).filter(|&k| sampled[k]) {
-            regions.push(self.region(k, sim, comm)?);
-        }
-        let keep = |p: &Particles<D>, i: usize| {
-            (fluid && p.kind[i].is_fluid()) || regions.iter().any(|r| r.contains(p, i))
-        };
-        let Some(view) = sim.gather_where(comm, &keep, PROBED)? else {
-            return Ok(None);
-        };
-        for k in (0..self.probes.len()).filter(|&k| sampled[k]) {
-            let mut values = sample(&view, &self.probes[k], self.walls[k]);
-            let window = self.probes[k].window();
-            if window > 0.0 {
-                if !output_only {
-                    push(&mut self.windows[k], t, values, window);
-                }
-                values = mean(&self.windows[k]);
-            }
-            if due[k] {
-                if let Some(f) = self.files.get_mut(k) {
-                    let row: Vec<String> = values.iter().map(|v| format!("{v}")).collect();
-                    writeln!(f, "{t},{}", row.join(",")).map_err(|e| Error::io(&self.dir, e))?;
-                }
+            let f = if fluid { PROBED } else { fields_of(&self.probes[k]) };
+            match groups.iter_mut().find(|(g, _)| *g == f) {
+                Some((_, ks)) => ks.push(k),
+                None => groups.push((f, vec![k])),
             }
         }
-        Ok(Some(view))
+        if fluid && groups.is_empty() {
+            groups.push((PROBED, Vec::new()));
+        }
+        let mut last = None;
+        for (fields, ks) in groups {
+            let mut regions = Vec::new();
+            for &k in &ks {
+                regions.push(self.region(k, sim, comm)?);
+            }
+            let keep = |p: &Particles<D>, i: usize| {
+                (fluid && p.kind[i].is_fluid()) || regions.iter().any(|r| r.contains(p, i))
+            };
+            drop(last.take());
+            let Some(view) = sim.gather_where(comm, &keep, fields)? else {
+                continue;
+            };
+            for k in ks {
+                self.sample_into(k, &view, t, due[k], output_only)?;
+            }
+            last = Some(view);
+        }
+        Ok(last)
+    }
+
+    /// Sample probe `k` from `view` at time `t` (s), fold the sample into its window, and write
+    /// its row if it is `due`.
+    fn sample_into(&mut self, k: usize, view: &View<D>, t: f64, due: bool, output_only: bool) -> Result<()> {
+        let mut values = sample(view, &self.probes[k], self.walls[k]);
+        let window = self.probes[k].window();
+        if window > 0.0 {
+            if !output_only {
+                push(&mut self.windows[k], t, values, window);
+            }
+            values = mean(&self.windows[k]);
+        }
+        if due {
+            if let Some(f) = self.files.get_mut(k) {
+                let row: Vec<String> = values.iter().map(|v| format!("{v}")).collect();
+                writeln!(f, "{t},{}", row.join(",")).map_err(|e| Error::io(&self.dir, e))?;
+            }
+        }
+        Ok(())
     }
 
     /// Clocks and averaging windows, for a checkpoint.

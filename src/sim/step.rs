@@ -82,11 +82,14 @@ impl<const D: usize> Simulation<D> {
     /// builds again from scratch: the driver calls it before it gathers a view (probes,
     /// reference, output), so that the view does not sit on top of them at the run's peak of
     /// memory (BENCHMARKS.md, issue 33). The lists are kept when the next step's balance check
-    /// reads them. Changes no bit.
+    /// reads them, and Verlet lists (with their cell list) until their next build; the pair
+    /// accumulators and scratch, which every pass sizes again, go in either case. Changes no
+    /// bit.
     pub fn release_step_buffers(&mut self) {
-        // Verlet lists serve the steps until the next build
         if !self.next_check_reads_lists() && !self.nl.is_verlet() {
             self.free_step_buffers();
+        } else {
+            self.pair_scratch = Default::default();
         }
     }
 
