@@ -35,9 +35,9 @@ const OWNED: u8 = 4;
 #[derive(Debug, Clone, Default)]
 pub struct HalfPairs {
     /// Partner slots of homes k·[`CHUNK`] .. (k+1)·[`CHUNK`], one list after the other, each
-    /// list delta-encoded ([`encode`]): 2 B per partner instead of 4.
-    chunks: Vec<Vec<u16>>,
-    /// Start of slot k's partners within its chunk (in u16 units).
+    /// list delta-encoded ([`encode_run`]): about 1 B per partner instead of 4.
+    chunks: Vec<Vec<u8>>,
+    /// Start of slot k's partners within its chunk (in bytes).
     offset: Vec<u32>,
     /// Slots listed (owned + ghosts), 0 when not built.
     slots: usize,
@@ -141,7 +141,7 @@ impl HalfPairs {
 
     /// Bytes held by the lists.
     pub fn bytes(&self) -> usize {
-        self.chunks.iter().map(|c| c.capacity() * 2).sum::<usize>()
+        self.chunks.iter().map(|c| c.capacity()).sum::<usize>()
             + self.offset.capacity() * 4
             + self.flags.capacity()
             + self.rows.capacity() * 8
@@ -168,52 +168,60 @@ impl HalfPairs {
 
 /// Append to `out` the candidates of slots `s ..` (one item of `cand` each) for which
 /// `keep(t, item)` holds, each as its distance from the previous partner (`prev`, the home's
-/// slot before its first partner) in one u16 — or, for a distance of 2¹⁶ or more (a jump to
-/// the next plane of a large grid), a 0 and then the slot itself, low half first. Distances
-/// are at least 1, so 0 is free to mark the escape. Returns how many were kept.
+/// slot before its first partner) in one byte — or, for a distance of 256 or more (the first
+/// partner of a stencil row, a jump within a long row), an escape ([`escaped`]). Distances are
+/// at least 1, so 0 is free to mark the escape. Returns how many were kept.
 ///
-/// Branch-free: every candidate is written at the end, counted from the slot before the row
-/// (or the last kept one) and the end advances on a keep, so within a row of fewer than 2¹⁶
-/// slots no distance overflows; only the row's first partner is then re-measured from `prev`.
+/// Branch-free for a row of fewer than 256 candidates: every candidate is written at the end,
+/// counted from the slot before the row (or the last kept one), and the end advances on a
+/// keep, so no distance within the row overflows; only the row's first partner is then
+/// re-measured from `prev`. A longer row (dense cells of a refined region) takes a branch per
+/// kept partner.
 #[inline(always)]
 fn encode_run<I: ExactSizeIterator>(
     prev: &mut u32,
     s: usize,
-    out: &mut Vec<u16>,
+    out: &mut Vec<u8>,
     cand: I,
     keep: impl Fn(usize, I::Item) -> bool,
 ) -> usize {
     let n = cand.len();
     let w = out.len();
-    if n > usize::from(u16::MAX) {
-        // a row too long for one-unit distances: every partner escaped
-        out.resize(w + 3 * n, 0);
+    if n > usize::from(u8::MAX) {
         let mut m = 0;
         for (t, item) in (s..s + n).zip(cand) {
-            let hit = keep(t, item);
-            out[w + m..w + m + 3].copy_from_slice(&[0, t as u16, (t >> 16) as u16]);
-            m += 3 * usize::from(hit);
-            *prev = if hit { t as u32 } else { *prev };
+            if keep(t, item) {
+                let t = t as u32;
+                match u8::try_from(t - *prev) {
+                    Ok(d) => out.push(d),
+                    Err(_) => {
+                        let (e, len) = escaped(t - *prev, t);
+                        out.extend_from_slice(&e[..len]);
+                    }
+                }
+                *prev = t;
+                m += 1;
+            }
         }
-        out.truncate(w + m);
-        return m / 3;
+        return m;
     }
     out.resize(w + n, 0);
     let body = &mut out[w..];
     let (mut m, mut last) = (0usize, s as u32 - 1);
     for (t, item) in (s..s + n).zip(cand) {
         let hit = keep(t, item);
-        body[m] = (t as u32 - last) as u16;
+        body[m] = (t as u32 - last) as u8;
         last = if hit { t as u32 } else { last };
         m += usize::from(hit);
     }
     out.truncate(w + m);
     if m > 0 {
         let first = s as u32 - 1 + u32::from(out[w]);
-        match u16::try_from(first - *prev) {
+        match u8::try_from(first - *prev) {
             Ok(d) => out[w] = d,
             Err(_) => {
-                out.splice(w..w + 1, [0, first as u16, (first >> 16) as u16]);
+                let (e, len) = escaped(first - *prev, first);
+                out.splice(w..w + 1, e[..len].iter().copied());
             }
         }
         *prev = last;
@@ -221,11 +229,42 @@ fn encode_run<I: ExactSizeIterator>(
     m
 }
 
+/// The escape of a partner at slot `t`, `d` ≥ 256 slots after the previous one: a 0, then `d`
+/// in two bytes (low first) if it fits, else two 0 bytes and the slot `t` itself in four
+/// bytes (low first). Returns the bytes and how many of them to write (3 or 7).
+#[inline]
+fn escaped(d: u32, t: u32) -> ([u8; 7], usize) {
+    match u16::try_from(d) {
+        Ok(d) => {
+            let [a, b] = d.to_le_bytes();
+            ([0, a, b, 0, 0, 0, 0], 3)
+        }
+        Err(_) => {
+            let [a, b, c, e] = t.to_le_bytes();
+            ([0, 0, 0, a, b, c, e], 7)
+        }
+    }
+}
+
 /// One home's stored partner slots, decoded ([`encode`]), ascending.
 #[derive(Clone)]
 pub struct Stored<'a> {
-    units: std::slice::Iter<'a, u16>,
+    units: std::slice::Iter<'a, u8>,
     prev: u32,
+}
+
+impl Stored<'_> {
+    /// The slot an escape ([`escaped`]) after its 0 byte names.
+    #[inline]
+    fn escaped(&mut self) -> u32 {
+        let mut byte = |shift: u32| u32::from(self.units.next().copied().unwrap_or(0)) << shift;
+        let d = byte(0) | byte(8);
+        if d != 0 {
+            self.prev + d
+        } else {
+            byte(0) | byte(8) | byte(16) | byte(24)
+        }
+    }
 }
 
 impl Iterator for Stored<'_> {
@@ -237,8 +276,7 @@ impl Iterator for Stored<'_> {
         self.prev = if d != 0 {
             self.prev + u32::from(d)
         } else {
-            let mut half = || u32::from(self.units.next().copied().unwrap_or(0));
-            half() | half() << 16
+            self.escaped()
         };
         Some(self.prev)
     }
@@ -401,7 +439,7 @@ impl<'a, const D: usize> HalfView<'a, D> {
     /// Append home slot `k`'s partners to `list`, delta-encoded ([`encode_run`]), and return
     /// how many (the list build: what [`HalfView::scan`] finds, with a branch-free append per
     /// stencil row).
-    fn append(&self, k: usize, list: &mut Vec<u16>) -> usize {
+    fn append(&self, k: usize, list: &mut Vec<u8>) -> usize {
         let it = self.scan(k);
         if it.rows == 0 {
             return 0;
@@ -604,25 +642,30 @@ mod tests {
     use super::{encode_run, Stored};
 
     /// Rows of candidates encoded one after the other decode to exactly the kept slots:
-    /// distances of one, of 2¹⁶ − 1 (the largest in one unit) within a row and across rows,
-    /// of 2¹⁶ (the first escape), a jump up to the top of the slot range, an empty row and a
-    /// row of more than 2¹⁶ candidates (every partner escaped).
+    /// distances of one and of 255 (the largest in one byte) within a row, of 256 (the first
+    /// two-byte escape) across rows, of 2¹⁶ − 1 and 2¹⁶ (the slot escape), a jump up to the top
+    /// of the slot range, an empty row, and rows of more than 255 candidates (the branchy path:
+    /// partners 1, 255, 256 and 2¹⁶ apart within the row).
     #[test]
     fn delta_lists_decode_to_the_slots_kept() {
         let k = 5u32;
         let top = u32::MAX as usize;
         let rows = [
             (6, 10),
-            (65_542, 131_000),
-            (196_535, 196_545),
-            (200_000, 200_010),
-            (4_000_000, 4_100_000),
+            (10, 266),
+            (521, 530),
+            (66_000, 66_010),
+            (131_535, 131_600),
+            (200_000, 200_100),
+            (300_000, 400_000),
             (top - 3, top),
             (top, top + 1),
         ];
-        let kept = |t: usize| {
-            [6, 7, 65_542, 130_999, 196_535, 196_536, 4_000_000, 4_070_000].contains(&t) || t >= top - 1
-        };
+        let picked = [
+            6, 7, 10, 265, 521, 66_000, 131_535, 131_536, 200_050, 300_000, 300_001, 300_256, 300_512,
+            366_048,
+        ];
+        let kept = |t: usize| picked.contains(&t) || t >= top - 1;
         let (mut units, mut prev, mut pairs, mut want) = (Vec::new(), k, 0, Vec::new());
         for (s, e) in rows {
             pairs += encode_run(&mut prev, s, &mut units, s..e, |t, _| kept(t));
@@ -635,8 +678,10 @@ mod tests {
         }
         .collect();
         assert_eq!(got, want);
-        // escapes: 196 535 (2^16 after 130 999), 4 000 000 and 4 070 000 (a row of 100 000
-        // candidates), u32::MAX − 1 (a jump across the range); the other six take one unit
-        assert_eq!(units.len(), 4 * 3 + 6);
+        // one byte each: 6, 7, 10, 265 (255 after 10), 131 536, 300 001, 300 256 (255 after
+        // 300 001) and the top; three: 521 (256 after 265), 66 000, 131 535 (2^16 − 1 after
+        // 66 000) and 300 512 (256 after 300 256); seven: 200 050, 300 000, 366 048 (2^16 after
+        // 300 512) and top − 1
+        assert_eq!(units.len(), 8 + 3 * 4 + 7 * 4);
     }
 }

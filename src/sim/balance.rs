@@ -48,7 +48,7 @@ impl<const D: usize> Simulation<D> {
     /// max/mean of the owned-particle counts over ranks.
     pub(super) fn load_imbalance(&self, comm: &dyn Comm) -> Result<f64> {
         let mut loads = vec![0u64; self.ranks];
-        loads[self.rank] = self.particle_loads().iter().sum();
+        loads[self.rank] = self.particle_loads().sum();
         let prev = comm.set_phase(Phase::Balance);
         comm.all_reduce_sum_u64(&mut loads)?;
         comm.set_phase(prev);
@@ -59,15 +59,15 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Load of each owned particle (`[balance] load`): 1, or 1 + its neighbour count from the
-    /// last neighbour search (valid until particles migrate).
-    fn particle_loads(&self) -> Vec<u64> {
+    /// last neighbour search (valid until particles migrate). An iterator: the sum at set-up
+    /// needs no vector on top of the first step's buffers (the run's memory peak).
+    fn particle_loads(&self) -> impl Iterator<Item = u64> + '_ {
         let n = self.p.n_owned;
-        match self.scene.balance.load {
-            LoadKind::Pairs if self.nl.listed() == n => {
-                (0..n).map(|i| 1 + self.nl.load(i, &self.cells) as u64).collect()
-            }
-            _ => vec![1; n],
-        }
+        let pairs = self.scene.balance.load == LoadKind::Pairs && self.nl.listed() == n;
+        (0..n).map(move |i| match pairs {
+            true => 1 + self.nl.load(i, &self.cells) as u64,
+            false => 1,
+        })
     }
 
     /// Relative speed of each rank (`[balance] weights`), if given.
@@ -138,7 +138,7 @@ impl<const D: usize> Simulation<D> {
     /// False when they stay (a count cap, `balance.max_count`, can hold them where the loads
     /// are still above the threshold).
     fn rebalance(&mut self, comm: &dyn Comm) -> Result<bool> {
-        let loads = self.particle_loads();
+        let loads: Vec<u64> = self.particle_loads().collect();
         let params = BalanceParams {
             weights: self.rank_weights().map(|w| {
                 (0..self.ranks)
