@@ -5,8 +5,9 @@
 //! A probe never needs the whole state: at a sampling step every rank sends rank 0 only its
 //! owned particles inside the probes' regions (a box around a pressure point or a velocity line,
 //! the vertical column under a gauge, a force probe's wall with the fluid in reach of it; a
-//! front needs every fluid particle), and rank 0 samples them sorted by id — the same particles
-//! in the same order on any number of ranks, so probe files keep their bits.
+//! front needs every fluid particle, but only where it is), and only the fields the probes
+//! read, and rank 0 samples them sorted by id — the same particles in the same order on any
+//! number of ranks, so probe files keep their bits.
 //!
 //! A probe with an averaging `window` samples every step and writes, at its rows, the mean of
 //! its samples over the last `window` seconds (trapezoid rule in time).
