@@ -169,7 +169,7 @@ impl HalfPairs {
 /// Append to `out` the candidates of slots `s ..` (one item of `cand` each) for which
 /// `keep(t, item)` holds, each as its distance from the previous partner (`prev`, the home's
 /// slot before its first partner) in one byte — or, for a distance of 256 or more (the first
-/// partner of a stencil row, a jump within a long row), an escape ([`escaped`]). Distances are
+/// partner of a stencil row, a jump within a long row), an escape ([`encoded`]). Distances are
 /// at least 1, so 0 is free to mark the escape. Returns how many were kept.
 ///
 /// Branch-free for a row of fewer than 256 candidates: every candidate is written at the end,
@@ -192,13 +192,8 @@ fn encode_run<I: ExactSizeIterator>(
         for (t, item) in (s..s + n).zip(cand) {
             if keep(t, item) {
                 let t = t as u32;
-                match u8::try_from(t - *prev) {
-                    Ok(d) => out.push(d),
-                    Err(_) => {
-                        let (e, len) = escaped(t - *prev, t);
-                        out.extend_from_slice(&e[..len]);
-                    }
-                }
+                let (e, len) = encoded(t - *prev, t);
+                out.extend_from_slice(&e[..len]);
                 *prev = t;
                 m += 1;
             }
@@ -217,10 +212,9 @@ fn encode_run<I: ExactSizeIterator>(
     out.truncate(w + m);
     if m > 0 {
         let first = s as u32 - 1 + u32::from(out[w]);
-        match u8::try_from(first - *prev) {
-            Ok(d) => out[w] = d,
-            Err(_) => {
-                let (e, len) = escaped(first - *prev, first);
+        match encoded(first - *prev, first) {
+            (e, 1) => out[w] = e[0],
+            (e, len) => {
                 out.splice(w..w + 1, e[..len].iter().copied());
             }
         }
@@ -229,11 +223,15 @@ fn encode_run<I: ExactSizeIterator>(
     m
 }
 
-/// The escape of a partner at slot `t`, `d` ≥ 256 slots after the previous one: a 0, then `d`
-/// in two bytes (low first) if it fits, else two 0 bytes and the slot `t` itself in four
-/// bytes (low first). Returns the bytes and how many of them to write (3 or 7).
+/// The units of a partner at slot `t`, `d` ≥ 1 slots after the previous one: `d` in one byte
+/// if it fits; else an escape, a 0 and then `d` in two bytes (low first) if it fits, or two
+/// 0 bytes and the slot `t` itself in four bytes (low first). Returns the bytes and how many
+/// of them to write (1, 3 or 7).
 #[inline]
-fn escaped(d: u32, t: u32) -> ([u8; 7], usize) {
+fn encoded(d: u32, t: u32) -> ([u8; 7], usize) {
+    if let Ok(d) = u8::try_from(d) {
+        return ([d, 0, 0, 0, 0, 0, 0], 1);
+    }
     match u16::try_from(d) {
         Ok(d) => {
             let [a, b] = d.to_le_bytes();
@@ -246,7 +244,7 @@ fn escaped(d: u32, t: u32) -> ([u8; 7], usize) {
     }
 }
 
-/// One home's stored partner slots, decoded ([`encode`]), ascending.
+/// One home's stored partner slots, decoded ([`encode_run`]), ascending.
 #[derive(Clone)]
 pub struct Stored<'a> {
     units: std::slice::Iter<'a, u8>,
@@ -254,7 +252,7 @@ pub struct Stored<'a> {
 }
 
 impl Stored<'_> {
-    /// The slot an escape ([`escaped`]) after its 0 byte names.
+    /// The slot an escape ([`encoded`]) after its 0 byte names.
     #[inline]
     fn escaped(&mut self) -> u32 {
         let mut byte = |shift: u32| u32::from(self.units.next().copied().unwrap_or(0)) << shift;
