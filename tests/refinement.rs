@@ -298,6 +298,33 @@ fn a_refined_run_gives_the_same_bits_on_any_layout() {
     }
 }
 
+/// The difference form of the pressure term (gather mode) on the refined dam break with the
+/// level's h: the bits of one rank and thread on 3 ranks × 2 threads and 8 ranks, and not the
+/// symmetric form's bits (the form applies somewhere).
+#[test]
+fn the_difference_form_gives_the_same_bits_on_any_layout() {
+    let mut s = dam("level");
+    s.physics.pressure_gradient = hsph::scene::PressureGradient::Difference;
+    let read = |d: &Path, f: &str| std::fs::read(d.join(f)).unwrap();
+    let base = common::run_layout(&s, 1, 1, "refined-difference-1");
+    for (ranks, threads) in [(3, 2), (8, 1)] {
+        let d = common::run_layout(
+            &s,
+            ranks,
+            threads,
+            &format!("refined-difference-{ranks}-{threads}"),
+        );
+        for f in ["final.csv", "timeseries.csv"] {
+            assert!(
+                read(&d, f) == read(&base, f),
+                "{f} differs on {ranks} ranks × {threads} threads"
+            );
+        }
+    }
+    let symmetric = common::run_layout(&dam("level"), 1, 1, "refined-symmetric-1");
+    assert!(read(&symmetric, "final.csv") != read(&base, "final.csv"));
+}
+
 #[test]
 fn a_refined_run_restarts_to_the_uninterrupted_bits() {
     let dir = common::temp_dir("refined-restart");
@@ -520,6 +547,73 @@ fn a_dummy_floor_keeps_the_water_beside_a_ramp_of_h() {
     assert!(one == run(3), "final.csv differs on 3 ranks");
 }
 
+/// Under the set-up's linear pressure p = ρ0 g (H − y) the renormalised difference form
+/// (`physics.pressure_gradient = "difference"`) gives every particle it applies to its exact
+/// acceleration −∇p/ρ_i + g to round-off, where the symmetric form leaves the mean-h kernel's
+/// residual −2 (p_i/ρ_i) Σ_j V_j ∇_i W_ij (docs/refinement.md §1). The still tank with the
+/// level's h at t = 0, without relaxation: the fluid particles a support or more from the walls
+/// and the surface that have a neighbour of another h (found here by brute force).
+#[test]
+fn the_difference_form_balances_a_linear_pressure_where_h_varies() {
+    let residuals = |form: &str| -> Vec<f64> {
+        let sets: Vec<String> = [
+            "refine.0.smoothing_length=\"level\"".to_string(),
+            "discretisation.relax=0".to_string(),
+            format!("physics.pressure_gradient=\"{form}\""),
+        ]
+        .to_vec();
+        let s = load_scene(&common::repo_path("inputs/hydrostatic_2d_refined.toml"), &sets)
+            .unwrap()
+            .0;
+        let comm = SerialComm::new();
+        let mut sim = Simulation::<2>::new(&s, &comm).unwrap();
+        sim.compute_acceleration(&comm).unwrap();
+        let p = &sim.p;
+        let (g, support, h0) = (sim.model.g, sim.model.kernel.support, sim.model.kernel.h);
+        let kappa = support / h0;
+        let (rho0, depth) = (1000.0, 0.5);
+        let mut out = Vec::new();
+        for i in 0..p.n_owned {
+            let x = p.x[i];
+            let inside = x[0] - support >= 0.0 && x[0] + support <= 1.0 && x[1] - support >= 0.0;
+            if p.kind[i] != Kind::Fluid || !inside || x[1] + support > depth {
+                continue;
+            }
+            let mixed = (0..p.n_owned)
+                .any(|j| p.h[j] != p.h[i] && (x - p.x[j]).norm() < 0.5 * kappa * (p.h[i] + p.h[j]));
+            if mixed {
+                let exact = Vector::<2>::new(0.0, rho0 * g.norm() / p.rho[i]) + g;
+                out.push((p.acc[i] - exact).norm() / g.norm());
+            }
+        }
+        out
+    };
+    let worst = |r: &[f64]| r.iter().fold(0.0f64, |m, &e| m.max(e));
+    let (difference, symmetric) = (residuals("difference"), residuals("symmetric"));
+    assert!(
+        difference.len() > 100,
+        "{} particles of mixed supports",
+        difference.len()
+    );
+    eprintln!(
+        "{} particles: largest |a − exact|/g {:.2e} (difference), {:.2e} (symmetric)",
+        difference.len(),
+        worst(&difference),
+        worst(&symmetric)
+    );
+    assert!(
+        worst(&difference) < 1e-10,
+        "difference form: {:e}",
+        worst(&difference)
+    );
+    // the residual the difference form removes is of order g here, not round-off
+    assert!(
+        worst(&symmetric) > 0.05,
+        "symmetric form: {:e}",
+        worst(&symmetric)
+    );
+}
+
 /// `hsph check` warns of the level's h only where it drives a current: a fluid under
 /// hydrostatic pressure (the adaptive solitary wave), not the scene's h (the refined tank) nor a
 /// fluid without a hydrostatic column (the refined Poiseuille channel, driven by a body force).
@@ -658,6 +752,25 @@ fn bad_refinement_input_is_exit_2_naming_the_key() {
     refused(
         &["refine.0.smoothing_length=\"half\""],
         &["smoothing_length", "scene", "level"],
+    );
+    // the difference form needs supports of several h, and whole supports in one visit
+    let difference = "physics.pressure_gradient=\"difference\"";
+    refused(
+        &[difference],
+        &["physics.pressure_gradient", "smoothing_length = \"level\""],
+    );
+    refused(
+        &[
+            difference,
+            "refine.0.smoothing_length=\"level\"",
+            "discretisation.relax=0",
+            "performance.interactions=\"pairs\"",
+        ],
+        &["physics.pressure_gradient", "interactions = \"gather\""],
+    );
+    refused(
+        &["physics.pressure_gradient=\"differences\""],
+        &["physics.pressure_gradient", "symmetric", "difference"],
     );
     // a second region of another level overlapping the first, for the same body
     let text = std::fs::read_to_string(&scene).unwrap()

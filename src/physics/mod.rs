@@ -11,6 +11,7 @@
 mod batch;
 pub mod delta;
 pub mod fluid;
+pub mod moment;
 pub mod pairs;
 pub mod passes;
 pub mod shifting;
@@ -37,6 +38,10 @@ pub struct Model<const D: usize> {
     /// Antuono's gradient is the previous step's, computed with the momentum pass
     /// (`physics.density_gradient = "lagged"`).
     pub lagged_gradient: bool,
+    /// Where a fluid particle's support holds several smoothing lengths and is full, its
+    /// pressure term is the renormalised difference form (`physics.pressure_gradient =
+    /// "difference"`, [`fluid::PressureDifference`]).
+    pub difference_pressure: bool,
     /// δ coefficient.
     pub delta: f64,
     /// Monaghan α.
@@ -114,6 +119,7 @@ impl<const D: usize> Model<D> {
             diffusion: s.physics.density_diffusion,
             lagged_gradient: s.physics.density_diffusion == DensityDiffusion::Antuono
                 && s.physics.density_gradient == crate::scene::DensityGradient::Lagged,
+            difference_pressure: !s.physics.pressure_gradient.is_symmetric(),
             delta: s.physics.delta,
             alpha: s.physics.artificial_viscosity,
             beta: s.physics.artificial_viscosity_beta,
@@ -219,6 +225,13 @@ impl<const D: usize> Model<D> {
         }
         if self.has_fluid {
             v.push("continuity equation + EOS (weakly compressible)".into());
+        }
+        if self.has_fluid && self.difference_pressure && self.varying().is_some() {
+            v.push(
+                "pressure term: the renormalised difference form where a full support without walls \
+                 holds several h (not conservative there), the symmetric form elsewhere"
+                    .into(),
+            );
         }
         if self.has_solid {
             v.push(

@@ -22,8 +22,8 @@
 //! layouts or thread counts.
 
 use super::batch::{batched, slot_of};
-use super::delta::inverse_or_identity;
 use super::fluid::{diffuses, pair_acceleration_with, psi_dot_grad, Correction, PairTerms};
+use super::moment::inverse_or_identity;
 use super::Model;
 use crate::cells::{HalfView, Window};
 use crate::kernel::sizes::PairKernel;

@@ -526,6 +526,36 @@ pub struct Physics {
     /// in the same visit of each pair: [`DensityGradient`]).
     #[serde(default, skip_serializing_if = "DensityGradient::is_step")]
     pub density_gradient: DensityGradient,
+    /// The fluid pressure term where a particle's support holds several smoothing lengths:
+    /// `symmetric` (default, conservative) or `difference` (the renormalised difference form,
+    /// exact for a linear pressure: [`PressureGradient`]).
+    #[serde(default, skip_serializing_if = "PressureGradient::is_symmetric")]
+    pub pressure_gradient: PressureGradient,
+}
+
+/// The fluid pressure term of a particle whose support holds particles of several smoothing
+/// lengths (`physics.pressure_gradient`; docs/refinement.md §1). Elsewhere the term is always
+/// the symmetric one.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum PressureGradient {
+    /// −Σ_j m_j (p_i/ρ_i² + p_j/ρ_j²) ∇_i W_ij: antisymmetric in each pair, so linear momentum
+    /// is conserved to round-off; its residual for a pressure p is −2 (p_i/ρ_i) Σ_j V_j ∇_i W_ij,
+    /// which the mean-h kernel leaves non-zero where h varies.
+    #[default]
+    Symmetric,
+    /// −(1/ρ_i) L_i Σ_j V_j (p_j − p_i) ∇_i W_ij with L_i the inverse of the first moment, for
+    /// particles whose support holds several h, is full and holds no dummy wall particle
+    /// (Bonet & Lok 1999; Oger et al. 2007): exact for a linear pressure, not conservative
+    /// across those pairs; gather mode only.
+    Difference,
+}
+
+impl PressureGradient {
+    /// True for `symmetric` (left out of a written scene).
+    pub fn is_symmetric(&self) -> bool {
+        *self == PressureGradient::Symmetric
+    }
 }
 
 /// When Antuono's renormalised density gradient ⟨∇ρ⟩^L is computed
@@ -604,6 +634,7 @@ impl Default for Physics {
             shifting: ShiftingKind::None,
             viscous_operator: ViscousOperator::Morris,
             density_gradient: DensityGradient::Step,
+            pressure_gradient: PressureGradient::Symmetric,
         }
     }
 }

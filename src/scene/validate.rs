@@ -139,6 +139,7 @@ pub fn validate(s: &mut Scene) -> Result<()> {
     validate_fluids(s, &mat_names)?;
     validate_walls(s, &mat_names, support)?;
     super::refine::validate_refine(s)?;
+    validate_pressure_gradient(s)?;
     validate_time_output(s)?;
     check_particle_count(s)?;
     crate::with_dim!(s.dimension, D => super::lattice::check_bodies_build::<D>(s))?;
@@ -226,6 +227,25 @@ pub(super) fn check_verlet(s: &Scene) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// `physics.pressure_gradient = "difference"` changes the pressure term only where a support
+/// holds several smoothing lengths, which needs a region with the level's h.
+fn validate_pressure_gradient(s: &Scene) -> Result<()> {
+    if s.physics.pressure_gradient.is_symmetric()
+        || s.refine
+            .iter()
+            .any(|r| r.smoothing_length == refine::RegionH::Level)
+    {
+        return Ok(());
+    }
+    err(
+        "physics.pressure_gradient",
+        "\"difference\" applies where a particle's support holds several smoothing lengths, and no \
+         [[refine]] region of this scene gives its particles the level's h: add \
+         smoothing_length = \"level\" to a region, or remove pressure_gradient (the symmetric \
+         form is the default)",
+    )
 }
 
 /// Materials and bodies of each kind: at most [`crate::limits::MAX_BODIES`] (a particle stores

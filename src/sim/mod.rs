@@ -386,6 +386,19 @@ impl<const D: usize> Simulation<D> {
         self.run_passes(0.0, comm, Some(Pass::Continuity))
     }
 
+    /// dv/dt of the current state (for tests and diagnostics): ghosts, neighbours and the
+    /// passes up to the fluid momentum equation at dt = 0, so densities keep their values;
+    /// `p.acc` of every owned fluid particle, body force included (m/s²).
+    pub fn compute_acceleration(&mut self, comm: &dyn Comm) -> Result<()> {
+        self.rebuild_neighbours(comm)?;
+        let until = if self.model.lagged_gradient {
+            Pass::MomentumGradient
+        } else {
+            Pass::Momentum
+        };
+        self.run_passes(0.0, comm, Some(until))
+    }
+
     /// True once t_end (or max_steps) is reached.
     pub fn done(&self) -> bool {
         self.t >= self.scene.time.t_end * (1.0 - 1e-12)

@@ -222,6 +222,15 @@ pub fn check_pair_mode<const D: usize>(model: &Model<D>, pair_mode: bool) -> cra
     if !pair_mode {
         return Ok(());
     }
+    if model.difference_pressure {
+        return Err(crate::error::Error::input(
+            "physics.pressure_gradient",
+            "\"difference\" is built for interactions = \"gather\" only (each particle's sum \
+             needs its whole support at once); use interactions = \"gather\", or remove \
+             pressure_gradient"
+                .to_string(),
+        ));
+    }
     let relaxation = model.relaxation.map(|_| Pass::Shift);
     let Some(pass) = schedule(model)
         .into_iter()
