@@ -25,7 +25,8 @@ pub struct Variant {
     /// `physics.shifting` (`none` or `delta_plus`).
     pub shifting: &'static str,
     /// Refinement (`none`; `scene` or `level`: the case's refined scene, whose region's
-    /// particles keep the scene's h or take their level's; docs/refinement.md).
+    /// particles keep the scene's h or take their level's; `difference`: the level's, with
+    /// `physics.pressure_gradient = "difference"`; docs/refinement.md).
     pub refine: &'static str,
 }
 
@@ -33,7 +34,8 @@ impl Variant {
     /// Short name used in the CSV and the charts, e.g. `quintic_spline-h1.0-dummy-none`, with
     /// `-renorm` appended for the renormalised viscous operator, `-morriswall` for Morris's
     /// no-slip, `-shift` for δ⁺ shifting, `-pairs` for pair mode and `-refine` (`-refineh`)
-    /// for the refined scene with the scene's (the level's) h.
+    /// for the refined scene with the scene's (the level's) h, `-refinehd` with the level's h
+    /// and the difference form of the pressure term.
     pub fn name(&self) -> String {
         let suffix = |on: bool, s: &'static str| if on { s } else { "" };
         format!(
@@ -49,6 +51,7 @@ impl Variant {
             match self.refine {
                 "scene" => "-refine",
                 "level" => "-refineh",
+                "difference" => "-refinehd",
                 _ => "",
             },
         )
@@ -137,7 +140,11 @@ impl Case {
         }
         if let (Some((_, _, sets)), true) = (self.refined, v.refine != "none") {
             o.extend(sets.iter().map(|s| s.to_string()));
-            o.push(format!("refine[0].smoothing_length=\"{}\"", v.refine));
+            let h = if v.refine == "scene" { "scene" } else { "level" };
+            o.push(format!("refine[0].smoothing_length=\"{h}\""));
+            if v.refine == "difference" {
+                o.push("physics.pressure_gradient=\"difference\"".to_string());
+            }
         }
         o
     }
@@ -396,8 +403,9 @@ fn hydrostatic() -> Case {
                 });
             }
             out.push(hydrostatic_default().in_pairs());
-            // a box at dx/2 in the middle (docs/refinement.md §2), both smoothing lengths
-            out.extend(["scene", "level"].map(|r| hydrostatic_default().refined(r)));
+            // a box at dx/2 in the middle (docs/refinement.md §2), both smoothing lengths, the
+            // level's with either pressure term
+            out.extend(["scene", "level", "difference"].map(|r| hydrostatic_default().refined(r)));
             out
         },
         overrides: hydrostatic_overrides,
@@ -550,17 +558,23 @@ mod tests {
             .into_iter()
             .filter(|v| v.refine != "none")
             .collect();
-        assert_eq!(refined.len(), 2);
-        for v in &refined {
+        assert_eq!(refined.len(), 3);
+        for (v, h) in refined.iter().zip(["scene", "level", "level"]) {
             let (file, text) = case.scene_for(v);
             assert_eq!(file, "inputs/hydrostatic_2d_refined.toml");
             assert!(text.contains("[[refine]]"));
             let sets = case.sets(20, v);
             assert!(sets.contains(&"time.t_end=0.5".to_string()), "{sets:?}");
-            let h = format!("refine[0].smoothing_length=\"{}\"", v.refine);
+            let h = format!("refine[0].smoothing_length=\"{h}\"");
             assert!(sets.contains(&h), "{sets:?}");
+            let difference = "physics.pressure_gradient=\"difference\"".to_string();
+            assert_eq!(sets.contains(&difference), v.refine == "difference", "{sets:?}");
+            // every override loads
+            let scene = crate::scene::load_scene_str(text, std::path::Path::new(file), "t", &sets);
+            assert!(scene.is_ok(), "{}: {:?}", v.name(), scene.err());
         }
         assert_eq!(refined[1].name(), format!("{}-refineh", case.default.name()));
+        assert_eq!(refined[2].name(), format!("{}-refinehd", case.default.name()));
         // the other variants start from the uniform scene and set no refinement
         let sets = case.sets(20, &case.default);
         assert!(sets.iter().all(|s| !s.contains("refine")), "{sets:?}");
