@@ -800,25 +800,6 @@ fn bad_refinement_input_is_exit_2_naming_the_key() {
         &["refine.0.smoothing_length=\"half\""],
         &["smoothing_length", "scene", "level"],
     );
-    // the difference form needs supports of several h, and whole supports in one visit
-    let difference = "physics.pressure_gradient=\"difference\"";
-    refused(
-        &[difference],
-        &["physics.pressure_gradient", "smoothing_length = \"level\""],
-    );
-    refused(
-        &[
-            difference,
-            "refine.0.smoothing_length=\"level\"",
-            "discretisation.relax=0",
-            "performance.interactions=\"pairs\"",
-        ],
-        &["physics.pressure_gradient", "interactions = \"gather\""],
-    );
-    refused(
-        &["physics.pressure_gradient=\"differences\""],
-        &["physics.pressure_gradient", "symmetric", "difference"],
-    );
     // a second region of another level overlapping the first, for the same body
     let text = std::fs::read_to_string(&scene).unwrap()
         + "\n[[refine]]\nshape = \"sphere\"\ncentre = [0.7, 0.4]\nradius = 0.05\nlevel = 2\n";
@@ -847,6 +828,39 @@ fn bad_refinement_input_is_exit_2_naming_the_key() {
     assert_eq!(
         hsph_in(&dir, &["check", two.to_str().unwrap()]).status.code(),
         Some(0)
+    );
+}
+
+/// `physics.pressure_gradient = "difference"` needs supports of several h (a region with the
+/// level's h) and whole supports in one visit (gather mode); a misspelt value names both forms.
+#[test]
+fn bad_pressure_gradient_input_is_exit_2_naming_the_key() {
+    let dir = common::temp_dir("pressure-bad");
+    let scene = common::repo_path("inputs/hydrostatic_2d_refined.toml");
+    let refused = |sets: &[&str], needles: &[&str]| {
+        let mut args = vec!["check", scene.to_str().unwrap()];
+        for x in sets {
+            args.extend(["--set", x]);
+        }
+        assert_input_error(&hsph_in(&dir, &args), needles);
+    };
+    let difference = "physics.pressure_gradient=\"difference\"";
+    refused(
+        &[difference],
+        &["physics.pressure_gradient", "smoothing_length = \"level\""],
+    );
+    refused(
+        &[
+            difference,
+            "refine.0.smoothing_length=\"level\"",
+            "discretisation.relax=0",
+            "performance.interactions=\"pairs\"",
+        ],
+        &["physics.pressure_gradient", "interactions = \"gather\""],
+    );
+    refused(
+        &["physics.pressure_gradient=\"differences\""],
+        &["physics.pressure_gradient", "symmetric", "difference"],
     );
 }
 
