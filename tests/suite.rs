@@ -47,3 +47,4 @@ mod solitary;
 mod splitting;
 mod validate;
 mod verlet;
+mod wall_volume;

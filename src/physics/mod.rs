@@ -68,6 +68,10 @@ pub struct Model<const D: usize> {
     pub updates_walls: bool,
     /// Slip condition per wall body: true = no-slip.
     pub wall_no_slip: Vec<bool>,
+    /// Dummy walls whose particles keep their lattice cell's volume (`volume = "lattice"`),
+    /// by wall body index: the `wall_volume` row sets m = ρ_w (dx/2^ℓ)^D after each
+    /// extrapolation.
+    pub wall_lattice_volume: Vec<bool>,
     /// Wall acceleration per wall body (m/s²), updated by the step loop for moving walls.
     pub wall_acc: Vec<Vector<D>>,
     /// Wall displacement from rest per wall body (m), updated with `wall_acc`.
@@ -136,6 +140,11 @@ impl<const D: usize> Model<D> {
                 .walls
                 .iter()
                 .map(|w| w.slip == crate::scene::Slip::NoSlip)
+                .collect(),
+            wall_lattice_volume: s
+                .walls
+                .iter()
+                .map(|w| w.volume == crate::scene::WallVolume::Lattice)
                 .collect(),
             wall_acc: vec![Vector::zeros(); s.walls.len()],
             wall_shift: vec![Vector::zeros(); s.walls.len()],

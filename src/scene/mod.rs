@@ -24,7 +24,7 @@ pub use materials::{Material, MaterialKind, StrengthKind};
 pub use probes::{Direction, Probe};
 pub use reference::Reference;
 pub use validate::{dt_upper_bound, expected_speed, validate};
-pub use walls::{rows_reaching, Motion, NoSlipMethod, Slip, WallBody, WallMethod, WallShape};
+pub use walls::{rows_reaching, Motion, NoSlipMethod, Slip, WallBody, WallMethod, WallShape, WallVolume};
 
 use crate::kernel::KernelKind;
 use serde::{Deserialize, Serialize};

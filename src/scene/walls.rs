@@ -84,6 +84,28 @@ impl NoSlipMethod {
     }
 }
 
+/// What a dummy wall particle holds fixed while its density follows the extrapolated pressure.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum WallVolume {
+    /// Its mass m = ρ0 V0 (Adami et al. 2012): its volume m/ρ_w shrinks under pressure while
+    /// the particle stays on its lattice site.
+    #[default]
+    Mass,
+    /// Its volume V0 = (dx/2^ℓ)^D, the lattice cell it fills: the mass follows the density,
+    /// m = ρ_w V0. A fluid of hydrostatic density (mass ρ(y) V0 on the same lattice) then
+    /// meets walls of its own volume, so Σ_j V_j ∇W_ij vanishes across the wall's face
+    /// (`crate::physics::passes`' `wall_volume` row; docs/refinement.md §2).
+    Lattice,
+}
+
+impl WallVolume {
+    /// True for `mass` (left out of a written scene).
+    pub fn is_mass(&self) -> bool {
+        *self == WallVolume::Mass
+    }
+}
+
 /// Prescribed motion law x(t) of a wall (a piston or wave maker).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, tag = "law", rename_all = "snake_case")]
@@ -147,6 +169,10 @@ pub struct WallBody {
     /// `adami` (default) or `morris` (Morris et al. 1997's distance ratio).
     #[serde(default, skip_serializing_if = "NoSlipMethod::is_adami")]
     pub no_slip: NoSlipMethod,
+    /// What a dummy wall particle holds fixed: `mass` (default, Adami et al. 2012) or
+    /// `lattice` (its lattice cell's volume; the mass follows the extrapolated density).
+    #[serde(default, skip_serializing_if = "WallVolume::is_mass")]
+    pub volume: WallVolume,
     /// Material whose EOS converts the wall's pressure to density and back (default: the first
     /// fluid body's, else the first material).
     #[serde(default)]
@@ -283,6 +309,14 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
                 "`morris` sets the velocity a no-slip dummy or mirror wall shows the fluid: it \
                  needs method = \"dummy\" or \"mirror\" and slip = \"no_slip\"; remove it, or use \
                  no_slip = \"adami\"",
+            );
+        }
+        if w.volume == WallVolume::Lattice && w.method != WallMethod::Dummy {
+            return err(
+                format!("{k}.volume"),
+                "`lattice` fixes the volume of dummy wall particles, whose density the fluid's \
+                 pressure sets each step: it needs method = \"dummy\"; remove it, or use \
+                 volume = \"mass\"",
             );
         }
     }

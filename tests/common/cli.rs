@@ -26,3 +26,12 @@ pub fn assert_input_error(o: &Output, needles: &[&str]) {
         assert!(e.contains(n), "`{n}` missing from:\n{e}");
     }
 }
+
+/// `hsph check SCENE --set S…` (run in `cwd`) is exit 2 with every needle in its message.
+pub fn assert_check_refuses(cwd: &Path, scene: &Path, sets: &[&str], needles: &[&str]) {
+    let mut args = vec!["check", scene.to_str().unwrap()];
+    for x in sets {
+        args.extend(["--set", x]);
+    }
+    assert_input_error(&hsph_in(cwd, &args), needles);
+}

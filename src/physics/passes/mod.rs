@@ -29,6 +29,7 @@ mod solid_rates;
 mod solid_update;
 mod viscous_moment;
 mod wall_extrapolation;
+mod wall_volume;
 
 pub use density_update::update_pressure;
 pub use kick::half_kick;
@@ -202,6 +203,7 @@ passes! {
     DensityUpdate => density_update::DensityUpdate,
     SolidUpdate => solid_update::SolidUpdate,
     WallExtrapolation => wall_extrapolation::WallExtrapolation,
+    WallVolume => wall_volume::WallVolume,
     Momentum => momentum::Momentum,
     MomentumGradient => momentum_gradient::MomentumGradient,
     SolidMomentum => solid_momentum::SolidMomentum,
