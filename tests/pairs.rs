@@ -246,7 +246,7 @@ fn pairs_mode_refuses_passes_it_does_not_cover() {
 /// reads) says so.
 #[test]
 fn typed_flags_reach_the_scene_and_its_written_text() {
-    let dir = std::env::temp_dir().join(format!("hsph-typed-flags-{}", std::process::id()));
+    let dir = common::temp_dir("typed-flags").join("run");
     let out = dir.to_str().unwrap();
     let (code, _, err) = hsph(&[
         "run",

@@ -5,6 +5,7 @@
 //! Each scene runs at its shipped resolution (the thresholds must hold there); the whole
 //! file takes about a minute in release mode on 2 cores.
 
+use crate::common;
 use hsph::driver::{run_scene, RunOptions, RunOutcome};
 use hsph::scene::{load_scene, Scene};
 use std::collections::BTreeMap;
@@ -19,8 +20,7 @@ fn scene(file: &str, overrides: &[&str]) -> Scene {
 }
 
 fn run(s: &Scene, tag: &str) -> RunOutcome {
-    let out: PathBuf =
-        std::env::temp_dir().join(format!("hsph-physics-validation-{tag}-{}", std::process::id()));
+    let out: PathBuf = common::temp_dir(&format!("physics-validation-{tag}")).join("run");
     let opts = RunOptions {
         out: Some(out.clone()),
         force: true,

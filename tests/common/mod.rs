@@ -35,17 +35,41 @@ impl Rng {
     }
 }
 
-/// A fresh, empty, unique directory under the system temp dir.
+/// A fresh, empty, unique directory, `hsph-tests-PID/TAG-N` under the system temp dir. The
+/// directories stay after the run, for a look at a failure; the first call of a run removes
+/// the `hsph-tests-PID` of runs whose process is gone, so they do not pile up.
 pub fn temp_dir(tag: &str) -> PathBuf {
     static N: AtomicUsize = AtomicUsize::new(0);
-    let d = std::env::temp_dir().join(format!(
-        "hsph-test-{tag}-{}-{}",
-        std::process::id(),
-        N.fetch_add(1, Ordering::SeqCst)
-    ));
+    static ROOT: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    let root = ROOT.get_or_init(|| {
+        let tmp = std::env::temp_dir();
+        remove_stale_runs(&tmp);
+        tmp.join(format!("hsph-tests-{}", std::process::id()))
+    });
+    let d = root.join(format!("{tag}-{}", N.fetch_add(1, Ordering::SeqCst)));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
+}
+
+/// Remove `hsph-tests-PID` under `tmp` for each PID with no `/proc/PID` (Linux; elsewhere
+/// nothing is removed).
+fn remove_stale_runs(tmp: &Path) {
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(tmp) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name();
+        let Some(pid) = name.to_str().and_then(|n| n.strip_prefix("hsph-tests-")) else {
+            continue;
+        };
+        if pid.parse::<u32>().is_ok() && !Path::new("/proc").join(pid).exists() {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
 }
 
 /// Path of a file shipped with the crate.
