@@ -6,11 +6,11 @@
 //! neighbourhoods) L_i falls back to the identity.
 
 use super::batch::{batched, itself};
-use super::moment::inverse_or_identity;
+use super::moment::FirstMoment;
 use super::Model;
 use crate::cells::Neighbours;
 use crate::particles::Particles;
-use crate::{Matrix, Vector};
+use crate::Vector;
 use rayon::prelude::*;
 
 /// Renormalised gradient of the field `f` at owned fluid particles (zero for others).
@@ -42,8 +42,7 @@ fn renormalised_gradient_with<const D: usize, N: Neighbours>(
             if !p.kind[i].is_fluid() {
                 return;
             }
-            // −Σ_j V_j f_ij x_ij ⊗ x_ij is symmetric: accumulate the upper triangle only
-            let mut a = [[0.0f64; D]; D];
+            let mut moment = FirstMoment::<D>::default();
             let mut s = Vector::<D>::zeros();
             let (xi, fi) = (p.x[i], f[i]);
             let r2_of = |j: usize| (xi - p.x[j]).norm_squared();
@@ -55,16 +54,10 @@ fn renormalised_gradient_with<const D: usize, N: Neighbours>(
                 let xij = xi - p.x[j];
                 // ∇_i W_ij V_j = x_ij (1/r) dW/dr V_j
                 let w = fij * vol[j];
-                for r in 0..D {
-                    let wr = xij[r] * w;
-                    for c in r..D {
-                        a[r][c] -= wr * xij[c]; // ∇W ⊗ (x_j − x_i)
-                    }
-                }
+                moment.add(&xij, w);
                 s += xij * (w * (f[j] - fi));
             });
-            let m = Matrix::<D>::from_fn(|r, c| if r <= c { a[r][c] } else { a[c][r] });
-            *g = inverse_or_identity(&m) * s;
+            *g = moment.inverse() * s;
         })
     });
 }

@@ -28,6 +28,7 @@
 //! t = 0.3 s (tests/fidelity.rs).
 
 use super::batch::{batched, itself};
+use super::moment::FirstMoment;
 use super::Model;
 use crate::cells::Neighbours;
 use crate::particles::{Kind, Particles};
@@ -347,8 +348,8 @@ pub(crate) struct PressureDifference<const D: usize> {
     /// The symmetric pressure parts the pair sum already holds, −Σ_j m_j (p_i/ρ_i² + p_j/ρ_j²)
     /// ∇_i W_ij (m/s²), replaced where the form applies.
     symmetric: Vector<D>,
-    /// Upper triangle of M_i (–).
-    moment: [[f64; D]; D],
+    /// M_i (–).
+    moment: FirstMoment<D>,
     /// Σ_j V_j (p_j − p_i) ∇_i W_ij (Pa/m).
     sum: Vector<D>,
     /// h_i (m) and p_i (Pa).
@@ -365,7 +366,7 @@ impl<const D: usize> PressureDifference<D> {
     pub(crate) fn new(p: &Particles<D>, i: usize) -> Self {
         PressureDifference {
             symmetric: Vector::zeros(),
-            moment: [[0.0; D]; D],
+            moment: FirstMoment::default(),
             sum: Vector::zeros(),
             h: p.h[i],
             p: p.p[i],
@@ -387,32 +388,20 @@ impl<const D: usize> PressureDifference<D> {
         self.symmetric += xij * (-f * mj * pressure_factor(terms.p_rho2, pj_term, dummy));
         self.mixed |= p.h[j] != self.h;
         self.walled |= dummy;
-        // ∇_i W_ij V_j = x_ij (1/r) dW/dr V_j; (x_j − x_i) ⊗ ∇_i W_ij is symmetric
+        // ∇_i W_ij V_j = x_ij (1/r) dW/dr V_j
         let w = f * mj / p.rho[j];
-        for r in 0..D {
-            let wr = xij[r] * w;
-            for c in r..D {
-                self.moment[r][c] -= wr * xij[c];
-            }
-        }
+        self.moment.add(&xij, w);
         self.sum += xij * (w * (p.p[j] - self.p));
     }
 
     /// What to add to the pair sum (m/s²): the difference form less the symmetric parts where
     /// the form applies (several h, a full support, no wall), else zero.
     pub(crate) fn correction(&self, rho_i: f64) -> Vector<D> {
-        let full = (0..D).all(|r| (self.moment[r][r] - 1.0).abs() < FULL_SUPPORT);
+        let full = (0..D).all(|r| (self.moment.upper(r, r) - 1.0).abs() < FULL_SUPPORT);
         if !self.mixed || !full || self.walled {
             return Vector::zeros();
         }
-        let m = crate::Matrix::<D>::from_fn(|r, c| {
-            if r <= c {
-                self.moment[r][c]
-            } else {
-                self.moment[c][r]
-            }
-        });
-        -(super::moment::inverse_or_identity(&m) * self.sum) / rho_i - self.symmetric
+        -(self.moment.inverse() * self.sum) / rho_i - self.symmetric
     }
 }
 

@@ -1,9 +1,61 @@
-//! The inverse L = M⁻¹ of a particle's first moment M = Σ_j V_j (x_j − x_i) ⊗ ∇_i W_ij (–),
-//! shared by the renormalised density gradient ([`super::delta`], [`super::pairs`]) and the
-//! difference form of the pressure term ([`super::fluid::PressureDifference`]). Where M is
-//! ill-conditioned (a free surface, a sparse neighbourhood) L falls back to the identity.
+//! A particle's first moment M = Σ_j V_j (x_j − x_i) ⊗ ∇_i W_ij (–), summed by [`FirstMoment`],
+//! and its inverse L = M⁻¹, shared by the renormalised density gradient ([`super::delta`],
+//! [`super::pairs`]) and the difference form of the pressure term
+//! ([`super::fluid::PressureDifference`]). Where M is ill-conditioned (a free surface, a sparse
+//! neighbourhood) L falls back to the identity.
 
-use crate::Matrix;
+use crate::{Matrix, Vector};
+
+/// The first moment M_i = Σ_j V_j (x_j − x_i) ⊗ ∇_i W_ij (–) summed over a particle's
+/// neighbours. With ∇_i W_ij = x_ij (1/r) dW/dr, each term is −w x_ij ⊗ x_ij, w = V_j (1/r)
+/// dW/dr: symmetric, so only the upper triangle is accumulated.
+#[derive(Debug, Clone, Copy)]
+pub struct FirstMoment<const D: usize> {
+    /// M's upper triangle, M[r][c] for r ≤ c (the lower is not written).
+    upper: [[f64; D]; D],
+}
+
+impl<const D: usize> Default for FirstMoment<D> {
+    fn default() -> Self {
+        FirstMoment { upper: [[0.0; D]; D] }
+    }
+}
+
+impl<const D: usize> FirstMoment<D> {
+    /// Add neighbour j's term −w x_ij ⊗ x_ij, x_ij = x_i − x_j (m), w = V_j (1/r) dW/dr
+    /// (m⁻²).
+    #[inline(always)]
+    pub fn add(&mut self, xij: &Vector<D>, w: f64) {
+        for r in 0..D {
+            let wr = xij[r] * w;
+            for c in r..D {
+                self.upper[r][c] -= wr * xij[c];
+            }
+        }
+    }
+
+    /// M[r][c] for r ≤ c.
+    #[inline(always)]
+    pub fn upper(&self, r: usize, c: usize) -> f64 {
+        self.upper[r][c]
+    }
+
+    /// The whole symmetric M.
+    pub fn matrix(&self) -> Matrix<D> {
+        Matrix::<D>::from_fn(|r, c| {
+            if r <= c {
+                self.upper[r][c]
+            } else {
+                self.upper[c][r]
+            }
+        })
+    }
+
+    /// L = M⁻¹, or the identity where M is ill-conditioned ([`inverse_or_identity`]).
+    pub fn inverse(&self) -> Matrix<D> {
+        inverse_or_identity(&self.matrix())
+    }
+}
 
 /// Relative determinant below which L_i falls back to the identity.
 const ILL_CONDITIONED: f64 = 1e-3;
@@ -43,5 +95,36 @@ fn determinant<const D: usize>(m: &Matrix<D>) -> f64 {
         m[(0, 0)] * (m[(1, 1)] * m[(2, 2)] - m[(1, 2)] * m[(2, 1)])
             - m[(0, 1)] * (m[(1, 0)] * m[(2, 2)] - m[(1, 2)] * m[(2, 0)])
             + m[(0, 2)] * (m[(1, 0)] * m[(2, 1)] - m[(1, 1)] * m[(2, 0)])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The upper-triangle sum is the full −Σ w x ⊗ x (nalgebra's outer products), and its
+    /// inverse is M⁻¹ (M L = I to round-off) for a well-conditioned 3D moment.
+    #[test]
+    fn the_first_moment_is_the_sum_of_outer_products_and_inverts() {
+        let xs = [
+            Vector::<3>::new(0.3, -0.2, 0.1),
+            Vector::<3>::new(-0.1, 0.4, 0.25),
+            Vector::<3>::new(0.05, 0.15, -0.35),
+            Vector::<3>::new(-0.3, -0.1, -0.2),
+        ];
+        let ws = [-2.0, -1.5, -3.0, -0.5];
+        let mut m = FirstMoment::<3>::default();
+        let mut full = Matrix::<3>::zeros();
+        for (x, w) in xs.iter().zip(ws) {
+            m.add(x, w);
+            full -= x * x.transpose() * w;
+        }
+        assert!(
+            (m.matrix() - full).amax() <= 1e-15 * full.amax(),
+            "{}",
+            m.matrix() - full
+        );
+        let residual = (m.matrix() * m.inverse() - Matrix::<3>::identity()).amax();
+        assert!(residual < 1e-13, "M L − I: {residual:e}");
     }
 }

@@ -23,7 +23,7 @@
 
 use super::batch::{batched, slot_of};
 use super::fluid::{diffuses, pair_acceleration_with, psi_dot_grad, Correction, PairTerms};
-use super::moment::inverse_or_identity;
+use super::moment::{inverse_or_identity, FirstMoment};
 use super::Model;
 use crate::cells::{HalfView, Window};
 use crate::kernel::sizes::PairKernel;
@@ -479,8 +479,8 @@ fn gradients_from<const D: usize>(
 /// A home's own side of the gradient's sums, accumulated over its pairs and written once
 /// ([`GradientSum::flush`]); each partner's side goes straight to its window.
 struct GradientSum<const D: usize> {
-    /// −Σ V_b f x_ab ⊗ x_ab (upper triangle used).
-    mat: [[f64; D]; D],
+    /// −Σ V_b f x_ab ⊗ x_ab.
+    mat: FirstMoment<D>,
     /// Σ V_b f (ρ_b − ρ_a) x_ab.
     vec: Vector<D>,
 }
@@ -488,7 +488,7 @@ struct GradientSum<const D: usize> {
 impl<const D: usize> Default for GradientSum<D> {
     fn default() -> Self {
         GradientSum {
-            mat: [[0.0; D]; D],
+            mat: FirstMoment::default(),
             vec: Vector::zeros(),
         }
     }
@@ -508,12 +508,7 @@ impl<const D: usize> GradientSum<D> {
     ) {
         let m = D * (D + 1) / 2;
         let wa = f * vb;
-        for r in 0..D {
-            let wr = xab[r] * wa;
-            for c in r..D {
-                self.mat[r][c] -= wr * xab[c];
-            }
-        }
+        self.mat.add(xab, wa);
         self.vec += xab * (wa * (rhob - rhoa));
         let wb = f * va;
         for r in 0..D {
@@ -534,7 +529,7 @@ impl<const D: usize> GradientSum<D> {
         let m = D * (D + 1) / 2;
         for r in 0..D {
             for c in r..D {
-                out[tri::<D>(r, c)] += self.mat[r][c];
+                out[tri::<D>(r, c)] += self.mat.upper(r, c);
             }
         }
         for c in 0..D {
