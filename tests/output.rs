@@ -219,3 +219,47 @@ fn above_the_gather_limit_every_rank_writes_its_own_final_rows() {
     let summary = read(&split.join("summary.json"));
     assert!(summary.contains("\"complete\": true"), "{summary}");
 }
+
+/// `summary.json`'s `pass_timers`: one entry per pass the run ran, named after its row, and the
+/// passes that walk neighbours add up to the `forces` phase (each pass's time is read once from
+/// the clock and added to both), the others to no more than the `integrate` phase (which also
+/// holds the kicks, the drift and the checks). Two ranks, so the min/mean/max are over ranks.
+#[test]
+fn pass_timers_name_the_passes_that_ran_and_add_up_to_their_phases() {
+    use hsph::physics::passes::ALL;
+    let run = run("pass-timers", "2", &["--set", "output.format=\"none\""]);
+    let summary: serde_json::Value = serde_json::from_str(&read(&run.join("summary.json"))).unwrap();
+    let timers = &summary["timers"];
+    let passes = summary["pass_timers"].as_object().expect("pass_timers");
+    let (mut forces, mut others) = (0.0, 0.0);
+    for (key, v) in passes {
+        let pass = ALL
+            .iter()
+            .find(|p| format!("{}_s", p.name()) == *key)
+            .unwrap_or_else(|| panic!("{key} names no pass"));
+        let (lo, mean, hi) = (
+            v["min"].as_f64().unwrap(),
+            v["mean"].as_f64().unwrap(),
+            v["max"].as_f64().unwrap(),
+        );
+        assert!(0.0 <= lo && lo <= mean && mean <= hi && hi > 0.0, "{key}: {v}");
+        if pass.walks_neighbours() {
+            forces += mean;
+        } else {
+            others += mean;
+        }
+    }
+    for key in ["continuity_s", "momentum_s", "wall_extrapolation_s", "kick_s"] {
+        assert!(passes.contains_key(key), "{key} missing from {passes:?}");
+    }
+    let phase = |k: &str| timers[k]["mean"].as_f64().unwrap();
+    let f = phase("forces_s");
+    assert!(
+        (forces - f).abs() <= 1e-9 * f,
+        "passes {forces} against forces {f}"
+    );
+    assert!(
+        others <= phase("integrate_s") * (1.0 + 1e-9),
+        "{others} > integrate"
+    );
+}

@@ -3,6 +3,7 @@
 
 use crate::comm::{Comm, Phase};
 use crate::error::Result;
+use crate::physics::passes::{self, Pass};
 use crate::sim::{Simulation, Timer, PHASES};
 
 /// Header of `diagnostics.csv`.
@@ -21,7 +22,7 @@ pub(super) fn diag_header() -> String {
 
 /// Per-rank figures reduced over ranks (collective).
 pub(super) struct Reduced {
-    /// Per phase: min, mean, max over ranks (s).
+    /// Per phase ([`PHASES`]), then per pass ([`passes::ALL`]): min, mean, max over ranks (s).
     pub(super) timers: Vec<[f64; 3]>,
     pub(super) ghosts: u64,
     pub(super) remote: u64,
@@ -37,6 +38,16 @@ impl Reduced {
     pub(super) fn mean(&self, phase: Timer) -> f64 {
         self.timers[phase as usize][1]
     }
+
+    /// Min, mean and max over ranks of the phases' seconds, in the order of [`PHASES`].
+    pub(super) fn phases(&self) -> &[[f64; 3]] {
+        &self.timers[..PHASES.len()]
+    }
+
+    /// Min, mean and max over ranks of `pass`'s seconds.
+    pub(super) fn pass(&self, pass: Pass) -> [f64; 3] {
+        self.timers[PHASES.len() + pass as usize]
+    }
 }
 
 /// Reduce this rank's timers, counts and, with `high_water` (the summary), its high-water marks
@@ -49,7 +60,7 @@ pub(super) fn reduce<const D: usize>(
 ) -> Result<Reduced> {
     let prev = comm.set_phase(Phase::Output);
     let mut mine: Vec<u8> = Vec::new();
-    for s in sim.timers.seconds {
+    for s in sim.timers.seconds.iter().chain(&sim.timers.passes) {
         mine.extend_from_slice(&s.to_le_bytes());
     }
     let counts = [
@@ -71,7 +82,7 @@ pub(super) fn reduce<const D: usize>(
     let all = comm.all_gather_bytes(mine)?;
     comm.set_phase(prev);
     let word = |b: &[u8], k: usize| -> [u8; 8] { b[8 * k..8 * k + 8].try_into().expect("8 bytes") };
-    let n = PHASES.len();
+    let n = PHASES.len() + passes::COUNT;
     let timers = (0..n)
         .map(|k| {
             let (mut lo, mut hi, mut sum) = (f64::INFINITY, 0.0f64, 0.0);
@@ -110,7 +121,7 @@ pub(super) fn reduce<const D: usize>(
 /// seconds into the output steps, with `removed` particles so far.
 pub(super) fn diag_row<const D: usize>(r: &Reduced, sim: &Simulation<D>, wall: f64, removed: u64) -> String {
     let mut row = format!("{},{},{wall:.6}", sim.step, sim.t);
-    for t in &r.timers {
+    for t in r.phases() {
         row.push_str(&format!(",{:.6},{:.6},{:.6}", t[0], t[1], t[2]));
     }
     let rate = if wall > 0.0 {

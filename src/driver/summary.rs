@@ -10,6 +10,7 @@ use crate::comm::Comm;
 use crate::error::{Error, Result};
 use crate::output;
 use crate::output::snapshot::Piece;
+use crate::physics::passes;
 use crate::sim::{Simulation, Timer, View, PHASES};
 use crate::topology::{Topology, DEFAULT_COST};
 use serde_json::json;
@@ -198,6 +199,18 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 json!({"min": r.timers[k][0], "mean": r.timers[k][1], "max": r.timers[k][2]}),
             );
         }
+        // each pass the step ran, in step order: which physics the forces and integrate
+        // phases' time went to
+        let mut passes = serde_json::Map::new();
+        for &pass in passes::ALL {
+            let [lo, mean, hi] = r.pass(pass);
+            if hi > 0.0 {
+                passes.insert(
+                    format!("{}_s", pass.name()),
+                    json!({"min": lo, "mean": mean, "max": hi}),
+                );
+            }
+        }
         let comm_s = r.mean(Timer::Halo) + r.mean(Timer::Migration);
         let cost = self
             .layout
@@ -223,6 +236,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "communication_fraction": comm_s / wall.max(1e-12),
             "balance_fraction": r.mean(Timer::Balance) / wall.max(1e-12),
             "timers": timers,
+            "pass_timers": passes,
             // ghost builds: the same on every rank (the rule is all-reduced), set-up's included
             "ghost_builds": sim.ghost_builds(),
             "skin": self.scene.performance.skin,

@@ -275,7 +275,7 @@ impl<const D: usize> Simulation<D> {
         };
         if !pass.walks_neighbours() {
             pass.run(&mut c, &self.nl, None);
-            self.timers.add(Timer::Integrate, t0);
+            self.timers.add_pass(Timer::Integrate, pass, t0);
             return;
         }
         let half = self.nl.half(&self.grid, &self.cells);
@@ -293,7 +293,7 @@ impl<const D: usize> Simulation<D> {
         if part.is_none_or(|(_, b)| !b) {
             self.pair_count += self.nl.entries() as u64;
         }
-        self.timers.add(Timer::Forces, t0);
+        self.timers.add_pass(Timer::Forces, pass, t0);
     }
 
     /// p = p(ρ) of the particle's material for owned fluid particles (solids: the solid

@@ -129,6 +129,9 @@ macro_rules! passes {
         /// Every pass, in step order.
         pub const ALL: &[Pass] = &[$(Pass::$variant),*];
 
+        /// The number of passes (`Pass as usize` indexes them in the order of [`ALL`]).
+        pub const COUNT: usize = ALL.len();
+
         impl Pass {
             /// [`Row::reads`].
             pub fn reads(self) -> Fields {
