@@ -17,6 +17,7 @@ pub mod decompose;
 pub mod merge;
 pub mod observe;
 pub mod outflow;
+pub mod scan;
 pub mod skin;
 pub mod step;
 pub mod timers;
@@ -40,7 +41,6 @@ use crate::placement::Placement;
 use crate::scene::Scene;
 use crate::setup::SiteSource;
 use crate::Vector;
-use rayon::prelude::*;
 
 /// Particles that changed size in a run segment, the same count on every rank.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -437,8 +437,9 @@ impl<const D: usize> Simulation<D> {
     /// Every owned particle inside the domain.
     fn check_state(&self) -> Result<()> {
         let n = self.p.n_owned;
-        let bad = (0..n).into_par_iter().find_first(|&i| {
-            !self.space.contains(&self.p.x[i]) || !self.p.x[i].iter().all(|c| c.is_finite())
+        let (x, space) = (&self.p.x, &self.space);
+        let bad = scan::first(n, |i| {
+            !space.contains(&x[i]) | !x[i].iter().all(|c| c.is_finite())
         });
         match bad {
             Some(i) if !self.p.x[i].iter().all(|c| c.is_finite()) => {
@@ -460,46 +461,60 @@ impl<const D: usize> Simulation<D> {
         );
         let k = self.scene.limits.speed_over_c0;
         let (p, mats) = (&self.p, &self.model.materials);
-        let bad = |i: usize| {
+        // what is wrong with particle i: nothing, or a failure below; a few comparisons, so
+        // that the scan over every particle streams (squared speeds: no root per particle)
+        let verdict = |i: usize| {
             let (rho, v) = (p.rho[i], p.v[i]);
-            if !(rho.is_finite() && v.iter().all(|c| c.is_finite()) && rho > 0.0) {
-                return Some(format!(
-                    "has density {rho} and velocity {:?} (the run blew up)",
-                    v.as_slice()
-                ));
+            if !(rho.is_finite() & v.iter().all(|c| c.is_finite()) & (rho > 0.0)) {
+                return Failure::NotFinite;
             }
-            if !p.kind[i].is_integrated() {
-                return None;
-            }
-            let m = &mats[p.mat[i] as usize];
-            let ratio = rho / m.rho0();
-            let speed = v.norm();
             // solids: finiteness and positive density only (their EOS bounds them, fragments
             // expand freely, and they move at the impact's speeds)
-            if p.kind[i].is_solid() {
-                return None;
+            if !p.kind[i].is_integrated() || p.kind[i].is_solid() {
+                return Failure::None;
             }
-            if !(lo..=hi).contains(&ratio) {
-                return Some(format!(
-                    "has density {rho:.6e} kg/m³ = {ratio:.4} ρ0 (speed {speed:.4e} m/s), outside \
-                     limits.density_ratio [{lo}, {hi}] (the run is blowing up: try a smaller time.cfl, \
-                     artificial viscosity or density diffusion)"
-                ));
+            let m = &mats[p.mat[i] as usize];
+            if !(lo..=hi).contains(&(rho / m.rho0())) {
+                Failure::Density
+            } else if v.norm_squared() > (k * m.c0()).powi(2) {
+                Failure::Speed
+            } else {
+                Failure::None
             }
-            if speed > k * m.c0() {
-                return Some(format!(
-                    "moves at {speed:.4e} m/s, beyond limits.speed_over_c0 = {k} × c0 = {:.4e} m/s (the run \
-                     is blowing up: try a smaller time.cfl, or a larger c0 if the flow is that fast)",
-                    k * m.c0()
-                ));
-            }
-            None
         };
-        match (0..n).into_par_iter().find_first(|&i| bad(i).is_some()) {
-            Some(i) => Err(self.particle_error(i, &bad(i).unwrap_or_default())),
-            None => Ok(()),
-        }
+        let Some(i) = scan::first(n, |i| verdict(i) != Failure::None) else {
+            return Ok(());
+        };
+        let (rho, v) = (p.rho[i], p.v[i]);
+        let m = &mats[p.mat[i] as usize];
+        let (ratio, speed) = (rho / m.rho0(), v.norm());
+        let what = match verdict(i) {
+            Failure::NotFinite | Failure::None => format!(
+                "has density {rho} and velocity {:?} (the run blew up)",
+                v.as_slice()
+            ),
+            Failure::Density => format!(
+                "has density {rho:.6e} kg/m³ = {ratio:.4} ρ0 (speed {speed:.4e} m/s), outside \
+                 limits.density_ratio [{lo}, {hi}] (the run is blowing up: try a smaller time.cfl, \
+                 artificial viscosity or density diffusion)"
+            ),
+            Failure::Speed => format!(
+                "moves at {speed:.4e} m/s, beyond limits.speed_over_c0 = {k} × c0 = {:.4e} m/s (the run \
+                 is blowing up: try a smaller time.cfl, or a larger c0 if the flow is that fast)",
+                k * m.c0()
+            ),
+        };
+        Err(self.particle_error(i, &what))
     }
+}
+
+/// What [`Simulation::check_finite`] found wrong with a particle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Failure {
+    None,
+    NotFinite,
+    Density,
+    Speed,
 }
 
 /// The surface of every dummy wall of `scene`, by wall body, its faces unbounded along the axes

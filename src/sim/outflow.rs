@@ -105,7 +105,7 @@ impl<const D: usize> Simulation<D> {
                 !self.space.contains(&p.x[i])
             }
         };
-        let leaving: Vec<usize> = (0..p.n_owned).filter(|&i| gone(i)).collect();
+        let leaving = super::scan::all(p.n_owned, gone);
         if leaving.is_empty() {
             return;
         }
