@@ -549,3 +549,27 @@ fn a_sphere_without_centre_or_radius_names_the_missing_key() {
         &["is missing", "radius = 0.05"],
     );
 }
+
+/// A moving wall whose particles the motion law would carry out of the domain before
+/// `time.t_end` is refused before the run starts (it used to stop the run mid-way), naming the
+/// motion's key and the bound that would hold it. The tank's outer box ends at x = 0.602 m;
+/// a sine of amplitude 0.05 m and period 1 s reaches its crest at t = 0.25 s < t_end = 0.3 s.
+#[test]
+fn a_wall_moved_out_of_the_domain_is_refused_before_the_run() {
+    let text = shipped().replace(
+        "slip = \"free_slip\"",
+        "slip = \"free_slip\"\nmotion = { law = \"sine\", amplitude = [0.05, 0.0], period = 1.0 }",
+    );
+    run_bad_scene(
+        "wall-sweep",
+        &text,
+        "wall[0].motion",
+        "motion = {",
+        &[
+            "wall `tank`",
+            "x = 0.652 m",
+            "domain.max[0] ≥ 0.652",
+            "shorten the motion",
+        ],
+    );
+}

@@ -352,9 +352,10 @@ fn mirror_walls_keep_a_jet_in_the_corner_inside_the_box() {
     assert!(one == run("3"), "final.csv differs on 3 ranks");
 }
 
-/// A wall that its motion law carries out of the domain stops the run naming the wall particle
-/// and the motion, not the fluid's outflow (which never removes walls): a paddle rising at
-/// 2 m/s in the still tank leaves the top of the domain in about 0.1 s.
+/// A wall that its motion law would carry out of the domain is refused before the run (exit 2,
+/// the motion's key, the reach and the bound that would hold it), not stopped mid-run or
+/// mistaken for the fluid's outflow (which never removes walls): a paddle rising at 2 m/s in
+/// the still tank would leave the top of the domain in about 0.1 s of the run's 0.3 s.
 #[test]
 fn a_wall_carried_out_of_the_domain_is_named_as_a_wall() {
     let dir = common::temp_dir("wall-out");
@@ -373,12 +374,18 @@ fn a_wall_carried_out_of_the_domain_is_named_as_a_wall() {
         "--set",
         "time.t_end=0.3",
     ]);
-    assert_eq!(code, 1, "{err}");
-    assert!(
-        err.contains("is a wall particle that its motion law carried out of the domain"),
-        "{err}"
-    );
+    assert_eq!(code, 2, "{err}");
+    for needle in [
+        "motion`",
+        "wall `paddle`",
+        "would reach y = 1.",
+        "domain.max[1] = 0.9 m",
+        "shorten the motion",
+    ] {
+        assert!(err.contains(needle), "`{needle}` missing from: {err}");
+    }
     assert!(!err.contains("outflow = \"remove\")"), "{err}");
+    assert!(!out.exists(), "no run directory for a refused scene");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -401,4 +408,37 @@ fn check_describes_the_walls() {
         "{all}"
     );
     assert!(all.contains("is a dynamic wall in 1 of the 3 rows"), "{all}");
+}
+
+/// A fluid scene without density diffusion, with α below 0.02 and no laminar viscosity is
+/// plain weakly compressible SPH, which the stability map saw blow up in the dam break:
+/// `hsph check` warns and names both remedies (and still passes, exit 0); the shipped scene,
+/// with Antuono's term and α = 0.02, is not warned about.
+#[test]
+fn a_fluid_without_dissipation_is_warned_about() {
+    let dir = common::temp_dir("undamped");
+    let shipped = std::fs::read_to_string(common::repo_path("inputs/dam_break_2d.toml")).unwrap();
+    let text = shipped
+        .replace("density_diffusion = \"antuono\"", "")
+        .replace("artificial_viscosity = 0.02", "artificial_viscosity = 0.005");
+    assert_ne!(text, shipped);
+    let scene = dir.join("undamped.toml");
+    std::fs::write(&scene, text).unwrap();
+    let (code, out, err) = hsph(&["check", scene.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let all = out + &err;
+    for needle in [
+        "plain weakly compressible",
+        "artificial_viscosity = 0.005",
+        "density_diffusion = \"antuono\"",
+    ] {
+        assert!(all.contains(needle), "`{needle}` missing from: {all}");
+    }
+    let (code, out, err) = hsph(&[
+        "check",
+        common::repo_path("inputs/dam_break_2d.toml").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!(out + &err).contains("plain weakly compressible"));
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -36,6 +36,7 @@ pub fn check_limits(
     use crate::memory::{available, human};
     crate::limits::ranks("--ranks", ranks)?;
     check_probe_sizes(scene)?;
+    super::sweeps::check_wall_sweeps(scene)?;
     let pair_mode = scene.performance.interactions == crate::scene::Interactions::Pairs;
     crate::with_dim!(scene.dimension, D => crate::physics::passes::check_pair_mode(
         &crate::physics::Model::<D>::new(scene),

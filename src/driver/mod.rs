@@ -35,6 +35,7 @@ mod rank;
 mod start;
 mod steps;
 mod summary;
+mod sweeps;
 mod traffic;
 
 pub use checks::{check_limits, check_threads, MAX_LOCAL_RANKS, MIN_PARTICLES_PER_RANK};

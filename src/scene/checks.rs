@@ -30,7 +30,7 @@ pub(super) fn non_negative(x: f64, key: &str) -> Result<()> {
 }
 
 /// `x` as a scene would write it, short at any magnitude: `0.3`, `2000`, `1e5`, `1e-300`.
-pub(super) fn num(x: f64) -> String {
+pub(crate) fn num(x: f64) -> String {
     if x == 0.0 || !x.is_finite() || (1e-3..1e5).contains(&x.abs()) {
         format!("{x}")
     } else {
@@ -207,7 +207,7 @@ pub(super) fn in_domain(min: &[f64], max: &[f64], body: &str, dom: &Domain) -> R
     Ok(())
 }
 
-pub(super) fn disc_scale(dom: &Domain) -> f64 {
+pub(crate) fn disc_scale(dom: &Domain) -> f64 {
     dom.min
         .iter()
         .chain(dom.max.iter())

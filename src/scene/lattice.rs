@@ -661,6 +661,9 @@ pub fn scene_warnings<const D: usize>(s: &Scene) -> Vec<String> {
             s.time.cfl
         ));
     }
+    if let Some(w) = undamped_warning(s) {
+        out.push(w);
+    }
     if s.physics.shifting == super::ShiftingKind::DeltaPlus && s.discretisation.h_over_dx < 1.8 {
         out.push(format!(
             "physics.shifting = \"delta_plus\" with discretisation.h_over_dx = {}: shifting is made \
@@ -695,6 +698,29 @@ pub fn scene_warnings<const D: usize>(s: &Scene) -> Vec<String> {
         )
     }));
     out
+}
+
+/// A fluid without density diffusion and with artificial viscosity below 0.02 and no laminar
+/// viscosity: plain weakly compressible SPH, whose pressure noise grows until the run blows
+/// up in a violent flow (the stability map, docs/validation.md §5 (a): the dam break gains
+/// energy at 0.12 s with α = 0 and at 0.28 s with α = 0.005; α = 0.02 or any δ-SPH term holds).
+fn undamped_warning(s: &Scene) -> Option<String> {
+    let p = &s.physics;
+    let undamped = !s.fluids.is_empty()
+        && p.density_diffusion == super::DensityDiffusion::None
+        && p.artificial_viscosity < 0.02
+        && p.laminar_viscosity == 0.0;
+    undamped.then(|| {
+        format!(
+            "the fluid has no density diffusion (physics.density_diffusion = \"none\"), \
+             physics.artificial_viscosity = {} and no laminar viscosity: plain weakly compressible \
+             SPH, whose pressure noise grows in a violent flow (the 2D dam break gained energy at \
+             0.12 s with α = 0 and at 0.28 s with α = 0.005, docs/validation.md §5); set \
+             physics.density_diffusion = \"antuono\" (delta = 0.1) or \"fourtakas\", or \
+             physics.artificial_viscosity = 0.02",
+            p.artificial_viscosity
+        )
+    })
 }
 
 /// Spheres (discs in 2D) whose lattice volume (sites × dx^D) differs from the true volume by

@@ -6,6 +6,7 @@
 //! directory. The key reference lives in README.md ("Scene files").
 
 mod checks;
+pub(crate) use checks::{disc_scale, num};
 pub mod expr;
 pub mod lattice;
 mod load;
