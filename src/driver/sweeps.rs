@@ -4,7 +4,7 @@
 
 use crate::boundary::motion::WallKinematics;
 use crate::error::{Error, Result};
-use crate::scene::{Motion, Scene, WallShape};
+use crate::scene::{num, Motion, Scene, WallShape};
 
 /// The box a wall's particles fill: a container's inner box grown by its built layers on
 /// every closed face, a block's own box.
@@ -64,20 +64,10 @@ fn wall_sweeps<const D: usize>(s: &Scene) -> Result<()> {
             }
             let axis = ["x", "y", "z"][a];
             let (reach_lo, reach_hi) = (lo[a] + dlo[a], hi[a] + dhi[a]);
-            let (bound, side, reach, need) = if reach_lo < dom.min[a] - tol {
-                (
-                    "min",
-                    "below",
-                    reach_lo,
-                    format!("domain.min[{a}] ≤ {}", crate::scene::num(reach_lo)),
-                )
+            let (bound, side, cmp, reach, limit) = if reach_lo < dom.min[a] - tol {
+                ("min", "below", "≤", reach_lo, dom.min[a])
             } else if reach_hi > dom.max[a] + tol {
-                (
-                    "max",
-                    "above",
-                    reach_hi,
-                    format!("domain.max[{a}] ≥ {}", crate::scene::num(reach_hi)),
-                )
+                ("max", "above", "≥", reach_hi, dom.max[a])
             } else {
                 continue;
             };
@@ -86,16 +76,17 @@ fn wall_sweeps<const D: usize>(s: &Scene) -> Result<()> {
                 format!(
                     "wall `{}` (its particles fill [{}, {}] m along {axis}) moves by {} to {} m along \
                      {axis} before time.t_end = {} s, so its particles would reach {axis} = {} m, \
-                     {side} domain.{bound}[{a}] = {} m, and stop the run there; set {need}, or \
-                     shorten the motion or the run",
+                     {side} domain.{bound}[{a}] = {} m, and stop the run there; set \
+                     domain.{bound}[{a}] {cmp} {}, or shorten the motion or the run",
                     w.name,
-                    crate::scene::num(lo[a]),
-                    crate::scene::num(hi[a]),
-                    crate::scene::num(dlo[a]),
-                    crate::scene::num(dhi[a]),
-                    crate::scene::num(s.time.t_end),
-                    crate::scene::num(reach),
-                    crate::scene::num(if bound == "min" { dom.min[a] } else { dom.max[a] }),
+                    num(lo[a]),
+                    num(hi[a]),
+                    num(dlo[a]),
+                    num(dhi[a]),
+                    num(s.time.t_end),
+                    num(reach),
+                    num(limit),
+                    num(reach),
                 ),
             ));
         }
