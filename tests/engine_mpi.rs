@@ -154,6 +154,9 @@ fn mpi_runs_give_the_local_back_ends_bits() {
         // splitting and merging (issue 36): children and merged particles numbered by the
         // all-gathered id counter, merges handed over to the centroid's rank, under MPI
         ("tests/data/drift_split_2d.toml", vec![]),
+        // local time stepping (issue 36): cycles of two substeps, splits before them and
+        // merges after, the classes' passes over fine then coarse homes, under MPI
+        ("tests/data/drift_local_2d.toml", vec![]),
         // the oblique impact (issue 12), coarse: halos carry the solid fields under MPI too
         (
             "inputs/impact_oblique_45.toml",

@@ -27,6 +27,7 @@ mod layers;
 mod layout_report;
 mod lean;
 mod lobovsky;
+mod multirate;
 mod neighbours;
 mod output;
 mod pairs;

@@ -281,21 +281,28 @@ pub(super) fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
     if let Some(line) = solid_speeds(scene) {
         let _ = writeln!(w, "{line}");
     }
-    let steps = (scene.time.t_end / sim.dt).ceil();
+    // steps count a cycle's two substeps (`time.stepping = "local"`)
+    let dt0 = sim.step_length();
+    let steps = (scene.time.t_end / dt0).ceil();
     let settle = scene.time.settle;
     let settling = if settle > 0.0 {
         format!(
             "; settling {settle} s before t = 0 (about {:.0} steps more)",
-            (settle / sim.dt).ceil()
+            (settle / dt0).ceil()
         )
     } else {
         String::new()
     };
     let _ = writeln!(
         w,
-        "time        t_end {} s, dt₀ {:.4e} s, about {:.0} steps, {} output steps{settling}",
+        "time        t_end {} s, dt₀ {:.4e} s{}, about {:.0} steps, {} output steps{settling}",
         scene.time.t_end,
-        sim.dt,
+        dt0,
+        if sim.cycle {
+            " (local steps: the coarse particles take 2 dt₀)"
+        } else {
+            ""
+        },
         steps,
         (scene.time.t_end / scene.output.interval).round()
     );
@@ -311,11 +318,7 @@ pub(super) fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
         bytes as f64 / n.max(1) as f64
     );
     let _ = writeln!(w, "probes      {}", scene.probes.len());
-    let _ = write!(
-        w,
-        "{}",
-        output_volume::<D>(scene, n, steps, sim.dt, sim.p.dropped)
-    );
+    let _ = write!(w, "{}", output_volume::<D>(scene, n, steps, dt0, sim.p.dropped));
     if let Some(r) = &scene.reference {
         let _ = writeln!(w, "reference   {r:?}");
     }

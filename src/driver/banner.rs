@@ -29,7 +29,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             self.comm.size(),
             rayon::current_num_threads(),
             self.layout.backend.name(),
-            self.sim.dt,
+            self.sim.step_length(),
             self.dir.display()
         );
         }

@@ -101,6 +101,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "segments": self.earlier.1 + 1,
             "splits": self.sim.resized.splits,
             "merges": self.sim.resized.merges,
+            "cycles": self.sim.cycles,
             "particles_start": self.particles_start,
             "particles_max": self.population.1,
             "series": series,
@@ -133,6 +134,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
         let count = |k: &str| s[k].as_u64();
         if let (Some(splits), Some(merges)) = (count("splits"), count("merges")) {
             self.sim.resized = crate::sim::Resized { splits, merges };
+        }
+        if let Some(n) = count("cycles") {
+            self.sim.cycles = n;
         }
         if let Some(n) = count("particles_start") {
             self.particles_start = n;

@@ -107,7 +107,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         let stamp = output::Stamp {
             step: self.sim.step,
             t: self.sim.t,
-            dt: self.sim.dt,
+            dt: self.sim.step_length(),
         };
         if let Some(w) = self.writer.as_mut() {
             let row = diag_row(&r, &self.sim, wall, self.removed);

@@ -183,6 +183,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         summary["hole"] = self.hole_summary();
         self.add_parallel(&mut summary, r, wall);
         self.add_population(&mut summary);
+        self.add_stepping(&mut summary);
         self.add_memory(&mut summary, r);
         summary
     }
@@ -242,6 +243,14 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "skin": self.scene.performance.skin,
         });
         merge_into(summary, figures);
+    }
+
+    /// With `time.stepping = "local"`: the cycles of two substeps the run took (over every
+    /// segment), of its `steps` (which count substeps).
+    fn add_stepping(&self, summary: &mut serde_json::Value) {
+        if self.sim.local {
+            merge_into(summary, json!({ "stepping": "local", "cycles": self.sim.cycles }));
+        }
     }
 
     /// How the population changed: particles removed by the outflow rule (count, fraction of

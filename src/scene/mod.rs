@@ -807,6 +807,31 @@ pub struct Time {
     /// wall velocities or wall motion.
     #[serde(default)]
     pub settle: f64,
+    /// `global` (the default): every particle takes the step of the smallest. `local`: where
+    /// particles of several smoothing lengths meet (`[[refine]] smoothing_length = "level"`),
+    /// the fluid particles of the scene's h take one step of 2δ while the smaller ones take two
+    /// of δ ([`crate::sim::multirate`], docs/splitting.md §8).
+    #[serde(default, skip_serializing_if = "Stepping::is_global")]
+    pub stepping: Stepping,
+}
+
+/// How the particles of a scene share the time step (`time.stepping`).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Stepping {
+    /// Every particle takes the step of the smallest.
+    #[default]
+    Global,
+    /// Fluid particles of the scene's h take twice the step of the smaller ones when their own
+    /// CFL bound allows it.
+    Local,
+}
+
+impl Stepping {
+    /// True for [`Stepping::Global`].
+    pub fn is_global(&self) -> bool {
+        *self == Stepping::Global
+    }
 }
 
 fn default_cfl() -> f64 {

@@ -2,6 +2,7 @@
 //! the threshold, the cut planes move by parallel bisection from where they were (seed 000's
 //! incremental rebalance); then particles that left their rank's box migrate.
 
+use super::multirate::Substep;
 use super::timers::Timer;
 use super::Simulation;
 use crate::comm::{Comm, Phase};
@@ -84,15 +85,26 @@ impl<const D: usize> Simulation<D> {
 
     /// True if the balance check of the next step reads this step's neighbour lists
     /// (`balance.load = "pairs"`).
+    /// A cycle ([`super::multirate`]) checks at its first substep for both of its steps.
     pub(super) fn next_check_reads_lists(&self) -> bool {
-        self.scene.balance.load == LoadKind::Pairs && self.balance_checked_at(self.step + 1)
+        self.scene.balance.load == LoadKind::Pairs
+            && (self.balance_checked_at(self.step + 1)
+                || (self.cycle && self.balance_checked_at(self.step + 2)))
     }
 
     /// Every `check_every` steps, check the load balance and, above the threshold, move the
     /// cut planes (starting from the current ones). True if the planes moved (the particles
     /// must then migrate and the ghosts be built again).
+    /// In a cycle ([`super::multirate`]) the first substep checks for both of the cycle's
+    /// steps, while the lists of the last whole step or cycle end hold every particle's pairs
+    /// (the first substep lists only the fine particles').
     pub(super) fn check_balance(&mut self, comm: &dyn Comm) -> Result<bool> {
-        if !self.balance_checked_at(self.step) {
+        let due = match self.substep {
+            Substep::Whole => self.balance_checked_at(self.step),
+            Substep::Mid => self.balance_checked_at(self.step) || self.balance_checked_at(self.step + 1),
+            Substep::End => false,
+        };
+        if !due {
             return Ok(false);
         }
         self.balance_check(comm)

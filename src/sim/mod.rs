@@ -15,6 +15,7 @@ pub mod adapt;
 pub mod balance;
 pub mod decompose;
 pub mod merge;
+pub mod multirate;
 pub mod observe;
 pub mod outflow;
 pub mod scan;
@@ -97,6 +98,18 @@ pub struct Simulation<const D: usize> {
     /// each pair of owned fluid particles once over half lists instead of gathering over full
     /// ones. A choice of the step, not of the physics.
     pub pair_mode: bool,
+    /// `time.stepping = "local"`: the scene's classes of particles may take steps of two
+    /// sizes ([`multirate`]).
+    pub local: bool,
+    /// The next `advance` is a cycle of two substeps ([`multirate`]), with `dt` its span.
+    pub cycle: bool,
+    /// Cycles of local time stepping since the run began (over every segment).
+    pub cycles: u64,
+    /// Which part of a step the passes are in.
+    substep: multirate::Substep,
+    /// Per owned particle in a cycle's substeps: true unless coarse
+    /// ([`Simulation::mark_classes`]).
+    active: Vec<bool>,
     /// The next id a created particle takes, the same on every rank ([`crate::ids`]).
     pub ids: crate::ids::IdCounter,
     /// Splits and merges of this run segment, counted over every rank
@@ -163,7 +176,7 @@ impl<const D: usize> Simulation<D> {
         sim.settle(comm)?;
         sim.balance.imbalance = sim.load_imbalance(comm)?;
         sim.balance.imbalance_history.push(sim.balance.imbalance);
-        sim.dt = sim.next_dt(comm)?;
+        (sim.dt, sim.cycle) = sim.plan(comm)?;
         Ok(sim)
     }
 
@@ -268,6 +281,8 @@ impl<const D: usize> Simulation<D> {
             sim.list_as_built(at, comm)?;
         }
         (sim.step, sim.t, sim.dt) = (clock.step, clock.t, clock.dt);
+        // whether the next advance is a cycle, from the restored state as the run decided it
+        sim.cycle = sim.plan(comm)?.1;
         sim.ids = crate::ids::IdCounter::starting_at(clock.next_id);
         sim.check_state()?;
         sim.balance.imbalance = sim.load_imbalance(comm)?;
@@ -288,6 +303,7 @@ impl<const D: usize> Simulation<D> {
         let model = Model::<D>::new(scene);
         let pair_mode = scene.performance.interactions == crate::scene::Interactions::Pairs;
         crate::physics::passes::check_pair_mode(&model, pair_mode)?;
+        multirate::check(scene, &model, &schedule(&model))?;
         let space = image_space::<D>(scene);
         let support = model.kernel.support;
         // one rank without periodic axes or mirror planes has no ghost to keep: no skin, and
@@ -326,6 +342,11 @@ impl<const D: usize> Simulation<D> {
             scene: scene.clone(),
             schedule: schedule(&model),
             pair_mode,
+            local: scene.time.stepping == crate::scene::Stepping::Local,
+            cycle: false,
+            cycles: 0,
+            substep: multirate::Substep::Whole,
+            active: Vec::new(),
             ids: crate::ids::IdCounter::starting_at(crate::scene::lattice::id_bound::<D>(scene)),
             resized: Resized::default(),
             model,

@@ -9,6 +9,7 @@
 //! build, else a refresh of the kept ghosts; then the neighbour lists. Before each pass the
 //! ghosts get exactly the fields it reads that are stale ([`crate::physics::passes`]).
 
+use super::multirate::Substep;
 use super::timers::Timer;
 use super::Simulation;
 use crate::boundary::geometry::WallMove;
@@ -46,12 +47,27 @@ pub const SETTLE_DECAYS: f64 = 8.0;
 impl<const D: usize> Simulation<D> {
     /// Advance one step (see the module docs): balance check and migration, ghosts and
     /// neighbours, the passes, the closing half kick and the next dt.
+    /// With local time stepping a cycle of two substeps instead ([`super::multirate`]).
     pub fn advance(&mut self, comm: &dyn Comm) -> Result<()> {
+        if self.cycle {
+            return self.advance_cycle(comm);
+        }
         let dt = self.dt;
         self.kick_drift(dt)?;
         if self.adapts() {
             self.split_entering(comm)?;
         }
+        self.prepare_neighbours(comm)?;
+        self.run_passes(dt, comm, None)?;
+        if self.adapts() {
+            self.merge_leaving(comm)?;
+        }
+        self.close_step(comm)
+    }
+
+    /// After the drift: the balance check, then migration and the ghost build when the skin
+    /// has expired (or the planes moved), else a refresh of the kept ghosts; the lists.
+    pub(super) fn prepare_neighbours(&mut self, comm: &dyn Comm) -> Result<()> {
         let build = if self.nl.is_verlet() {
             let build = self.ghosts_expired(false, comm)?;
             self.check_balance_at_build(build, comm)?;
@@ -62,19 +78,19 @@ impl<const D: usize> Simulation<D> {
         };
         if build {
             self.migrate(comm)?;
-            self.rebuild_neighbours(comm)?;
+            self.rebuild_neighbours(comm)
         } else {
-            self.refresh_kept_ghosts(comm)?;
+            self.refresh_kept_ghosts(comm)
         }
-        self.run_passes(dt, comm, None)?;
-        if self.adapts() {
-            self.merge_leaving(comm)?;
-        }
+    }
+
+    /// The end of a step or cycle: the outflow rule, the finiteness check, the next span.
+    pub(super) fn close_step(&mut self, comm: &dyn Comm) -> Result<()> {
         let t0 = Instant::now();
         self.apply_outflow(true);
         self.check_finite()?;
         self.timers.add(Timer::Integrate, t0);
-        self.dt = self.next_dt(comm)?;
+        (self.dt, self.cycle) = self.plan(comm)?;
         Ok(())
     }
 
@@ -174,9 +190,9 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// v += ½dt a, x += dt v (wrapped), walls moved, t and step advanced, positions checked.
-    fn kick_drift(&mut self, dt: f64) -> Result<()> {
+    pub(super) fn kick_drift(&mut self, dt: f64) -> Result<()> {
         let t0 = Instant::now();
-        self.half_kick(dt);
+        self.opening_kick(dt);
         self.wall_moves(dt);
         {
             let n = self.p.n_owned;
@@ -255,6 +271,7 @@ impl<const D: usize> Simulation<D> {
     /// mode's pair kernels do not: each accumulates every pair of a home in one fixed order.
     fn overlaps(&self, pass: Pass) -> bool {
         self.overlap
+            && self.substep == Substep::Whole
             && !self.halo.is_empty()
             && self.interior.len() == self.p.n_owned
             && pass.splits()
@@ -262,8 +279,24 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Run `pass`'s row over every owned particle (`part` = `None`), or over the interior
-    /// (`Some(true)`) or the rest (`Some(false)`) of [`Simulation::interior`].
+    /// (`Some(true)`) or the rest (`Some(false)`) of [`Simulation::interior`]; in a cycle's
+    /// substeps over the fine particles at `dt` and, at its end, the coarse ones at 2`dt`
+    /// ([`super::multirate`]).
     fn compute(&mut self, pass: Pass, dt: f64, part: Option<bool>) {
+        match self.substep {
+            Substep::Whole => self.compute_over(pass, dt, part.map(|b| (false, b))),
+            Substep::Mid => self.compute_over(pass, dt, Some((true, true))),
+            Substep::End => {
+                self.compute_over(pass, dt, Some((true, true)));
+                self.compute_over(pass, 2.0 * dt, Some((true, false)));
+            }
+        }
+    }
+
+    /// [`Simulation::compute`] over every owned particle (`part` = `None`) or over the part
+    /// `part.1` of a mask: the classes' (`part.0`, [`Simulation::mark_classes`]) or the
+    /// interior's.
+    fn compute_over(&mut self, pass: Pass, dt: f64, part: Option<(bool, bool)>) {
         let t0 = Instant::now();
         let mut c = Ctx {
             p: &mut self.p,
@@ -273,14 +306,26 @@ impl<const D: usize> Simulation<D> {
             pair: &mut self.pair_scratch,
             solid: &mut self.solid,
         };
+        let classes = part.is_some_and(|(c, _)| c);
+        let part = part.map(|(c, b)| (if c { &self.active[..] } else { &self.interior[..] }, b));
         if !pass.walks_neighbours() {
-            pass.run(&mut c, &self.nl, None);
+            match part {
+                None => pass.run(&mut c, &self.nl, None),
+                Some((mask, part)) => pass.run(
+                    &mut c,
+                    &Subset {
+                        all: &self.nl,
+                        mask,
+                        part,
+                    },
+                    None,
+                ),
+            }
             self.timers.add_pass(Timer::Integrate, pass, t0);
             return;
         }
         let half = self.nl.half(&self.grid, &self.cells);
         let half = half.as_ref().filter(|_| self.pair_mode);
-        let part = part.map(|b| (&self.interior[..], b));
         if self.nl.is_lean() {
             let nb = self.nl.scan(&self.grid, &self.cells);
             run_over(pass, &mut c, &nb, part, half);
@@ -290,7 +335,14 @@ impl<const D: usize> Simulation<D> {
         } else {
             run_over(pass, &mut c, &self.nl, part, half);
         }
-        if part.is_none_or(|(_, b)| !b) {
+        // every listed home's entries once: after a whole step's pass or an overlap's second
+        // part; in a cycle, after its first substep's (whose lists skip the coarse homes,
+        // but for Verlet lists) and after its end's coarse part
+        let last = match part {
+            None => true,
+            Some((_, b)) => !b || (classes && self.substep == Substep::Mid),
+        };
+        if last {
             self.pair_count += self.nl.entries() as u64;
         }
         self.timers.add_pass(Timer::Forces, pass, t0);
@@ -446,9 +498,15 @@ impl<const D: usize> Simulation<D> {
         }
         let kind = &self.p.kind;
         let fluid_lists = if self.pair_mode { Wants::Half } else { Wants::All };
+        // a cycle's first substep computes no coarse particle: stored lists skip them (Verlet
+        // lists serve later substeps too)
+        let skip = self
+            .coarse_h()
+            .filter(|_| self.substep == Substep::Mid && !self.nl.is_verlet());
+        let h = &self.p.h;
         self.nl.build(&self.grid, &self.cells, &self.p, support, |i| {
             let k = kind[i];
-            if !k.is_smoothed() {
+            if !k.is_smoothed() || super::multirate::is_coarse(k, h, skip, i) {
                 Wants::Nothing
             } else if k.is_wall() {
                 Wants::Fluid
@@ -544,7 +602,7 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Half kick of owned integrated particles: v += ½dt a.
-    fn half_kick(&mut self, dt: f64) {
+    pub(super) fn half_kick(&mut self, dt: f64) {
         passes::half_kick(&mut self.p, dt);
     }
 

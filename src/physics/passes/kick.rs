@@ -27,20 +27,26 @@ impl Row for Kick {
         true
     }
 
-    fn gather<const D: usize, N: Neighbours>(c: &mut Ctx<'_, D>, _nb: &N) {
+    /// The particles `nb` visits (every one, or a class of a local time step's cycle).
+    fn gather<const D: usize, N: Neighbours>(c: &mut Ctx<'_, D>, nb: &N) {
         if c.dt > 0.0 {
-            half_kick(c.p, c.dt);
+            kick_of(c.p, c.dt, |i| nb.visits(i));
         }
     }
 }
 
 /// v += ½dt a (m/s) for owned integrated particles.
 pub fn half_kick<const D: usize>(p: &mut Particles<D>, dt: f64) {
+    kick_of(p, dt, |_| true);
+}
+
+/// [`half_kick`] of the owned particles `of` selects.
+fn kick_of<const D: usize>(p: &mut Particles<D>, dt: f64, of: impl Fn(usize) -> bool + Sync) {
     let n = p.n_owned;
     let h = 0.5 * dt;
     let (kind, acc) = (&p.kind, &p.acc);
     p.v[..n].par_iter_mut().enumerate().for_each(|(i, v)| {
-        if kind[i].is_integrated() {
+        if kind[i].is_integrated() && of(i) {
             *v += acc[i] * h;
         }
     });

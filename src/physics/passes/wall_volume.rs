@@ -34,14 +34,14 @@ impl Row for WallVolume {
         m.has_fluid && m.updates_walls && m.wall_lattice_volume.iter().any(|&l| l)
     }
 
-    fn gather<const D: usize, N: Neighbours>(c: &mut Ctx<'_, D>, _nb: &N) {
+    fn gather<const D: usize, N: Neighbours>(c: &mut Ctx<'_, D>, nb: &N) {
         let model = c.model;
         let p = &mut *c.p;
         let n = p.n_owned;
         let levels = model.sizes.is_some();
         let (kind, body, rho, level) = (&p.kind, &p.body, &p.rho, &p.level);
         p.mass[..n].par_iter_mut().enumerate().for_each(|(i, m)| {
-            if kind[i].is_wall() && model.wall_lattice_volume[body[i] as usize] {
+            if kind[i].is_wall() && model.wall_lattice_volume[body[i] as usize] && nb.visits(i) {
                 let l = if levels { level[i] } else { 0 };
                 *m = rho[i] * lattice_volume::<D>(model.dx, l);
             }
