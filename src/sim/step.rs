@@ -149,7 +149,7 @@ impl<const D: usize> Simulation<D> {
     /// densities keep what the discretisation holds at rest, so still water starts without the
     /// acoustic transient of its lattice (docs/refinement.md §2). The scene's walls are still and its bodies at rest (checked
     /// in `scene/validate.rs`). Every rank takes the same steps: the same bits on any layout.
-    /// The timers, pair count and ghost-build count are the run's alone afterwards; balance,
+    /// The timers, pair count, ghost-build and cycle counts are the run's alone afterwards; balance,
     /// migration and split/merge counts include the settling.
     pub(super) fn settle(&mut self, comm: &dyn Comm) -> Result<()> {
         let span = self.scene.time.settle;
@@ -157,7 +157,12 @@ impl<const D: usize> Simulation<D> {
             return Ok(());
         }
         let tau = span / SETTLE_DECAYS;
-        let kept = (self.timers.clone(), self.pair_count, self.skin.builds);
+        let kept = (
+            self.timers.clone(),
+            self.pair_count,
+            self.skin.builds,
+            self.cycles,
+        );
         self.dt = self.next_dt(comm)?;
         while self.t < span {
             let dt = self.dt;
@@ -166,7 +171,7 @@ impl<const D: usize> Simulation<D> {
             self.damp(keep);
         }
         self.damp(0.0);
-        (self.timers, self.pair_count, self.skin.builds) = kept;
+        (self.timers, self.pair_count, self.skin.builds, self.cycles) = kept;
         self.t = 0.0;
         self.step = 0;
         self.reordered_at = None;
