@@ -1,11 +1,13 @@
 //! Local time stepping (`time.stepping = "local"`; issue 36, docs/splitting.md §8): where
-//! particles of several smoothing lengths meet, the fluid particles of the scene's h (coarse,
-//! C) take one step of Δ = 2δ while the others (fine, F: smaller h, walls) take two of δ.
+//! particles of several smoothing lengths meet, the fluid and wall particles of the scene's h
+//! (coarse, C) take one step of Δ = 2δ while the others (fine, F: smaller h, solids) take two
+//! of δ.
 //!
-//! **Classes.** C if a fluid particle's h is at least the scene's h, else F: a function of the
-//! particle alone, the same on every layout. h changes only when a particle splits or merges,
-//! which a cycle does at its ends only (splits before its first kick, merges after its last
-//! pass), so a particle keeps its class through a cycle.
+//! **Classes.** C if a fluid or wall particle's h is at least the scene's h, else F: a function
+//! of the particle alone, the same on every layout. h changes only when a particle splits or
+//! merges, which a cycle does at its ends only (splits before its first kick, merges after its
+//! last pass), so a particle keeps its class through a cycle. A coarse wall is extrapolated at
+//! the cycle's end only, as a coarse fluid particle is computed then.
 //!
 //! **The cycle**, Störmer–Verlet per class (`sim/step.rs`), from a state at t_n where every
 //! particle has its v, ρ and a:
@@ -23,7 +25,9 @@
 //!
 //! The pair (F, C) breaks Newton's third law at the middle (only F accumulates); masses are
 //! untouched, so Σm stays exact. Balance checks, migrations and ghost builds may fall on either
-//! substep: nothing but x, v and ρ (always migrated) carries over from one substep to the next.
+//! substep: what carries over from one substep to the next (x, v, ρ, p, a coarse wall's
+//! extrapolated fields) is in every particle's record, which migrations move whole; no rate
+//! does.
 //! Outputs, probes and checkpoints see whole cycles (the driver's step boundary), so a restart
 //! begins a cycle: whether the next `advance` is a cycle is recomputed from the restored state.
 //! `step` counts substeps.
