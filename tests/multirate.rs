@@ -6,7 +6,6 @@
 use crate::common;
 
 use common::hsph;
-use std::collections::HashMap;
 use std::path::Path;
 
 const SCENE: &str = "tests/data/drift_local_2d.toml";
@@ -23,34 +22,6 @@ fn read(dir: &Path, f: &str) -> String {
 
 fn summary(dir: &Path) -> serde_json::Value {
     serde_json::from_str(&read(dir, "summary.json")).unwrap()
-}
-
-/// A column of `timeseries.csv`.
-fn series(dir: &Path, name: &str) -> Vec<f64> {
-    let text = read(dir, "timeseries.csv");
-    let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
-    let k = head.iter().position(|h| *h == name).unwrap();
-    text.lines()
-        .skip(1)
-        .map(|l| l.split(',').nth(k).unwrap().parse().unwrap())
-        .collect()
-}
-
-/// (vx, vy) (m/s) by id of the particles in `final.csv` whose ids are below `bound` (the
-/// lattice's: never split, so the same particle in any run).
-fn lattice_velocities(dir: &Path, bound: u64) -> HashMap<u64, (f64, f64)> {
-    let text = read(dir, "final.csv");
-    let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
-    let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
-    let (id, vx, vy) = (col("id"), col("vx"), col("vy"));
-    text.lines()
-        .skip(1)
-        .filter_map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            let i: u64 = f[id].parse().unwrap();
-            (i < bound).then(|| (i, (f[vx].parse().unwrap(), f[vy].parse().unwrap())))
-        })
-        .collect()
 }
 
 /// With local steps every step of the swirling drift is a cycle (the channel's particles
@@ -73,10 +44,10 @@ fn local_steps_cycle_and_give_the_same_bits_on_any_layout() {
     assert_eq!(l["cycles"].as_u64().unwrap() * 2, steps, "every advance a cycle");
     assert!(g.get("cycles").is_none(), "a global run reports no cycles");
     assert!(l["splits"].as_u64().unwrap() > 0 && l["merges"].as_u64().unwrap() > 0);
-    for m in series(&base, "mass") {
+    for m in common::series(&base, "mass") {
         assert_eq!(m, 80.0);
     }
-    let px = series(&base, "momentum_x");
+    let px = common::series(&base, "momentum_x");
     for (k, p) in px.iter().enumerate() {
         assert!(
             (p / px[0] - 1.0).abs() < 1e-6,
@@ -84,31 +55,22 @@ fn local_steps_cycle_and_give_the_same_bits_on_any_layout() {
             px[0]
         );
     }
+    // the particles that never split (lattice ids) are the same particles in both runs
     let bound = common::id_bound_2d(SCENE);
-    let (vg, vl) = (
-        lattice_velocities(&global, bound),
-        lattice_velocities(&base, bound),
-    );
+    let (tg, tl) = (common::table(&global), common::table(&base));
+    let col = |name: &str| tg.0.iter().position(|h| h == name).unwrap();
+    let (vx, vy) = (col("vx"), col("vy"));
     let mut worst: f64 = 0.0;
     let mut shared = 0;
-    for (i, a) in &vg {
-        if let Some(b) = vl.get(i) {
-            worst = worst.max((a.0 - b.0).hypot(a.1 - b.1));
+    for (id, a) in tg.1.range(..bound) {
+        if let Some(b) = tl.1.get(id) {
+            worst = worst.max((a[vx] - b[vx]).hypot(a[vy] - b[vy]));
             shared += 1;
         }
     }
     assert!(shared > 900, "{shared} particles never split in both runs");
     assert!(worst < 2e-4, "velocities {worst} m/s from the global run's");
-    for (ranks, threads) in [(3, 1), (8, 1), (3, 2)] {
-        let d = dir.join(format!("r{ranks}t{threads}"));
-        run(&d, ranks, threads, &[]);
-        for f in ["timeseries.csv", "final.csv"] {
-            assert!(
-                read(&d, f) == read(&base, f),
-                "{f} differs on {ranks} ranks × {threads} threads"
-            );
-        }
-    }
+    common::assert_same_bits_on(SCENE, &dir, &base, &[], &[(3, 1), (8, 1), (3, 2)]);
 }
 
 /// A run checkpointed on 2 ranks at a cycle's end and continued on 3 gives the uninterrupted

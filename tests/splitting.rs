@@ -40,17 +40,6 @@ fn particles(dir: &Path) -> Vec<(u64, u16, f64, f64, f64)> {
         .collect()
 }
 
-/// A column of `timeseries.csv`.
-fn series(dir: &Path, name: &str) -> Vec<f64> {
-    let text = read(dir, "timeseries.csv");
-    let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
-    let k = head.iter().position(|h| *h == name).unwrap();
-    text.lines()
-        .skip(1)
-        .map(|l| l.split(',').nth(k).unwrap().parse().unwrap())
-        .collect()
-}
-
 /// `splits` and `merges` of a run's `summary.json`, after checking its particle counts
 /// against them: the end count is the start's plus 3 per split less 3 per merge, and the
 /// largest is at least either.
@@ -113,10 +102,10 @@ fn particles_split_and_merge_conserving_mass_and_momentum_on_any_layout() {
         assert_eq!(p.4, want, "particle {}: mass {}", p.0, p.4);
     }
     // Σm exactly (an exact sum of exact quarters), Σmv to round-off
-    for m in series(&base, "mass") {
+    for m in common::series(&base, "mass") {
         assert_eq!(m, 80.0);
     }
-    for (k, px) in series(&base, "momentum_x").iter().enumerate() {
+    for (k, px) in common::series(&base, "momentum_x").iter().enumerate() {
         assert!((px / 40.0 - 1.0).abs() < 1e-13, "row {k}: Σm vx = {px}");
     }
     // no pair closer than half the fine spacing (periodic distances)
@@ -130,16 +119,7 @@ fn particles_split_and_merge_conserving_mass_and_momentum_on_any_layout() {
         }
     }
     assert!(closest > 0.5 * 0.005, "closest pair {closest} m");
-    for (ranks, threads) in [(3, 1), (8, 1), (3, 2)] {
-        let d = dir.join(format!("r{ranks}t{threads}"));
-        run(&d, ranks, threads, &[]);
-        for f in ["timeseries.csv", "final.csv"] {
-            assert!(
-                read(&d, f) == read(&base, f),
-                "{f} differs on {ranks} ranks × {threads} threads"
-            );
-        }
-    }
+    common::assert_same_bits_on(SCENE, &dir, &base, &[], &[(3, 1), (8, 1), (3, 2)]);
 }
 
 /// With `smoothing_length = "level"` children take the region's h at their sites (the fine
@@ -182,7 +162,7 @@ fn with_the_levels_h_children_take_the_ramp_and_merged_particles_the_scenes() {
             }
         }
     }
-    for m in series(&one, "mass") {
+    for m in common::series(&one, "mass") {
         assert_eq!(m, 80.0);
     }
     let three = dir.join("r3");
@@ -295,7 +275,7 @@ fn still_water_drifting_through_an_adaptive_box_stays_still() {
         worst < limit,
         "largest deviation from the drift {worst} m/s (limit {limit})"
     );
-    let mass = series(&out, "mass");
+    let mass = common::series(&out, "mass");
     for (k, m) in mass.iter().enumerate() {
         assert!(
             (m / mass[0] - 1.0).abs() < 1e-14,

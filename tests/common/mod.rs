@@ -156,6 +156,36 @@ pub fn assert_same_files(a: &Path, b: &Path, files: &[&str]) {
     }
 }
 
+/// A column of `timeseries.csv` in the run directory `dir`.
+pub fn series(dir: &Path, name: &str) -> Vec<f64> {
+    let path = dir.join("timeseries.csv");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let k = head.iter().position(|h| *h == name).unwrap();
+    text.lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(k).unwrap().parse().unwrap())
+        .collect()
+}
+
+/// Run `scene` with `sets` on each (ranks, threads) of `layouts` into `dir/r{ranks}t{threads}`
+/// and assert that its `timeseries.csv` and `final.csv` hold the bytes of the run in `base`.
+pub fn assert_same_bits_on(scene: &str, dir: &Path, base: &Path, sets: &[&str], layouts: &[(usize, usize)]) {
+    for &(ranks, threads) in layouts {
+        let d = dir.join(format!("r{ranks}t{threads}"));
+        let (code, _, err) = run_file(scene, &d, (ranks, threads), sets);
+        assert_eq!(code, 0, "{err}");
+        for f in ["timeseries.csv", "final.csv"] {
+            let read =
+                |d: &Path| std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{}/{f}: {e}", d.display()));
+            assert!(
+                read(&d) == read(base),
+                "{f} differs on {ranks} ranks × {threads} threads"
+            );
+        }
+    }
+}
+
 /// The lattice's id bound of the 2D scene file `scene` (the first id a created particle takes).
 pub fn id_bound_2d(scene: &str) -> u64 {
     let text = std::fs::read_to_string(repo_path(scene)).unwrap();
