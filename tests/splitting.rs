@@ -122,11 +122,13 @@ fn particles_split_and_merge_conserving_mass_and_momentum_on_any_layout() {
     common::assert_same_bits_on(SCENE, &dir, &base, &[], &[(3, 1), (8, 1), (3, 2)]);
 }
 
-/// With `smoothing_length = "level"` children take the region's h at their sites (the fine
-/// h, 0.0065 m, ramped to the scene's 0.013 m over the transition band), merged particles the
-/// scene's; mass stays exact and the bits are the same on 1 and 3 ranks.
+/// With `smoothing_length = "level"` a particle of level 1 has the region's h where it is, at
+/// every step's end: the fine h, 0.0065 m, at a depth of one support (0.026 m, the transition
+/// band) or more, rising linearly to the scene's 0.013 m at the region's faces, and the scene's
+/// outside the region (children that drifted out and wait to merge); level 0 keeps the scene's.
+/// Mass stays exact and the bits are the same on 1 and 3 ranks.
 #[test]
-fn with_the_levels_h_children_take_the_ramp_and_merged_particles_the_scenes() {
+fn with_the_levels_h_particles_take_the_ramp_where_they_are() {
     let dir = common::temp_dir("split-level-h");
     let level = ["refine[0].smoothing_length=\"level\""];
     let one = dir.join("r1");
@@ -136,9 +138,11 @@ fn with_the_levels_h_children_take_the_ramp_and_merged_particles_the_scenes() {
     let text = read(&one, "final.csv");
     let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
     let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
-    let (id, lv, h) = (col("id"), col("level"), col("h"));
-    let bound = common::id_bound_2d(SCENE);
-    let (h_scene, h_fine) = (0.013, 0.0065);
+    let (id, lv, h, x, y) = (col("id"), col("level"), col("h"), col("x"), col("y"));
+    let (h_scene, h_fine, band) = (0.013, 0.0065, 0.026);
+    // the region [0.2, 0.3] x [0.05, 0.15]: its depth at (x, y), ≤ 0 outside
+    let depth = |x: f64, y: f64| (x - 0.2).min(0.3 - x).min(y - 0.05).min(0.15 - y);
+    let (mut ramped, mut outside) = (0, 0);
     for l in text.lines().skip(1) {
         let f: Vec<&str> = l.split(',').collect();
         let (i, lvl, hh): (u64, u16, f64) = (
@@ -146,22 +150,26 @@ fn with_the_levels_h_children_take_the_ramp_and_merged_particles_the_scenes() {
             f[lv].parse().unwrap(),
             f[h].parse().unwrap(),
         );
-        if lvl == 0 {
-            assert!(
-                (hh / h_scene - 1.0).abs() < 1e-12,
-                "particle {i} (level 0): h = {hh}"
-            );
+        let want = if lvl == 0 {
+            h_scene
         } else {
-            assert!(
-                hh >= h_fine * (1.0 - 1e-12) && hh <= h_scene * (1.0 + 1e-12),
-                "particle {i}: h = {hh}"
-            );
-            if i >= bound {
-                // a child: one fine spacing deep at least, so below the scene's h
-                assert!(hh < h_scene, "child {i}: h = {hh}");
+            let d = depth(f[x].parse().unwrap(), f[y].parse().unwrap());
+            if d <= 0.0 {
+                outside += 1;
+            } else if d < band {
+                ramped += 1;
             }
-        }
+            h_fine + (h_scene - h_fine) * (1.0 - d / band).clamp(0.0, 1.0)
+        };
+        assert!(
+            (hh / want - 1.0).abs() < 1e-12,
+            "particle {i} (level {lvl}): h = {hh}, the region's there {want}"
+        );
     }
+    assert!(
+        ramped > 0 && outside > 0,
+        "{ramped} fine particles in the band, {outside} outside"
+    );
     for m in common::series(&one, "mass") {
         assert_eq!(m, 80.0);
     }

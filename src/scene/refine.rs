@@ -177,6 +177,17 @@ pub fn region_at<'s>(s: &'s Scene, name: &str, x: &[f64]) -> Option<&'s Refine> 
     s.refine.iter().find(|r| r.applies_to(name) && r.contains(x))
 }
 
+/// Smoothing length (m) of a particle of level `level` of body `name` at `x`, where the scene's
+/// levels have smoothing lengths `h` (m; `h[0]` the scene's): that of the region of its level
+/// that holds it ([`Refine::smoothing_length`]: the scene's h, or its level's ramped over the
+/// transition band), else the scene's. The rule for particles that change size (children,
+/// merged particles, and those of an adaptive body as they move; docs/splitting.md §2).
+pub fn level_h(s: &Scene, b: &Bounds, name: &str, level: u16, x: &[f64], h: &[f64]) -> f64 {
+    region_at(s, name, x)
+        .filter(|g| level > 0 && g.level == u32::from(level))
+        .map_or(h[0], |g| g.smoothing_length(x, b, h[0], h[level as usize]))
+}
+
 impl Refine {
     /// Neighbour-list length of a particle of this region's level in units of a coarse
     /// particle's: 2^(ℓD) with the scene's h (its support spans 2^ℓ of its own spacings per

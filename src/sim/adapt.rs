@@ -14,7 +14,8 @@
 use super::Simulation;
 use crate::comm::Comm;
 use crate::error::Result;
-use crate::scene::refine::Refine;
+use crate::kernel::sizes::Sizes;
+use crate::scene::refine::{level_h, Bounds, Refine};
 use crate::Vector;
 
 /// The offset σ_c (s/4)·σ of child `c` of 2^D (bit a of c: the sign along axis a).
@@ -76,8 +77,7 @@ impl<const D: usize> Simulation<D> {
         self.p.permute_owned(&perm);
         let dx = self.scene.discretisation.dx;
         let share = 1.0 / children as f64;
-        let dom = crate::scene::refine::Bounds::of(&self.scene);
-        for (k, &(_, (l, r))) in split.iter().enumerate() {
+        for (k, &(_, (l, _))) in split.iter().enumerate() {
             let s = dx / f64::from(1u32 << (l - 1));
             for c in 0..children {
                 let j = first + k * children + c;
@@ -94,20 +94,80 @@ impl<const D: usize> Simulation<D> {
                     p.rho[j] += g.dot(&offset);
                 }
                 self.space.wrap(&mut p.x[j]);
-                // the region's h at the child's site: the scene's, or with
-                // `smoothing_length = "level"` its level's ramped over the transition band
-                if let (Some(sz), Some(h)) = (self.model.sizes.as_ref(), p.h.get_mut(j)) {
-                    *h = regions[r].smoothing_length(p.x[j].as_slice(), &dom, sz.h[0], sz.h[l as usize]);
-                }
                 p.mass[j] *= share;
                 p.level[j] = l;
                 p.id[j] = ids[k * children + c];
                 p.key[j] = p.id[j] << crate::particles::IMAGE_BITS;
+                // the h of the child's level at its site (the region's ramp)
+                if let Some(sz) = self.model.sizes.as_ref().filter(|_| !self.p.h.is_empty()) {
+                    self.p.h[j] = self.resized_h(sz, &self.p.x[j], l, self.p.body[j]);
+                }
             }
         }
         self.free_step_buffers();
         self.skin.forget();
         Ok(())
+    }
+}
+
+impl<const D: usize> Simulation<D> {
+    /// The smoothing length (m) that a fluid particle of body `body` and level `level` at `x`
+    /// takes when it changes size or moves in an adaptive body
+    /// ([`crate::scene::refine::level_h`]).
+    pub(super) fn resized_h(&self, sz: &Sizes, x: &Vector<D>, level: u16, body: u16) -> f64 {
+        let s = &self.scene;
+        let dom = Bounds::of(s);
+        level_h(s, &dom, &s.fluids[body as usize].name, level, x.as_slice(), &sz.h)
+    }
+
+    /// At the end of each step or cycle (after the merges, before the next span is planned):
+    /// every owned fluid particle of level ≥ 1 in a body that an adaptive region refines takes
+    /// the h of its level where it now is ([`Simulation::resized_h`]; docs/splitting.md §2),
+    /// so that the particles a surge carries deep into a region have the level's h there, not
+    /// the ramp's at the site where they split. A function of the particle's state alone (the
+    /// same on every layout); h changes only between steps, so a particle keeps its class
+    /// through a cycle of local time stepping, and the next span is planned on the new classes.
+    /// When some h changed, the ghosts (which carry h) are built again.
+    pub(super) fn follow_ramps(&mut self) {
+        let Some(sz) = self.model.sizes.as_ref().filter(|z| z.varies_h) else {
+            return;
+        };
+        if self.p.h.is_empty() || self.p.level.is_empty() {
+            return;
+        }
+        let s = &self.scene;
+        let dom = Bounds::of(s);
+        // per fluid body: its name, if an adaptive region refines it
+        let adaptive: Vec<Option<&str>> = s
+            .fluids
+            .iter()
+            .map(|f| {
+                let name = f.name.as_str();
+                s.refine
+                    .iter()
+                    .any(|r| r.adapt && r.applies_to(name))
+                    .then_some(name)
+            })
+            .collect();
+        let n = self.p.n_owned;
+        let (kind, body, level, x) = (&self.p.kind, &self.p.body, &self.p.level, &self.p.x);
+        let mut changed = false;
+        for (i, h) in self.p.h[..n].iter_mut().enumerate() {
+            if !kind[i].is_fluid() || level[i] == 0 {
+                continue;
+            }
+            let Some(name) = adaptive.get(body[i] as usize).copied().flatten() else {
+                continue;
+            };
+            let new = level_h(s, &dom, name, level[i], x[i].as_slice(), &sz.h);
+            if new != *h {
+                *h = new;
+                changed = true;
+            }
+        }
+        if changed {
+            self.skin.forget();
+        }
     }
 }
 

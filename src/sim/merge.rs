@@ -195,21 +195,6 @@ impl<const D: usize> Simulation<D> {
         Ok(())
     }
 
-    /// The smoothing length (m) of a merged particle `r` (its level, body and centre set): that
-    /// of the region of its level that holds it, if any ([`crate::scene::refine::Refine::smoothing_length`]:
-    /// the scene's h, or its level's ramped), else the scene's.
-    fn merged_h(&self, sz: &crate::kernel::sizes::Sizes, r: &Record<D>) -> f64 {
-        let s = &self.scene;
-        let (l, x) = (r.level, r.x.as_slice());
-        let dom = crate::scene::refine::Bounds::of(s);
-        let name = &s.fluids[r.body as usize].name;
-        crate::scene::refine::region_at(s, name, x)
-            .filter(|g| l > 0 && g.level == u32::from(l))
-            .map_or(sz.h[0], |g| {
-                g.smoothing_length(x, &dom, sz.h[0], sz.h[l as usize])
-            })
-    }
-
     /// The particle a group `members` (records and accelerations, in id order) merges into,
     /// with id `id` (see the module docs).
     fn merged(&self, members: &[(Record<D>, Vector<D>)], id: u64) -> (Record<D>, Vector<D>) {
@@ -228,7 +213,7 @@ impl<const D: usize> Simulation<D> {
         r.level -= 1;
         r.id = id;
         if let Some(sz) = self.model.sizes.as_ref() {
-            r.h = self.merged_h(sz, &r);
+            r.h = self.resized_h(sz, &r.x, r.level, r.body);
         }
         (r, a)
     }

@@ -172,6 +172,7 @@ impl<const D: usize> Simulation<D> {
         self.cycles += 1;
         if self.adapts() {
             self.merge_leaving(comm)?;
+            self.follow_ramps();
         }
         self.close_step(comm)
     }

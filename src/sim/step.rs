@@ -61,6 +61,7 @@ impl<const D: usize> Simulation<D> {
         self.run_passes(dt, comm, None)?;
         if self.adapts() {
             self.merge_leaving(comm)?;
+            self.follow_ramps();
         }
         self.close_step(comm)
     }
