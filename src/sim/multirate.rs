@@ -219,16 +219,8 @@ impl<const D: usize> Simulation<D> {
             .reduce(|| [0.0; 5], max5);
         let mut m = m;
         comm.all_reduce_max_f64(&mut m)?;
-        let bound = |h: f64, v2: f64, a2: f64| {
-            let mut dt = self.scene.time.cfl * h / (self.model.c_max + v2.sqrt());
-            if a2 > 0.0 {
-                dt = dt.min(0.25 * (h / a2.sqrt()).sqrt());
-            }
-            if self.model.nu > 0.0 {
-                dt = dt.min(0.125 * h * h / self.model.nu);
-            }
-            dt
-        };
+        let c = self.model.c_max;
+        let bound = |h: f64, v2: f64, a2: f64| self.cfl_bound(h, c + v2.sqrt(), a2.sqrt());
         let fine = bound(self.model.h_min(), m[0], m[1]);
         let (span, cycle) = if m[4] == 0.0 {
             (fine, false)
@@ -240,11 +232,6 @@ impl<const D: usize> Simulation<D> {
                 (fine.min(coarse), false)
             }
         };
-        let left = self.scene.time.t_end - self.t;
-        Ok(if left > 0.0 && left < span * (1.0 + 1e-9) {
-            (left, cycle)
-        } else {
-            (span, cycle)
-        })
+        Ok((self.up_to_end(span), cycle))
     }
 }
