@@ -177,6 +177,15 @@ pub fn region_at<'s>(s: &'s Scene, name: &str, x: &[f64]) -> Option<&'s Refine> 
     s.refine.iter().find(|r| r.applies_to(name) && r.contains(x))
 }
 
+/// Per fluid body of `s` (in `s.fluids`' order): true if an adaptive region refines it, so its
+/// particles split, merge and take their level's h where they are.
+pub fn adaptive_bodies(s: &Scene) -> Vec<bool> {
+    s.fluids
+        .iter()
+        .map(|f| s.refine.iter().any(|r| r.adapt && r.applies_to(&f.name)))
+        .collect()
+}
+
 /// Smoothing length (m) of a particle of level `level` of body `name` at `x`, where the scene's
 /// levels have smoothing lengths `h` (m; `h[0]` the scene's): that of the region of its level
 /// that holds it ([`Refine::smoothing_length`]: the scene's h, or its level's ramped over the

@@ -15,7 +15,7 @@ use super::Simulation;
 use crate::comm::Comm;
 use crate::error::Result;
 use crate::kernel::sizes::Sizes;
-use crate::scene::refine::{level_h, Bounds, Refine};
+use crate::scene::refine::{adaptive_bodies, level_h, Bounds, Refine};
 use crate::Vector;
 
 /// The offset σ_c (s/4)·σ of child `c` of 2^D (bit a of c: the sign along axis a).
@@ -29,10 +29,10 @@ impl<const D: usize> Simulation<D> {
         self.scene.refine.iter().any(|r| r.adapt)
     }
 
-    /// The level an owned fluid particle `i` of level `l` splits to, `l + 1`, and the region
-    /// (an index into `regions`) if its centre lies at least its own spacing inside an adaptive
-    /// region of a higher level that refines its body, else `None`.
-    fn splits_to(&self, regions: &[&Refine], i: usize, l: u16) -> Option<(u16, usize)> {
+    /// The level an owned fluid particle `i` of level `l` splits to, `l + 1`, if its centre
+    /// lies at least its own spacing inside an adaptive region (of `regions`) of a higher level
+    /// that refines its body, else `None`.
+    fn splits_to(&self, regions: &[&Refine], i: usize, l: u16) -> Option<u16> {
         let p = &self.p;
         let name = &self.scene.fluids.get(p.body[i] as usize)?.name;
         let x = p.x[i].as_slice();
@@ -41,7 +41,7 @@ impl<const D: usize> Simulation<D> {
         let inside = |r: &&&Refine| {
             r.level > u32::from(l) && r.applies_to(name) && r.contains(x) && r.depth(x, &dom) >= band
         };
-        regions.iter().position(|r| inside(&r)).map(|k| (l + 1, k))
+        regions.iter().any(|r| inside(&r)).then_some(l + 1)
     }
 
     /// Collective (after the drift and the outflow rule, before the balance check): split the
@@ -51,7 +51,7 @@ impl<const D: usize> Simulation<D> {
         let regions: Vec<&Refine> = self.scene.refine.iter().filter(|r| r.adapt).collect();
         let n = self.p.n_owned;
         let level = |i: usize| self.p.level.get(i).copied().unwrap_or(0);
-        let split: Vec<(usize, (u16, usize))> = (0..n)
+        let split: Vec<(usize, u16)> = (0..n)
             .filter(|&i| self.p.kind[i].is_fluid())
             .filter_map(|i| self.splits_to(&regions, i, level(i)).map(|l| (i, l)))
             .collect();
@@ -77,7 +77,7 @@ impl<const D: usize> Simulation<D> {
         self.p.permute_owned(&perm);
         let dx = self.scene.discretisation.dx;
         let share = 1.0 / children as f64;
-        for (k, &(_, (l, _))) in split.iter().enumerate() {
+        for (k, &(_, l)) in split.iter().enumerate() {
             let s = dx / f64::from(1u32 << (l - 1));
             for c in 0..children {
                 let j = first + k * children + c;
@@ -137,29 +137,16 @@ impl<const D: usize> Simulation<D> {
         }
         let s = &self.scene;
         let dom = Bounds::of(s);
-        // per fluid body: its name, if an adaptive region refines it
-        let adaptive: Vec<Option<&str>> = s
-            .fluids
-            .iter()
-            .map(|f| {
-                let name = f.name.as_str();
-                s.refine
-                    .iter()
-                    .any(|r| r.adapt && r.applies_to(name))
-                    .then_some(name)
-            })
-            .collect();
+        let adaptive = adaptive_bodies(s);
         let n = self.p.n_owned;
         let (kind, body, level, x) = (&self.p.kind, &self.p.body, &self.p.level, &self.p.x);
         let mut changed = false;
         for (i, h) in self.p.h[..n].iter_mut().enumerate() {
-            if !kind[i].is_fluid() || level[i] == 0 {
+            let b = body[i] as usize;
+            if !kind[i].is_fluid() || level[i] == 0 || !adaptive[b] {
                 continue;
             }
-            let Some(name) = adaptive.get(body[i] as usize).copied().flatten() else {
-                continue;
-            };
-            let new = level_h(s, &dom, name, level[i], x[i].as_slice(), &sz.h);
+            let new = level_h(s, &dom, &s.fluids[b].name, level[i], x[i].as_slice(), &sz.h);
             if new != *h {
                 *h = new;
                 changed = true;

@@ -77,11 +77,7 @@ impl<const D: usize> Simulation<D> {
     fn merge_candidates(&self) -> Vec<Candidate> {
         let s = &self.scene;
         let dom = crate::scene::refine::Bounds::of(s);
-        let adaptive: Vec<bool> = s
-            .fluids
-            .iter()
-            .map(|f| s.refine.iter().any(|r| r.adapt && r.applies_to(&f.name)))
-            .collect();
+        let adaptive = crate::scene::refine::adaptive_bodies(s);
         let p = &self.p;
         let image_mask = (1u64 << IMAGE_BITS) - 1;
         let mut out = Vec::new();
