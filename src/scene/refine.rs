@@ -365,15 +365,29 @@ pub fn level_h_warnings(s: &Scene) -> Vec<String> {
         .filter(|(_, r)| r.smoothing_length == RegionH::Level)
         .filter_map(|(k, r)| {
             let fluid = s.fluids.iter().find(|f| f.hydrostatic && r.applies_to(&f.name))?;
+            let band = r.transition.unwrap_or(0.0);
+            let advice = if band < 4.0 * support {
+                format!(
+                    "for water that should stay still use smoothing_length = \"scene\" or a wider \
+                     transition (four supports, {:.3} m, kept the still level of the adaptive solitary \
+                     wave, docs/validation.md §7)",
+                    4.0 * support
+                )
+            } else {
+                "a transition of four supports kept the still level of the adaptive solitary wave \
+                 but left a circulation of 6-10 cm/s (4-7 % of sqrt(gH)) at its region's face \
+                 (docs/validation.md §7)"
+                    .to_string()
+            };
             Some(format!(
                 "refine[{k}] gives fluid `{}` its level's h (smoothing_length = \"level\") under \
-                 hydrostatic pressure: where h varies across the pressure gradient a spurious current starts \
-                 (measured in the reference still tank with a level-1 box, docs/refinement.md §1, not \
-                 in this scene: 10 % of sqrt(gH) after 1 s with the default transition, 2.8 % with a \
-                 transition of two supports, here {:.3} m, 0.15 % with the scene's h); for water that \
-                 should stay still use smoothing_length = \"scene\" or a wider transition",
+                 hydrostatic pressure over a transition of {band:.3} m ({:.1} supports): where h varies \
+                 across the pressure gradient a spurious current starts (measured in the reference \
+                 still tank with a level-1 box, docs/refinement.md §1, not in this scene: 10 % of \
+                 sqrt(gH) after 1 s with a transition of one support, 2.8 % with two, 0.15 % with the \
+                 scene's h); {advice}",
                 fluid.name,
-                2.0 * support
+                band / support,
             ))
         })
         .collect()
