@@ -365,13 +365,12 @@ pub fn level_h_warnings(s: &Scene) -> Vec<String> {
         .filter(|(_, r)| r.smoothing_length == RegionH::Level)
         .filter_map(|(k, r)| {
             let fluid = s.fluids.iter().find(|f| f.hydrostatic && r.applies_to(&f.name))?;
-            let band = r.transition.unwrap_or(0.0);
-            let advice = if band < 4.0 * support {
+            let (band, wide) = (r.transition.unwrap_or(0.0), 4.0 * support);
+            let advice = if band < wide {
                 format!(
                     "for water that should stay still use smoothing_length = \"scene\" or a wider \
-                     transition (four supports, {:.3} m, kept the still level of the adaptive solitary \
-                     wave, docs/validation.md §7)",
-                    4.0 * support
+                     transition (four supports, {wide:.3} m, kept the still level of the adaptive \
+                     solitary wave, docs/validation.md §7)"
                 )
             } else {
                 "a transition of four supports kept the still level of the adaptive solitary wave \
