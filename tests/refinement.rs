@@ -680,6 +680,11 @@ fn the_level_h_warning_names_the_region_under_hydrostatic_pressure() {
     // the shipped band (0.32 m, four supports of 0.08 m) is named and not told to widen
     assert!(w[0].contains("transition of 0.320 m (4.0 supports)"), "{w:?}");
     assert!(!w[0].contains("a wider transition"), "{w:?}");
+    // and told what a wider one costs (docs/validation.md §7: 0.96 m, 715.9 s against 472.0 s)
+    assert!(
+        w[0].contains("twelve supports cost it 1.8 % and took 1.5 times as long"),
+        "{w:?}"
+    );
     assert!(warn("inputs/hydrostatic_2d_refined.toml", &[]).is_empty());
     let tank = warn(
         "inputs/hydrostatic_2d_refined.toml",
