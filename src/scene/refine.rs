@@ -309,6 +309,11 @@ impl Refine {
         }
     }
 
+    /// Width (m) of the transition band over which h rises to the scene's (0 if unset).
+    pub fn band(&self) -> f64 {
+        self.transition.unwrap_or(0.0)
+    }
+
     /// Smoothing length (m) of a particle of this region's level at `x`: `h_fine` at a depth
     /// of at least the transition band, rising linearly to `h_scene` at the boundary (the
     /// region's faces that are interfaces, [`Refine::depth`]).
@@ -316,7 +321,7 @@ impl Refine {
         if self.smoothing_length == RegionH::Scene {
             return h_scene;
         }
-        let band = self.transition.unwrap_or(0.0);
+        let band = self.band();
         if band <= 0.0 {
             return h_fine;
         }
@@ -353,6 +358,10 @@ pub fn list_warnings(s: &Scene) -> Vec<String> {
         .collect()
 }
 
+/// Transition width, in kernel supports, that kept the adaptive solitary wave's still level
+/// (docs/validation.md §7); [`level_h_warnings`] advises it to narrower bands.
+const STILL_BAND_SUPPORTS: f64 = 4.0;
+
 /// Warnings for regions that give a fluid built under hydrostatic pressure (`hydrostatic =
 /// true` with a body force) its level's h: where h varies across the pressure gradient, the mean-h pair kernel's residual times the pressure is a force with
 /// a curl that no pressure field balances, and it drives a current (docs/refinement.md §1).
@@ -365,7 +374,7 @@ pub fn level_h_warnings(s: &Scene) -> Vec<String> {
         .filter(|(_, r)| r.smoothing_length == RegionH::Level)
         .filter_map(|(k, r)| {
             let fluid = s.fluids.iter().find(|f| f.hydrostatic && r.applies_to(&f.name))?;
-            let (band, wide) = (r.transition.unwrap_or(0.0), 4.0 * support);
+            let (band, wide) = (r.band(), STILL_BAND_SUPPORTS * support);
             let advice = if band < wide {
                 format!(
                     "for water that should stay still use smoothing_length = \"scene\" or a wider \
@@ -425,7 +434,7 @@ pub fn region_warnings<const D: usize>(s: &Scene) -> Vec<String> {
                  make it at least 2·dx wide on every axis"
             ));
         }
-        let band = r.transition.unwrap_or(0.0);
+        let band = r.band();
         if r.smoothing_length == RegionH::Scene && band != s.discretisation.support() {
             // the check fills the default (one support) whatever the mode, so only a width
             // the scene set differs from it
