@@ -150,6 +150,48 @@ impl Kernel {
     }
 }
 
+/// (1/r) dW/dr (m⁻ᴰ⁻²) of [`BATCH`] pairs of one kernel family, each of its own smoothing
+/// length `h[n]` (m), at squared separations `r2[n]` (m²), into `out`: for each, to the bit what
+/// `Kernel::new(kind, h[n], dim).dw_dr_over_r(r2[n].sqrt())` gives. The pairs of two sizes
+/// (`sizes::MeanH`) made a kernel per pair, two divisions each, one pair at a time: in the
+/// adaptive solitary wave with a 0.96 m band, where most pairs mix two h, that was 18 % of the
+/// run (BENCHMARKS.md). Wendland C2's lanes are computed side by side as
+/// [`Kernel::dw_dr_over_r_batch`]'s are; the splines' one at a time.
+#[inline(always)]
+pub fn dw_dr_over_r_lanes(
+    kind: KernelKind,
+    dim: usize,
+    h: &[f64; BATCH],
+    r2: &[f64; BATCH],
+    out: &mut [f64; BATCH],
+) {
+    if kind != KernelKind::WendlandC2 {
+        for ((o, &h), &r2) in out.iter_mut().zip(h).zip(r2) {
+            *o = Kernel::new(kind, h, dim).dw_dr_over_r(r2.sqrt());
+        }
+        return;
+    }
+    let sd = kind.sigma(dim);
+    // Kernel::new's σ_D / hᴰ and 1/h, then dw_dr_over_r's σ·(1/h)·(1/h)·(0 − 5a³), in their
+    // orders of operations
+    let mut s = [0.0; BATCH];
+    if dim == 2 {
+        for (s, &h) in s.iter_mut().zip(h) {
+            *s = sd / (h * h);
+        }
+    } else {
+        for (s, &h) in s.iter_mut().zip(h) {
+            *s = sd / (h * (h * h));
+        }
+    }
+    for (((o, &h), &r2), &s) in out.iter_mut().zip(h).zip(r2).zip(&s) {
+        let inv_h = 1.0 / h;
+        let q = r2.sqrt() * inv_h;
+        let a = (1.0 - 0.5 * q).max(0.0);
+        *o = s * inv_h * inv_h * (0.0 - 5.0 * a * a * a);
+    }
+}
+
 /// Pairs per batch of [`Kernel::dw_dr_over_r_batch`]: four vector registers' worth of f64 at
 /// SSE2's two lanes, two at AVX's four.
 pub const BATCH: usize = 8;

@@ -187,6 +187,22 @@ impl PairKernel for MeanH<'_> {
         }
         Kernel::new(self.sizes.kind, hij, self.dim)
     }
+
+    /// The pairs' kernels side by side ([`super::dw_dr_over_r_lanes`]), not one [`Kernel`]
+    /// made per pair: the same bits.
+    #[inline(always)]
+    fn dw_dr_over_r_batch(
+        &self,
+        h: &[f64],
+        i: usize,
+        js: &[usize; BATCH],
+        r2: &[f64; BATCH],
+        out: &mut [f64; BATCH],
+    ) {
+        let hi = h[i];
+        let hij: [f64; BATCH] = std::array::from_fn(|n| 0.5 * (hi + h[js[n]]));
+        super::dw_dr_over_r_lanes(self.sizes.kind, self.dim, &hij, r2, out);
+    }
 }
 
 /// `with_pair_kernel!(sizes, kernel, dim, k => body)`: `body` with `k` the [`PairKernel`] of a
@@ -227,6 +243,40 @@ mod tests {
         }
         assert!((s.h[1] - 0.0065).abs() < 1e-15 && (s.h[3] - 0.001625).abs() < 1e-15);
         assert!((s.spacing(0, 1) - 0.0075).abs() < 1e-15);
+    }
+
+    /// The batch of pairs of several sizes gives each pair's (1/r) dW/dr to the bit: pairs of
+    /// one level's core h, of the mean of two levels, of a transition band's h, inside, at and
+    /// beyond the support and at r = 0, for every kernel in 2D and 3D.
+    #[test]
+    fn the_batch_of_several_sizes_gives_each_pairs_bits() {
+        use crate::kernel::KernelKind::*;
+        for kind in [WendlandC2, CubicSpline, QuinticSpline] {
+            for dim in [2usize, 3] {
+                let s = Sizes::new(kind, 0.02, 2.0, 2);
+                let h = [0.04, 0.02, 0.01, 0.0337, 0.02875, 0.0123, 0.04, 0.019, 0.0299];
+                let k = MeanH::new(&s, dim);
+                for i in 0..h.len() {
+                    let js: [usize; BATCH] = std::array::from_fn(|n| (i + n) % h.len());
+                    let r2: [f64; BATCH] = std::array::from_fn(|n| {
+                        let hij = 0.5 * (h[i] + h[js[n]]);
+                        let q = [0.0, 0.3, 1.0, 1.7, 2.0, 2.5, 2.999, 3.2][n];
+                        (q * hij) * (q * hij)
+                    });
+                    let mut out = [f64::NAN; BATCH];
+                    k.dw_dr_over_r_batch(&h, i, &js, &r2, &mut out);
+                    for n in 0..BATCH {
+                        let one = k.of(&h, i, js[n]).dw_dr_over_r(r2[n].sqrt());
+                        assert_eq!(
+                            out[n].to_bits(),
+                            one.to_bits(),
+                            "{kind:?} {dim}D pair {i}-{}",
+                            js[n]
+                        );
+                    }
+                }
+            }
+        }
     }
 
     /// The initial split's load of a site: 1 + π (κh/Δp)² sites in 2D (h = 2 dx, κ = 2:
