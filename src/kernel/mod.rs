@@ -72,14 +72,7 @@ impl Kernel {
             kind,
             h,
             support: kind.support_factor() * h,
-            // h·h and h·(h·h) are h.powi(2) and h.powi(3) bit for bit (powi multiplies by
-            // repeated squaring), without the library call per pair of several sizes
-            sigma: kind.sigma(dim)
-                / match dim {
-                    2 => h * h,
-                    3 => h * (h * h),
-                    _ => h.powi(dim as i32),
-                },
+            sigma: normalisation(kind, h, dim),
             inv_h: 1.0 / h,
         }
     }
@@ -150,13 +143,28 @@ impl Kernel {
     }
 }
 
+/// σ_D / hᴰ (m⁻ᴰ) of kernel `kind` with smoothing length `h` (m) in `dim` dimensions. h·h and
+/// h·(h·h) are h.powi(2) and h.powi(3) bit for bit (powi multiplies by repeated squaring),
+/// without the library call per pair of several sizes.
+#[inline(always)]
+fn normalisation(kind: KernelKind, h: f64, dim: usize) -> f64 {
+    kind.sigma(dim)
+        / match dim {
+            2 => h * h,
+            3 => h * (h * h),
+            _ => h.powi(dim as i32),
+        }
+}
+
 /// (1/r) dW/dr (m⁻ᴰ⁻²) of [`BATCH`] pairs of one kernel family, each of its own smoothing
 /// length `h[n]` (m), at squared separations `r2[n]` (m²), into `out`: for each, to the bit what
-/// `Kernel::new(kind, h[n], dim).dw_dr_over_r(r2[n].sqrt())` gives. The pairs of two sizes
-/// (`sizes::MeanH`) made a kernel per pair, two divisions each, one pair at a time: in the
-/// adaptive solitary wave with a 0.96 m band, where most pairs mix two h, that was 18 % of the
-/// run (BENCHMARKS.md). Wendland C2's lanes are computed side by side as
-/// [`Kernel::dw_dr_over_r_batch`]'s are; the splines' one at a time.
+/// `Kernel::new(kind, h[n], dim).dw_dr_over_r(r2[n].sqrt())` gives (the same operations in
+/// the same order). The pairs of two sizes (`sizes::MeanH`) made a kernel per pair, two
+/// divisions each, one pair at a time: in the adaptive solitary wave with a 0.96 m band, where
+/// most pairs mix two h, that was 18 % of the run (BENCHMARKS.md). Here the lanes are computed
+/// side by side for Wendland C2, whose branch-free shape the compiler vectorises once kind
+/// and dimension are constants in the loop (one loop over any kind ran the 0.4 s segment 1.12 ×
+/// as long); the splines' lanes one at a time.
 #[inline(always)]
 pub fn dw_dr_over_r_lanes(
     kind: KernelKind,
@@ -165,30 +173,17 @@ pub fn dw_dr_over_r_lanes(
     r2: &[f64; BATCH],
     out: &mut [f64; BATCH],
 ) {
-    if kind != KernelKind::WendlandC2 {
+    let lanes = |kind: KernelKind, dim: usize, out: &mut [f64; BATCH]| {
         for ((o, &h), &r2) in out.iter_mut().zip(h).zip(r2) {
-            *o = Kernel::new(kind, h, dim).dw_dr_over_r(r2.sqrt());
+            let inv_h = 1.0 / h;
+            let q = r2.sqrt() * inv_h;
+            *o = normalisation(kind, h, dim) * inv_h * inv_h * dshape_over_q(kind, q);
         }
-        return;
-    }
-    let sd = kind.sigma(dim);
-    // Kernel::new's σ_D / hᴰ and 1/h, then dw_dr_over_r's σ·(1/h)·(1/h)·(0 − 5a³), in their
-    // orders of operations
-    let mut s = [0.0; BATCH];
-    if dim == 2 {
-        for (s, &h) in s.iter_mut().zip(h) {
-            *s = sd / (h * h);
-        }
-    } else {
-        for (s, &h) in s.iter_mut().zip(h) {
-            *s = sd / (h * (h * h));
-        }
-    }
-    for (((o, &h), &r2), &s) in out.iter_mut().zip(h).zip(r2).zip(&s) {
-        let inv_h = 1.0 / h;
-        let q = r2.sqrt() * inv_h;
-        let a = (1.0 - 0.5 * q).max(0.0);
-        *o = s * inv_h * inv_h * (0.0 - 5.0 * a * a * a);
+    };
+    match (kind, dim) {
+        (KernelKind::WendlandC2, 2) => lanes(KernelKind::WendlandC2, 2, out),
+        (KernelKind::WendlandC2, 3) => lanes(KernelKind::WendlandC2, 3, out),
+        _ => lanes(kind, dim, out),
     }
 }
 
