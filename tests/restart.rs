@@ -246,14 +246,16 @@ fn damaged_checkpoints_and_physics_changes_are_refused() {
         err.contains("physics.artificial_viscosity") && err.contains("start a new run"),
         "{err}"
     );
+    // the run is complete at step 20: a restart with steps to run reads the checkpoint
+    let more = ["--set", "time.max_steps=40"];
     let mut flipped = good.clone();
     flipped[good.len() / 2] ^= 0x10;
     std::fs::write(&part, &flipped).unwrap();
-    let (code, err) = restart(&out, "1", &[]);
+    let (code, err) = restart(&out, "1", &more);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("part-00001.bin") && err.contains("corrupt"), "{err}");
     std::fs::write(&part, &good[..good.len() - 8]).unwrap();
-    let (code, err) = restart(&ck, "1", &[]);
+    let (code, err) = restart(&ck, "1", &more);
     assert_eq!(code, 2, "{err}");
     assert!(
         err.contains("part-00001.bin") && err.contains("truncated"),
@@ -324,7 +326,7 @@ fn the_id_counter_is_checkpointed_and_checked() {
     assert_eq!(code, 0, "{err}");
     assert!(std::fs::read(out.join("final.csv")).unwrap() == reference);
     for (next, needle) in [
-        (largest, "not below the manifest's next_id"),
+        (largest, "below the scene's lattice ids"),
         (largest + 1, "below the scene's lattice ids"),
         (1 << 60, "above the id limit 2^54"),
     ] {

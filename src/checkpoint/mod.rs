@@ -179,7 +179,7 @@ pub fn write<const D: usize>(
     let dir = dir_of(run, clock.step);
     fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     let bytes = encode(p, built);
-    let file = format!("part-{:05}.bin", comm.rank());
+    let file = part_name(comm.rank());
     if let Err(e) = write_synced(&dir.join(&file), &bytes) {
         // the checkpoint is incomplete (no manifest will follow): leave no empty directory
         let _ = fs::remove_dir(&dir);
@@ -292,13 +292,29 @@ pub fn locate(path: &Path) -> Result<PathBuf> {
     Err(bad(path, "no such checkpoint or run directory"))
 }
 
-/// The run directory a checkpoint directory belongs to.
-pub fn run_dir_of(checkpoint: &Path) -> PathBuf {
-    checkpoint
-        .parent()
-        .and_then(Path::parent)
-        .map(Path::to_path_buf)
-        .unwrap_or_else(|| PathBuf::from("."))
+/// The run directory a checkpoint directory belongs to: the parent of its `checkpoints/`
+/// folder. A checkpoint anywhere else (copied out of its run, or into another run's folder
+/// under another name) has no run directory whose series it may cut: bad input.
+pub fn run_dir_of(checkpoint: &Path) -> Result<PathBuf> {
+    let parent = checkpoint.parent().filter(|p| !p.as_os_str().is_empty());
+    let named = |p: &Path| p.file_name().is_some_and(|n| n == "checkpoints");
+    let step_dir = checkpoint
+        .file_name()
+        .and_then(|n| n.to_str())
+        .and_then(|n| n.strip_prefix("step-"))
+        .is_some_and(|d| d.len() == 10 && d.bytes().all(|b| b.is_ascii_digit()));
+    match parent.and_then(|p| named(p).then(|| p.parent()).flatten()) {
+        Some(run) if step_dir => Ok(if run.as_os_str().is_empty() {
+            PathBuf::from(".")
+        } else {
+            run.to_path_buf()
+        }),
+        _ => Err(bad(
+            checkpoint,
+            "is not inside a run directory: a checkpoint continues the run it belongs to, \
+             RUNDIR/checkpoints/step-NNNNNNNNNN; give that path or the run directory itself",
+        )),
+    }
 }
 
 /// Read a checkpoint's manifest.
@@ -332,6 +348,43 @@ pub fn next_id(dir: &Path, m: &Manifest, bound: u64) -> Result<u64> {
                  particles would reuse them"
             ),
         )),
+    }
+}
+
+/// The part file rank `rank` writes.
+pub fn part_name(rank: usize) -> String {
+    format!("part-{rank:05}.bin")
+}
+
+/// The ids of a share of a checkpoint (sorted, as [`share`] returns them) are unique and below
+/// the id counter `next` ([`next_id`]): a part with an id twice, or with ids of created
+/// particles but no counter that accounts for them, is bad input (it would give two particles
+/// one id, or a created particle the id of another).
+pub fn check_ids(dir: &Path, m: &Manifest, ids: &[u64], next: u64) -> Result<()> {
+    let manifest = dir.join("manifest.json");
+    if let Some(w) = ids.windows(2).find(|w| w[0] >= w[1]) {
+        return Err(bad(
+            &manifest,
+            format!(
+                "the parts hold particle id {} twice: each particle is in one part, once",
+                w[1]
+            ),
+        ));
+    }
+    match ids.last() {
+        Some(&last) if last >= next => Err(bad(
+            &manifest,
+            format!(
+                "a part holds particle id {last}, not below the id counter {next} ({}): ids of \
+                 particles created by splitting need the next_id that counted them",
+                if m.next_id.is_some() {
+                    "the manifest's next_id"
+                } else {
+                    "the scene's lattice id bound: the manifest has no next_id"
+                }
+            ),
+        )),
+        _ => Ok(()),
     }
 }
 
@@ -373,6 +426,16 @@ impl Manifest {
                 return Err(format!(
                     "parts[{k}].file = {:?} is not a part file name (part-NNNNN.bin inside the checkpoint)",
                     p.file
+                ));
+            }
+            // rank k wrote part k: a part listed twice, or out of place, would load its
+            // particles twice
+            if p.file != part_name(k) {
+                return Err(format!(
+                    "parts[{k}].file = {:?}, but rank {k} writes {:?}: each part is listed once, in \
+                     rank order",
+                    p.file,
+                    part_name(k)
                 ));
             }
             total = total.saturating_add(p.particles);
@@ -471,14 +534,6 @@ fn particles_of_parts<const D: usize>(
     let mut perm: Vec<usize> = (0..all.n_owned).collect();
     perm.sort_unstable_by_key(|&i| all.id[i]);
     all.permute_owned(&perm);
-    if let (Some(next), Some(&last)) = (m.next_id, all.id.last()) {
-        if last >= next {
-            return Err(bad(
-                &dir.join("manifest.json"),
-                format!("a part holds particle id {last}, not below the manifest's next_id = {next}"),
-            ));
-        }
-    }
     let acc = perm.iter().map(|&i| acc[i]).collect();
     let built = if built.is_empty() {
         built

@@ -186,6 +186,8 @@ pub(super) fn cmd_restart(
     mut opts: RunOptions,
 ) -> Result<i32> {
     let ck = crate::checkpoint::locate(from)?;
+    // its run directory, or no restart: nothing is read or locked elsewhere
+    let dir = crate::checkpoint::run_dir_of(&ck)?;
     let m = crate::checkpoint::manifest(&ck)?;
     let at = ck.join("manifest.json");
     let (original, _) = crate::scene::load_scene_str(&m.scene, &at, "restart", &[])?;
@@ -199,7 +201,11 @@ pub(super) fn cmd_restart(
             "the checkpoint's scene and parts disagree on the dimension",
         ));
     }
-    opts.out = Some(crate::checkpoint::run_dir_of(&ck));
+    if let Some(why) = driver::nothing_to_run(&dir, &scene, &m) {
+        eprintln!("hsph: {why}");
+        return Ok(0);
+    }
+    opts.out = Some(dir);
     opts.restart = Some((ck, m));
     crate::signals::install()?;
     let outcome = driver::run_scene(&scene, &opts).map_err(|e| locate(&src, e))?;

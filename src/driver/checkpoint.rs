@@ -3,10 +3,8 @@
 
 use super::rank::RankRun;
 use crate::error::{Error, Result};
-use crate::output;
 use crate::sim::Timer;
 use serde_json::json;
-use std::path::Path;
 use std::time::Instant;
 
 impl<'a, const D: usize> RankRun<'a, D> {
@@ -105,6 +103,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "particles_start": self.particles_start,
             "particles_max": self.population.1,
             "series": series,
+            "output_step": self.output_step,
         }))
     }
 
@@ -150,41 +149,4 @@ impl<'a, const D: usize> RankRun<'a, D> {
         }
         Ok(())
     }
-}
-
-/// Cut every series file of a restarted run back to its length at the checkpoint: rows
-/// written after it (before the run stopped) would otherwise be there twice.
-pub(super) fn truncate_series(dir: &Path, series: &serde_json::Value) -> Result<()> {
-    let Some(map) = series.as_object() else {
-        return Err(Error::run("checkpoint: the run state lacks the series lengths"));
-    };
-    let bad = |file: &str, why: &str| {
-        Error::input(
-            "--restart",
-            format!("the checkpoint's run state names the series {file:?}, which {why}"),
-        )
-    };
-    for (file, len) in map {
-        if !output::is_series_path(file) {
-            return Err(bad(file, "is not a series file of a run directory"));
-        }
-        let path = dir.join(file);
-        let meta = std::fs::symlink_metadata(&path).map_err(|e| Error::io(&path, e))?;
-        let len = len.as_u64().ok_or_else(|| bad(file, "has no length"))?;
-        if !meta.is_file() {
-            return Err(bad(file, "is not a regular file"));
-        }
-        if len > meta.len() {
-            return Err(bad(
-                file,
-                &format!("is {} bytes, shorter than the checkpoint's {len}", meta.len()),
-            ));
-        }
-        let f = std::fs::OpenOptions::new()
-            .write(true)
-            .open(&path)
-            .map_err(|e| Error::io(&path, e))?;
-        f.set_len(len).map_err(|e| Error::io(&path, e))?;
-    }
-    Ok(())
 }

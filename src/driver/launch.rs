@@ -50,9 +50,11 @@ pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome> {
     let layout = RunLayout::resolve(&req, backend, opts.ranks.max(1), None)?;
     check_limits(scene, layout.ranks, layout.ranks, opts)?;
     check_threads(opts.threads, layout.ranks, true)?;
-    if let (Some(dir), Some(_)) = (&opts.out, &opts.restart) {
-        // a restart continues in its run directory, which is not prepared afresh
+    if let (Some(dir), Some((_, m))) = (&opts.out, &opts.restart) {
+        // a restart continues in its run directory, which is not prepared afresh: under its
+        // lock, everything it will cut or write is checked before anything changes
         let _lock = output::DirLock::take(dir, "--restart")?;
+        super::check_restart(dir, scene, m)?;
         return run_prepared(scene, opts, &layout, dir);
     }
     let (dir, _lock) = output::prepare_dir(opts.out.as_deref(), &scene.name, opts.force)?;
@@ -143,9 +145,12 @@ fn mpi_prepare_dir(
     let mut lock = None;
     let prepared = if comm.rank() != 0 {
         String::new()
-    } else if let (Some(dir), Some(_)) = (&opts.out, &opts.restart) {
-        // a restart continues in its run directory, which is not prepared afresh
-        match output::DirLock::take(dir, "--restart") {
+    } else if let (Some(dir), Some((_, m))) = (&opts.out, &opts.restart) {
+        // a restart continues in its run directory, which is not prepared afresh: under its
+        // lock, everything it will cut or write is checked before anything changes
+        let checked = output::DirLock::take(dir, "--restart")
+            .and_then(|l| super::check_restart(dir, scene, m).map(|()| l));
+        match checked {
             Ok(l) => {
                 lock = Some(l);
                 format!("ok:{}", dir.display())

@@ -19,6 +19,7 @@
 //! - `steps.rs`: the step loop, output steps, removals, the stop at a step boundary.
 //! - `fault.rs`: test-only fault injection ([`Fault`]).
 //! - `checkpoint.rs`: when a checkpoint is due, writing it, continuing from it.
+//! - `restart.rs`: a restart as a transaction: everything checked before anything changes.
 //! - `summary.rs`: the final state, `final.csv`, `summary.json`, the closing log lines.
 //! - `diagnostics.rs`: figures reduced over ranks and the rows of `diagnostics.csv`.
 //! - `traffic.rs`: `traffic.csv` and the traffic totals of `summary.json`.
@@ -32,6 +33,7 @@ mod fault;
 mod launch;
 mod provenance;
 mod rank;
+mod restart;
 mod start;
 mod steps;
 mod summary;
@@ -43,6 +45,7 @@ pub use fault::{Fault, FaultKind};
 pub use launch::{bound_pool, pool, run_scene};
 pub use provenance::{features, provenance};
 pub use rank::run_rank;
+pub use restart::{check_restart, nothing_to_run};
 
 pub use crate::layout::Backend;
 use crate::layout::LayoutRequest;

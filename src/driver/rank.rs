@@ -97,4 +97,7 @@ pub(super) struct RankRun<'a, const D: usize> {
     /// Wall time of the earlier segments of a run continued from checkpoints (s), and their
     /// number.
     pub(super) earlier: (f64, u64),
+    /// Step of the last output row written (none yet: `None`); a checkpoint records it, so a
+    /// restart at the end knows whether the last state's row is still to be written.
+    pub(super) output_step: Option<u64>,
 }

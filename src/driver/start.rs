@@ -2,9 +2,9 @@
 //! traffic as step 0 and the first output step.
 
 use super::banner::print_warnings;
-use super::checkpoint::truncate_series;
 use super::diagnostics::diag_header;
 use super::rank::RankRun;
+use super::restart::truncate_series;
 use super::traffic::TrafficTotals;
 use super::RunOptions;
 use crate::checkpoint::Manifest;
@@ -91,10 +91,17 @@ impl<'a, const D: usize> RankRun<'a, D> {
             checkpointed: u64::MAX,
             checkpoint_clock: (Instant::now(), 0.0),
             earlier: (0.0, 0),
+            output_step: None,
         };
         run.report_layout()?;
         if let Some((ck, m)) = resumed {
             run.continue_from(ck, m)?;
+            if run.sim.done() && m.run["output_step"].as_u64().is_some_and(|s| s != m.step) {
+                // the checkpoint is the run's end, written before its last state's row (off
+                // the output schedule), which a run that stopped there may lack: written again
+                run.observe(true, true)?;
+                run.traffic(run.sim.step)?;
+            }
         } else {
             // the set-up's traffic (one step's exchanges at the initial positions) is step 0
             run.traffic(0)?;

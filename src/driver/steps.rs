@@ -104,6 +104,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         [obs.removed_energy, obs.removed_mass] = self.removed_out;
         let r = reduce(&self.sim, self.comm, None)?;
         let wall = self.loop_start.elapsed().as_secs_f64();
+        self.output_step = Some(self.sim.step);
         let stamp = output::Stamp {
             step: self.sim.step,
             t: self.sim.t,

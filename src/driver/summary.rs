@@ -73,6 +73,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 self.n_total, self.scene.output.gather_limit
             );
         }
+        // one final state: the other form's files, from a run with another gather_limit, go
+        output::names::remove_other_final(self.dir, gathered)?;
         let summary = self.summary(&r, wall, n_fluid[0] as usize, n_fluid[1] as usize);
         output::write_summary(self.dir, &summary)?;
         self.closing_lines(wall);

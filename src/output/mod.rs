@@ -8,6 +8,7 @@
 //! - `summary.json` — written last and atomically: its presence marks a complete run.
 
 pub mod cf;
+pub mod names;
 pub mod netcdf;
 #[cfg(feature = "netcdf")]
 pub mod netcdf4;
@@ -69,7 +70,8 @@ pub const RUN_FILES: &[&str] = &[
     "removed.csv",
     LOCK_FILE,
 ];
-/// The folders a run writes (removed whole by `--force`).
+/// The folders a run writes into (`--force` removes the files a run wrote there, by
+/// [`names`], and a folder only once nothing else is left in it).
 pub const RUN_FOLDERS: &[&str] = &["probes", "snapshots", "checkpoints", "final", "report"];
 /// The lock a run holds on its directory while it runs (an empty file, kept).
 pub const LOCK_FILE: &str = ".hsph.lock";
@@ -117,10 +119,11 @@ impl DirLock {
 
 /// Choose, create and lock the output directory: `--out`, else `runs/<safe scene name>-<UTC
 /// time>` (with `-2`, `-3`, … when another run took that name in the same second). A
-/// non-empty directory is refused unless `force`, and `force` empties only a run directory
-/// (one with a `scene.toml` or `summary.json`), removing only what a run writes
-/// ([`RUN_FILES`], [`RUN_FOLDERS`]: the old checkpoints too, so a restart cannot resume the
-/// old run). Every problem with the directory is an input error (exit 2) naming it.
+/// non-empty directory is refused unless `force`, and `force` clears only a run directory
+/// (one with a `scene.toml` or `summary.json`), removing only the files a run writes, by name
+/// ([`names::clear_run`]: the old checkpoints too, so a restart cannot resume the old run);
+/// a user's own files stay, in any folder. Every problem with the directory is an input
+/// error (exit 2) naming it.
 pub fn prepare_dir(out: Option<&Path>, scene_name: &str, force: bool) -> Result<(PathBuf, DirLock)> {
     let Some(dir) = out else {
         return fresh_default_dir(scene_name);
@@ -172,7 +175,7 @@ pub fn prepare_dir(out: Option<&Path>, scene_name: &str, force: bool) -> Result<
     // a run still writing there holds the lock: nothing is removed under it
     let lock = DirLock::take(dir, key)?;
     if !entries.is_empty() {
-        clear_run(dir).map_err(|e| bad(e.to_string()))?;
+        names::clear_run(dir).map_err(|e| bad(e.to_string()))?;
     }
     check_writable(dir).map_err(|e| bad(e.to_string()))?;
     Ok((dir.to_path_buf(), lock))
@@ -190,23 +193,6 @@ pub fn is_series_path(file: &str) -> bool {
         [dir, name] => plain(dir) && plain(name) && dir.as_os_str() == "probes",
         _ => false,
     }
-}
-
-/// Remove what a run wrote in `dir` (and nothing else).
-fn clear_run(dir: &Path) -> std::io::Result<()> {
-    for name in RUN_FILES.iter().filter(|n| **n != LOCK_FILE) {
-        match fs::remove_file(dir.join(name)) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e),
-            _ => {}
-        }
-    }
-    for sub in RUN_FOLDERS {
-        match fs::remove_dir_all(dir.join(sub)) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e),
-            _ => {}
-        }
-    }
-    Ok(())
 }
 
 /// A directory we cannot write into fails here, not after the set-up.

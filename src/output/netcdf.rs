@@ -101,7 +101,12 @@ impl<const D: usize> SnapshotWriter<D> for NetcdfSeries {
     }
 
     fn restore(&mut self, state: &serde_json::Value, clean: bool) -> Result<()> {
-        self.series.restore(state, clean)
+        if self.series.restore(state)? && clean {
+            // the index first, so it never lists a snapshot the clean-up removes
+            self.write_manifest()?;
+            self.series.remove_later()?;
+        }
+        Ok(())
     }
 }
 

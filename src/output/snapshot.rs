@@ -120,32 +120,36 @@ impl Series {
         serde_json::json!(self.entries)
     }
 
-    /// Continue from a checkpoint's list. Rank 0 (`clean`) removes the snapshots an interrupted
-    /// run wrote after the checkpoint, so that none of their pieces lingers beside the new ones
-    /// (every rank's next write comes after a collective of the next step, hence after this).
-    pub fn restore(&mut self, state: &serde_json::Value, clean: bool) -> Result<()> {
+    /// Continue from a checkpoint's list; false if the checkpoint has none (no snapshots).
+    pub fn restore(&mut self, state: &serde_json::Value) -> Result<bool> {
         if state.is_null() {
-            return Ok(());
+            return Ok(false);
         }
         self.entries = serde_json::from_value(state.clone())
             .map_err(|e| Error::run(format!("checkpoint: snapshot list: {e}")))?;
-        if clean {
-            let rd = std::fs::read_dir(&self.dir).map_err(|e| Error::io(&self.dir, e))?;
-            for e in rd.flatten() {
-                let name = e.file_name().to_string_lossy().into_owned();
-                let k = name
-                    .strip_prefix("snapshot_")
-                    .and_then(|s| s.split('.').next())
-                    .and_then(|s| s.parse::<usize>().ok());
-                if k.is_some_and(|k| k >= self.entries.len()) {
-                    let p = e.path();
-                    let r = if p.is_dir() {
-                        std::fs::remove_dir_all(&p)
-                    } else {
-                        std::fs::remove_file(&p)
-                    };
-                    r.map_err(|e| Error::io(&p, e))?;
-                }
+        Ok(true)
+    }
+
+    /// Rank 0, on a restart, after the index was written again from the restored list: remove
+    /// the snapshots an interrupted run wrote after the checkpoint, so that none of their
+    /// pieces lingers beside the new ones (every rank's next write comes after a collective of
+    /// the next step, hence after this).
+    pub fn remove_later(&self) -> Result<()> {
+        let rd = std::fs::read_dir(&self.dir).map_err(|e| Error::io(&self.dir, e))?;
+        for e in rd.flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let k = name
+                .strip_prefix("snapshot_")
+                .and_then(|s| s.split('.').next())
+                .and_then(|s| s.parse::<usize>().ok());
+            if k.is_some_and(|k| k >= self.entries.len()) {
+                let p = e.path();
+                let r = if p.is_dir() {
+                    std::fs::remove_dir_all(&p)
+                } else {
+                    std::fs::remove_file(&p)
+                };
+                r.map_err(|e| Error::io(&p, e))?;
             }
         }
         Ok(())
@@ -162,6 +166,7 @@ pub trait SnapshotWriter<const D: usize> {
     fn state(&self) -> serde_json::Value;
 
     /// Continue from `state` (from [`SnapshotWriter::state`] of the same format); `clean` on
-    /// rank 0 only.
+    /// rank 0 only: the index written again for the restored list, then the later snapshots
+    /// removed ([`Series::remove_later`]), so the index never names a removed file.
     fn restore(&mut self, state: &serde_json::Value, clean: bool) -> Result<()>;
 }

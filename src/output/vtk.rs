@@ -22,6 +22,14 @@ impl VtkSeries {
             series: Series::new(dir)?,
         })
     }
+
+    /// `series.pvd`: every snapshot written so far.
+    fn write_index(&self) -> Result<()> {
+        let list: Vec<(f64, String)> = (0..self.series.entries.len())
+            .map(|j| (self.series.entries[j].t, format!("snapshot_{j:05}.pvtu")))
+            .collect();
+        write_pvd(&self.series.dir.join("series.pvd"), &list)
+    }
 }
 
 impl<const D: usize> SnapshotWriter<D> for VtkSeries {
@@ -36,10 +44,7 @@ impl<const D: usize> SnapshotWriter<D> for VtkSeries {
         let pieces: Vec<String> = (0..piece.ranks).map(|r| piece_name(k, r, "vtu")).collect();
         let index = format!("snapshot_{k:05}.pvtu");
         write_pvtu::<D>(&self.series.dir.join(&index), &pieces, fields)?;
-        let list: Vec<(f64, String)> = (0..self.series.entries.len())
-            .map(|j| (self.series.entries[j].t, format!("snapshot_{j:05}.pvtu")))
-            .collect();
-        write_pvd(&self.series.dir.join("series.pvd"), &list)
+        self.write_index()
     }
 
     fn state(&self) -> serde_json::Value {
@@ -47,7 +52,12 @@ impl<const D: usize> SnapshotWriter<D> for VtkSeries {
     }
 
     fn restore(&mut self, state: &serde_json::Value, clean: bool) -> Result<()> {
-        self.series.restore(state, clean)
+        if self.series.restore(state)? && clean {
+            // the index first, so it never lists a snapshot the clean-up removes
+            self.write_index()?;
+            self.series.remove_later()?;
+        }
+        Ok(())
     }
 }
 

@@ -815,6 +815,14 @@ pub struct Time {
     pub stepping: Stepping,
 }
 
+impl Time {
+    /// True once a run at `step` steps and time `t` (s) has reached the end: `t_end` (to a
+    /// relative 1e-12) or `max_steps` (when set).
+    pub fn ended(&self, step: u64, t: f64) -> bool {
+        t >= self.t_end * (1.0 - 1e-12) || (self.max_steps > 0 && step >= self.max_steps)
+    }
+}
+
 /// How the particles of a scene share the time step (`time.stepping`).
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
 #[serde(rename_all = "snake_case")]

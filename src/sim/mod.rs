@@ -189,9 +189,15 @@ impl<const D: usize> Simulation<D> {
         dir: &std::path::Path,
         m: &crate::checkpoint::Manifest,
     ) -> Result<Self> {
-        let read = crate::checkpoint::share::<D>(dir, m, comm.rank(), comm.size());
-        let (share, acc, built) = decompose::agree(read, comm)?;
         let bound = crate::scene::lattice::id_bound::<D>(scene);
+        let next_id = crate::checkpoint::next_id(dir, m, bound);
+        // every rank checks its share, and an error on one is every rank's
+        let read = next_id.and_then(|next| {
+            let s = crate::checkpoint::share::<D>(dir, m, comm.rank(), comm.size())?;
+            crate::checkpoint::check_ids(dir, m, &s.0.id[..s.0.n_owned], next)?;
+            Ok(s)
+        });
+        let (share, acc, built) = decompose::agree(read, comm)?;
         let clock = crate::checkpoint::Clock {
             step: m.step,
             t: m.t,
@@ -422,8 +428,7 @@ impl<const D: usize> Simulation<D> {
 
     /// True once t_end (or max_steps) is reached.
     pub fn done(&self) -> bool {
-        self.t >= self.scene.time.t_end * (1.0 - 1e-12)
-            || (self.scene.time.max_steps > 0 && self.step >= self.scene.time.max_steps)
+        self.scene.time.ended(self.step, self.t)
     }
 
     /// Where the run stands (step, t, dt, next id), as a checkpoint records it.
