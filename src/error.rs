@@ -30,6 +30,9 @@ pub enum Error {
     },
     /// A run that failed after it started: exit status 1.
     Run(String),
+    /// A run stopped by a signal before it had anything to keep (during its set-up): exit
+    /// status 3, like a run stopped at a step boundary ([`crate::signals`]).
+    Stopped(String),
 }
 
 impl Error {
@@ -57,6 +60,7 @@ impl Error {
         match self {
             Error::Input { .. } => 2,
             Error::Run(_) => 1,
+            Error::Stopped(_) => 3,
         }
     }
 
@@ -91,6 +95,7 @@ impl fmt::Display for Error {
                 }
             }
             Error::Run(m) => write!(f, "error: {m}"),
+            Error::Stopped(m) => write!(f, "stopped: {m}"),
         }
     }
 }

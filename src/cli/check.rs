@@ -228,10 +228,12 @@ fn wall_lines(scene: &Scene) -> Vec<String> {
 pub(super) fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
     use crate::particles::Particles;
     use std::fmt::Write;
-    // the set-up as a run builds it, without the settling's steps (a run's work, not a check's;
-    // the `time` line counts them)
+    // the set-up as a run builds it, without the relaxation's iterations and the settling's
+    // steps (a run's work, not a check's: the `time` line counts the settling, the physics
+    // lines the relaxation)
     let mut unsettled = scene.clone();
     unsettled.time.settle = 0.0;
+    unsettled.discretisation.relax = 0;
     let sim = crate::sim::Simulation::<D>::new(&unsettled, &crate::comm::serial::SerialComm::new())?;
     let n = sim.p.n_owned;
     let mut s = String::new();

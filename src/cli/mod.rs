@@ -295,6 +295,7 @@ Examples:
 
 /// Entry point of the binary: parse, dispatch, print any error and return the exit status.
 pub fn main() -> i32 {
+    crate::signals::catch_file_size_limit();
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {

@@ -88,7 +88,7 @@ impl Abort {
             let mut f = lock(&self.failure);
             if f.is_none() {
                 *f = Some((rank, message));
-                if let Some(e @ Error::Input { .. }) = error {
+                if let Some(e @ (Error::Input { .. } | Error::Stopped(_))) = error {
                     *lock(&self.input) = Some((rank, e.clone()));
                 }
             }

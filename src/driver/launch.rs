@@ -129,7 +129,7 @@ fn run_mpi(scene: &Scene, opts: &RunOptions, req: &LayoutRequest) -> Result<RunO
     match result {
         // other ranks' outcomes have no summary; MPI is finalised when `comm` drops
         Ok(out) => Ok(out),
-        Err(e @ Error::Input { .. }) => Err(e),
+        Err(e @ (Error::Input { .. } | Error::Stopped(_))) => Err(e),
         Err(e) => Err(comm.abort(e.to_string().trim_start_matches("error: "))),
     }
 }

@@ -16,7 +16,7 @@ use crate::boundary::geometry::WallMove;
 use crate::boundary::motion;
 use crate::cells::{HalfView, Neighbours, Subset, Wants};
 use crate::comm::Comm;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::particles::{Fields, Kinds};
 use crate::physics::passes::{self, Ctx, Pass};
 use crate::Vector;
@@ -128,12 +128,13 @@ impl<const D: usize> Simulation<D> {
         };
         let kept = self.model.shifting.replace(step);
         let builds = self.skin.builds;
-        for _ in 0..iterations {
+        for k in 0..iterations {
             self.migrate(comm)?;
             self.rebuild_neighbours(comm)?;
             // a positive dt: the row skips the set-up's dt = 0
             self.run_pass(Pass::Shift, 1.0, comm)?;
             self.check_state()?;
+            stop_in_setup(comm, || format!("relaxation iteration {} of {iterations}", k + 1))?;
         }
         self.model.shifting = kept;
         // the run's ghost builds (`summary.json`) are the set-up step's and the steps': the
@@ -165,11 +166,38 @@ impl<const D: usize> Simulation<D> {
             self.cycles,
         );
         self.dt = self.next_dt(comm)?;
+        // time.max_steps bounds the settling's steps too (and the step budget always does)
+        let max = self.scene.time.max_steps;
+        let budget = if max > 0 {
+            max
+        } else {
+            crate::limits::MAX_STEPS as u64
+        };
         while self.t < span {
+            if self.step >= budget {
+                if comm.rank() == 0 {
+                    eprintln!(
+                        "hsph: warning: time.settle = {span} s cut short after {} steps at t = {:.4e} s \
+                         ({}): the set-up continues from there",
+                        self.step,
+                        self.t,
+                        if max > 0 {
+                            "time.max_steps bounds the settling too"
+                        } else {
+                            "the step budget"
+                        }
+                    );
+                }
+                break;
+            }
             let dt = self.dt;
             self.advance(comm)?;
             let keep = (-dt / tau).exp();
             self.damp(keep);
+            let (step, t) = (self.step, self.t);
+            stop_in_setup(comm, || {
+                format!("settling step {step}, t = {t:.4e} s of {span} s")
+            })?;
         }
         self.damp(0.0);
         (self.timers, self.pair_count, self.skin.builds, self.cycles) = kept;
@@ -708,6 +736,20 @@ impl<const D: usize> Simulation<D> {
         } else {
             span
         }
+    }
+}
+
+/// Collective, in the set-up's iterations (relaxation, settling): if any rank has received a
+/// stopping signal, every rank stops here with [`Error::Stopped`] (exit 3). The set-up has
+/// nothing to keep yet, so the run directory is left as it was before the run.
+fn stop_in_setup(comm: &dyn Comm, at: impl FnOnce() -> String) -> Result<()> {
+    match crate::signals::agreed_stop(comm)? {
+        Some(sig) => Err(Error::Stopped(format!(
+            "{sig} during the set-up ({}), before step 1: nothing to continue, nothing written; run \
+             the scene again",
+            at()
+        ))),
+        None => Ok(()),
     }
 }
 
