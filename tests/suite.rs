@@ -38,6 +38,7 @@ mod probes;
 mod refinement;
 mod report;
 mod restart;
+mod restart_property;
 mod scaleout;
 mod scene_limits;
 mod settle;

@@ -80,41 +80,82 @@ pub const LOCK_FILE: &str = ".hsph.lock";
 const MAX_SUFFIX: usize = 1000;
 
 /// A run's exclusive hold on its directory: two runs (or a run and a restart of it) cannot
-/// write one directory at once. Released when dropped (or when the process ends).
+/// write one directory at once. Released when dropped (or when the process ends); dropped, it
+/// also removes its file, so a finished run leaves no `.hsph.lock` behind.
 #[derive(Debug)]
 pub struct DirLock {
-    _file: File,
+    file: File,
+    path: PathBuf,
 }
+
+/// Tries to take a lock whose file a finishing run removed between our open and our lock.
+const LOCK_TRIES: usize = 8;
 
 impl DirLock {
     /// Take the lock of `dir` (which exists), or exit 2 naming `key` if another run holds it.
-    /// A file system without locks (some network file systems) is let through.
+    /// A file system without locks (some network file systems) is let through. The lock held
+    /// is on the file that `dir/.hsph.lock` names once it is held: one that a finishing run
+    /// removed in between is not a lock, and is tried again.
     pub fn take(dir: &Path, key: &str) -> Result<DirLock> {
         let path = dir.join(LOCK_FILE);
-        let file = fs::OpenOptions::new()
-            .create(true)
-            .truncate(false)
-            .write(true)
-            .open(&path)
-            .map_err(|e| {
-                Error::input(
-                    key,
-                    format!("cannot use {} as the run directory: {e}", dir.display()),
-                )
-            })?;
-        match file.try_lock() {
-            Ok(()) => Ok(DirLock { _file: file }),
-            Err(fs::TryLockError::WouldBlock) => Err(Error::input(
+        let cannot = |e: std::io::Error| {
+            Error::input(
                 key,
-                format!(
-                    "{} is in use by another hsph run (it holds {LOCK_FILE}); wait for it to end or choose \
-                     another directory with --out DIR",
-                    dir.display()
-                ),
-            )),
-            Err(fs::TryLockError::Error(_)) => Ok(DirLock { _file: file }),
+                format!("cannot use {} as the run directory: {e}", dir.display()),
+            )
+        };
+        for _ in 0..LOCK_TRIES {
+            let file = fs::OpenOptions::new()
+                .create(true)
+                .truncate(false)
+                .write(true)
+                .open(&path)
+                .map_err(cannot)?;
+            match file.try_lock() {
+                Ok(()) if same_file(&file, &path) => return Ok(DirLock { file, path }),
+                Ok(()) => continue,
+                Err(fs::TryLockError::WouldBlock) => {
+                    return Err(Error::input(
+                        key,
+                        format!(
+                            "{} is in use by another hsph run (it holds {LOCK_FILE}); wait for it to end \
+                             or choose another directory with --out DIR",
+                            dir.display()
+                        ),
+                    ))
+                }
+                Err(fs::TryLockError::Error(_)) => return Ok(DirLock { file, path }),
+            }
+        }
+        Err(cannot(std::io::Error::other(
+            "its lock file keeps being replaced by other runs",
+        )))
+    }
+}
+
+impl Drop for DirLock {
+    fn drop(&mut self) {
+        // removed while still held, so no other run can hold this file at the same time
+        if same_file(&self.file, &self.path) {
+            let _ = fs::remove_file(&self.path);
         }
     }
+}
+
+/// Whether the open `file` is the file `path` names now.
+#[cfg(unix)]
+fn same_file(file: &File, path: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (file.metadata(), fs::metadata(path)) {
+        (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+        _ => false,
+    }
+}
+
+/// Whether the open `file` is the file `path` names now (no inode to compare: assumed).
+#[cfg(not(unix))]
+fn same_file(_file: &File, path: &Path) -> bool {
+    path.is_file()
 }
 
 /// Choose, create and lock the output directory: `--out`, else `runs/<safe scene name>-<UTC
