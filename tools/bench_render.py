@@ -37,20 +37,20 @@ HEAD = """# Benchmarks
 
 <!-- Rendered by `python3 tools/bench_render.py` from docs/bench/records.csv: edit the records, not this page. -->
 
-Today's figures: for each benchmark scene, mode and thread count, hsph against DualSPHysics (the
-reference peer, whole processes side by side on the same machine), against the baseline
-`7c0305b` (hsph before its speed work) or, for an adaptive scene, against the uniform fine run it
-replaces. A ratio is hsph's figure over the other's: below 1, hsph is faster or smaller. Each row
-gives the commit, date and machine it was measured on; its command, machine and the section of
-[docs/benchmark-log.md](docs/benchmark-log.md) that tells how it was taken are listed under its
-table. That log keeps every measurement session, newest first.
+The newest recorded figures: for each benchmark scene, mode and thread count, hsph against
+DualSPHysics (the reference peer, whole processes side by side on the same machine), against
+the baseline `7c0305b` (hsph before its speed work) or, for an adaptive scene, against the
+uniform fine run it replaces. A ratio is hsph's figure over the other's: below 1, hsph is faster
+or smaller. Each row gives the commit, date and machine it was measured on; its command, machine
+and the section of [docs/benchmark-log.md](docs/benchmark-log.md) that tells how it was taken are
+listed under its table. That log keeps every measurement session, newest first.
 
 ## Commands
 
 - **Render** this page: `python3 tools/bench_render.py` (python3, standard library). It marks
   the stale records in `docs/bench/records.csv` from git and writes BENCHMARKS.md; `--check`
   only compares (the test `docs::benchmarks_page_is_the_rendering_of_its_records` runs it).
-- **Rerun** the recorded comparisons: `python3 tools/bench_rerun.py [--rounds N] [ID...]`
+- **Rerun** the recorded comparisons: `python3 tools/bench_rerun.py [--rounds N] [NAME...]`
   (`--list` shows what it would run). It times DualSPHysics beside hsph with
   `tools/dualsphysics.sh` (build DualSPHysics once: `tools/dualsphysics.sh build GIT_DIR`),
   replaces the records it measured (command, commit, machine, date), adds their section to the
