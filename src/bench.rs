@@ -44,7 +44,7 @@ pub struct BenchRow {
     pub us_per_particle_step: f64,
 }
 
-/// The benchmark scenes of issue 2.
+/// The scenes `hsph bench` times by default (README, "Commands": `bench`).
 pub fn default_scenes() -> Vec<PathBuf> {
     ["inputs/dam_break_2d_dsph.toml", "inputs/dam_break_3d_bench.toml"]
         .iter()

@@ -206,9 +206,9 @@ impl CellList {
     /// A cell list whose cells are cut into sub-cells about twice `smallest_reach` (m) wide,
     /// the smallest κh/2 of a scene of several sizes (at most [`sized::MAX_SPLIT`] per axis;
     /// none when that is one): each cell lists its particles by sub-cell, then by key, so a
-    /// fine particle's candidates in a run of sub-cells are a run of slots (issue 36). The
-    /// split is a function of the grid and the scene, the same on every rank, and so is the
-    /// order.
+    /// fine particle's candidates in a run of sub-cells are a run of slots (docs/benchmark-log.md,
+    /// "Sized lists in the cell list's order"). The split is a function of the grid and the scene,
+    /// the same on every rank, and so is the order.
     pub fn with_sub_cells<const D: usize>(grid: &CellGrid<D>, smallest_reach: f64) -> Self {
         let emin = grid.edge.iter().copied().fold(f64::INFINITY, f64::min);
         let s = if smallest_reach > 0.0 && smallest_reach.is_finite() {

@@ -370,7 +370,8 @@ impl<const D: usize> HaloPlan<D> {
     /// the ghosts' copies (a ghost's kind is its owner's, so both sides select the same
     /// ghosts, in plan order). One blocking exchange: no thread waits for the messages, which
     /// under MPI costs a third of the split form's time when nothing is computed between
-    /// (BENCHMARKS.md).
+    /// (docs/benchmark-log.md, "A split by pairs under a count cap, and kept ghosts refreshed by
+    /// class").
     pub fn refresh(
         &self,
         p: &mut Particles<D>,

@@ -1,4 +1,4 @@
-//! Ids of particles created during a run (splitting and merging, issue 36; inlets later):
+//! Ids of particles created during a run (splitting and merging; inlets later):
 //! numbered the same on every layout (`docs/splitting.md` §4).
 //!
 //! Every particle's id is unique and never reused. The set-up numbers its particles by their

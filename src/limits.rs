@@ -79,7 +79,7 @@ pub const MAX_RESOLUTION: u32 = 4096;
 /// with its commas, `--account`); each is also held to letters, digits and `. _ + -`.
 pub const MAX_SLURM_NAME: usize = 128;
 
-// Physical ranges of the scene constants that enter the time step (issue 32): generous
+// Physical ranges of the scene constants that enter the time step (README, "Limits"): generous
 // beyond any real material or flow, so that only a typo or a hostile value is refused. The
 // step budget ([`MAX_STEPS`]) then bounds what they allow together.
 

@@ -9,7 +9,7 @@ fn main() {
 /// threshold to the size of the largest block freed (up to 32 MiB), after which such buffers
 /// come from the heap and their pages stay resident once freed: a whole 3D dam-break run on one
 /// rank peaked at 147.5 MB of RSS for 138.0 MB of live heap, and at 135.3 MB with the fixed
-/// threshold, at the same speed (BENCHMARKS.md, "a probe's view").
+/// threshold, at the same speed (docs/benchmark-log.md, "A probe's view holds what probes read").
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 #[allow(unsafe_code)]
 fn return_freed_buffers() {

@@ -3,11 +3,11 @@
 //! available; `hsph check` prints the estimate.
 //!
 //! The model follows what the code allocates today, per rank:
-//! - **set-up** (distributed, issue 17): a rank streams its share of the lattice to count
-//!   loads, without storing it, then builds only the sites it owns
-//!   ([`crate::setup::SiteSource::build`]): its particle store in growing vectors, a label
-//!   (4 B) and a sort index (8 B) per particle, and the sorted copy beside the old one for a
-//!   moment; placement adds a P × P table of halo volumes;
+//! - **set-up** (distributed, docs/performance_model.md, "Memory per rank"): a rank streams
+//!   its share of the lattice to count loads, without storing it, then builds only the sites
+//!   it owns ([`crate::setup::SiteSource::build`]): its particle store in growing vectors, a
+//!   label (4 B) and a sort index (8 B) per particle, and the sorted copy beside the old one
+//!   for a moment; placement adds a P × P table of halo volumes;
 //! - **halo and migration counts**: a P × P table of u64 all-reduced (two copies) per rank;
 //! - **running**: the owned particles and their ghosts (a fraction of the owned ones), the
 //!   cell list and the neighbour lists (4 B per neighbour).

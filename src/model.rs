@@ -1,4 +1,5 @@
-//! `hsph model`: a performance model of the step loop, calibrated on measured runs (issue 17).
+//! `hsph model`: a performance model of the step loop, calibrated on measured runs
+//! (docs/performance_model.md).
 //!
 //! Bulk-synchronous: a step costs every rank
 //!

@@ -88,7 +88,7 @@ fn plan_dim<const D: usize>(
     methods: &[Placement],
 ) -> Result<Vec<PlanRow>> {
     // the sites are streamed, never stored: `plan` at 10 M particles needs no more memory
-    // than the P × P counters (issue 17)
+    // than the P × P counters (README, "Commands": `plan`)
     let src = SiteSource::<D>::new(scene)?;
     let cloud = LayerShare::of_rank(&src, 0, 1);
     let serial = SerialComm::new();

@@ -64,7 +64,7 @@ pub fn cavity_reference(re: u32) -> (Profile, Profile) {
     }
 }
 
-/// Transient plane Poiseuille flow (Morris et al. 1997; analytic.md §1a), u(y, t) (m/s) for
+/// Transient plane Poiseuille flow (Morris et al. 1997; docs/analytic.md §1a), u(y, t) (m/s) for
 /// body force `f` (m/s²), kinematic viscosity `nu` (m²/s), plates at y = 0 and y = `l`.
 pub fn poiseuille(y: f64, t: f64, f: f64, nu: f64, l: f64) -> f64 {
     let mut u = f / (2.0 * nu) * y * (l - y);
@@ -81,7 +81,7 @@ pub fn poiseuille(y: f64, t: f64, f: f64, nu: f64, l: f64) -> f64 {
     u
 }
 
-/// Impulsively started Couette flow (analytic.md §1b), u(y, t) (m/s), upper plate speed `v0`.
+/// Impulsively started Couette flow (docs/analytic.md §1b), u(y, t) (m/s), upper plate speed `v0`.
 pub fn couette(y: f64, t: f64, v0: f64, nu: f64, l: f64) -> f64 {
     let mut u = v0 * y / l;
     for n in 1..4000 {
@@ -576,7 +576,7 @@ mod tests {
         assert!(ghia(GHIA_U, 50).is_empty());
     }
 
-    /// The series match the project's computed tables (analytic.md §1).
+    /// The series match the project's computed tables (docs/analytic.md §1).
     #[test]
     fn series_match_tabulated_centreline_values() {
         let (nu, l, f, v0) = (1e-6, 1e-3, 2e-4, 2.5e-5);

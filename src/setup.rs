@@ -243,7 +243,8 @@ struct Source<const D: usize> {
 }
 
 /// The particles of a scene, site by site, without storing them: every rank can count, bound
-/// or build exactly the sites it needs (issue 17: no rank materialises the whole lattice).
+/// or build exactly the sites it needs (no rank materialises the whole lattice: ARCHITECTURE.md,
+/// "Ranks, ghosts and determinism across ranks").
 /// A site is a lattice index; its particle's fields are a function of the scene alone, so a
 /// particle built on any rank is the same bits.
 pub struct SiteSource<'s, const D: usize> {

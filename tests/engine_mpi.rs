@@ -407,7 +407,7 @@ fn an_mpi_checkpoint_restarts_on_fewer_ranks_with_the_same_bits() {
 /// whole lattice: every process's peak RSS is at most 0.40 × that of one process running the
 /// whole 3D dam break (911 k particles; set-up and 2 steps; final.csv written per rank, so
 /// no rank gathers the state). Before, every process built all N particles first (0.49 at
-/// 1.15 M particles, BENCHMARKS.md).
+/// 1.15 M particles, docs/benchmark-log.md, "Memory per MPI process with the distributed set-up").
 #[test]
 fn four_mpi_processes_each_peak_under_0_4_of_one() {
     let scene = common::repo_path("inputs/dam_break_3d_bench.toml");

@@ -15,6 +15,7 @@ mod bad_input;
 mod cavity;
 mod conservation;
 mod determinism;
+mod docs;
 mod fidelity;
 mod fuzz;
 mod hardening;

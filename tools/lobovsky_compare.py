@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Compare a run of inputs/dam_break_lobovsky.toml with Lobovsky et al. (2014), H = 300 mm.
 
-Usage: python3 tools/lobovsky_compare.py RUNDIR [REFDATA_DIR]
-(REFDATA_DIR defaults to ../shared/refdata). Standard library only.
+Usage: python3 tools/lobovsky_compare.py [RUNDIR [REFDATA_DIR]]
+(RUNDIR defaults to the newest runs/dam_break_lobovsky*/ of the working directory, REFDATA_DIR to
+the experiment's series vendored in inputs/reference/). Standard library only.
 
 Prints, for the pressure sensors S1, S3 and S4 (the digitised experimental curves), the
 first-impact peak p/(rho g H) and its time t sqrt(g/H), simulated against experiment, and for the
@@ -10,6 +11,7 @@ gauges H1-H4 the mean absolute difference of h/H over t sqrt(g/H) in [0, 8] and 
 of the surge (first h/H > 0.02) against the experiment's series (TNL-SPH's choice of curves).
 """
 import csv
+import glob
 import math
 import os
 import sys
@@ -40,8 +42,16 @@ def interp(pts, t):
 
 
 def main():
-    run = sys.argv[1]
-    ref = sys.argv[2] if len(sys.argv) > 2 else os.path.join(os.path.dirname(__file__), "..", "..", "shared", "refdata")
+    if len(sys.argv) > 1:
+        run = sys.argv[1]
+    else:
+        found = glob.glob(os.path.join("runs", "dam_break_lobovsky*", "probes"))
+        if not found:
+            sys.exit("no RUNDIR given and no runs/dam_break_lobovsky*/ here: "
+                     "hsph run inputs/dam_break_lobovsky.toml first, or name the run directory")
+        run = os.path.dirname(max(found, key=os.path.getmtime))
+        print(f"run: {run}")
+    ref = sys.argv[2] if len(sys.argv) > 2 else os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "inputs", "reference")
     exp_p = rows(os.path.join(ref, "dambreak_lobovsky2014_H300_pressure_digitized.csv"))
     print("sensor | simulated peak p/(rho g H) at t sqrt(g/H) | experiment | peak error | time error")
     for s in ["S1", "S3", "S4"]:

@@ -2,13 +2,15 @@
 //!
 //! | method | file | how |
 //! |---|---|---|
-//! | dummy walls | [`dummy`] | fixed particles whose p, ρ and viscous velocity are extrapolated from the fluid (Adami et al. 2012) |
-//! | dynamic walls | [`dynamic`] | fixed particles whose ρ follows the continuity equation and p the EOS (Crespo et al. 2007; DualSPHysics's boundary) |
-//! | repulsive walls | [`repulsive`] | a pair force from wall particles (Monaghan 1994) |
-//! | mirror walls | [`mirror`] | image particles reflected across a container's inner faces |
-//! | periodic axes | [`periodic`] | wrap and image particles shifted by the box length |
-//! | moving walls | [`motion`] | motion laws applied to wall bodies |
-//! | wall surfaces | [`geometry`] | distances to a wall's surface (Morris et al. 1997 no-slip); fluid that a drift carries through a dummy wall's face bounces back |
+//! | dummy walls | [`dummy`] | fixed particles whose p, ρ and viscous velocity are extrapolated
+//! from the fluid (Adami et al. 2012) | | dynamic walls | [`dynamic`] | fixed particles whose ρ
+//! follows the continuity equation and p the EOS (Crespo et al. 2007; DualSPHysics's boundary) | |
+//! repulsive walls | [`repulsive`] | a pair force from wall particles (Monaghan 1994) | | mirror
+//! walls | [`mirror`] | image particles reflected across a container's inner faces | | periodic
+//! axes | [`periodic`] | wrap and image particles shifted by the box length | | moving walls |
+//! [`motion`] | motion laws applied to wall bodies | | wall surfaces | [`geometry`] | distances to
+//! a wall's surface (Morris et al. 1997 no-slip); fluid that a drift carries through a dummy wall's
+//! face bounces back |
 //!
 //! Image particles (periodic and mirror) are ghosts: [`images`] holds their geometry and
 //! [`crate::halo`] makes and refreshes them with the other ranks' ghosts.
@@ -76,7 +78,8 @@ pub fn updates(method: WallMethod) -> bool {
 
 /// Particles whose new wall values are held at once by [`update_walls`]: its buffer (40 B per
 /// particle in 3D) is one wave's, not the whole table's, so it does not add to the step's peak
-/// of memory beside the neighbour lists (issue 33).
+/// of memory beside the neighbour lists (docs/benchmark-log.md, "The step's lists freed before a
+/// view").
 const WAVE: usize = 1 << 14;
 
 /// Set p, ρ and v_w of every owned wall particle whose method [`updates`] them, each by its

@@ -1,7 +1,7 @@
-//! Candidates of particles of several sizes (issue 35): each cell of the grid, whose edge is
-//! the largest support, is cut into s^D sub-cells of about the smallest support, so that a
-//! fine particle tests the candidates near it, not the 3^D coarse cells around it (whose
-//! candidates grow as 2^(ℓD) with the refinement level ℓ).
+//! Candidates of particles of several sizes (docs/refinement.md §1): each cell of the grid, whose
+//! edge is the largest support, is cut into s^D sub-cells of about the smallest support, so that a
+//! fine particle tests the candidates near it, not the 3^D coarse cells around it (whose candidates
+//! grow as 2^(ℓD) with the refinement level ℓ).
 //!
 //! **Same lists.** A pair (i, j) is a neighbour when |x_ij| < r_i + r_j, r = κh/2, and
 //! r_i + r_j ≤ the support ≤ the cell edge, so every neighbour lies in i's 3^D stencil of
@@ -296,8 +296,8 @@ impl SubCells {
     }
 }
 
-/// The neighbours among the slots `b..e` of the cell-order copy `copy`: those with |x_ij| < r_i + r_j (fluid ones only if
-/// `fluid_only`), in entry order.
+/// The neighbours among the slots `b..e` of the cell-order copy `copy`: those with |x_ij| < r_i +
+/// r_j (fluid ones only if `fluid_only`), in entry order.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn scan_slots<const D: usize>(

@@ -5,11 +5,11 @@
 //! sorted by id — every field of the particle table through the wire format, then the
 //! acceleration a_n, which the next half kick needs and which cannot be recomputed because it
 //! was evaluated with v_{n−½}, and with Verlet lists the positions at the last neighbour build,
-//! from which a restart lists the same pairs in the same order) and `manifest.json` (format, code version, step, t, dt, the
-//! resolved scene, the driver's state, and per part its particle count, byte length and
-//! FNV-1a 64 checksum). Every file is written to a temporary name, synced and renamed; the
-//! manifest is written last, so a checkpoint without one is incomplete and is skipped. Once a
-//! manifest is in place the oldest checkpoints beyond `[checkpoint] keep` are deleted.
+//! from which a restart lists the same pairs in the same order) and `manifest.json` (format, code
+//! version, step, t, dt, the resolved scene, the driver's state, and per part its particle count,
+//! byte length and FNV-1a 64 checksum). Every file is written to a temporary name, synced and
+//! renamed; the manifest is written last, so a checkpoint without one is incomplete and is skipped.
+//! Once a manifest is in place the oldest checkpoints beyond `[checkpoint] keep` are deleted.
 //!
 //! Reading: every rank reads and checks every part (like the set-up, which builds the whole
 //! lattice on every rank), then keeps the particles of its block. A missing, truncated or
@@ -30,7 +30,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Version of the checkpoint layout.
-/// 2: records carry the refinement level (issue 35).
+/// 2: records carry the refinement level (docs/refinement.md §1).
 pub const FORMAT: u32 = 2;
 /// First bytes of a part file.
 const MAGIC: &[u8; 8] = b"HSPHPART";
@@ -66,7 +66,7 @@ pub struct Manifest {
     /// Time step of the next step (s).
     pub dt: f64,
     /// The id the next created particle takes ([`crate::ids`]); absent in checkpoints of
-    /// hsph before issue 36, which created none (the set-up's id bound then).
+    /// hsph before splitting (docs/splitting.md §4), which created none (the set-up's id bound then).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub next_id: Option<u64>,
     /// True if each part ends with its particles' positions at the last neighbour build
@@ -458,8 +458,8 @@ pub fn particles<const D: usize>(dir: &Path, m: &Manifest) -> Result<Share<D>> {
 
 /// Rank `rank`'s share of a checkpoint among `ranks`: the particles of the parts `k` with
 /// `k % ranks == rank` (sorted by id), each part checked against the manifest. A restart
-/// reads the checkpoint this way, so no rank holds the whole of it (issue 17); the particles
-/// then migrate to their owners.
+/// reads the checkpoint this way, so no rank holds the whole of it (README, "Checkpoints and
+/// restart"); the particles then migrate to their owners.
 pub fn share<const D: usize>(dir: &Path, m: &Manifest, rank: usize, ranks: usize) -> Result<Share<D>> {
     particles_of_parts(dir, m, |k| k % ranks.max(1) == rank)
 }

@@ -192,7 +192,8 @@ Examples:
         /// layout) or `pairs` (each pair once); default: the scene's `[performance]`.
         #[arg(long, value_enum)]
         interactions: Option<crate::scene::Interactions>,
-        /// Neighbour search: `lists` or `cells` (no stored lists); default: the scene's.
+        /// Neighbour search: `lists`, `cells` (no stored lists) or `verlet` (lists kept between
+        /// ghost builds); default: the scene's.
         #[arg(long, value_enum)]
         neighbours: Option<crate::scene::NeighbourMode>,
         /// Halo refreshes overlapped with the interior (`on`, `off`); default: the scene's.

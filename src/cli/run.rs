@@ -55,8 +55,9 @@ pub struct RunArgs {
     /// own, equal to gather's to round-off). Default: the scene's `[performance] interactions`, else gather.
     #[arg(long, value_enum)]
     interactions: Option<crate::scene::Interactions>,
-    /// Neighbour search: `lists` (stored once per step, 4 B per pair) or `cells` (no lists,
-    /// each pass scans the cells again: the lean-memory mode, same bits). Default: the scene's
+    /// Neighbour search: `lists` (stored once per step, 4 B per pair), `cells` (no lists,
+    /// each pass scans the cells again: the lean-memory mode, same bits) or `verlet` (lists to
+    /// the support·(1 + skin), kept until the ghosts are built again). Default: the scene's
     /// `[performance] neighbours`, else lists.
     #[arg(long, value_enum)]
     neighbours: Option<crate::scene::NeighbourMode>,

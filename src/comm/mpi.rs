@@ -264,7 +264,8 @@ impl Comm for MpiComm {
     /// messages while the caller computes, so that large messages move meanwhile (a sender
     /// lane blocked on a large message is released as soon as its receive is posted). The
     /// thread polls with `MPI_Improbe` and sleeps between polls: a blocking probe spins and,
-    /// with a rank per core, takes the core from the compute (BENCHMARKS.md). Without
+    /// with a rank per core, takes the core from the compute (docs/benchmark-log.md,
+    /// "Refreshes overlapped with the interior"). Without
     /// MULTIPLE every MPI call stays on this thread: the whole exchange is made at the finish.
     fn start_exchange(&self, sends: Vec<(usize, Vec<u8>)>, recv_from: &[usize], tag: Tag) -> Result<Pending> {
         for &src in recv_from {

@@ -29,11 +29,11 @@
 //! max_b load_b / target_b ≤ (1 + 2η)^D ,   target_b = W_total·w_b/Σw .
 //! ```
 //!
-//! The default `η = 0.008` gives `max/mean ≤ 1.0488` in 3D (`1.032` in 2D), inside the 1.05 of
-//! issue 3. Attainability: with distinct coordinates and unit loads `δ` can be brought to
-//! `≤ 1/2`, so eq. 6 is attainable when every block holds `≥ 1/(2η) ≈ 63` particles
-//! (with pair loads: 63 times the largest single-particle load). The adjacent windows are
-//! disjoint (`2η < 1`), so satisfied planes come out ascending.
+//! The default `η = 0.008` gives `max/mean ≤ 1.0488` in 3D (`1.032` in 2D), inside the 1.05
+//! that `decomp_corner_eighth_and_spreading_3d` asks. Attainability: with distinct coordinates and
+//! unit loads `δ` can be brought to `≤ 1/2`, so eq. 6 is attainable when every block holds `≥
+//! 1/(2η) ≈ 63` particles (with pair loads: 63 times the largest single-particle load). The
+//! adjacent windows are disjoint (`2η < 1`), so satisfied planes come out ascending.
 //!
 //! # Layers
 //! When many particles share a coordinate (lattice rows, walls) the load left of a position
@@ -675,7 +675,7 @@ impl<const D: usize> Decomposition<D> {
         search(start, None, params, count)
     }
 
-    /// Incremental rebalance from these planes (issue 3, point 4). Each plane is first
+    /// Incremental rebalance from these planes (docs/methods.md §4). Each plane is first
     /// evaluated where it is (it stays when eq. 6 still holds); otherwise the bracket is
     /// widened geometrically from it, by `bracket`, `2·bracket`, `4·bracket`, … (m) towards the
     /// target, then bisected. Suggested `bracket`: the largest particle displacement since the

@@ -18,8 +18,8 @@
 //! smaller global id. `t = 0` is the plain half-open rule. The block boxes stay the planes'
 //! boxes; a particle on a face belongs to the block its id selects, and halos, which select by
 //! distance to a box, are unchanged. Without ties a layer holding more than a block's share
-//! bounds the balance (issue 17: one x-layer of the 3D bench held twice a rank's load at 96
-//! ranks, max/mean 1.52).
+//! bounds the balance (docs/benchmark-log.md, "`hsph plan` at scale after the distributed set-up":
+//! one x-layer of the 3D bench held twice a rank's load at 96 ranks, max/mean 1.52).
 //!
 //! Units: positions, planes and displacements in m; loads are dimensionless counts
 //! (particles or neighbour pairs); weights are relative speeds (dimensionless).

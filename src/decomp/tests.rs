@@ -408,9 +408,9 @@ fn decomp_weights_give_proportional_shares() {
 
 #[test]
 fn decomp_corner_eighth_and_spreading_3d() {
-    // Issue 3 acceptance: ~100 000 particles on a lattice filling the corner eighth of a
-    // unit cube, 8 ranks; max/mean ≤ 1.05 after the decomposition and after each rebalance
-    // while the cloud spreads to the whole cube.
+    // The cut planes of docs/methods.md §4 on a hard cloud: ~100 000 particles on a lattice
+    // filling the corner eighth of a unit cube, 8 ranks; max/mean ≤ 1.05 after the decomposition
+    // and after each rebalance while the cloud spreads to the whole cube.
     let m = 46; // 46³ = 97 336
     let base = lattice::<3>(m, 0.5);
     let (lo, hi) = unit::<3>();

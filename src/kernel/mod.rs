@@ -104,7 +104,7 @@ impl Kernel {
     /// branch, every piece of the kernel computed and one selected, so that the compiler
     /// evaluates the square roots and divisions of several pairs in one instruction and no
     /// branch on q is mispredicted (a pair pass's kernel evaluations were a quarter of the 3D
-    /// dam break's step, BENCHMARKS.md).
+    /// dam break's step, docs/benchmark-log.md, "Mispredicted branches in the pair passes").
     #[inline(always)]
     pub fn dw_dr_over_r_batch(&self, r2: &[f64; BATCH], out: &mut [f64; BATCH]) {
         let s = self.sigma * self.inv_h * self.inv_h;
@@ -161,10 +161,10 @@ fn normalisation(kind: KernelKind, h: f64, dim: usize) -> f64 {
 /// `Kernel::new(kind, h[n], dim).dw_dr_over_r(r2[n].sqrt())` gives (the same operations in
 /// the same order). The pairs of two sizes (`sizes::MeanH`) made a kernel per pair, two
 /// divisions each, one pair at a time: in the adaptive solitary wave with a 0.96 m band, where
-/// most pairs mix two h, that was 18 % of the run (BENCHMARKS.md). Here the lanes are computed
-/// side by side for Wendland C2, whose branch-free shape the compiler vectorises once kind
-/// and dimension are constants in the loop (one loop over any kind ran the 0.4 s segment 1.12 ×
-/// as long); the splines' lanes one at a time.
+/// most pairs mix two h, that was 18 % of the run (docs/benchmark-log.md, "The kernels of pairs of
+/// two sizes side by side"). Here the lanes are computed side by side for Wendland C2, whose
+/// branch-free shape the compiler vectorises once kind and dimension are constants in the loop (one
+/// loop over any kind ran the 0.4 s segment 1.12 × as long); the splines' lanes one at a time.
 #[inline(always)]
 pub fn dw_dr_over_r_lanes(
     kind: KernelKind,
@@ -261,7 +261,8 @@ fn dshape_over_q(kind: KernelKind, q: f64) -> f64 {
             // Branches, not a select of both pieces: the select removed 40 % of a 3D run's
             // mispredicted branches (q < 1 for an eighth of the support) but added 3 % of its
             // instructions (both pieces and a division for every pair); no time difference
-            // could be resolved on this machine (BENCHMARKS.md), so the code stays as it was.
+            // could be resolved on this machine (docs/benchmark-log.md, "Mispredicted branches in the
+            // pair passes"), so the code stays as it was.
             if q < 1.0 {
                 -3.0 + 2.25 * q
             } else {

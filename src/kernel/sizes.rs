@@ -1,5 +1,5 @@
-//! Particles of several sizes (issue 35, `[[refine]]`): the kernel of a pair of particles of
-//! different smoothing lengths.
+//! Particles of several sizes (`[[refine]]`, docs/refinement.md §1): the kernel of a pair of
+//! particles of different smoothing lengths.
 //!
 //! A particle of level ℓ has spacing Δp_ℓ = dx / 2^ℓ (its mass ρ Δp_ℓ^D) and a smoothing
 //! length h_i of its own: h_ℓ = (h/dx) Δp_ℓ in the core of its region, rising linearly to the
@@ -77,15 +77,15 @@ impl Sizes {
     }
 
     /// The load of a particle of level `level` and smoothing length `h` (m) in a `D`-dimensional
-    /// scene, for the initial split under `balance.load = "pairs"` (issue 35): 1 + its expected
-    /// list length. A body's particle lists the sites of its own spacing Δp_ℓ within its
-    /// support, V_D(κh) / Δp_ℓ^D (V_2(r) = π r², V_3(r) = 4/3 π r³): with the scene's h a
-    /// particle of level ℓ weighs about 2^(ℓD) coarse ones, with its level's h about one (its
-    /// lists keep a pair within the pair's own support), more in the transition band where h
-    /// rises. A dummy wall particle (`wall`) lists only the fluid in its support: over a wall as
-    /// thick as the support that is on average the share of a support beyond a plane at a
-    /// uniformly distributed distance, 2/(3π) in 2D and 3/16 in 3D. A function of the site
-    /// alone, so every rank weighs a particle alike.
+    /// scene, for the initial split under `balance.load = "pairs"` (docs/refinement.md §5): 1 + its
+    /// expected list length. A body's particle lists the sites of its own spacing Δp_ℓ within its
+    /// support, V_D(κh) / Δp_ℓ^D (V_2(r) = π r², V_3(r) = 4/3 π r³): with the scene's h a particle
+    /// of level ℓ weighs about 2^(ℓD) coarse ones, with its level's h about one (its lists keep a
+    /// pair within the pair's own support), more in the transition band where h rises. A dummy wall
+    /// particle (`wall`) lists only the fluid in its support: over a wall as thick as the support
+    /// that is on average the share of a support beyond a plane at a uniformly distributed
+    /// distance, 2/(3π) in 2D and 3/16 in 3D. A function of the site alone, so every rank weighs a
+    /// particle alike.
     pub fn site_load<const D: usize>(&self, level: u16, h: f64, wall: bool) -> u64 {
         use std::f64::consts::PI;
         let r = self.kind.support_factor() * h / self.dx[level as usize];

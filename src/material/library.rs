@@ -1,5 +1,5 @@
 //! Material constants shipped with hsph, each with its source (the table
-//! `../shared/refdata/hvi_aluminium_material_parameters.csv` of the project's reference data
+//! `inputs/reference/hvi_aluminium_material_parameters.csv` of the project's reference data
 //! gives the repositories and papers). Only sets whose digits two sources agree on, or that a
 //! named primary source gives, are here: Al 6061-T6 is the one alloy with a verified
 //! Johnson–Cook set; the Al 2024-T3 Johnson–Cook row of that table is marked UNVERIFIED and is

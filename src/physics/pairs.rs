@@ -78,7 +78,7 @@ trait Home<A>: Sync {
 /// the list-free scan. Verlet lists (`cells::verlet`) also hold pairs that lie beyond the
 /// support now: every pair kernel here is a multiple of W′(r) (the `f` of each kernel), which
 /// is exactly 0 there, so such a pair adds exact zeros and no filter is needed (a filter per
-/// partner made the passes 25 % slower, BENCHMARKS.md).
+/// partner made the passes 25 % slower, docs/benchmark-log.md, "Verlet lists").
 fn run_homes<const D: usize, A: Copy + Send + Sync>(
     half: &HalfView<'_, D>,
     acc: &mut Vec<A>,

@@ -167,9 +167,10 @@ fn compare(label: &str, pts: &[V3], dp: f64, topo: &Topology) -> Vec<TrafficSpli
     out
 }
 
-/// Issue 4 acceptance on the impact-like cloud (dp = 0.2 mm, ≈ 404 k particles) and a 3D
-/// dam-break-like cloud (dp = 25 mm, ≈ 104 k particles), 96 ranks on 4 nodes of 24.
-/// Run with `--nocapture` for the table (BENCHMARKS.md).
+/// The placements of docs/benchmark-log.md, "Placement: inter-node halo bytes with 96 ranks on 4
+/// nodes of 24", on the impact-like cloud (dp = 0.2 mm, ≈ 404 k particles) and a 3D dam-break-like
+/// cloud (dp = 25 mm, ≈ 104 k particles), 96 ranks on 4 nodes of 24. Run with `--nocapture` for the
+/// table (that section of docs/benchmark-log.md).
 ///
 /// What holds and is asserted: on the impact cloud `centre-distance` moves fewer inter-node
 /// bytes than `rank-order`; `min-cut` moves no more than `centre-distance` (nor `rank-order`,

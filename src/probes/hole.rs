@@ -1,22 +1,22 @@
-//! The hole a projectile punches in a plate, and the debris cloud behind it (issue 12, item 4),
+//! The hole a projectile punches in a plate, and the debris cloud behind it (docs/impact.md,
+//! "How the hole is measured"),
 //! measured from the plate's particles.
 //!
 //! **Method** (fixed before the first oblique-impact run). The plate's particles are projected
 //! along its normal onto the plate plane, but only those still in the plate: within half a
 //! thickness plus a bulge allowance of 3 H of the plate's mid-plane, so that debris thrown
 //! ahead or behind does not fill the hole (once it has left that band: early on, plate debris
-//! still inside it hides the hole) while a bulged rim still counts. The plane is covered with square cells of
-//! side 1.5 dx; a cell is material if a projected particle lies in it. The hole is the
-//! connected set (4-neighbour) of empty cells that contains the projectile's aim point (the
-//! centre of the empty cells within the projectile's radius of it) and does not reach the
-//! edge of the grid. Its axes come from the second moments of its cells: for a uniform
-//! ellipse with semi-axes a ≥ b the covariance has eigenvalues a²/4 and b²/4, so the major
-//! and minor axes are 4√λ1 and 4√λ2, the orientation that of λ1's eigenvector (angle from the
-//! first in-plane axis, degrees in (−90, 90]). Robust to isolated gaps elsewhere (not
-//! connected to the hole) and to the bulge (the band). The debris cloud is every solid
-//! particle beyond the plate's rear face by more than one thickness: its extent along the
-//! impact direction (from the rear face) and across it (twice the largest distance from the
-//! impact axis through the aim point).
+//! still inside it hides the hole) while a bulged rim still counts. The plane is covered with
+//! square cells of side 1.5 dx; a cell is material if a projected particle lies in it. The hole is
+//! the connected set (4-neighbour) of empty cells that contains the projectile's aim point (the
+//! centre of the empty cells within the projectile's radius of it) and does not reach the edge of
+//! the grid. Its axes come from the second moments of its cells: for a uniform ellipse with
+//! semi-axes a ≥ b the covariance has eigenvalues a²/4 and b²/4, so the major and minor axes are
+//! 4√λ1 and 4√λ2, the orientation that of λ1's eigenvector (angle from the first in-plane axis,
+//! degrees in (−90, 90]). Robust to isolated gaps elsewhere (not connected to the hole) and to the
+//! bulge (the band). The debris cloud is every solid particle beyond the plate's rear face by more
+//! than one thickness: its extent along the impact direction (from the rear face) and across it
+//! (twice the largest distance from the impact axis through the aim point).
 
 use crate::particles::Particles;
 use crate::scene::Scene;

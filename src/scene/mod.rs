@@ -186,7 +186,7 @@ impl Default for Limits {
     }
 }
 
-/// How the run computes, not what: `[performance]` (issue 16).
+/// How the run computes, not what: `[performance]` (README, "Scene files").
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Performance {
@@ -212,7 +212,8 @@ pub struct Performance {
     pub skin: f64,
 }
 
-/// The default Verlet skin of the ghost set (fraction of the kernel support), see BENCHMARKS.md.
+/// The default Verlet skin of the ghost set (fraction of the kernel support), see
+/// docs/benchmark-log.md, "Ghosts kept between builds with a Verlet skin".
 pub const DEFAULT_SKIN: f64 = 0.1;
 
 fn default_skin() -> f64 {
@@ -240,8 +241,8 @@ pub enum Overlap {
     On,
     /// Refresh first, then compute every particle: the default, because on this project's
     /// 2-core machine, with a rank per core, overlap made the step 2 % (local ranks) to 7 %
-    /// (MPI) slower (BENCHMARKS.md); it is for nodes where the exchange, not the compute,
-    /// waits.
+    /// (MPI) slower (docs/benchmark-log.md, "Refreshes overlapped with the interior"); it is for
+    /// nodes where the exchange, not the compute, waits.
     #[default]
     Off,
 }
@@ -260,7 +261,9 @@ impl Overlap {
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum NeighbourMode {
-    /// Lists built once per step and read by every pass (4 B per pair: fastest).
+    /// Lists built once per step and read by every pass (4 B per pair; pair mode's half lists
+    /// about 1.1 B). Faster than `cells`; `verlet` builds far fewer lists on the DualSPHysics
+    /// scenes, which ship it.
     #[default]
     Lists,
     /// No stored lists: every pass scans the stencil cells again, in the same order, so the
@@ -317,7 +320,7 @@ impl Interactions {
     }
 }
 
-/// Load balancing of the domain decomposition (issue 3).
+/// Load balancing of the domain decomposition (`[balance]`, docs/methods.md §4).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Balance {
@@ -358,7 +361,7 @@ pub enum LoadKind {
     Particles,
     /// A particle weighs 1 + its neighbour count (the cost of its force loop): the default,
     /// since a wall particle costs a fraction of a fluid one (2 local ranks on the 3D bench:
-    /// 0.9 × the step time of `particles`, BENCHMARKS.md).
+    /// 0.9 × the step time of `particles`, docs/benchmark-log.md, "Pair loads by default").
     #[default]
     Pairs,
 }

@@ -72,7 +72,7 @@ pub enum Reference {
         /// Gauge probe at the wall the wave runs up.
         runup_gauge: String,
     },
-    /// The decaying Taylor–Green vortex in a periodic square of side L (analytic.md §2):
+    /// The decaying Taylor–Green vortex in a periodic square of side L (docs/analytic.md §2):
     /// u = −U e^{bt} cos(2πx/L) sin(2πy/L), v = U e^{bt} sin(2πx/L) cos(2πy/L),
     /// b = −8π²ν/L², with the domain's lower corner at the origin of x and y.
     TaylorGreen {

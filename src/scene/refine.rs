@@ -1,5 +1,5 @@
 //! Refinement regions (`[[refine]]`): where bodies are built with particles of a finer spacing
-//! dx / 2^level (issue 35, docs/refinement.md).
+//! dx / 2^level (docs/refinement.md §1).
 //!
 //! A lattice site of the scene's spacing (a *coarse* site) whose centre lies in a region of
 //! level ℓ is not built; the 2^(ℓ·D) sites of the level-ℓ lattice that subdivide its cell are
@@ -363,8 +363,9 @@ pub fn list_warnings(s: &Scene) -> Vec<String> {
 const STILL_BAND_SUPPORTS: f64 = 4.0;
 
 /// Warnings for regions that give a fluid built under hydrostatic pressure (`hydrostatic =
-/// true` with a body force) its level's h: where h varies across the pressure gradient, the mean-h pair kernel's residual times the pressure is a force with
-/// a curl that no pressure field balances, and it drives a current (docs/refinement.md §1).
+/// true` with a body force) its level's h: where h varies across the pressure gradient, the mean-h
+/// pair kernel's residual times the pressure is a force with a curl that no pressure field
+/// balances, and it drives a current (docs/refinement.md §1).
 pub fn level_h_warnings(s: &Scene) -> Vec<String> {
     if s.physics.body_force.iter().all(|&g| g == 0.0) {
         return Vec::new();

@@ -1,5 +1,5 @@
 //! Splitting of fluid particles that enter adaptive refinement regions (`[[refine]] adapt =
-//! true`; issue 36, `docs/splitting.md` §2). Their children merge again when they leave it
+//! true`; `docs/splitting.md` §2). Their children merge again when they leave it
 //! ([`super::merge`]).
 //!
 //! A fluid particle of level ℓ (spacing s = dx/2^ℓ) whose centre lies at least s inside an
@@ -8,8 +8,8 @@
 //! m/2^D with the parent's velocity, density and every other field, so Σm and Σmv are kept
 //! (m/2^D is exact in binary floating point). The smoothing length is the region's at the
 //! child's site ([`Refine::smoothing_length`]: the scene's, or with `smoothing_length =
-//! "level"` that of level ℓ + 1, ramped over the transition band). Children take new ids from the run's counter
-//! ([`crate::ids`]), keyed by (parent id, child index): the same on every layout.
+//! "level"` that of level ℓ + 1, ramped over the transition band). Children take new ids from the
+//! run's counter ([`crate::ids`]), keyed by (parent id, child index): the same on every layout.
 
 use super::Simulation;
 use crate::comm::Comm;

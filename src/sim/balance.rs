@@ -28,7 +28,8 @@ pub struct BalanceStats {
     /// max/mean load after the initial decomposition and after each rebalance.
     pub imbalance_history: Vec<f64>,
     /// Most particles this rank has held at once (owned + ghosts, and every particle the
-    /// set-up materialised, kept or not), from the set-up on (issue 17: O(N/P)).
+    /// set-up materialised, kept or not), from the set-up on (O(N/P):
+    /// docs/performance_model.md, "Memory per rank").
     pub particle_high_water: u64,
     /// Most ghosts this rank has held at once.
     pub ghost_high_water: u64,

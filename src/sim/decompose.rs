@@ -1,11 +1,12 @@
 //! The initial decomposition: blocks balanced on particle counts (seed 000, eqs. 5–6) and
 //! placed on ranks by the run layout.
 //!
-//! Distributed set-up (issue 17): no rank builds the whole lattice. Each rank streams its
-//! share of the lattice layers ([`LayerShare`]) to count the load left of each candidate
-//! plane, the counts are summed over ranks (exact integer all-reduce), and every rank then
-//! builds only the sites it owns. Memory per rank is O(N/P); the blocks, and so the bits, are
-//! the same whatever the number of ranks, since the counts are global sums.
+//! Distributed set-up (ARCHITECTURE.md, "Ranks, ghosts and determinism across ranks"): no rank
+//! builds the whole lattice. Each rank streams its share of the lattice layers ([`LayerShare`]) to
+//! count the load left of each candidate plane, the counts are summed over ranks (exact integer
+//! all-reduce), and every rank then builds only the sites it owns. Memory per rank is O(N/P); the
+//! blocks, and so the bits, are the same whatever the number of ranks, since the counts are global
+//! sums.
 
 use crate::comm::Comm;
 use crate::decomp::{factorise, fold_parts, BalanceParams, Cloud, Decomposition};

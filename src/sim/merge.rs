@@ -1,5 +1,5 @@
-//! Merging of fluid particles that left adaptive refinement regions (issue 36,
-//! `docs/splitting.md` §3): the reverse of [`super::adapt`]'s split.
+//! Merging of fluid particles that left adaptive refinement regions
+//! (`docs/splitting.md` §3): the reverse of [`super::adapt`]'s split.
 //!
 //! A fluid particle of level ℓ ≥ 1 whose body some adaptive region refines is *due* when its
 //! centre lies at least the coarse spacing dx/2^(ℓ−1) outside every region of level ≥ ℓ that

@@ -226,7 +226,7 @@ impl<const D: usize> Simulation<D> {
         // `share`: the particles of the checkpoint parts this rank read (any subset; all of
         // them on one rank). The blocks are balanced on counts summed over ranks, then every
         // particle migrates to its owner with its acceleration: no rank holds the whole
-        // checkpoint (issue 17).
+        // checkpoint (README, "Checkpoints and restart").
         let mut p = share.dropping(crate::setup::dropped_fields(scene));
         let loaded = p.n_owned;
         let space = image_space::<D>(scene);

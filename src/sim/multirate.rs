@@ -1,4 +1,4 @@
-//! Local time stepping (`time.stepping = "local"`; issue 36, docs/splitting.md §8): where
+//! Local time stepping (`time.stepping = "local"`; docs/splitting.md §8): where
 //! particles of several smoothing lengths meet, the fluid and wall particles of the scene's h
 //! (coarse, C) take one step of Δ = 2δ while the others (fine, F: smaller h, solids) take two
 //! of δ.

@@ -3,10 +3,11 @@
 //! any number of threads, at the cost of a streaming loop.
 //!
 //! A check's predicate is a few comparisons per particle; rayon's `find_first` or a serial
-//! `filter` spends more than that per item on its bookkeeping (issue 33's 2D profile put the
-//! step's checks and the outflow's scan at 8–10 % of a one-thread run, and they did not
-//! scale). Here each chunk of [`CHUNK`] indices is folded without an early exit, chunks run in
-//! parallel, and only a chunk with a hit is searched again in order.
+//! `filter` spends more than that per item on its bookkeeping (the 2D profile of
+//! docs/benchmark-log.md, "The step's checks and the outflow's scan in streaming chunks", put the
+//! step's checks and the outflow's scan at 8–10 % of a one-thread run, and they did not scale).
+//! Here each chunk of [`CHUNK`] indices is folded without an early exit, chunks run in parallel,
+//! and only a chunk with a hit is searched again in order.
 
 use rayon::prelude::*;
 

@@ -1,4 +1,4 @@
-//! The ghost set kept between builds: a Verlet skin (issue 34, point 2).
+//! The ghost set kept between builds: a Verlet skin (ARCHITECTURE.md, "Ghosts kept with a skin").
 //!
 //! A build sends every rank the ghosts within `support + w` of its box (`w` the skin width,
 //! `performance.skin` × the support). Between builds the same ghosts, from the same owners, in

@@ -98,10 +98,10 @@ impl<const D: usize> Simulation<D> {
     /// Free the step's neighbour lists, cell list and pair accumulators, which the next step
     /// builds again from scratch: the driver calls it before it gathers a view (probes,
     /// reference, output), so that the view does not sit on top of them at the run's peak of
-    /// memory (BENCHMARKS.md, issue 33). The lists are kept when the next step's balance check
-    /// reads them, and Verlet lists (with their cell list) until their next build; the pair
-    /// accumulators and scratch, which every pass sizes again, go in either case. Changes no
-    /// bit.
+    /// memory (docs/benchmark-log.md, "The step's lists freed before a view"). The lists are kept
+    /// when the next step's balance check reads them, and Verlet lists (with their cell list) until
+    /// their next build; the pair accumulators and scratch, which every pass sizes again, go in
+    /// either case. Changes no bit.
     pub fn release_step_buffers(&mut self) {
         if !self.next_check_reads_lists() && !self.nl.is_verlet() {
             self.free_step_buffers();
@@ -149,10 +149,10 @@ impl<const D: usize> Simulation<D> {
     /// e^−8 over the span (its amplitude by about e^−4 when it is slower than the damping);
     /// then v = 0, t = 0, step 0, and the set-up's passes at dt = 0 again. The positions and
     /// densities keep what the discretisation holds at rest, so still water starts without the
-    /// acoustic transient of its lattice (docs/refinement.md §2). The scene's walls are still and its bodies at rest (checked
-    /// in `scene/validate.rs`). Every rank takes the same steps: the same bits on any layout.
-    /// The timers, pair count, ghost-build and cycle counts are the run's alone afterwards; balance,
-    /// migration and split/merge counts include the settling.
+    /// acoustic transient of its lattice (docs/refinement.md §2). The scene's walls are still and
+    /// its bodies at rest (checked in `scene/validate.rs`). Every rank takes the same steps: the
+    /// same bits on any layout. The timers, pair count, ghost-build and cycle counts are the run's
+    /// alone afterwards; balance, migration and split/merge counts include the settling.
     pub(super) fn settle(&mut self, comm: &dyn Comm) -> Result<()> {
         let span = self.scene.time.settle;
         if span <= 0.0 {

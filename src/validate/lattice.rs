@@ -1,6 +1,7 @@
-//! Why the still tank's square lattice rearranges at some h/dx and not at others (issue 19,
-//! point 4d): a linear (von Neumann) stability analysis of the square lattice under a uniform
-//! pressure, after Morris (1996) and Dehnen & Aly (2012, MNRAS 425, 1068).
+//! Why the still tank's square lattice rearranges at some h/dx and not at others (docs/validation.md
+//! §5, "The cause is a linear instability"): a linear (von Neumann) stability analysis of the
+//! square lattice under a uniform pressure, after Morris (1996) and Dehnen & Aly (2012, MNRAS 425,
+//! 1068).
 //!
 //! Units: dx = ρ0 = c0 = 1, so m = ρ0 dx² = 1, ω is in c0/dx and the pressure in ρ0 c0². Perturb
 //! the 2D square lattice by ξ_j = X e^{i k·x_j}. hsph's momentum equation

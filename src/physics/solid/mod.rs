@@ -1,4 +1,4 @@
-//! Elastic–plastic solids for hypervelocity impact (solids issue 12): the constitutive pieces
+//! Elastic–plastic solids for hypervelocity impact (docs/solids.md): the constitutive pieces
 //! as pure functions of a particle's state, tested against hand-computed values. The passes
 //! that use them (velocity gradient, Jaumann update with radial return, stress divergence with
 //! artificial viscosity and artificial stress, energy equation) and the scene keys come next;
