@@ -40,6 +40,7 @@ mod refinement;
 mod report;
 mod restart;
 mod restart_property;
+mod restart_transaction;
 mod scaleout;
 mod scene_limits;
 mod settle;
