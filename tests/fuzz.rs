@@ -2420,3 +2420,84 @@ fn two_thousand_mutants_of_scenes_flags_sets_checkpoints_and_job_scripts_never_p
         let _ = fs::remove_dir_all(&dir);
     }
 }
+
+/// Manifests through the library, in process (Hardening III: manifests join the corpus): a
+/// real two-rank checkpoint's `manifest.json`, mutated as JSON at the pointers a restart trusts
+/// and at random ones, or as text, is read, checked and its parts loaded as a restart reads
+/// them (each rank's share, the ids checked against the counter). No mutant panics; a refusal
+/// is always an input error (exit 2) naming the manifest or a part.
+#[test]
+fn manifests_in_process_are_read_or_refused_as_input() {
+    const MUTANTS: usize = 1600;
+    let dir = temp_dir("fuzz-manifests");
+    let run = dir.join("run");
+    let (code, _, err) = common::run_file(
+        "inputs/dam_break_2d.toml",
+        &run,
+        (2, 1),
+        &["time.max_steps=10", "checkpoint.every_steps=10"],
+    );
+    assert_eq!(code, 0, "{err}");
+    let ck = run.join("checkpoints/step-0000000010");
+    let good = fs::read_to_string(ck.join("manifest.json")).unwrap();
+    let bound = common::id_bound_2d("inputs/dam_break_2d.toml");
+    let seed = std::env::var("HSPH_FUZZ_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(SEED);
+    let mut rng = Rng(seed ^ 0x3a41_f357);
+    let (mut read, mut refused) = (0usize, 0usize);
+    for k in 0..MUTANTS {
+        let (text, note) = match rng.below(10) {
+            0..=6 => {
+                let mut v: Value = serde_json::from_str(&good).unwrap();
+                let mut notes = Vec::new();
+                for _ in 0..1 + rng.below(3) {
+                    let ptr = if rng.below(2) == 0 {
+                        s(pick(&mut rng, MANIFEST_TARGETS))
+                    } else {
+                        random_pointer(&v, &mut rng)
+                    };
+                    notes.push(mutate_json_at(&mut v, &ptr, &mut rng));
+                }
+                (raw_json(&v), notes.join("; "))
+            }
+            _ => {
+                let mut t = good.clone();
+                for _ in 0..1 + rng.below(3) {
+                    t = mutate(&t, &mut rng);
+                }
+                (t, s("text mutated"))
+            }
+        };
+        fs::write(ck.join("manifest.json"), &text).unwrap();
+        let outcome = std::panic::catch_unwind(|| -> hsph::error::Result<()> {
+            let m = hsph::checkpoint::manifest(&ck)?;
+            let next = hsph::checkpoint::next_id(&ck, &m, bound)?;
+            for rank in 0..2 {
+                let (p, _, _) = hsph::checkpoint::share::<2>(&ck, &m, rank, 2)?;
+                hsph::checkpoint::check_ids(&ck, &m, &p.id[..p.n_owned], next)?;
+            }
+            Ok(())
+        });
+        match outcome {
+            Err(_) => panic!("manifest mutant {k} panicked ({note}):\n{text}"),
+            Ok(Ok(())) => read += 1,
+            Ok(Err(e @ hsph::error::Error::Input { .. })) => {
+                let msg = e.to_string();
+                assert!(
+                    msg.contains("manifest.json") || msg.contains("part-"),
+                    "mutant {k} ({note}): the refusal names no file: {msg}"
+                );
+                refused += 1;
+            }
+            Ok(Err(e)) => panic!("manifest mutant {k} ({note}) is not an input error: {e}\n{text}"),
+        }
+    }
+    fs::write(ck.join("manifest.json"), &good).unwrap();
+    eprintln!("manifests in process: {MUTANTS} mutants, {read} read, {refused} refused");
+    assert!(
+        refused > MUTANTS / 2 && read > 0,
+        "{read} read, {refused} refused"
+    );
+}
