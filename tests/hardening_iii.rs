@@ -1,4 +1,4 @@
-//! Hardening III: the classes of defects 6 and 8, each tried with the
+//! Hardening III: the classes of defects 6, 8, 12, 13, 14 and 15, each tried with the
 //! reproducer and with other members of its class. Every refusal is exit 2 with one message
 //! naming the file (and line), key or flag; nothing panics; nothing is allocated from a number
 //! a file or flag gave before it is checked.
@@ -13,6 +13,8 @@ use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 const SCENE: &str = "inputs/dam_break_2d.toml";
+/// A small scene of local time stepping (cycles of 2 steps).
+const LOCAL: &str = "tests/data/drift_local_2d.toml";
 
 fn hsph(args: &[&str]) -> Output {
     hsph_in(&repo_path(""), args)
@@ -259,4 +261,316 @@ fn class_08_validate_forwards_stopping_signals_and_waits_for_its_runs() {
     let o = validate_signalled(&out, "HUP");
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     assert!(processes_with(out.to_str().unwrap()).is_empty());
+}
+
+/// Defect 12: every output-path flag of every command is checked up front, the same way.
+#[test]
+fn class_12_output_paths_are_checked_before_anything_runs() {
+    let dir = temp_dir("outpaths");
+    let file = dir.join("a-file");
+    fs::write(&file, "x").unwrap();
+    let scene = repo_path(SCENE).display().to_string();
+    let run = short_run(&dir, "r1", 1);
+    let under_file = file.join("x").join("y");
+    for (path, needle) in [(PathBuf::from("/dev/null"), "not a"), (under_file, "lies under")] {
+        let p = path.to_str().unwrap();
+        let dir_flags: Vec<Vec<&str>> = vec![
+            vec!["plan", &scene, "--ranks", "2", "--out", p],
+            vec!["validate", "poiseuille", "--resolutions", "8", "--out", p],
+            vec!["run", &scene, "-q", "--out", p],
+            vec!["report", run.to_str().unwrap(), "--out", p],
+            vec![
+                "jobscript",
+                &scene,
+                "--nodes",
+                "1",
+                "--ranks-per-node",
+                "2",
+                "--time",
+                "01:00:00",
+                "--out",
+                p,
+            ],
+        ];
+        for args in dir_flags {
+            assert_input_error(&hsph(&args), &["--out", p, needle]);
+        }
+        let o = hsph(&[
+            "jobscript",
+            &scene,
+            "--nodes",
+            "1",
+            "--ranks-per-node",
+            "2",
+            "--time",
+            "01:00:00",
+            "--script",
+            p,
+        ]);
+        assert_input_error(&o, &["--script", p, needle]);
+        let o = hsph(&[
+            "validate",
+            "poiseuille",
+            "--resolutions",
+            "8",
+            "--target",
+            "0.5",
+            "--write",
+            p,
+            "--out",
+            dir.join("v").to_str().unwrap(),
+        ]);
+        assert_input_error(&o, &["--write", p, needle]);
+    }
+    // a file's parent must exist (a directory's missing parents are made, as `run` always
+    // made `runs/`)
+    let missing = dir.join("no-such-dir").join("job.sh");
+    let p = missing.to_str().unwrap();
+    let o = hsph(&[
+        "jobscript",
+        &scene,
+        "--nodes",
+        "1",
+        "--ranks-per-node",
+        "2",
+        "--time",
+        "01:00:00",
+        "--script",
+        p,
+    ]);
+    assert_input_error(&o, &["--script", p, "does not exist"]);
+    let o = hsph(&[
+        "validate",
+        "poiseuille",
+        "--resolutions",
+        "8",
+        "--target",
+        "0.5",
+        "--write",
+        p,
+        "--out",
+        dir.join("v").to_str().unwrap(),
+    ]);
+    assert_input_error(&o, &["--write", p, "does not exist"]);
+    let deep = dir.join("new").join("plan");
+    let o = hsph(&["plan", &scene, "--ranks", "2", "--out", deep.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(deep.join("plan.json").is_file());
+    // nothing was made on the way
+    assert!(!dir.join("no-such-dir").exists());
+    assert!(!dir.join("v").exists());
+}
+
+/// Defect 13: an error inside an entry of an array of tables names that entry and its line,
+/// or the `--set` that set it; a sphere's box outside the domain names its radius; a conflict
+/// between a flag and the file names the flag.
+#[test]
+fn class_13_errors_name_their_own_entry_key_and_line() {
+    let dir = temp_dir("locations");
+    let scene = repo_path(SCENE);
+    let s = scene.to_str().unwrap();
+    // --set into a later probe: the key and --set, not probe[0] at the file's first probe
+    for (set, key) in [
+        ("probe[1].diameter=\"x\"", "probe[1].diameter"),
+        ("probe[2].body=3", "probe[2].body"),
+        ("probe[2].nosuch=1", "probe[2].nosuch"),
+        ("probe[0].axis=-1", "probe[0].axis"),
+        ("probe[1].point=7", "probe[1].point"),
+    ] {
+        let o = hsph(&["check", s, "--set", set]);
+        assert_input_error(&o, &["--set", &format!("key `{key}`")]);
+    }
+    // the same in the file: the entry's own line
+    let text = fs::read_to_string(&scene).unwrap();
+    let line_of = |needle: &str| text.lines().position(|l| l.starts_with(needle)).unwrap() + 1;
+    for (from, to, key, line) in [
+        (
+            "diameter = 0.01",
+            "diameter = \"big\"",
+            "probe[1].diameter",
+            line_of("diameter = 0.01"),
+        ),
+        (
+            "about = [0.584, 0.0]",
+            "about = 3",
+            "probe[2].about",
+            line_of("about = "),
+        ),
+        (
+            "window = 0.002",
+            "windw = 0.002",
+            "probe[1].windw",
+            line_of("window = 0.002"),
+        ),
+    ] {
+        let p = dir.join(format!("{}.toml", key.replace(['[', ']', '.'], "_")));
+        fs::write(&p, text.replacen(from, to, 1)).unwrap();
+        let o = hsph(&["check", p.to_str().unwrap()]);
+        assert_input_error(&o, &[&format!("{}:{line}", p.display()), &format!("key `{key}`")]);
+    }
+    // the reference (one tagged table)
+    let couette = repo_path("inputs/couette_2d.toml").display().to_string();
+    let o = hsph(&["check", &couette, "--set", "reference.gap=\"x\""]);
+    assert_input_error(&o, &["--set", "key `reference.gap`"]);
+    // a sphere's box comes from centre and radius: a radius too large is named as such, in
+    // a refinement region and in a body alike
+    let refined = repo_path("inputs/hydrostatic_2d_refined.toml")
+        .display()
+        .to_string();
+    let sphere = [
+        "refine[0].shape=\"sphere\"",
+        "refine[0].centre=[0.5, 0.25]",
+        "refine[0].radius=5.0",
+        "refine[0].min=[]",
+        "refine[0].max=[]",
+    ];
+    let mut args = vec!["check", refined.as_str()];
+    for x in &sphere {
+        args.extend(["--set", x]);
+    }
+    assert_input_error(&hsph(&args), &["key `refine[0].radius`", "lower its radius"]);
+    let sphere_fluid = [
+        "fluid[0].shape=\"sphere\"",
+        "fluid[0].centre=[0.1, 0.1]",
+        "fluid[0].radius=3.0",
+        "fluid[0].min=[]",
+        "fluid[0].max=[]",
+    ];
+    let mut args = vec!["check", s];
+    for x in &sphere_fluid {
+        args.extend(["--set", x]);
+    }
+    assert_input_error(&hsph(&args), &["key `fluid[0].radius`"]);
+    // a typed flag against the file: the flag is named, not the file
+    let out = dir.join("pairs");
+    let o = hsph(&[
+        "run",
+        LOCAL,
+        "-q",
+        "--interactions",
+        "pairs",
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "time.max_steps=2",
+    ]);
+    let e = stderr(&o);
+    assert_input_error(&o, &["--interactions"]);
+    assert!(!e.contains("drift_local_2d.toml:"), "{e}");
+}
+
+/// Defect 14: under local time stepping every key that counts steps is acted on at cycle
+/// ends; an odd one is warned by `check` and `run`, naming the steps it will act on.
+#[test]
+fn class_14_odd_step_counts_under_local_stepping_are_warned() {
+    let dir = temp_dir("cycles");
+    let check = |sets: &[&str]| {
+        let mut args = vec!["check", LOCAL];
+        for x in sets {
+            args.extend(["--set", x]);
+        }
+        let o = hsph(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        // `check` prints its warnings with its report, on standard output
+        String::from_utf8_lossy(&o.stdout).into_owned() + &stderr(&o)
+    };
+    let e = check(&["checkpoint.every_steps=51"]);
+    assert!(
+        e.contains("checkpoint.every_steps = 51 is odd")
+            && e.contains("every 102 steps")
+            && e.contains("102, 204"),
+        "{e}"
+    );
+    let e = check(&["time.max_steps=51"]);
+    assert!(
+        e.contains("time.max_steps = 51 is odd") && e.contains("ends at step 52"),
+        "{e}"
+    );
+    let e = check(&["checkpoint.every_steps=52", "time.max_steps=50"]);
+    assert!(!e.contains("is odd"), "{e}");
+    let e = check(&["checkpoint.every_steps=51", "time.stepping=\"global\""]);
+    assert!(!e.contains("is odd"), "{e}");
+    // the run says it too, and writes where it said
+    let out = dir.join("run");
+    let o = hsph(&[
+        "run",
+        LOCAL,
+        "-q",
+        "--threads",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "time.max_steps=220",
+        "--set",
+        "checkpoint.every_steps=51",
+        "--set",
+        "checkpoint.keep=10",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stderr(&o).contains("checkpoint.every_steps = 51 is odd"));
+    let mut cks: Vec<String> = fs::read_dir(out.join("checkpoints"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    cks.sort();
+    assert_eq!(cks, ["step-0000000102", "step-0000000204", "step-0000000220"]);
+}
+
+/// Defect 15: `balance.weights` of another length than the ranks is refused wherever the
+/// ranks are known, naming the key, its length, the ranks and why.
+#[test]
+fn class_15_rank_weights_have_one_entry_per_rank() {
+    let dir = temp_dir("weights");
+    let s = repo_path(SCENE).display().to_string();
+    let o = hsph(&[
+        "check",
+        &s,
+        "--ranks",
+        "4",
+        "--set",
+        "balance.weights=[1.0, 2.0, 1.0]",
+    ]);
+    assert_input_error(
+        &o,
+        &["--set", "balance.weights", "3 entries", "4 ranks", "one per rank"],
+    );
+    let o = hsph(&["plan", &s, "--ranks", "3", "--set", "balance.weights=[1.0, 2.0]"]);
+    assert_input_error(&o, &["balance.weights", "2 entries", "3 ranks"]);
+    // jobscript takes no --set: the weights come from the file
+    let file = dir.join("w.toml");
+    fs::write(
+        &file,
+        fs::read_to_string(repo_path(SCENE)).unwrap() + "\n[balance]\nweights = [1.0, 2.0, 3.0]\n",
+    )
+    .unwrap();
+    let f = file.to_str().unwrap();
+    let o = hsph(&[
+        "jobscript",
+        f,
+        "--nodes",
+        "2",
+        "--ranks-per-node",
+        "2",
+        "--time",
+        "01:00:00",
+    ]);
+    assert_input_error(
+        &o,
+        &[
+            &format!("{f}:"),
+            "balance.weights",
+            "3 entries",
+            "4 ranks",
+            "--nodes 2",
+        ],
+    );
+    let out = dir.join("run");
+    let o = hsph(&["run", f, "-q", "--ranks", "2", "--out", out.to_str().unwrap()]);
+    assert_input_error(&o, &["balance.weights", "3 entries", "2 ranks"]);
+    assert!(!out.exists());
+    // one per rank passes
+    let o = hsph(&["check", f, "--ranks", "3"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }

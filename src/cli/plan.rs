@@ -15,6 +15,7 @@ pub(super) fn cmd_plan(
 ) -> Result<i32> {
     let (scene, src) = load_scene(scene, set)?;
     layout_limits(&scene, &src, ranks)?;
+    rank_weights(&scene, &src, ranks, &format!("--ranks {ranks}"))?;
     let req = LayoutRequest {
         backend: Backend::Local,
         ranks,
@@ -147,6 +148,7 @@ pub(super) fn cmd_model(a: ModelArgs) -> Result<i32> {
     }
     crate::limits::count("--threads", threads as u64, crate::limits::MAX_THREADS as u64)?;
     layout_limits(&scene, &src, ranks)?;
+    rank_weights(&scene, &src, ranks, &format!("--ranks {ranks}"))?;
     let per_node = if ranks_per_node == 0 {
         ranks
     } else {
