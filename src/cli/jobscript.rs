@@ -68,7 +68,7 @@ pub(super) fn cmd_jobscript(a: JobArgs) -> Result<i32> {
         output_path("--script", path, Written::File)?;
     }
     if let Some(dir) = &out {
-        output_path("--out", dir, Written::Dir)?;
+        output_path("--out", dir, Written::RunDir)?;
     }
     let (sc, src) = load_scene(&scene, &[])?;
     let abs = |p: &std::path::Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());

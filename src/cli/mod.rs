@@ -433,7 +433,9 @@ fn locate(src: &SceneSource, e: Error) -> Error {
 /// What an output-path flag names: a directory the command fills, or a file it writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Written {
-    /// A directory (`--out` of `run`, `plan`, `validate`, `report`, `jobscript`).
+    /// A run directory (`--out` of `run` and `jobscript`).
+    RunDir,
+    /// A directory (`--out` of `plan`, `validate`, `report`).
     Dir,
     /// A file (`jobscript --script`, `validate --write`).
     File,
@@ -448,6 +450,7 @@ pub(crate) enum Written {
 pub(crate) fn output_path(flag: &str, path: &std::path::Path, kind: Written) -> Result<()> {
     use std::io::ErrorKind;
     let (what, example) = match kind {
+        Written::RunDir => ("a run directory", "runs/out"),
         Written::Dir => ("a directory", "runs/out"),
         Written::File if flag == "--write" => ("a regular file", "cheap.toml"),
         Written::File => ("a regular file", "job.sh"),
@@ -462,7 +465,7 @@ pub(crate) fn output_path(flag: &str, path: &std::path::Path, kind: Written) -> 
         return Err(bad("is empty".into()));
     }
     match std::fs::metadata(path) {
-        Ok(m) if kind == Written::Dir && !m.is_dir() => {
+        Ok(m) if kind != Written::File && !m.is_dir() => {
             return Err(bad(
                 "exists and is not a directory (a file, a device or a FIFO)".into()
             ))
@@ -485,7 +488,7 @@ pub(crate) fn output_path(flag: &str, path: &std::path::Path, kind: Written) -> 
     let mut up = Some(parent);
     while let Some(a) = up {
         match std::fs::metadata(a) {
-            Ok(m) if m.is_dir() && (a == parent || kind == Written::Dir) => return Ok(()),
+            Ok(m) if m.is_dir() && (a == parent || kind != Written::File) => return Ok(()),
             Ok(m) if m.is_dir() => {
                 return Err(bad(format!(
                     "its parent directory {} does not exist (create it first: mkdir -p {})",

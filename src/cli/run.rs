@@ -128,7 +128,7 @@ pub(super) fn cmd_run_args(a: RunArgs) -> Result<i32> {
     };
     check_run_flags(backend, bind, ranks, checkpoint_every_minutes)?;
     if let Some(dir) = &out {
-        output_path("--out", dir, Written::Dir)?;
+        output_path("--out", dir, Written::RunDir)?;
     }
     let opts = RunOptions {
         out,

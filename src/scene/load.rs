@@ -501,11 +501,12 @@ fn table_at<'a>(t: &'a dyn TableLike, segs: &[Seg]) -> Option<&'a dyn TableLike>
 /// `3`, expected …`: the same value, else a value of the same type; `invalid length 1`: an
 /// array of that length).
 fn field_named(t: &dyn TableLike, message: &str) -> Option<String> {
+    // an unknown field of this table (not the table itself, unknown to its parent)
     if let Some(f) = message
         .strip_prefix("unknown field `")
         .and_then(|r| r.split('`').next())
     {
-        return Some(f.to_string());
+        return t.contains_key(f).then(|| f.to_string());
     }
     let values: Vec<(String, Value)> = t
         .iter()
