@@ -154,22 +154,6 @@ pub const OUT_ADVICE: &str = "choose another, e.g. --out runs/dam_break";
 /// See [`SCENE_ADVICE`].
 pub const HSPH_ADVICE: &str = "install hsph under a path of printable characters, e.g. /opt/hsph/bin/hsph";
 
-/// Refuse (exit 2 naming `--script`) a script path that exists and is not a regular file (a
-/// directory, a device such as `/dev/full`, a FIFO): the script would be renamed over it.
-/// A symbolic link is judged by what it points to.
-pub fn script_target(path: &Path) -> Result<()> {
-    match std::fs::metadata(path) {
-        Ok(m) if !m.is_file() => Err(Error::input(
-            "--script",
-            format!(
-                "{path:?} exists and is not a regular file (a directory, a device or a FIFO), and \
-                 would be replaced; give a file path, e.g. --script job.sh"
-            ),
-        )),
-        _ => Ok(()),
-    }
-}
-
 impl JobSpec {
     /// Check the request: every count, time and name within its bound, every path printable
     /// (exit 2 naming the flag, or the scene file and its `name`).
@@ -671,15 +655,5 @@ mod tests {
             .output()
             .expect("bash");
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    }
-
-    #[test]
-    fn a_script_path_that_is_not_a_regular_file_is_refused() {
-        for p in ["/dev/full", "/dev/null", "/"] {
-            let e = script_target(Path::new(p)).unwrap_err();
-            assert_eq!(e.exit_code(), 2);
-            assert!(e.to_string().contains("--script"), "{e}");
-        }
-        assert!(script_target(Path::new("/nonexistent/job.sh")).is_ok());
     }
 }

@@ -180,28 +180,8 @@ pub fn threads(key: &str, threads: usize, ranks_in_process: usize) -> Result<Opt
 /// regular file or a pipe (`hsph check <(generate)`); a device such as `/dev/zero` is refused.
 /// `key` names the file's role in the message (`SCENE`, `--topology`, ...).
 pub fn read_text(path: &Path, key: &str) -> Result<String> {
-    let bad = |m: String| Error::Input {
-        at: Some(crate::error::Location {
-            file: path.to_path_buf(),
-            line: None,
-        }),
-        key: key.to_string(),
-        message: m,
-    };
-    let meta = std::fs::metadata(path).map_err(|e| bad(format!("cannot read: {e}")))?;
-    let ft = meta.file_type();
-    if !(ft.is_file() || is_fifo(&ft)) {
-        return Err(bad(
-            "is not a regular file (a directory or a device); give a TOML file, e.g. inputs/dam_break_2d.toml".into(),
-        ));
-    }
-    if meta.len() > MAX_INPUT_BYTES {
-        return Err(bad(format!(
-            "is {} bytes, above the input limit of {MAX_INPUT_BYTES} bytes",
-            meta.len()
-        )));
-    }
-    let f = std::fs::File::open(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+    let bad = |m: String| file_error(path, key, None, m);
+    let f = open_input(path, key, MAX_INPUT_BYTES)?;
     let mut bytes = Vec::new();
     f.take(MAX_INPUT_BYTES + 1)
         .read_to_end(&mut bytes)
@@ -212,6 +192,367 @@ pub fn read_text(path: &Path, key: &str) -> Result<String> {
         )));
     }
     String::from_utf8(bytes).map_err(|e| bad(format!("is not UTF-8 text: {e}")))
+}
+
+/// An input error at `path` (and `line`), about `key`.
+fn file_error(path: &Path, key: &str, line: Option<usize>, message: String) -> Error {
+    Error::Input {
+        at: Some(crate::error::Location {
+            file: path.to_path_buf(),
+            line,
+        }),
+        key: key.to_string(),
+        message,
+    }
+}
+
+/// `path` opened for reading after the checks every input file gets: a regular file or a pipe
+/// (never a directory or a device), at most `max` bytes.
+fn open_input(path: &Path, key: &str, max: u64) -> Result<std::fs::File> {
+    let bad = |m: String| file_error(path, key, None, m);
+    let meta = std::fs::metadata(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+    let ft = meta.file_type();
+    if !(ft.is_file() || is_fifo(&ft)) {
+        let example = if key == "SCENE" {
+            "a TOML file, e.g. inputs/dam_break_2d.toml"
+        } else {
+            "a regular file or a pipe"
+        };
+        return Err(bad(format!(
+            "is not a regular file (a directory or a device); give {example}"
+        )));
+    }
+    if meta.len() > max {
+        return Err(bad(format!(
+            "is {} bytes, above the input limit of {max} bytes",
+            meta.len()
+        )));
+    }
+    std::fs::File::open(path).map_err(|e| bad(format!("cannot read: {e}")))
+}
+
+/// Largest series of a run directory read back (`diagnostics.csv`, `traffic.csv`,
+/// `final.csv` by `hsph report`): 4 GiB, read a line at a time.
+pub const MAX_SERIES_BYTES: u64 = 4 << 30;
+
+/// Longest line of a series read back (bytes): a row of `final.csv` or `diagnostics.csv` is
+/// a few hundred.
+pub const MAX_LINE_BYTES: u64 = 1 << 20;
+
+/// The lines of a text file hsph wrote and reads back (a CSV series of a run directory), one
+/// at a time with its 1-based number: the file checked as [`read_text`]'s, at most
+/// [`MAX_SERIES_BYTES`], each line at most [`MAX_LINE_BYTES`], so that nothing read is held
+/// beyond one line unless `each` keeps it. `key` names the file's role in messages.
+pub fn read_lines(path: &Path, key: &str, mut each: impl FnMut(usize, &str) -> Result<()>) -> Result<()> {
+    use std::io::BufRead;
+    let f = open_input(path, key, MAX_SERIES_BYTES)?;
+    let mut r = std::io::BufReader::new(f);
+    let (mut buf, mut total, mut n) = (Vec::new(), 0u64, 0usize);
+    loop {
+        buf.clear();
+        let got = r
+            .by_ref()
+            .take(MAX_LINE_BYTES + 1)
+            .read_until(b'\n', &mut buf)
+            .map_err(|e| file_error(path, key, None, format!("cannot read: {e}")))?;
+        if got == 0 {
+            return Ok(());
+        }
+        n += 1;
+        total += got as u64;
+        if buf.len() as u64 > MAX_LINE_BYTES {
+            return Err(file_error(
+                path,
+                key,
+                Some(n),
+                format!("line is longer than the limit of {MAX_LINE_BYTES} bytes: not a file hsph wrote"),
+            ));
+        }
+        if total > MAX_SERIES_BYTES {
+            return Err(file_error(
+                path,
+                key,
+                Some(n),
+                format!("is longer than the limit of {MAX_SERIES_BYTES} bytes"),
+            ));
+        }
+        let line = std::str::from_utf8(&buf)
+            .map_err(|_| file_error(path, key, Some(n), "is not UTF-8 text".into()))?;
+        each(n, line.trim_end_matches(['\n', '\r']))?;
+    }
+}
+
+// What `hsph model` may assume of a network between nodes: generous beyond any interconnect,
+// so that only a typo or a unit slip is refused (`--latency 1e308` made every step last
+// longer than the universe).
+
+/// Bandwidth of one node's interface `hsph model --bandwidth` may assume (GB/s): from 1 MB/s
+/// to 10 TB/s (a 400 Gb/s link is 50 GB/s).
+pub const BANDWIDTH_RANGE: (f64, f64) = (1e-3, 1e4);
+/// Latency of one message `hsph model --latency` may assume (µs): from 0 to 1 s (InfiniBand is
+/// about 1 µs, Ethernet tens).
+pub const LATENCY_RANGE: (f64, f64) = (0.0, 1e6);
+/// Most cores `hsph model --cores` may share the predicted ranks over: a thread per core at
+/// the most ranks and threads.
+pub const MAX_CORES: u64 = MAX_RANKS as u64 * MAX_THREADS as u64;
+
+/// `value` of flag `key` finite and within `range` (inclusive), in `unit`; else exit 2 naming
+/// the flag, the value and the range, with `example`.
+pub fn flag_in_range(key: &str, value: f64, range: (f64, f64), unit: &str, example: &str) -> Result<()> {
+    if value.is_finite() && range.0 <= value && value <= range.1 {
+        return Ok(());
+    }
+    Err(Error::input(
+        key,
+        format!(
+            "{} {unit} is outside the range {} to {} {unit}; e.g. {key} {example}",
+            show(value),
+            show(range.0),
+            show(range.1)
+        ),
+    ))
+}
+
+/// Largest byte or message count of a run's traffic read back: 2⁶² (sums of a few such
+/// counts stay in 64 bits).
+pub const MAX_TRAFFIC_BYTES: u64 = 1 << 62;
+
+/// The numbers of a file that a run wrote and a later command reads back (`summary.json`,
+/// `diagnostics.csv`, `traffic.csv`, `final.csv`), each checked where it is read against the
+/// limits its flag has: a count is a whole number in its range, a real is finite in its
+/// range. A value outside is exit 2 naming the file (and line), the key, the value and the
+/// range a run of hsph writes, before anything is sized by it.
+#[derive(Debug, Clone, Copy)]
+pub struct FileNumbers<'a> {
+    /// The file read.
+    pub file: &'a Path,
+    /// Its 1-based line, where it has lines.
+    pub line: Option<usize>,
+}
+
+impl<'a> FileNumbers<'a> {
+    /// The numbers of `file` (no line).
+    pub fn of(file: &'a Path) -> Self {
+        FileNumbers { file, line: None }
+    }
+
+    /// The numbers of `line` of `file`.
+    pub fn at(file: &'a Path, line: usize) -> Self {
+        FileNumbers {
+            file,
+            line: Some(line),
+        }
+    }
+
+    /// An input error about `key` of this file.
+    pub fn error(&self, key: &str, message: String) -> Error {
+        file_error(self.file, key, self.line, message)
+    }
+
+    /// The number `key` holds, as written: a JSON number, or a CSV field's text.
+    fn number(&self, key: &str, v: &Number<'_>) -> Result<f64> {
+        match v {
+            Number::Json(serde_json::Value::Number(n)) => n
+                .as_f64()
+                .ok_or_else(|| self.error(key, format!("{n} is not a number"))),
+            Number::Json(other) => Err(self.error(key, format!("{other} is not a number"))),
+            Number::Text(t) => t
+                .parse::<f64>()
+                .map_err(|_| self.error(key, format!("`{t}` is not a number"))),
+        }
+    }
+
+    /// A count in `lo..=hi`: a whole number (`2`, `2.0`; not `2.5`, `-1` or `1e300`).
+    pub fn count(&self, key: &str, v: Number<'_>, (lo, hi): (u64, u64)) -> Result<u64> {
+        if let Number::Json(serde_json::Value::Number(n)) = &v {
+            if let Some(u) = n.as_u64() {
+                return self.count_range(key, u as f64, lo, hi).map(|_| u);
+            }
+        }
+        let x = self.number(key, &v)?;
+        self.count_range(key, x, lo, hi)?;
+        Ok(x as u64)
+    }
+
+    fn count_range(&self, key: &str, x: f64, lo: u64, hi: u64) -> Result<()> {
+        if x.fract() == 0.0 && x >= lo as f64 && x <= hi as f64 {
+            return Ok(());
+        }
+        Err(self.error(
+            key,
+            format!(
+                "{} is not a whole number from {lo} to {hi}, the range a run of hsph writes (the \
+                 limits of its flags, src/limits.rs): the file is damaged or not one hsph wrote; \
+                 run hsph again to write it",
+                show(x)
+            ),
+        ))
+    }
+
+    /// A real in `lo..=hi`, finite.
+    pub fn real(&self, key: &str, v: Number<'_>, (lo, hi): (f64, f64)) -> Result<f64> {
+        let x = self.number(key, &v)?;
+        if x.is_finite() && lo <= x && x <= hi {
+            return Ok(x);
+        }
+        Err(self.error(
+            key,
+            format!(
+                "{} is outside {} to {}, the range a run of hsph writes (src/limits.rs): the file \
+                 is damaged or not one hsph wrote; run hsph again to write it",
+                show(x),
+                show(lo),
+                show(hi)
+            ),
+        ))
+    }
+}
+
+/// `x` as a message shows it: plain from 10⁻³ to 10¹⁰, else in scientific notation (a
+/// `1e308` read is not printed as 309 digits).
+fn show(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-3..1e10).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// A number as a file holds it: a JSON value or a CSV field.
+#[derive(Debug, Clone, Copy)]
+pub enum Number<'v> {
+    /// A JSON value (anything but a number is refused).
+    Json(&'v serde_json::Value),
+    /// The text of a CSV field.
+    Text(&'v str),
+}
+
+/// Counts of a run's `summary.json` that `hsph model` and `hsph report` read, and their
+/// ranges: the limits of the flags that set them.
+pub const SUMMARY_COUNTS: [(&str, (u64, u64)); 9] = [
+    ("ranks", (1, MAX_RANKS as u64)),
+    ("threads", (1, MAX_THREADS as u64)),
+    ("nodes", (1, MAX_RANKS as u64)),
+    ("particles", (1, MAX_PARTICLES)),
+    ("steps", (0, MAX_STEPS as u64)),
+    ("dimension", (2, 3)),
+    ("rebalances", (0, MAX_STEPS as u64)),
+    ("segments", (1, MAX_STEPS as u64)),
+    ("migrations", (0, MAX_TRAFFIC_BYTES)),
+];
+
+/// Reals of a run's `summary.json` that `hsph model` and `hsph report` read, and their ranges.
+pub const SUMMARY_REALS: [(&str, (f64, f64)); 11] = [
+    ("particles_mean", (1.0, MAX_PARTICLES as f64)),
+    ("wall_s", (0.0, MAX_WALL_SECONDS)),
+    ("t", (0.0, MAX_T_END)),
+    ("t_end", (0.0, MAX_T_END)),
+    ("particle_steps_per_s", (0.0, f64::MAX)),
+    ("pair_interactions_per_s", (0.0, f64::MAX)),
+    ("ghost_fraction", (0.0, f64::MAX)),
+    ("imbalance", (0.0, MAX_RANKS as f64)),
+    ("communication_fraction", (0.0, f64::MAX)),
+    ("balance_fraction", (0.0, f64::MAX)),
+    ("migrations_per_step", (0.0, f64::MAX)),
+];
+
+/// A run's `summary.json` read as `hsph model` and `hsph report` read it: through
+/// [`read_text`] (at most [`MAX_INPUT_BYTES`]), a JSON object, every number they read within
+/// its range ([`SUMMARY_COUNTS`], [`SUMMARY_REALS`]; the timers' seconds, the traffic's bytes
+/// and messages, the decomposition's factors), and at most as many nodes as ranks. A key
+/// absent is left to the reader (older runs lack some).
+pub fn read_summary(path: &Path) -> Result<serde_json::Value> {
+    let text = read_text(path, "summary.json")?;
+    let s: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+        file_error(
+            path,
+            "",
+            Some(e.line()),
+            format!("not valid JSON ({e}): not a summary.json hsph wrote"),
+        )
+    })?;
+    let f = FileNumbers::of(path);
+    let Some(map) = s.as_object() else {
+        return Err(f.error("", "is not a JSON object: not a summary.json hsph wrote".into()));
+    };
+    let present = |k: &str| map.get(k).filter(|v| !v.is_null());
+    for (k, range) in SUMMARY_COUNTS {
+        if let Some(v) = present(k) {
+            f.count(k, Number::Json(v), range)?;
+        }
+    }
+    for (k, range) in SUMMARY_REALS {
+        if let Some(v) = present(k) {
+            f.real(k, Number::Json(v), range)?;
+        }
+    }
+    if let (Some(r), Some(n)) = (present("ranks"), present("nodes")) {
+        let (r, n) = (r.as_f64().unwrap_or(0.0), n.as_f64().unwrap_or(0.0));
+        if n > r {
+            return Err(f.error(
+                "nodes",
+                format!("{n} nodes for {r} ranks: a run has at most one node per rank"),
+            ));
+        }
+    }
+    if let Some(d) = present("decomposition") {
+        let Some(a) = d.as_array().filter(|a| (1..=3).contains(&a.len())) else {
+            return Err(f.error(
+                "decomposition",
+                "must list 1 to 3 factors (one per axis), as a run of hsph writes".into(),
+            ));
+        };
+        for (i, x) in a.iter().enumerate() {
+            f.count(
+                &format!("decomposition[{i}]"),
+                Number::Json(x),
+                (1, MAX_RANKS as u64),
+            )?;
+        }
+    }
+    if let Some(t) = present("timers") {
+        let Some(t) = t.as_object() else {
+            return Err(f.error("timers", "must be a table of phases".into()));
+        };
+        for (phase, v) in t {
+            for stat in ["min", "mean", "max"] {
+                if let Some(x) = v.get(stat).filter(|x| !x.is_null()) {
+                    f.real(
+                        &format!("timers.{phase}.{stat}"),
+                        Number::Json(x),
+                        (0.0, MAX_WALL_SECONDS),
+                    )?;
+                }
+            }
+        }
+    }
+    if let Some(t) = present("traffic") {
+        let bytes = (0, MAX_TRAFFIC_BYTES);
+        for k in ["intra_node_bytes", "inter_node_bytes"] {
+            if let Some(x) = t.get(k).filter(|x| !x.is_null()) {
+                f.count(&format!("traffic.{k}"), Number::Json(x), bytes)?;
+            }
+        }
+        if let Some(phases) = t.get("phases").and_then(|p| p.as_object()) {
+            for (phase, v) in phases {
+                for k in ["intra_node_bytes", "inter_node_bytes", "messages"] {
+                    if let Some(x) = v.get(k).filter(|x| !x.is_null()) {
+                        f.count(&format!("traffic.phases.{phase}.{k}"), Number::Json(x), bytes)?;
+                    }
+                }
+            }
+        }
+        if let Some(c) = t.get("estimated_cost").and_then(|c| c.as_object()) {
+            for (k, x) in c.iter().filter(|(_, x)| !x.is_null()) {
+                f.real(
+                    &format!("traffic.estimated_cost.{k}"),
+                    Number::Json(x),
+                    (f64::MIN, f64::MAX),
+                )?;
+            }
+        }
+    }
+    Ok(s)
 }
 
 #[cfg(unix)]

@@ -151,8 +151,15 @@ pub struct Measured {
 }
 
 impl Measured {
-    /// Read `dir/summary.json` and `dir/scene.toml`.
+    /// Read `dir/summary.json` and `dir/scene.toml`. Every number of `summary.json` is
+    /// checked where it is read, against the limits of the flags that set it
+    /// ([`crate::limits::read_summary`]), before anything is sized by it; the model also needs
+    /// a run that took steps (`steps` ≥ 1) in a positive, finite `wall_s`, with at least one
+    /// particle per rank. Any of these wrong is exit 2 naming the file and the key.
     pub fn read(dir: &Path) -> Result<Self> {
+        use crate::limits::{
+            FileNumbers, Number, MAX_PARTICLES, MAX_RANKS, MAX_STEPS, MAX_THREADS, MAX_WALL_SECONDS,
+        };
         let bad = |what: &str| {
             Error::input(
                 dir.display().to_string(),
@@ -165,18 +172,63 @@ impl Measured {
         if !summary.exists() {
             return Err(bad("no summary.json"));
         }
-        let text = crate::limits::read_text(&summary, "summary.json")?;
-        let s: serde_json::Value =
-            serde_json::from_str(&text).map_err(|_| bad("summary.json is not JSON"))?;
-        let (scene, _) = load_scene(&dir.join("scene.toml"), &[])?;
-        let num = |k: &str| {
-            s[k].as_f64()
-                .ok_or_else(|| bad(&format!("summary.json lacks `{k}`")))
+        let s = crate::limits::read_summary(&summary)?;
+        let f = FileNumbers::of(&summary);
+        let need = |k: &str| {
+            s.get(k)
+                .filter(|v| !v.is_null())
+                .map(Number::Json)
+                .ok_or_else(|| {
+                    f.error(
+                        k,
+                        "is missing: the model needs it (a summary.json of hsph run has it)".into(),
+                    )
+                })
         };
-        let placement: Placement = s["placement"]
-            .as_str()
-            .and_then(|p| p.parse().ok())
-            .unwrap_or(Placement::RankOrder);
+        let ranks = f.count("ranks", need("ranks")?, (1, MAX_RANKS as u64))? as usize;
+        let threads = f.count("threads", need("threads")?, (1, MAX_THREADS as u64))? as usize;
+        let nodes = f.count("nodes", need("nodes")?, (1, ranks as u64))? as usize;
+        // a population that changed (`[[refine]] adapt`) is taken at its mean over the
+        // steps: the final count would credit every step with the last step's particles
+        let particles = match s.get("particles_mean").filter(|v| !v.is_null()) {
+            Some(v) => f
+                .real("particles_mean", Number::Json(v), (1.0, MAX_PARTICLES as f64))?
+                .round() as u64,
+            None => f.count("particles", need("particles")?, (1, MAX_PARTICLES))?,
+        };
+        if (particles as usize) < ranks {
+            return Err(f.error(
+                "ranks",
+                format!("{ranks} ranks for {particles} particles: a run has at least one particle per rank"),
+            ));
+        }
+        let steps = f.count("steps", need("steps")?, (0, MAX_STEPS as u64))?;
+        if steps == 0 {
+            return Err(f.error(
+                "steps",
+                "is 0: the model needs a run that took steps (its cost per step); run with more \
+                 time.max_steps or a later time.t_end"
+                    .into(),
+            ));
+        }
+        let wall = f.real("wall_s", need("wall_s")?, (0.0, MAX_WALL_SECONDS))?;
+        if wall <= 0.0 {
+            return Err(f.error(
+                "wall_s",
+                format!("is {wall}: the model needs a positive step-loop time (s), up to {MAX_WALL_SECONDS}"),
+            ));
+        }
+        let placement: Placement = match s.get("placement").and_then(|p| p.as_str()) {
+            None => Placement::RankOrder,
+            Some(p) => p.parse().map_err(|_| {
+                f.error(
+                    "placement",
+                    format!(
+                        "`{p}` is not a placement of hsph (rank-order, centre-distance, node-grid, min-cut)"
+                    ),
+                )
+            })?,
+        };
         let phases = s["timers"]
             .as_object()
             .map(|m| {
@@ -185,21 +237,17 @@ impl Measured {
                     .collect()
             })
             .unwrap_or_default();
+        let (scene, _) = load_scene(&dir.join("scene.toml"), &[])?;
         Ok(Measured {
             dir: dir.display().to_string(),
             scene,
-            ranks: num("ranks")? as usize,
-            threads: num("threads")? as usize,
-            nodes: num("nodes")?.max(1.0) as usize,
+            ranks,
+            threads,
+            nodes,
             placement,
-            // a population that changed (`[[refine]] adapt`) is taken at its mean over the
-            // steps: the final count would credit every step with the last step's particles
-            particles: s["particles_mean"]
-                .as_f64()
-                .map_or_else(|| num("particles"), Ok)?
-                .round() as u64,
-            steps: num("steps")?.max(1.0) as u64,
-            wall: num("wall_s")?,
+            particles,
+            steps,
+            wall,
             phases,
         })
     }

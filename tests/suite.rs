@@ -20,6 +20,7 @@ mod fidelity;
 mod fuzz;
 mod hardening;
 mod hardening_ii;
+mod hardening_iii;
 mod initial_fields;
 mod injection;
 mod jobscript;

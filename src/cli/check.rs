@@ -11,6 +11,7 @@ pub(super) fn cmd_check(
     max_memory: Option<f64>,
 ) -> Result<i32> {
     let (scene, src) = load_scene(scene, set)?;
+    rank_weights(&scene, &src, ranks, &format!("--ranks {ranks}"))?;
     let opts = RunOptions {
         max_memory,
         min_particles_per_rank: 1,
@@ -43,6 +44,12 @@ pub(super) fn cmd_check(
 fn built_count(report: &str) -> Option<u64> {
     let line = report.lines().find_map(|l| l.strip_prefix("particles   "))?;
     line.split_whitespace().next()?.parse().ok()
+}
+
+/// `balance.weights` of `scene` against `ranks` ranks (`flag` says where they came from),
+/// located in the scene file or at the `--set` that gave them.
+pub(super) fn rank_weights(scene: &Scene, src: &SceneSource, ranks: usize, flag: &str) -> Result<()> {
+    crate::scene::check_rank_weights(scene, ranks, flag).map_err(|e| src.locate(e))
 }
 
 /// The limits `hsph run` applies to `ranks` ranks of `scene` (the same function: ranks, particles

@@ -63,8 +63,12 @@ pub(super) fn cmd_jobscript(a: JobArgs) -> Result<i32> {
         out,
         script,
     } = a;
+    // both paths up front: the script written now, the run directory the job will make
     if let Some(path) = &script {
-        crate::jobscript::script_target(path)?;
+        output_path("--script", path, Written::File)?;
+    }
+    if let Some(dir) = &out {
+        output_path("--out", dir, Written::RunDir)?;
     }
     let (sc, src) = load_scene(&scene, &[])?;
     let abs = |p: &std::path::Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
@@ -105,6 +109,12 @@ pub(super) fn cmd_jobscript(a: JobArgs) -> Result<i32> {
         },
         e => e,
     })?;
+    rank_weights(
+        &sc,
+        &src,
+        nodes * ranks_per_node,
+        &format!("--nodes {nodes} × --ranks-per-node {ranks_per_node}"),
+    )?;
     let text = spec.script();
     match script {
         Some(path) => {

@@ -12,7 +12,7 @@ mod plan;
 mod run;
 
 pub use check::check_report;
-use check::{cmd_check, layout_limits};
+use check::{cmd_check, layout_limits, rank_weights};
 use jobscript::{cmd_jobscript, JobArgs};
 use plan::{cmd_model, cmd_plan, ModelArgs};
 use run::cmd_run_args;
@@ -336,6 +336,9 @@ fn dispatch(cmd: Command) -> Result<i32> {
             out,
             set,
         } => {
+            if let Some(dir) = &out {
+                output_path("--out", dir, Written::Dir)?;
+            }
             let topology = topology.map(|f| Topology::load(&f)).transpose()?;
             cmd_plan(
                 &scene,
@@ -360,19 +363,25 @@ fn dispatch(cmd: Command) -> Result<i32> {
             target,
             write,
             map,
-        } => crate::validate::command(&crate::validate::Options {
-            cases,
-            sweep,
-            resolutions,
-            variants,
-            out,
-            jobs,
-            threads,
-            set,
-            target,
-            write,
-            map,
-        }),
+        } => {
+            output_path("--out", &out, Written::Dir)?;
+            if let Some(w) = &write {
+                output_path("--write", w, Written::File)?;
+            }
+            crate::validate::command(&crate::validate::Options {
+                cases,
+                sweep,
+                resolutions,
+                variants,
+                out,
+                jobs,
+                threads,
+                set,
+                target,
+                write,
+                map,
+            })
+        }
         Command::Check {
             scene,
             set,
@@ -402,6 +411,9 @@ fn dispatch(cmd: Command) -> Result<i32> {
             out,
             field,
         } => {
+            if let Some(dir) = &out {
+                output_path("--out", dir, Written::Dir)?;
+            }
             let (_, files) = report::command(&runs, compare, out.as_deref(), &field)?;
             for f in &files {
                 say(&format!("{}\n", f.display()));
@@ -418,6 +430,87 @@ fn locate(src: &SceneSource, e: Error) -> Error {
         Error::Input { at: None, key, .. } if !key.starts_with("--") => src.locate(e),
         _ => e,
     }
+}
+
+/// What an output-path flag names: a directory the command fills, or a file it writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Written {
+    /// A run directory (`--out` of `run` and `jobscript`).
+    RunDir,
+    /// A directory (`--out` of `plan`, `validate`, `report`).
+    Dir,
+    /// A file (`jobscript --script`, `validate --write`).
+    File,
+}
+
+/// Check the path of an output flag before anything runs, the same way for every command:
+/// it exists as what it should be (a directory, or a regular file to replace), or it does
+/// not exist and lies under a directory: a file's parent must exist, a directory's missing
+/// parents are made with it (as `run` always made `runs/`). `/dev/null`, a path under a
+/// regular file or a device, and a file whose parent is missing are exit 2 naming the flag,
+/// with a path that would do.
+pub(crate) fn output_path(flag: &str, path: &std::path::Path, kind: Written) -> Result<()> {
+    use std::io::ErrorKind;
+    let (what, example) = match kind {
+        Written::RunDir => ("a run directory", "runs/out"),
+        Written::Dir => ("a directory", "runs/out"),
+        Written::File if flag == "--write" => ("a regular file", "cheap.toml"),
+        Written::File => ("a regular file", "job.sh"),
+    };
+    let bad = |m: String| {
+        Error::input(
+            flag,
+            format!("{}: {m}; give {what} path, e.g. {flag} {example}", path.display()),
+        )
+    };
+    if path.as_os_str().is_empty() {
+        return Err(bad("is empty".into()));
+    }
+    match std::fs::metadata(path) {
+        Ok(m) if kind != Written::File && !m.is_dir() => {
+            return Err(bad(
+                "exists and is not a directory (a file, a device or a FIFO)".into()
+            ))
+        }
+        Ok(m) if kind == Written::File && !m.is_file() => {
+            return Err(bad(
+                "exists and is not a regular file (a directory, a device or a FIFO), and would be replaced"
+                    .into(),
+            ))
+        }
+        Ok(_) => return Ok(()),
+        Err(e) if e.kind() == ErrorKind::NotFound || e.kind() == ErrorKind::NotADirectory => {}
+        Err(e) => return Err(bad(format!("cannot be reached: {e}"))),
+    }
+    // it does not exist: its parent must be an existing directory
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => std::path::Path::new("."),
+    };
+    let mut up = Some(parent);
+    while let Some(a) = up {
+        match std::fs::metadata(a) {
+            Ok(m) if m.is_dir() && (a == parent || kind != Written::File) => return Ok(()),
+            Ok(m) if m.is_dir() => {
+                return Err(bad(format!(
+                    "its parent directory {} does not exist (create it first: mkdir -p {})",
+                    parent.display(),
+                    parent.display()
+                )))
+            }
+            Ok(_) => {
+                return Err(bad(format!(
+                    "lies under {}, which is not a directory (a file, a device or a FIFO)",
+                    a.display()
+                )))
+            }
+            Err(_) => up = a.parent().filter(|p| !p.as_os_str().is_empty()),
+        }
+    }
+    Err(bad(format!(
+        "its parent directory {} does not exist",
+        parent.display()
+    )))
 }
 
 /// Print to standard output; a closed pipe (`hsph check … | head -1`) is not an error.

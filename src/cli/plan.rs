@@ -15,6 +15,7 @@ pub(super) fn cmd_plan(
 ) -> Result<i32> {
     let (scene, src) = load_scene(scene, set)?;
     layout_limits(&scene, &src, ranks)?;
+    rank_weights(&scene, &src, ranks, &format!("--ranks {ranks}"))?;
     let req = LayoutRequest {
         backend: Backend::Local,
         ranks,
@@ -107,14 +108,12 @@ pub(super) fn cmd_model(a: ModelArgs) -> Result<i32> {
     } = a;
     let (scene, check, set) = (scene.as_deref(), &check[..], &set[..]);
     use crate::model::{predict, Network};
-    if !(bandwidth.is_finite() && bandwidth > 0.0) {
-        return Err(Error::input(
-            "--bandwidth",
-            "must be a positive number of GB/s, e.g. 12.5",
-        ));
-    }
-    if !(latency.is_finite() && latency >= 0.0) {
-        return Err(Error::input("--latency", "must be ≥ 0 µs, e.g. 1.5"));
+    // the network and the cores are bounded like every other flag (src/limits.rs)
+    use crate::limits::{flag_in_range, BANDWIDTH_RANGE, LATENCY_RANGE, MAX_CORES};
+    flag_in_range("--bandwidth", bandwidth, BANDWIDTH_RANGE, "GB/s", "12.5")?;
+    flag_in_range("--latency", latency, LATENCY_RANGE, "µs", "1.5")?;
+    if cores > 0 {
+        crate::limits::count("--cores", cores as u64, MAX_CORES)?;
     }
     if scene.is_none() && check.is_empty() {
         return Err(Error::input(
@@ -149,6 +148,7 @@ pub(super) fn cmd_model(a: ModelArgs) -> Result<i32> {
     }
     crate::limits::count("--threads", threads as u64, crate::limits::MAX_THREADS as u64)?;
     layout_limits(&scene, &src, ranks)?;
+    rank_weights(&scene, &src, ranks, &format!("--ranks {ranks}"))?;
     let per_node = if ranks_per_node == 0 {
         ranks
     } else {

@@ -10,6 +10,7 @@ pub(super) fn cmd_run(
 ) -> Result<i32> {
     let (mut scene, mut src) = load_scene(scene, set)?;
     flags.apply(&mut scene, &mut src)?;
+    rank_weights(&scene, &src, opts.ranks, &format!("--ranks {}", opts.ranks))?;
     crate::signals::install()?;
     let outcome = driver::run_scene(&scene, opts).map_err(|e| locate(&src, e))?;
     Ok(if outcome.stopped_by.is_some() {
@@ -127,6 +128,9 @@ pub(super) fn cmd_run_args(a: RunArgs) -> Result<i32> {
         overlap,
     };
     check_run_flags(backend, bind, ranks, checkpoint_every_minutes)?;
+    if let Some(dir) = &out {
+        output_path("--out", dir, Written::RunDir)?;
+    }
     let opts = RunOptions {
         out,
         force,
@@ -194,6 +198,7 @@ pub(super) fn cmd_restart(
     let (original, _) = crate::scene::load_scene_str(&m.scene, &at, "restart", &[])?;
     let (mut scene, mut src) = crate::scene::load_scene_str(&m.scene, &at, &original.name, set)?;
     flags.apply(&mut scene, &mut src)?;
+    rank_weights(&scene, &src, opts.ranks, &format!("--ranks {}", opts.ranks))?;
     crate::checkpoint::compat::check(&original, &scene)?;
     restart_not_before_start(&scene, &m).map_err(|e| locate(&src, e))?;
     if scene.dimension != m.dimension {

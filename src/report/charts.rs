@@ -109,9 +109,10 @@ pub fn traffic_heatmap(
     let mut cells: BTreeMap<(usize, usize), u64> = BTreeMap::new();
     for r in rows {
         if r.src_rank < p && r.dst_rank < p && r.bytes > 0 {
-            *cells
+            let c = cells
                 .entry((pos[r.src_rank] / bin, pos[r.dst_rank] / bin))
-                .or_default() += r.bytes;
+                .or_default();
+            *c = c.saturating_add(r.bytes);
         }
     }
     // the colour range is the data's own (log10 of bytes), padded only when every cell is equal

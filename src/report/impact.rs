@@ -17,39 +17,79 @@ struct Final {
     values: Vec<f64>,
 }
 
-/// Read `final.csv` (3D): kind, body, position and the column `field`.
+/// Read `final.csv` (3D): kind, body, position and the column `field`, through the bounded
+/// reader; every row has the header's fields, every number is checked where it is read (a
+/// kind hsph writes, a body index, finite positions), exit 2 naming the line and column.
 fn read_final(path: &Path, field: &str) -> Result<Final> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let mut lines = text.lines();
-    let head: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
-    let col = |name: &str| head.iter().position(|h| *h == name);
-    let failed = col("failed");
-    let (Some(id), Some(kind), Some(body), Some(x)) = (col("id"), col("kind"), col("body"), col("x")) else {
+    use crate::limits::{FileNumbers, Number};
+    let mut head: Vec<String> = Vec::new();
+    let mut cols: Option<[usize; 5]> = None;
+    let mut failed = None;
+    let mut p = Particles::<3>::default();
+    let mut values = Vec::new();
+    crate::limits::read_lines(path, "final.csv", |n, line| {
+        if head.is_empty() {
+            head = line.split(',').map(str::to_string).collect();
+            let col = |name: &str| head.iter().position(|h| h == name);
+            failed = col("failed");
+            let (Some(id), Some(kind), Some(body), Some(x)) = (col("id"), col("kind"), col("body"), col("x"))
+            else {
+                return Err(Error::run(format!(
+                    "{}: not a final.csv with id, kind, body, x",
+                    path.display()
+                )));
+            };
+            let Some(f) = col(field) else {
+                return Err(Error::input(
+                    "--field",
+                    format!(
+                        "`{field}` is not a column of {}; columns: {}",
+                        path.display(),
+                        head.join(", ")
+                    ),
+                ));
+            };
+            if x + 2 >= head.len() {
+                return Err(FileNumbers::at(path, n).error("x", "needs the columns x, y, z".into()));
+            }
+            cols = Some([id, kind, body, x, f]);
+            return Ok(());
+        }
+        let Some([id, kind, body, x, f]) = cols else {
+            return Ok(());
+        };
+        let c: Vec<&str> = line.split(',').collect();
+        let at = FileNumbers::at(path, n);
+        if c.len() != head.len() {
+            return Err(at.error("", format!("{} fields, the header has {}", c.len(), head.len())));
+        }
+        let num = |k: usize| Number::Text(c[k]);
+        let code = at.count("kind", num(kind), (0, 255))? as u8;
+        let Some(k) = Kind::from_code(code) else {
+            return Err(at.error("kind", format!("{code} is not a particle kind of hsph (0 to 4)")));
+        };
+        let body_i = at.count("body", num(body), (0, u16::MAX as u64))? as u16;
+        let any = (f64::MIN, f64::MAX);
+        let pos = Vector::<3>::new(
+            at.real("x", num(x), any)?,
+            at.real(&head[x + 1], num(x + 1), any)?,
+            at.real(&head[x + 2], num(x + 2), any)?,
+        );
+        let id_v = at.count("id", num(id), (0, 1u64 << 53))?;
+        let mut r = Record::new(id_v, k, body_i, 0, pos, Vector::zeros(), 0.0, 0.0);
+        if let Some(fl) = failed {
+            r.failed = at.count("failed", num(fl), (0, u16::MAX as u64))? as u16;
+        }
+        p.push_owned(r);
+        // the colouring column may hold a NaN; the colour scale leaves it out
+        values.push(c[f].parse().unwrap_or(f64::NAN));
+        Ok(())
+    })?;
+    if cols.is_none() {
         return Err(Error::run(format!(
             "{}: not a final.csv with id, kind, body, x",
             path.display()
         )));
-    };
-    let Some(f) = col(field) else {
-        return Err(Error::input(
-            "--field",
-            format!(
-                "`{field}` is not a column of {}; columns: {}",
-                path.display(),
-                head.join(", ")
-            ),
-        ));
-    };
-    let mut p = Particles::<3>::default();
-    let mut values = Vec::new();
-    for line in lines {
-        let c: Vec<f64> = line.split(',').map(|s| s.parse().unwrap_or(f64::NAN)).collect();
-        let k = Kind::from_code(c[kind] as u8).unwrap_or(Kind::Fluid);
-        let pos = Vector::<3>::new(c[x], c[x + 1], c[x + 2]);
-        let mut r = Record::new(c[id] as u64, k, c[body] as u16, 0, pos, Vector::zeros(), 0.0, 0.0);
-        r.failed = failed.map_or(0, |f| c[f] as u16);
-        p.push_owned(r);
-        values.push(c[f]);
     }
     Ok(Final { p, values })
 }

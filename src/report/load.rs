@@ -83,44 +83,58 @@ fn bad_line(path: &Path, line: usize, what: String) -> Error {
 /// Rows of a CSV file, each with its 1-based line number.
 type Lines = Vec<(usize, Vec<String>)>;
 
-/// Header and rows of a CSV file of plain fields (no quoting), with the 1-based line numbers.
+/// Header and rows of a CSV file of plain fields (no quoting), with the 1-based line numbers,
+/// read through the bounded reader ([`crate::limits::read_lines`]).
 fn read_csv(path: &Path) -> Result<(Vec<String>, Lines)> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    let Some((_, head)) = lines.next() else {
+    let key = path
+        .file_name()
+        .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+    let mut header: Option<Vec<String>> = None;
+    let mut rows = Vec::new();
+    crate::limits::read_lines(path, &key, |n, l| {
+        if l.trim().is_empty() {
+            return Ok(());
+        }
+        let f: Vec<String> = l.split(',').map(|s| s.trim().to_string()).collect();
+        match &header {
+            None => header = Some(f),
+            Some(h) if f.len() != h.len() => {
+                return Err(bad_line(
+                    path,
+                    n,
+                    format!("{} fields, the header has {}", f.len(), h.len()),
+                ))
+            }
+            Some(_) => rows.push((n, f)),
+        }
+        Ok(())
+    })?;
+    let Some(header) = header else {
         return Err(bad_line(path, 1, "empty file: expected a header line".into()));
     };
-    let header: Vec<String> = head.split(',').map(|s| s.trim().to_string()).collect();
-    let mut rows = Vec::new();
-    for (i, l) in lines {
-        let f: Vec<String> = l.split(',').map(|s| s.trim().to_string()).collect();
-        if f.len() != header.len() {
-            return Err(bad_line(
-                path,
-                i + 1,
-                format!("{} fields, the header has {}", f.len(), header.len()),
-            ));
-        }
-        rows.push((i + 1, f));
-    }
     Ok((header, rows))
 }
 
 fn parse_diagnostics(path: &Path) -> Result<Diagnostics> {
+    use crate::limits::{FileNumbers, Number, MAX_STEPS};
     let (header, rows) = read_csv(path)?;
     for need in ["step", "t", "ghost_fraction", "imbalance"] {
         if !header.iter().any(|h| h == need) {
             return Err(bad_line(path, 1, format!("no `{need}` column in the header")));
         }
     }
+    // every column is a finite number, the step a count within the step limit
     let rows = rows
         .into_iter()
         .map(|(line, f)| {
+            let at = FileNumbers::at(path, line);
             f.iter()
                 .zip(&header)
-                .map(|(v, h)| {
-                    v.parse::<f64>()
-                        .map_err(|_| bad_line(path, line, format!("column `{h}`: `{v}` is not a number")))
+                .map(|(v, h)| match h.as_str() {
+                    "step" => at
+                        .count(h, Number::Text(v), (0, MAX_STEPS as u64))
+                        .map(|s| s as f64),
+                    _ => at.real(h, Number::Text(v), (f64::MIN, f64::MAX)),
                 })
                 .collect::<Result<Vec<f64>>>()
         })
@@ -132,7 +146,10 @@ const TRAFFIC_HEADER: [&str; 8] = [
     "step", "phase", "src_rank", "dst_rank", "src_node", "dst_node", "bytes", "messages",
 ];
 
-fn parse_traffic(path: &Path) -> Result<Vec<TrafficRow>> {
+/// `traffic.csv`: every rank and node below `ranks` (the summary's, else the rank limit),
+/// steps within the step limit, bytes and messages within the traffic limit.
+fn parse_traffic(path: &Path, ranks: Option<u64>) -> Result<Vec<TrafficRow>> {
+    use crate::limits::{FileNumbers, Number, MAX_RANKS, MAX_STEPS, MAX_TRAFFIC_BYTES};
     let (header, rows) = read_csv(path)?;
     if header != TRAFFIC_HEADER {
         return Err(bad_line(
@@ -141,29 +158,20 @@ fn parse_traffic(path: &Path) -> Result<Vec<TrafficRow>> {
             format!("header must be `{}`", TRAFFIC_HEADER.join(",")),
         ));
     }
+    let below = ranks.unwrap_or(MAX_RANKS as u64).max(1) - 1;
     rows.into_iter()
         .map(|(line, f)| {
-            let n = |k: usize| {
-                f[k].parse::<u64>().map_err(|_| {
-                    bad_line(
-                        path,
-                        line,
-                        format!(
-                            "column `{}`: `{}` is not a non-negative integer",
-                            TRAFFIC_HEADER[k], f[k]
-                        ),
-                    )
-                })
-            };
+            let at = FileNumbers::at(path, line);
+            let n = |k: usize, hi: u64| at.count(TRAFFIC_HEADER[k], Number::Text(&f[k]), (0, hi));
             Ok(TrafficRow {
-                step: n(0)?,
+                step: n(0, MAX_STEPS as u64)?,
                 phase: f[1].clone(),
-                src_rank: n(2)? as usize,
-                dst_rank: n(3)? as usize,
-                src_node: n(4)? as usize,
-                dst_node: n(5)? as usize,
-                bytes: n(6)?,
-                messages: n(7)?,
+                src_rank: n(2, below)? as usize,
+                dst_rank: n(3, below)? as usize,
+                src_node: n(4, below)? as usize,
+                dst_node: n(5, below)? as usize,
+                bytes: n(6, MAX_TRAFFIC_BYTES)?,
+                messages: n(7, MAX_TRAFFIC_BYTES)?,
             })
         })
         .collect()
@@ -192,12 +200,9 @@ impl Run {
                  may still be going, or it failed)",
             ));
         }
-        let text = std::fs::read_to_string(&sp).map_err(|e| Error::io(&sp, e))?;
-        let summary: serde_json::Value = serde_json::from_str(&text)
-            .map_err(|e| bad_line(&sp, e.line(), format!("not valid JSON: {e}")))?;
-        if !summary.is_object() {
-            return Err(bad_line(&sp, 1, "expected a JSON object".into()));
-        }
+        // every number the report reads, checked against the limits before anything is
+        // sized by it (a `ranks` of 10⁹ would size the heat map's tables)
+        let summary = crate::limits::read_summary(&sp)?;
         let dp = dir.join("diagnostics.csv");
         if !dp.is_file() {
             return Err(missing(
@@ -209,7 +214,10 @@ impl Run {
         let diag = parse_diagnostics(&dp)?;
         let tp = dir.join("traffic.csv");
         let traffic = if tp.is_file() {
-            Some(parse_traffic(&tp)?)
+            Some(parse_traffic(
+                &tp,
+                summary.get("ranks").and_then(|r| r.as_f64()).map(|r| r as u64),
+            )?)
         } else {
             None
         };

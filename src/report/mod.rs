@@ -118,10 +118,11 @@ pub fn traffic_by_interval(rows: &[TrafficRow]) -> Vec<(u64, u64, u64)> {
     let mut m: std::collections::BTreeMap<u64, (u64, u64)> = Default::default();
     for r in rows {
         let e = m.entry(r.step).or_default();
+        // saturating: a damaged file's counts must not wrap (each is at most 2⁶², read)
         if r.src_node == r.dst_node {
-            e.0 += r.bytes;
+            e.0 = e.0.saturating_add(r.bytes);
         } else {
-            e.1 += r.bytes;
+            e.1 = e.1.saturating_add(r.bytes);
         }
     }
     m.into_iter().map(|(s, (a, b))| (s, a, b)).collect()
@@ -174,9 +175,9 @@ fn traffic_totals(run: &Run) -> Option<(u64, u64)> {
         }
     }
     run.traffic.as_ref().map(|rows| {
-        traffic_by_interval(rows)
-            .iter()
-            .fold((0, 0), |acc, r| (acc.0 + r.1, acc.1 + r.2))
+        traffic_by_interval(rows).iter().fold((0u64, 0u64), |acc, r| {
+            (acc.0.saturating_add(r.1), acc.1.saturating_add(r.2))
+        })
     })
 }
 
@@ -276,10 +277,11 @@ fn summary_table(w: &mut String, run: &Run) {
     row("rebalances", opt(run.num("rebalances"), |x| format!("{x:.0}")));
     match traffic_totals(run) {
         Some((intra, inter)) => {
-            let all = (intra + inter).max(1) as f64;
+            let total = intra.saturating_add(inter);
+            let all = total.max(1) as f64;
             row(
                 "traffic, total",
-                format!("{} B ({})", intra + inter, human_bytes((intra + inter) as f64)),
+                format!("{total} B ({})", human_bytes(total as f64)),
             );
             row(
                 "traffic, intra-node",
@@ -450,7 +452,7 @@ pub fn compare_markdown(rows: &[CompareRow]) -> String {
             Some((a, b)) => (
                 a.to_string(),
                 b.to_string(),
-                percent(b as f64 / (a + b).max(1) as f64),
+                percent(b as f64 / a.saturating_add(b).max(1) as f64),
             ),
             None => ("—".into(), "—".into(), "—".into()),
         };

@@ -207,6 +207,41 @@ pub(super) fn in_domain(min: &[f64], max: &[f64], body: &str, dom: &Domain) -> R
     Ok(())
 }
 
+/// [`in_domain`] for body `f` of key `k`: a block's box is its `min` and `max`, but a sphere's
+/// or cylinder's comes from its `centre`, `radius` and `length`, and a box outside the domain
+/// is blamed on the key that set it (`radius`, or a cylinder's `length` along its axis), not
+/// on a `min` the scene never wrote.
+pub(super) fn body_in_domain(f: &super::FluidBody, k: &str, dom: &Domain) -> Result<()> {
+    use super::BodyShape;
+    if f.shape == BodyShape::Block {
+        return in_domain(&f.min, &f.max, k, dom);
+    }
+    let tol = 1e-9 * disc_scale(dom);
+    for a in 0..f.min.len() {
+        if f.min[a] < dom.min[a] - tol || f.max[a] > dom.max[a] + tol {
+            let (key, what) = if f.shape == BodyShape::Cylinder && f.axis == Some(a) {
+                ("length", format!("length {}", f.length))
+            } else {
+                ("radius", format!("radius {}", f.radius))
+            };
+            let shape = if f.shape == BodyShape::Sphere {
+                "sphere"
+            } else {
+                "cylinder"
+            };
+            return err(
+                format!("{k}.{key}"),
+                format!(
+                    "the {shape} of centre {:?} and {what} reaches [{}, {}] on axis {a}, outside the \
+                     domain [{}, {}]; lower its {key}, move its centre or enlarge domain.min/domain.max",
+                    f.centre, f.min[a], f.max[a], dom.min[a], dom.max[a]
+                ),
+            );
+        }
+    }
+    Ok(())
+}
+
 pub(crate) fn disc_scale(dom: &Domain) -> f64 {
     dom.min
         .iter()

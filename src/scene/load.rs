@@ -272,6 +272,9 @@ fn set_path(t: &mut dyn TableLike, segs: &[Seg], value: Value) -> std::result::R
 
 impl SceneSource {
     /// Attach file and line to an error produced by validation (which knows only the key).
+    /// A conflict between a key of the file and a key a typed flag set (`--interactions
+    /// pairs` against `time.stepping = "local"`), whose message names the flag's key, is
+    /// blamed on the flag: the file alone was valid.
     pub fn locate(&self, e: Error) -> Error {
         match e {
             Error::Input {
@@ -279,7 +282,15 @@ impl SceneSource {
                 key,
                 message,
             } => {
-                let at = self.location_of(&key, None);
+                let by_flag = self
+                    .flagged
+                    .iter()
+                    .find(|(k, _)| message.contains(k.as_str()))
+                    .map(|(_, flag)| Location {
+                        file: PathBuf::from(flag),
+                        line: None,
+                    });
+                let at = by_flag.or_else(|| self.location_of(&key, None));
                 Error::Input { at, key, message }
             }
             other => other,
@@ -348,6 +359,13 @@ impl SceneSource {
             key = found;
             span = None;
         }
+        // a tagged table (a probe of a kind, the reference, a wall's motion law) is read as a
+        // whole before its kind is known, so the parser points at the table, or at the first
+        // entry of an array of them: find the entry and the key the message is about
+        if let Some(found) = self.in_tagged_table(&key, &message) {
+            key = found;
+            span = None;
+        }
         if message.contains("string or table") {
             // an enum's value that is not a string: name the valid ones, which the parser
             // gives for a string it does not know (the value put back as one, parsed again)
@@ -389,6 +407,69 @@ impl SceneSource {
 }
 
 impl SceneSource {
+    /// The key a deserialisation error `message` is about when the parser could only name the
+    /// table `key` holding it: for an array of tables (`probe`, or its `probe[0]`) the first
+    /// entry that fails alone with the same message (a prefix of the array parsed at a time,
+    /// halving), then the key inside that table the message names (`unknown field`) or whose
+    /// value it quotes (`invalid type: integer `3``). `None` if `key` names a value, or no
+    /// table.
+    fn in_tagged_table(&self, key: &str, message: &str) -> Option<String> {
+        let doc = ImDocument::parse(self.text.clone()).ok()?;
+        let segs = parse_path(key);
+        let (base, table): (String, &dyn TableLike) = match segs.as_slice() {
+            [Seg::Key(k)] | [Seg::Key(k), Seg::Index(_)]
+                if matches!(doc.as_table().get(k), Some(Item::ArrayOfTables(_))) =>
+            {
+                let Some(Item::ArrayOfTables(a)) = doc.as_table().get(k) else {
+                    return None;
+                };
+                let guess = match segs.get(1) {
+                    Some(Seg::Index(i)) => Some(*i),
+                    _ => None,
+                };
+                let j = self.first_failing_entry(k, a.len(), message).or(guess)?;
+                (format!("{k}[{j}]"), a.get(j)?)
+            }
+            _ => (key.to_string(), table_at(doc.as_table(), &segs)?),
+        };
+        Some(match field_named(table, message) {
+            Some(f) => format!("{base}.{f}"),
+            None => base,
+        })
+    }
+
+    /// The first entry of the top-level array of tables `name` (of `len` entries) such that
+    /// the scene with the entries up to it alone fails to deserialise with `message`.
+    fn first_failing_entry(&self, name: &str, len: usize, message: &str) -> Option<usize> {
+        let fails = |upto: usize| -> bool {
+            let Ok(mut doc) = self.text.parse::<DocumentMut>() else {
+                return false;
+            };
+            if let Some(Item::ArrayOfTables(a)) = doc.as_table_mut().get_mut(name) {
+                while a.len() > upto + 1 {
+                    a.remove(a.len() - 1);
+                }
+            }
+            match toml::from_str::<Scene>(&doc.to_string()) {
+                Err(e) => plain_types(first_line(e.message())) == message,
+                Ok(_) => false,
+            }
+        };
+        if len == 0 || !fails(len - 1) {
+            return None;
+        }
+        let (mut lo, mut hi) = (0, len - 1);
+        while lo < hi {
+            let mid = (lo + hi) / 2;
+            if fails(mid) {
+                hi = mid;
+            } else {
+                lo = mid + 1;
+            }
+        }
+        Some(lo)
+    }
+
     /// The valid values of the enum whose value sits at `span` of the text: the text parsed
     /// again with a string no enum holds there, whose refusal lists them.
     fn variants_at(&self, span: std::ops::Range<usize>) -> Option<String> {
@@ -400,6 +481,69 @@ impl SceneSource {
         m.strip_prefix("unknown variant `\u{1}`, expected ")
             .map(str::to_string)
     }
+}
+
+/// The table at `segs` below `t` (a table, an inline table or an entry of an array of tables).
+fn table_at<'a>(t: &'a dyn TableLike, segs: &[Seg]) -> Option<&'a dyn TableLike> {
+    let Some((Seg::Key(k), rest)) = segs.split_first() else {
+        return Some(t);
+    };
+    match (t.get(k)?, rest.first()) {
+        (Item::ArrayOfTables(a), Some(Seg::Index(i))) => table_at(a.get(*i)?, &rest[1..]),
+        (Item::Table(tab), _) => table_at(tab, rest),
+        (Item::Value(Value::InlineTable(tab)), _) => table_at(tab, rest),
+        _ => None,
+    }
+}
+
+/// The key of table `t` a deserialisation message is about: the field it names (`unknown
+/// field `f``), else the first key whose value is what it quotes (`invalid type: integer
+/// `3`, expected …`: the same value, else a value of the same type; `invalid length 1`: an
+/// array of that length).
+fn field_named(t: &dyn TableLike, message: &str) -> Option<String> {
+    // an unknown field of this table (not the table itself, unknown to its parent)
+    if let Some(f) = message
+        .strip_prefix("unknown field `")
+        .and_then(|r| r.split('`').next())
+    {
+        return t.contains_key(f).then(|| f.to_string());
+    }
+    let values: Vec<(String, Value)> = t
+        .iter()
+        .filter_map(|(k, v)| Some((k.to_string(), v.as_value()?.clone())))
+        .collect();
+    if let Some(n) = message
+        .strip_prefix("invalid length ")
+        .and_then(|r| r.split(',').next())
+        .and_then(|n| n.parse::<usize>().ok())
+    {
+        return values
+            .iter()
+            .find(|(_, v)| v.as_array().is_some_and(|a| a.len() == n))
+            .map(|(k, _)| k.clone());
+    }
+    let quoted = message
+        .strip_prefix("invalid type: ")
+        .or_else(|| message.strip_prefix("invalid value: "))?
+        .split(", expected")
+        .next()?;
+    let (exact, kind): (Vec<_>, Vec<_>) = values
+        .iter()
+        .map(|(k, v)| {
+            let (word, shown) = match v {
+                Value::Integer(i) => ("integer", format!("integer `{}`", i.value())),
+                Value::Float(x) => ("floating point", format!("floating point `{}`", x.value())),
+                Value::String(s) => ("string", format!("string {:?}", s.value())),
+                Value::Boolean(b) => ("boolean", format!("boolean `{}`", b.value())),
+                Value::Array(_) => ("sequence", "sequence".to_string()),
+                Value::InlineTable(_) => ("map", "map".to_string()),
+                Value::Datetime(_) => ("datetime", "datetime".to_string()),
+            };
+            ((k, shown == quoted), (k, quoted.starts_with(word)))
+        })
+        .unzip();
+    let first = |v: Vec<(&String, bool)>| v.into_iter().find(|(_, ok)| *ok).map(|(k, _)| k.clone());
+    first(exact).or_else(|| first(kind))
 }
 
 /// First line of a parser message, trimmed.

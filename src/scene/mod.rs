@@ -24,7 +24,7 @@ pub use load::{load_scene, load_scene_str, SceneFlags, SceneSource};
 pub use materials::{Material, MaterialKind, StrengthKind};
 pub use probes::{Direction, Probe};
 pub use reference::Reference;
-pub use validate::{dt_upper_bound, expected_speed, validate};
+pub use validate::{check_rank_weights, dt_upper_bound, expected_speed, validate};
 pub use walls::{rows_reaching, Motion, NoSlipMethod, Slip, WallBody, WallMethod, WallShape, WallVolume};
 
 use crate::kernel::KernelKind;
@@ -107,12 +107,14 @@ impl Scene {
 /// Every set-up warning of a scene: the lattice's (settings outside their tested range,
 /// uncoupled bodies that touch, bodies built off their scene size) and the refinement
 /// regions' (particles that list thousands of neighbours, fine particles under a level-h
-/// pressure jump, regions that refine nothing).
+/// pressure jump, regions that refine nothing) and step counts that local time stepping
+/// cannot honour (an odd `checkpoint.every_steps` or `time.max_steps`).
 pub fn warnings<const D: usize>(s: &Scene) -> Vec<String> {
     let mut out = lattice::scene_warnings::<D>(s);
     out.extend(refine::list_warnings(s));
     out.extend(refine::level_h_warnings(s));
     out.extend(refine::region_warnings::<D>(s));
+    out.extend(validate::stepping_warnings(s));
     out
 }
 

@@ -7,7 +7,7 @@
 //! cells, so the fine particles tile exactly the cells the coarse ones leave, whatever the
 //! region's shape.
 
-use super::checks::{err, in_domain};
+use super::checks::err;
 use super::lattice::{container_outer, Lattice};
 use super::walls::{WallMethod, WallShape};
 use super::{BodyShape, FluidBody, Scene};
@@ -586,8 +586,8 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
         super::checks::check_vec(&mut g.min, d, &format!("{k}.min"), false)?;
         super::checks::check_vec(&mut g.max, d, &format!("{k}.max"), false)?;
         super::checks::check_box(&g.min, &g.max, &k)?;
+        super::checks::body_in_domain(&g, &k, &s.domain)?;
         (r.min, r.max, r.axis) = (g.min, g.max, g.axis);
-        in_domain(&r.min, &r.max, &k, &s.domain)?;
         let support = s.discretisation.support();
         match r.transition {
             None => r.transition = Some(support),

@@ -174,6 +174,8 @@ pub fn validate(s: &mut Scene) -> Result<()> {
             format!("must be a positive relative speed, got {w}"),
         );
     }
+    // their length is checked against the ranks of a run where the ranks are known
+    // ([`check_rank_weights`])
     let skin = s.performance.skin;
     if !(0.0..=1.0).contains(&skin) {
         return err(
@@ -571,7 +573,7 @@ fn validate_fluids(s: &mut Scene, mat_names: &Names) -> Result<()> {
         check_vec(&mut f.velocity, d, &format!("{k}.velocity"), true)?;
         speed_at_most(&f.velocity, &format!("{k}.velocity"))?;
         validate_fields(f, &k, d, &s.constants)?;
-        in_domain(&f.min, &f.max, &k, &s.domain)?;
+        body_in_domain(f, &k, &s.domain)?;
     }
     super::materials::body_kinds(s)
 }
@@ -934,4 +936,74 @@ fn check_step_budget(s: &Scene) -> Result<()> {
             num(s.time.settle)
         ),
     )
+}
+
+/// `balance.weights` against the `ranks` of a run, plan or job (`flag` names where that count
+/// came from: `--ranks 4`): one relative speed per rank, or none for ranks of equal speed. A
+/// list of another length is exit 2 naming the key, its length and the ranks: it cannot say
+/// each rank's share of the load (the decomposition would repeat or drop entries). One rank
+/// balances nothing, so any list passes there.
+pub fn check_rank_weights(s: &Scene, ranks: usize, flag: &str) -> Result<()> {
+    let n = s.balance.weights.len();
+    if n == 0 || n == ranks || ranks <= 1 {
+        return Ok(());
+    }
+    let example = vec!["1.0"; ranks.min(8)].join(", ") + if ranks > 8 { ", …" } else { "" };
+    err(
+        "balance.weights",
+        format!(
+            "has {n} entr{} but the run has {ranks} ranks ({flag}): the weights are the ranks' \
+             relative speeds, one per rank, and set each rank's share of the load; give {ranks} \
+             numbers (weights = [{example}]) or leave the key out for ranks of equal speed",
+            if n == 1 { "y" } else { "ies" }
+        ),
+    )
+}
+
+/// Step counts under local time stepping. With `time.stepping = "local"` a cycle takes two
+/// steps (`step` counts substeps) and the driver looks at the clock at a cycle's end only:
+/// checkpoints, outputs, probes and the step limit all fall there (`sim/multirate.rs`). Every
+/// key that counts steps then acts on even steps where cycles run: an odd
+/// `checkpoint.every_steps = n` writes only at multiples of 2n, an odd `time.max_steps = n`
+/// stops at n + 1. One warning per such key, naming the steps it will act on and an even
+/// value that does what was asked. (`balance.check_every` is honoured inside a cycle: a cycle
+/// checks at its first substep for both of its steps.)
+pub fn stepping_warnings(s: &Scene) -> Vec<String> {
+    if s.time.stepping != Stepping::Local {
+        return Vec::new();
+    }
+    let mut out = Vec::new();
+    let c = s.checkpoint.every_steps;
+    if c % 2 == 1 {
+        let lower = if c > 1 {
+            format!(" or {}", c - 1)
+        } else {
+            String::new()
+        };
+        out.push(format!(
+            "checkpoint.every_steps = {c} is odd: under time.stepping = \"local\" a cycle takes 2 steps and \
+             checkpoints are written at cycle ends only, so where cycles run they fall every {} steps \
+             (steps {}, {}, …), not every {c}; give an even number, e.g. checkpoint.every_steps = {}{lower}",
+            2 * c,
+            2 * c,
+            4 * c,
+            c + 1
+        ));
+    }
+    let m = s.time.max_steps;
+    if m % 2 == 1 {
+        out.push(format!(
+            "time.max_steps = {m} is odd: under time.stepping = \"local\" a cycle takes 2 steps and the run \
+             stops at a cycle's end, so where cycles run it ends at step {}, not {m}; give an even number, \
+             e.g. time.max_steps = {}{}",
+            m + 1,
+            m + 1,
+            if m > 1 {
+                format!(" or {}", m - 1)
+            } else {
+                String::new()
+            }
+        ));
+    }
+    out
 }

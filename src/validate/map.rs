@@ -432,8 +432,10 @@ pub fn read_cells(path: &Path) -> Result<Vec<Cell>> {
 }
 
 /// Run every (method, value) of `study` not yet in `<out>/map.csv`, one at a time, and return
-/// the study's cells.
-pub fn run(study: &Study, out: &Path, exe: &Path) -> Result<Vec<Cell>> {
+/// the study's cells; `None` if a stopping signal arrived (forwarded to the run going, which
+/// gets no row and runs again when the map resumes).
+pub fn run(study: &Study, out: &Path, exe: &Path) -> Result<Option<Vec<Cell>>> {
+    super::stop::install()?;
     for d in ["runs", "scenes"] {
         std::fs::create_dir_all(out.join(d)).map_err(|e| Error::io(out, e))?;
     }
@@ -467,7 +469,12 @@ pub fn run(study: &Study, out: &Path, exe: &Path) -> Result<Vec<Cell>> {
                 .chain((study.set)(v))
                 .collect();
             let t0 = std::time::Instant::now();
-            let o = run_child(exe, &scene, &dir, 1, &all)?;
+            if super::stop::stopping() {
+                return Ok(None);
+            }
+            let Some(o) = run_child(exe, &scene, &dir, 1, &all)? else {
+                return Ok(None);
+            };
             let wall_s = t0.elapsed().as_secs_f64();
             let failure = match o.status.code() {
                 Some(0) => (study.judge)(&dir),
@@ -504,10 +511,12 @@ pub fn run(study: &Study, out: &Path, exe: &Path) -> Result<Vec<Cell>> {
             writeln!(file, "{}", cell.to_csv(study)).map_err(|e| Error::io(&csv, e))?;
         }
     }
-    Ok(read_cells(&csv)?
-        .into_iter()
-        .filter(|c| c.study == study.name)
-        .collect())
+    Ok(Some(
+        read_cells(&csv)?
+            .into_iter()
+            .filter(|c| c.study == study.name)
+            .collect(),
+    ))
 }
 
 #[cfg(test)]

@@ -12,6 +12,7 @@ pub mod charts;
 pub mod front;
 pub mod lattice;
 pub mod map;
+pub mod stop;
 pub mod sweep;
 
 use crate::error::{Error, Result};
@@ -173,7 +174,9 @@ fn stability(names: &[String], out: &Path) -> Result<i32> {
         std::env::current_exe().map_err(|e| Error::run(format!("validate: cannot find this hsph: {e}")))?;
     let mut md = String::from("# hsph validate --map: where each method fails\n\n");
     for st in &studies {
-        let cells = map::run(st, out, &exe)?;
+        let Some(cells) = map::run(st, out, &exe)? else {
+            return Ok(stopped(out));
+        };
         let files = charts::stability_map(out, st, &cells)?;
         let _ = writeln!(
             md,
@@ -283,7 +286,10 @@ pub fn command(opts: &Options) -> Result<i32> {
         check_job(job, &opts.set)?;
     }
     if opts.map.is_some() {
-        run_map(opts)?;
+        let status = run_map(opts)?;
+        if status != 0 {
+            return Ok(status);
+        }
     }
     same_overrides(&opts.out, &opts.set)?;
     let exe =
@@ -295,7 +301,9 @@ pub fn command(opts: &Options) -> Result<i32> {
         set: opts.set.clone(),
         exe,
     };
-    let rows = runner.run(&jobs)?;
+    let Some(rows) = runner.run(&jobs)? else {
+        return Ok(stopped(&opts.out));
+    };
     let mut md = String::from("# hsph validate\n\n");
     for c in &cases {
         let mine: Vec<&Row> = rows.iter().filter(|r| r.case == c.name).collect();
@@ -321,6 +329,18 @@ pub fn command(opts: &Options) -> Result<i32> {
         None => Ok(0),
         Some(t) => target(&cases[0], &rows, t, &opts.out, opts.write.as_deref()),
     }
+}
+
+/// Say that a signal stopped the sweep in `out` and how to resume it; the exit status of a
+/// stopped command.
+fn stopped(out: &Path) -> i32 {
+    eprintln!(
+        "hsph validate: stopped by {}: every run it started has ended; finished configurations are in \
+         {}; run the same command again to resume (the stopped configurations run again)",
+        stop::name(),
+        out.join("sweep.csv").display()
+    );
+    crate::signals::EXIT_STOPPED
 }
 
 /// The markdown of one case: its norm, a row per run (front runs marked), convergence orders.

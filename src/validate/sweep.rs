@@ -165,8 +165,11 @@ impl Job {
 
 impl Runner {
     /// Run every job whose configuration has no row in `sweep.csv` yet, appending rows as runs
-    /// finish, then return all rows of the file. Progress goes to stderr.
-    pub fn run(&self, jobs: &[Job]) -> Result<Vec<Row>> {
+    /// finish, then return all rows of the file. Progress goes to stderr. `None` if a
+    /// stopping signal arrived: no further run was started, the running ones were forwarded
+    /// the signal and waited for, and the stopped ones have no row (a second sweep runs them).
+    pub fn run(&self, jobs: &[Job]) -> Result<Option<Vec<Row>>> {
+        super::stop::install()?;
         std::fs::create_dir_all(self.out.join("runs")).map_err(|e| Error::io(&self.out, e))?;
         std::fs::create_dir_all(self.out.join("scenes")).map_err(|e| Error::io(&self.out, e))?;
         let csv = self.out.join("sweep.csv");
@@ -199,8 +202,20 @@ impl Runner {
             for _ in 0..self.jobs.max(1) {
                 s.spawn(|| {
                     while let Some((k, job)) = queue.pop() {
+                        if super::stop::stopping() {
+                            return;
+                        }
                         let row = match self.run_one(job) {
-                            Ok(r) => r,
+                            Ok(Some(r)) => r,
+                            Ok(None) => {
+                                eprintln!(
+                                    "hsph validate: [{}/{total}] {}: stopped by {} (not recorded; it runs again when the sweep resumes)",
+                                    k + 1,
+                                    job.dir_name(),
+                                    super::stop::name()
+                                );
+                                return;
+                            }
                             Err(e) => {
                                 failed.lock().expect("no panics").get_or_insert(e);
                                 return;
@@ -229,11 +244,15 @@ impl Runner {
         if let Some(e) = failed.into_inner().expect("no panics") {
             return Err(e);
         }
-        read_rows(&csv)
+        if super::stop::stopping() {
+            return Ok(None);
+        }
+        read_rows(&csv).map(Some)
     }
 
-    /// Run one configuration as a child `hsph run` and read its `summary.json`.
-    fn run_one(&self, job: &Job) -> Result<Row> {
+    /// Run one configuration as a child `hsph run` and read its `summary.json`; `None` if a
+    /// signal stopped it.
+    fn run_one(&self, job: &Job) -> Result<Option<Row>> {
         let (file, text) = job.case.scene_for(&job.variant);
         let stem = std::path::Path::new(file)
             .file_stem()
@@ -249,7 +268,9 @@ impl Runner {
             .into_iter()
             .chain(self.set.iter().cloned())
             .collect();
-        let out = run_child(&self.exe, &scene, &dir, self.threads, &sets)?;
+        let Some(out) = run_child(&self.exe, &scene, &dir, self.threads, &sets)? else {
+            return Ok(None);
+        };
         let mut row = Row {
             case: job.case.name.to_string(),
             resolution: job.n,
@@ -277,12 +298,10 @@ impl Runner {
                     job.dir_name()
                 )));
             }
-            return Ok(row);
+            return Ok(Some(row));
         }
-        let path = dir.join("summary.json");
-        let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-        let s: serde_json::Value =
-            serde_json::from_str(&text).map_err(|e| Error::run(format!("{}: {e}", path.display())))?;
+        // the child's summary is read as every summary is: bounded, its numbers checked
+        let s = crate::limits::read_summary(&dir.join("summary.json"))?;
         row.particles = s["particles"].as_u64().unwrap_or(0);
         row.steps = s["steps"].as_u64().unwrap_or(0);
         row.wall_s = s["wall_s"].as_f64().unwrap_or(f64::NAN);
@@ -292,19 +311,21 @@ impl Runner {
             Some(e) => row.error = e,
             None => row.status = format!("no error `{}` measured", job.case.error_key),
         }
-        Ok(row)
+        Ok(Some(row))
     }
 }
 
 /// Run `exe run scene --out dir --force --quiet --threads T --set …` to its end and return
-/// its output (exit status, stdout, stderr).
+/// its output (exit status, stdout, stderr); `None` if a stopping signal reached this process
+/// meanwhile and the child stopped for it (exit 3, or killed by it): the configuration is to
+/// be run again, not recorded. The signal is forwarded to the child ([`super::stop`]).
 pub fn run_child(
     exe: &Path,
     scene: &Path,
     dir: &Path,
     threads: usize,
     sets: &[String],
-) -> Result<std::process::Output> {
+) -> Result<Option<std::process::Output>> {
     let mut cmd = Command::new(exe);
     cmd.arg("run").arg(scene).arg("--out").arg(dir).args([
         "--force",
@@ -315,7 +336,12 @@ pub fn run_child(
     for s in sets {
         cmd.args(["--set", s]);
     }
-    cmd.output().map_err(|e| Error::io(exe, e))
+    let out = super::stop::Child::spawn(cmd, exe)?.wait()?;
+    let stopped = out
+        .status
+        .code()
+        .is_none_or(|c| c == crate::signals::EXIT_STOPPED);
+    Ok((!(super::stop::stopping() && stopped)).then_some(out))
 }
 
 /// The error named `key` in `summary.json`'s `errors`; a key ending in `*` takes the entry
