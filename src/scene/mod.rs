@@ -22,7 +22,7 @@ pub use checks::face as face_of;
 pub(crate) use load::{first_line, key_at, line_of, span_of_key};
 pub use load::{load_scene, load_scene_str, SceneFlags, SceneSource};
 pub use materials::{Material, MaterialKind, StrengthKind};
-pub use probes::{Direction, Probe};
+pub use probes::{Direction, Probe, HOLE_COLUMNS};
 pub use reference::Reference;
 pub use validate::{dt_upper_bound, expected_speed, validate};
 pub use walls::{rows_reaching, Motion, NoSlipMethod, Slip, WallBody, WallMethod, WallShape, WallVolume};
