@@ -323,7 +323,7 @@ fn check_force(k: &str, body: &str, about: &mut Option<Vec<f64>>, d: usize, t: &
             ),
         );
     };
-    if w.method == WallMethod::Mirror {
+    if w.method.makes_images() {
         return err(
             format!("{k}.body"),
             format!("wall `{body}` is a mirror, which has no particles to take a force on; use a dummy or repulsive wall"),

@@ -678,7 +678,7 @@ fn check_particle_count(s: &Scene) -> Result<()> {
         };
         let lo: Vec<f64> = w.min.iter().map(|x| x - grow).collect();
         let hi: Vec<f64> = w.max.iter().map(|x| x + grow).collect();
-        if w.method != WallMethod::Mirror {
+        if !w.method.makes_images() {
             n += sites_in(&lo, &hi, dx);
             key = "wall";
         }
