@@ -706,7 +706,7 @@ pub fn scene_warnings<const D: usize>(s: &Scene) -> Vec<String> {
 fn undamped_warning(s: &Scene) -> Option<String> {
     let p = &s.physics;
     let undamped = !s.fluids.is_empty()
-        && p.density_diffusion == super::DensityDiffusion::None
+        && !p.density_diffusion.diffuses()
         && p.artificial_viscosity < 0.02
         && p.laminar_viscosity == 0.0;
     undamped.then(|| {

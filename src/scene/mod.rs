@@ -489,6 +489,25 @@ pub enum DensityDiffusion {
     Fourtakas,
 }
 
+impl DensityDiffusion {
+    /// True if the continuity equation carries a δ-SPH term (every variant but `none`).
+    pub fn diffuses(self) -> bool {
+        match self {
+            DensityDiffusion::None => false,
+            DensityDiffusion::Molteni | DensityDiffusion::Antuono | DensityDiffusion::Fourtakas => true,
+        }
+    }
+
+    /// True if the term reads the renormalised density gradient ⟨∇ρ⟩^L (Antuono's): its pass
+    /// runs, particles carry the field, and `physics.density_gradient` may time it.
+    pub fn needs_gradient(self) -> bool {
+        match self {
+            DensityDiffusion::Antuono => true,
+            DensityDiffusion::None | DensityDiffusion::Molteni | DensityDiffusion::Fourtakas => false,
+        }
+    }
+}
+
 /// Physics switches: a scene switches on only what it needs.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -558,7 +577,10 @@ pub enum PressureGradient {
 impl PressureGradient {
     /// True for `symmetric` (left out of a written scene).
     pub fn is_symmetric(&self) -> bool {
-        *self == PressureGradient::Symmetric
+        match self {
+            PressureGradient::Symmetric => true,
+            PressureGradient::Difference => false,
+        }
     }
 }
 

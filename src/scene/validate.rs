@@ -501,9 +501,7 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
              physics.laminar_viscosity (m²/s), or remove viscous_operator",
         );
     }
-    if ph.density_gradient != crate::scene::DensityGradient::Step
-        && ph.density_diffusion != crate::scene::DensityDiffusion::Antuono
-    {
+    if ph.density_gradient != crate::scene::DensityGradient::Step && !ph.density_diffusion.needs_gradient() {
         return err(
             "physics.density_gradient",
             "`lagged` times the renormalised density gradient of Antuono's δ-SPH term, and this \
