@@ -91,7 +91,7 @@ pub fn dropped_fields(s: &Scene) -> Fields {
         Fields::VW
     };
     // ⟨∇ρ⟩^L is Antuono's δ-SPH term's alone
-    let grad = if s.physics.density_diffusion == crate::scene::DensityDiffusion::Antuono {
+    let grad = if s.physics.density_diffusion.needs_gradient() {
         Fields::NONE
     } else {
         Fields::GRAD_RHO

@@ -49,7 +49,7 @@ fn layer_of(module: &str) -> Option<usize> {
 }
 
 /// Source text without comments, string literals and `#[cfg(test)] mod tests` blocks.
-fn code_of(text: &str) -> String {
+pub(crate) fn code_of(text: &str) -> String {
     let text = match text.find("#[cfg(test)]\nmod tests") {
         Some(k) => &text[..k],
         None => text,

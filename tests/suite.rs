@@ -29,6 +29,7 @@ mod layers;
 mod layout_report;
 mod lean;
 mod lobovsky;
+mod method_sites;
 mod multirate;
 mod neighbours;
 mod output;

@@ -5,7 +5,7 @@
 //! the normal component v'_n = 2u_w,n − v_n.
 
 use super::axis_op::AxisOp;
-use crate::scene::{Scene, Slip, WallMethod, WallShape};
+use crate::scene::{Scene, Slip, WallShape};
 use crate::Vector;
 
 /// A mirror wall plane: the inner face of a container with `method = "mirror"`.
@@ -82,7 +82,7 @@ impl<const D: usize> MirrorPlane<D> {
 pub fn planes_of<const D: usize>(scene: &Scene) -> Vec<MirrorPlane<D>> {
     let mut planes = Vec::new();
     for w in &scene.walls {
-        if w.method != WallMethod::Mirror || w.shape != WallShape::Container {
+        if !w.method.makes_images() || w.shape != WallShape::Container {
             continue;
         }
         for a in 0..D {

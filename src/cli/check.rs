@@ -182,10 +182,7 @@ fn particles_line<const D: usize>(scene: &Scene, p: &crate::particles::Particles
     let count = |k: Kind| p.kind[..n].iter().filter(|&&x| x == k).count();
     let (fluid, rep) = (count(Kind::Fluid), count(Kind::Repulsive));
     let dynamic = (0..n)
-        .filter(|&i| {
-            p.kind[i] == Kind::Dummy
-                && scene.walls[p.body[i] as usize].method == crate::scene::WallMethod::Dynamic
-        })
+        .filter(|&i| p.kind[i] == Kind::Dummy && scene.walls[p.body[i] as usize].method.integrates_density())
         .count();
     let dummy = count(Kind::Dummy) - dynamic;
     let (solid, clamped) = (count(Kind::Solid), count(Kind::Clamped));
@@ -214,12 +211,12 @@ fn wall_lines(scene: &Scene) -> Vec<String> {
             } else {
                 "free-slip"
             };
-            let rows = match (w.shape, w.method) {
-                (_, crate::scene::WallMethod::Mirror) => "images, no particles".to_string(),
-                (crate::scene::WallShape::Container, _) => {
+            let rows = match (w.shape, w.method.makes_images()) {
+                (_, true) => "images, no particles".to_string(),
+                (crate::scene::WallShape::Container, false) => {
                     format!("{} layer(s) outside", w.built_layers(support, dx))
                 }
-                (crate::scene::WallShape::Block, _) => match w.shell_rows(support, dx) {
+                (crate::scene::WallShape::Block, false) => match w.shell_rows(support, dx) {
                     Some(r) => format!("a shell {r} row(s) deep"),
                     None => "solid".to_string(),
                 },

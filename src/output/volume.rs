@@ -44,6 +44,12 @@ pub fn rows(interval: f64, t_end: f64, steps: f64) -> f64 {
     }
 }
 
+/// The columns of a probe's file, `t` included: the fields of its header
+/// ([`Probe::header`]), so a kind's count is stated once.
+pub fn probe_columns(p: &Probe, dim: usize) -> usize {
+    1 + p.columns(dim).len()
+}
+
 /// The estimate for `scene` in `D` dimensions with `n` particles, `steps` steps,
 /// `record_bytes` per particle in a checkpoint and `output_interval` the resolved output
 /// interval (s).
@@ -69,11 +75,7 @@ pub fn estimate(
         .probes
         .iter()
         .map(|p| {
-            let columns = match p {
-                Probe::VelocityLine { points, .. } => *points as f64 * d + 1.0,
-                Probe::Hole { .. } => 12.0,
-                _ => 1.0 + 2.0 * d,
-            };
+            let columns = probe_columns(p, dim) as f64;
             let interval = p.interval().unwrap_or(output_interval);
             rows(interval, t_end, steps) * columns * CSV_VALUE
         })
@@ -127,6 +129,70 @@ mod tests {
     fn the_free_space_of_the_working_directory_is_known() {
         let free = free_space(Path::new(".")).expect("df -Pk .");
         assert!(free > 0.0 && free.is_finite());
+    }
+
+    /// For every probe kind in 2D and 3D, the estimate counts the columns its file's header
+    /// names (a pressure probe was once estimated at 1 + 2D columns; it writes `t,p`).
+    #[test]
+    fn the_estimate_counts_every_probe_kinds_header_columns() {
+        let v = |d: usize| vec![0.5; d];
+        for d in [2, 3] {
+            let kinds = [
+                Probe::Pressure {
+                    name: "p".into(),
+                    point: v(d),
+                    diameter: 0.0,
+                    normal: None,
+                    window: 0.0,
+                    interval: None,
+                },
+                Probe::VelocityLine {
+                    name: "v".into(),
+                    from: v(d),
+                    to: vec![0.6; d],
+                    points: 7,
+                    interval: None,
+                },
+                Probe::Gauge {
+                    name: "g".into(),
+                    point: v(d),
+                    interval: None,
+                },
+                Probe::Front {
+                    name: "f".into(),
+                    axis: 0,
+                    direction: Default::default(),
+                    link: 1.5,
+                    interval: None,
+                },
+                Probe::Force {
+                    name: "F".into(),
+                    body: "w".into(),
+                    about: None,
+                    window: 0.0,
+                    interval: None,
+                },
+                Probe::Hole {
+                    name: "h".into(),
+                    plate: "a".into(),
+                    projectile: "b".into(),
+                    interval: None,
+                },
+            ];
+            for p in &kinds {
+                // a new kind is listed above before it compiles here
+                match p {
+                    Probe::Pressure { .. }
+                    | Probe::VelocityLine { .. }
+                    | Probe::Gauge { .. }
+                    | Probe::Front { .. }
+                    | Probe::Force { .. }
+                    | Probe::Hole { .. } => {}
+                }
+                let header = p.header(d).split(',').count();
+                assert_eq!(probe_columns(p, d), header, "{} in {d}D", p.name());
+            }
+        }
     }
 
     /// `output.format = "none"` writes no snapshot, and a scene without probes no probe

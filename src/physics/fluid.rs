@@ -175,6 +175,26 @@ impl<const D: usize> Correction<D> {
     }
 }
 
+/// The run's description of its density diffusion (`None`: no term); `lagged`: Antuono's
+/// gradient is the previous step's.
+pub(crate) fn diffusion_line(diffusion: DensityDiffusion, delta: f64, lagged: bool) -> Option<String> {
+    match diffusion {
+        DensityDiffusion::None => None,
+        DensityDiffusion::Molteni => Some(format!("δ-SPH Molteni–Colagrossi, δ = {delta}")),
+        DensityDiffusion::Fourtakas => {
+            Some(format!("δ-SPH Fourtakas (hydrostatic part removed), δ = {delta}"))
+        }
+        DensityDiffusion::Antuono => Some(format!(
+            "δ-SPH Antuono (renormalised gradient{}), δ = {delta}",
+            if lagged {
+                " of the previous step, with the momentum pass"
+            } else {
+                ""
+            },
+        )),
+    }
+}
+
 /// ψ_ij·∇_i W_ij of the δ-SPH term, with ∇_i W_ij = f x_ij (f = (1/r) dW/dr) and
 /// x_ji·x_ij/r² = −1:
 /// - Molteni, ψ_ij = 2(ρ_j − ρ_i) x_ji/r²: ψ_ij·∇_i W_ij = −2f (ρ_j − ρ_i);
@@ -234,7 +254,7 @@ fn continuity_of<const D: usize, N: Neighbours, K: PairKernel>(
     }
     let k = &model.kernel;
     let c0 = model.materials[p.mat[i] as usize].c0();
-    let diffusion = model.diffusion != DensityDiffusion::None;
+    let diffusion = model.diffusion.diffuses();
     let corr = Correction::of(model);
     let delta_coef = model.delta * k.h * c0;
     let (xi, vi) = (p.x[i], p.v[i]);

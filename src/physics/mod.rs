@@ -121,7 +121,7 @@ impl<const D: usize> Model<D> {
         Model {
             kernel,
             diffusion: s.physics.density_diffusion,
-            lagged_gradient: s.physics.density_diffusion == DensityDiffusion::Antuono
+            lagged_gradient: s.physics.density_diffusion.needs_gradient()
                 && s.physics.density_gradient == crate::scene::DensityGradient::Lagged,
             difference_pressure: !s.physics.pressure_gradient.is_symmetric(),
             delta: s.physics.delta,
@@ -258,23 +258,11 @@ impl<const D: usize> Model<D> {
                 ));
             }
         }
-        match self.diffusion {
-            DensityDiffusion::None => {}
-            DensityDiffusion::Molteni => v.push(format!("δ-SPH Molteni–Colagrossi, δ = {}", self.delta)),
-            DensityDiffusion::Fourtakas => v.push(format!(
-                "δ-SPH Fourtakas (hydrostatic part removed), δ = {}",
-                self.delta
-            )),
-            DensityDiffusion::Antuono => v.push(format!(
-                "δ-SPH Antuono (renormalised gradient{}), δ = {}",
-                if self.lagged_gradient {
-                    " of the previous step, with the momentum pass"
-                } else {
-                    ""
-                },
-                self.delta
-            )),
-        }
+        v.extend(fluid::diffusion_line(
+            self.diffusion,
+            self.delta,
+            self.lagged_gradient,
+        ));
         if self.alpha > 0.0 {
             v.push(format!("Monaghan artificial viscosity α = {}", self.alpha));
         }

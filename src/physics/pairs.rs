@@ -29,7 +29,6 @@ use crate::cells::{HalfView, Window};
 use crate::kernel::sizes::PairKernel;
 use crate::particles::Kind;
 use crate::particles::Particles;
-use crate::scene::DensityDiffusion;
 use crate::{Matrix, Vector};
 use rayon::prelude::*;
 
@@ -151,7 +150,7 @@ impl<const D: usize, K: PairKernel> Home<f64> for Continuity<'_, '_, D, K> {
         }
         let fluid_a = kind_a.is_fluid();
         let kern = &model.kernel;
-        let diffusion = model.diffusion != DensityDiffusion::None;
+        let diffusion = model.diffusion.diffuses();
         let corr = Correction::of(model);
         let coef = |m: u16| model.delta * kern.h * model.materials[m as usize].c0();
         let coef_a = coef(p.mat[a]);

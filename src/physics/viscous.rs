@@ -33,7 +33,7 @@ use crate::boundary::geometry::{morris_beta, WallSurface};
 use crate::boundary::mirror::{planes_of, MirrorPlane};
 use crate::cells::Neighbours;
 use crate::particles::{Kind, Particles, IMAGE_BITS};
-use crate::scene::{NoSlipMethod, Scene, Slip, ViscousOperator, WallMethod};
+use crate::scene::{NoSlipMethod, Scene, Slip, ViscousOperator};
 use crate::Vector;
 use rayon::prelude::*;
 
@@ -65,7 +65,7 @@ impl<const D: usize> Viscous<D> {
             .iter()
             .map(|w| {
                 let on = w.no_slip == NoSlipMethod::Morris
-                    && w.method == WallMethod::Dummy
+                    && w.method.takes_morris_no_slip()
                     && w.slip == Slip::NoSlip;
                 on.then(|| WallSurface::new(w))
             })

@@ -132,18 +132,7 @@ pub struct Hole {
 
 impl Hole {
     /// Column names in the probe file.
-    pub const COLUMNS: [&'static str; 10] = [
-        "perforated",
-        "major",
-        "minor",
-        "angle",
-        "area",
-        "centre_u",
-        "centre_v",
-        "debris",
-        "debris_length",
-        "debris_width",
-    ];
+    pub const COLUMNS: [&'static str; 10] = crate::scene::HOLE_COLUMNS;
 
     /// The values in column order.
     pub fn values(&self) -> Vec<f64> {

@@ -29,7 +29,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-pub use sensors::{columns, sample};
+pub use sensors::sample;
 
 /// The fields a probe or the reference tracker reads from the gathered view: all but the sort
 /// key, the density gradient and the solid fields (a force probe evaluates the solver's own
@@ -136,7 +136,7 @@ impl<const D: usize> ProbeSet<D> {
         if let (Some(_), false) = (dir, probes.is_empty()) {
             std::fs::create_dir_all(&pd).map_err(|e| Error::io(&pd, e))?;
             for pr in &probes {
-                let head = format!("t,{}", columns(pr, D).join(","));
+                let head = pr.header(D);
                 files.push(series(&pd.join(format!("{}.csv", pr.name())), &head, append)?);
             }
         }

@@ -9,25 +9,6 @@ use crate::scene::{Direction, Probe};
 use crate::sim::View;
 use crate::Vector;
 
-/// Column names of a probe (after `t`).
-pub fn columns(probe: &Probe, dim: usize) -> Vec<String> {
-    let comps = ["vx", "vy", "vz"];
-    match probe {
-        Probe::Pressure { .. } => vec!["p".into()],
-        Probe::VelocityLine { points, .. } => (0..*points)
-            .flat_map(|k| comps[..dim].iter().map(move |c| format!("s{k}_{c}")))
-            .collect(),
-        Probe::Gauge { .. } => vec!["eta".into()],
-        Probe::Front { .. } => vec!["front".into()],
-        Probe::Hole { .. } => super::hole::Hole::COLUMNS.iter().map(|c| c.to_string()).collect(),
-        Probe::Force { .. } => {
-            let f = ["fx", "fy", "fz"][..dim].iter().map(|s| s.to_string());
-            let m: &[&str] = if dim == 3 { &["mx", "my", "mz"] } else { &["mz"] };
-            f.chain(m.iter().map(|s| s.to_string())).collect()
-        }
-    }
-}
-
 /// Sample a probe from the particles gathered for it. `wall` is the body index of a force
 /// probe's wall.
 pub fn sample<const D: usize>(v: &View<D>, probe: &Probe, wall: u16) -> Vec<f64> {

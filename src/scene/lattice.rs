@@ -223,12 +223,11 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
             }
         };
         let n = sites(&outer).saturating_sub(hole.as_ref().map_or(0, |h| sites(h)));
-        // only dummy and dynamic walls are refined
-        let (added, list_extra) = match w.method {
-            super::WallMethod::Dummy | super::WallMethod::Dynamic => {
-                refined::<D>(s, &lat, &w.name, &outer, hole.as_deref())
-            }
-            _ => (0, 0.0),
+        // only refinable walls (dummy and dynamic) are built on the refined lattice
+        let (added, list_extra) = if w.method.refinable() {
+            refined::<D>(s, &lat, &w.name, &outer, hole.as_deref())
+        } else {
+            (0, 0.0)
         };
         let n = n + added;
         let open = |a: usize, up: bool| w.open.iter().any(|o| super::face_of(o, D) == Some((a, up)));
@@ -532,7 +531,7 @@ pub fn mirror_floor_warnings(s: &Scene) -> Vec<String> {
     let g = &s.physics.body_force;
     let mut out = Vec::new();
     for (i, w) in s.walls.iter().enumerate() {
-        if w.method != super::WallMethod::Mirror || w.shape != super::WallShape::Container {
+        if !w.method.makes_images() || w.shape != super::WallShape::Container {
             continue;
         }
         let d = s.dimension;
@@ -577,7 +576,7 @@ pub fn thin_dynamic_wall_warnings(s: &Scene) -> Vec<String> {
             super::WallShape::Container => w.built_layers(support, dx),
             super::WallShape::Block => w.shell_rows(support, dx).unwrap_or(0) as usize,
         };
-        if w.method == super::WallMethod::Dynamic && rows < reach {
+        if w.method.integrates_density() && rows < reach {
             out.push(format!(
                 "wall[{i}] `{}` is a dynamic wall in {rows} of the {reach} rows within the support of \
                  the fluid's first row: it holds the fluid (DualSPHysics's layout), but the fluid beside it lacks \
@@ -707,7 +706,7 @@ pub fn scene_warnings<const D: usize>(s: &Scene) -> Vec<String> {
 fn undamped_warning(s: &Scene) -> Option<String> {
     let p = &s.physics;
     let undamped = !s.fluids.is_empty()
-        && p.density_diffusion == super::DensityDiffusion::None
+        && !p.density_diffusion.diffuses()
         && p.artificial_viscosity < 0.02
         && p.laminar_viscosity == 0.0;
     undamped.then(|| {

@@ -22,7 +22,7 @@ pub use checks::face as face_of;
 pub(crate) use load::{first_line, key_at, line_of, span_of_key};
 pub use load::{load_scene, load_scene_str, SceneFlags, SceneSource};
 pub use materials::{Material, MaterialKind, StrengthKind};
-pub use probes::{Direction, Probe};
+pub use probes::{Direction, Probe, HOLE_COLUMNS};
 pub use reference::Reference;
 pub use validate::{check_rank_weights, dt_upper_bound, expected_speed, validate};
 pub use walls::{rows_reaching, Motion, NoSlipMethod, Slip, WallBody, WallMethod, WallShape, WallVolume};
@@ -491,6 +491,25 @@ pub enum DensityDiffusion {
     Fourtakas,
 }
 
+impl DensityDiffusion {
+    /// True if the continuity equation carries a δ-SPH term (every variant but `none`).
+    pub fn diffuses(self) -> bool {
+        match self {
+            DensityDiffusion::None => false,
+            DensityDiffusion::Molteni | DensityDiffusion::Antuono | DensityDiffusion::Fourtakas => true,
+        }
+    }
+
+    /// True if the term reads the renormalised density gradient ⟨∇ρ⟩^L (Antuono's): its pass
+    /// runs, particles carry the field, and `physics.density_gradient` may time it.
+    pub fn needs_gradient(self) -> bool {
+        match self {
+            DensityDiffusion::Antuono => true,
+            DensityDiffusion::None | DensityDiffusion::Molteni | DensityDiffusion::Fourtakas => false,
+        }
+    }
+}
+
 /// Physics switches: a scene switches on only what it needs.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -560,7 +579,10 @@ pub enum PressureGradient {
 impl PressureGradient {
     /// True for `symmetric` (left out of a written scene).
     pub fn is_symmetric(&self) -> bool {
-        *self == PressureGradient::Symmetric
+        match self {
+            PressureGradient::Symmetric => true,
+            PressureGradient::Difference => false,
+        }
     }
 }
 

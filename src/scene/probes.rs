@@ -160,7 +160,47 @@ impl Probe {
             _ => 0.0,
         }
     }
+
+    /// Column names of the probe's file after `t`, in a `dim`-dimensional scene: the one
+    /// statement of a kind's columns, read by the file's header (`crate::probes`) and by the
+    /// volume estimate (`crate::output::volume`).
+    pub fn columns(&self, dim: usize) -> Vec<String> {
+        let comps = ["vx", "vy", "vz"];
+        match self {
+            Probe::Pressure { .. } => vec!["p".into()],
+            Probe::VelocityLine { points, .. } => (0..*points)
+                .flat_map(|k| comps[..dim].iter().map(move |c| format!("s{k}_{c}")))
+                .collect(),
+            Probe::Gauge { .. } => vec!["eta".into()],
+            Probe::Front { .. } => vec!["front".into()],
+            Probe::Hole { .. } => HOLE_COLUMNS.iter().map(|c| c.to_string()).collect(),
+            Probe::Force { .. } => {
+                let f = ["fx", "fy", "fz"][..dim].iter().map(|s| s.to_string());
+                let m: &[&str] = if dim == 3 { &["mx", "my", "mz"] } else { &["mz"] };
+                f.chain(m.iter().map(|s| s.to_string())).collect()
+            }
+        }
+    }
+
+    /// The header line of the probe's file: `t` then [`Probe::columns`].
+    pub fn header(&self, dim: usize) -> String {
+        format!("t,{}", self.columns(dim).join(","))
+    }
 }
+
+/// Column names of a hole probe after `t` (`crate::probes::hole::Hole::COLUMNS`).
+pub const HOLE_COLUMNS: [&str; 10] = [
+    "perforated",
+    "major",
+    "minor",
+    "angle",
+    "area",
+    "centre_u",
+    "centre_v",
+    "debris",
+    "debris_length",
+    "debris_width",
+];
 
 fn validate_probe_kind(
     k: &str,
@@ -283,7 +323,7 @@ fn check_force(k: &str, body: &str, about: &mut Option<Vec<f64>>, d: usize, t: &
             ),
         );
     };
-    if w.method == WallMethod::Mirror {
+    if w.method.makes_images() {
         return err(
             format!("{k}.body"),
             format!("wall `{body}` is a mirror, which has no particles to take a force on; use a dummy or repulsive wall"),

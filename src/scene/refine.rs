@@ -9,7 +9,7 @@
 
 use super::checks::err;
 use super::lattice::{container_outer, Lattice};
-use super::walls::{WallMethod, WallShape};
+use super::walls::WallShape;
 use super::{BodyShape, FluidBody, Scene};
 use crate::error::Result;
 use serde::{Deserialize, Serialize};
@@ -485,7 +485,7 @@ pub fn region_warnings<const D: usize>(s: &Scene) -> Vec<String> {
             };
             let meets = (0..D).all(|a| lo[a] < r.max[a] && r.min[a] < hi[a]);
             let inside = (0..D).all(|a| w.min[a] <= r.min[a] && r.max[a] <= w.max[a]);
-            matches!(w.method, WallMethod::Dummy | WallMethod::Dynamic)
+            w.method.refinable()
                 && r.applies_to(&w.name)
                 && meets
                 && !(w.shape == WallShape::Container && inside)
@@ -657,8 +657,7 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
 /// The names of the bodies a region may refine: fluids, solids and dummy and dynamic walls
 /// (particles of the dummy kind, which the set-up refines).
 fn refinable(s: &Scene) -> Vec<String> {
-    use super::WallMethod::{Dummy, Dynamic};
-    let dummy = s.walls.iter().filter(|w| matches!(w.method, Dummy | Dynamic));
+    let dummy = s.walls.iter().filter(|w| w.method.refinable());
     (s.fluids.iter().chain(&s.solids).map(|b| b.name.clone()))
         .chain(dummy.map(|w| w.name.clone()))
         .collect()

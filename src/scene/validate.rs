@@ -503,9 +503,7 @@ fn validate_materials(s: &mut Scene) -> Result<()> {
              physics.laminar_viscosity (m²/s), or remove viscous_operator",
         );
     }
-    if ph.density_gradient != crate::scene::DensityGradient::Step
-        && ph.density_diffusion != crate::scene::DensityDiffusion::Antuono
-    {
+    if ph.density_gradient != crate::scene::DensityGradient::Step && !ph.density_diffusion.needs_gradient() {
         return err(
             "physics.density_gradient",
             "`lagged` times the renormalised density gradient of Antuono's δ-SPH term, and this \
@@ -680,7 +678,7 @@ fn check_particle_count(s: &Scene) -> Result<()> {
         };
         let lo: Vec<f64> = w.min.iter().map(|x| x - grow).collect();
         let hi: Vec<f64> = w.max.iter().map(|x| x + grow).collect();
-        if w.method != WallMethod::Mirror {
+        if !w.method.makes_images() {
             n += sites_in(&lo, &hi, dx);
             key = "wall";
         }

@@ -49,6 +49,62 @@ impl WallMethod {
             WallMethod::Toy => Some(crate::particles::Kind::Dummy),
         }
     }
+
+    /// True if a `[[refine]]` region refines the wall's particles (the set-up builds them on
+    /// the refined lattice, like fluid): dummy and dynamic walls.
+    pub fn refinable(self) -> bool {
+        match self {
+            WallMethod::Dummy | WallMethod::Dynamic => true,
+            WallMethod::Repulsive | WallMethod::Mirror => false,
+            #[cfg(test)]
+            WallMethod::Toy => false,
+        }
+    }
+
+    /// True if the drift bounces a fluid particle that crosses the wall's surface back
+    /// across it (`sim`'s wall faces): dummy and dynamic walls.
+    pub fn bounces_fluid(self) -> bool {
+        match self {
+            WallMethod::Dummy | WallMethod::Dynamic => true,
+            WallMethod::Repulsive | WallMethod::Mirror => false,
+            #[cfg(test)]
+            WallMethod::Toy => false,
+        }
+    }
+
+    /// True if the wall has no particles and shows the fluid its images across a container's
+    /// inner faces (`crate::boundary::mirror`): mirror walls.
+    pub fn makes_images(self) -> bool {
+        match self {
+            WallMethod::Mirror => true,
+            WallMethod::Dummy | WallMethod::Dynamic | WallMethod::Repulsive => false,
+            #[cfg(test)]
+            WallMethod::Toy => false,
+        }
+    }
+
+    /// True if the wall particles' density follows the continuity equation (dynamic walls):
+    /// `hsph check` counts them apart, and in fewer rows than the fluid's support they leave
+    /// the fluid beside them short of neighbours.
+    pub fn integrates_density(self) -> bool {
+        match self {
+            WallMethod::Dynamic => true,
+            WallMethod::Dummy | WallMethod::Repulsive | WallMethod::Mirror => false,
+            #[cfg(test)]
+            WallMethod::Toy => false,
+        }
+    }
+
+    /// True if `no_slip = "morris"` acts on the wall (`crate::physics::viscous`: β from the
+    /// depths either side of its surface): dummy walls.
+    pub fn takes_morris_no_slip(self) -> bool {
+        match self {
+            WallMethod::Dummy => true,
+            WallMethod::Dynamic | WallMethod::Repulsive | WallMethod::Mirror => false,
+            #[cfg(test)]
+            WallMethod::Toy => false,
+        }
+    }
 }
 
 /// Tangential condition of a wall.

@@ -548,9 +548,7 @@ enum Failure {
 fn dummy_faces<const D: usize>(scene: &Scene) -> Vec<(usize, crate::boundary::geometry::WallSurface<D>)> {
     let dom = &scene.domain;
     (scene.walls.iter().enumerate())
-        .filter(|(_, w)| {
-            crate::scene::WallMethod::Dummy == w.method || crate::scene::WallMethod::Dynamic == w.method
-        })
+        .filter(|(_, w)| w.method.bounces_fluid())
         .map(|(b, w)| {
             (
                 b,

@@ -7,7 +7,6 @@ use super::{geometry, Ctx, Row};
 use crate::cells::{HalfView, Neighbours};
 use crate::particles::{Fields, Kinds};
 use crate::physics::{delta, pairs, Model};
-use crate::scene::DensityDiffusion;
 
 /// The renormalised density gradient.
 pub struct DensityGradient;
@@ -31,7 +30,7 @@ impl Row for DensityGradient {
     }
 
     fn runs<const D: usize>(m: &Model<D>) -> bool {
-        m.has_fluid && m.diffusion == DensityDiffusion::Antuono && !m.lagged_gradient
+        m.has_fluid && m.diffusion.needs_gradient() && !m.lagged_gradient
     }
 
     fn gather<const D: usize, N: Neighbours>(c: &mut Ctx<'_, D>, nb: &N) {
