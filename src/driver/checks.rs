@@ -35,8 +35,6 @@ pub fn check_limits(
 ) -> Result<crate::memory::Estimate> {
     use crate::memory::{available, human};
     crate::limits::ranks("--ranks", ranks)?;
-    // the rank count is known here on every back end (under mpirun only here)
-    crate::scene::check_rank_weights(scene, ranks, "the ranks of this run")?;
     check_probe_sizes(scene)?;
     super::sweeps::check_wall_sweeps(scene)?;
     let pair_mode = scene.performance.interactions == crate::scene::Interactions::Pairs;

@@ -103,6 +103,8 @@ fn run_mpi(scene: &Scene, opts: &RunOptions, req: &LayoutRequest) -> Result<RunO
     // the layout is found by every rank alike from the same node keys: exit 2 everywhere
     let layout = RunLayout::resolve(req, Backend::Mpi, comm.size(), Some(&node_keys(&comm)?))?;
     check_limits(scene, layout.ranks, 1, opts)?;
+    // under mpirun the rank count is known only here
+    crate::scene::check_rank_weights(scene, layout.ranks, "the MPI ranks (mpirun -np)")?;
     check_threads(opts.threads, 1, comm.rank() == 0)?;
     let (dir, _lock) = mpi_prepare_dir(&comm, scene, opts)?;
     // MPI calls stay on this (main) thread, so the rank body runs here on the global pool
