@@ -2501,3 +2501,78 @@ fn manifests_in_process_are_read_or_refused_as_input() {
         "{read} read, {refused} refused"
     );
 }
+
+/// `summary.json` through the library, in process (Hardening III: summaries join the corpus):
+/// a real two-rank run's summary, mutated as JSON at random pointers (ranks, threads, counts,
+/// timers, traffic, the decomposition: extremes, non-numbers, deletions) or as text, read as
+/// `hsph report` and `hsph validate` read it ([`hsph::limits::read_summary`]) and as `hsph model`
+/// does ([`hsph::model::Measured::read`]). No mutant panics or sizes anything by a number
+/// out of range; a refusal is an input error naming `summary.json`.
+#[test]
+fn summaries_in_process_are_read_or_refused_as_input() {
+    const MUTANTS: usize = 1000;
+    let dir = temp_dir("fuzz-summaries");
+    let run = dir.join("run");
+    let (code, _, err) = common::run_file("inputs/dam_break_2d.toml", &run, (2, 1), &["time.max_steps=5"]);
+    assert_eq!(code, 0, "{err}");
+    let path = run.join("summary.json");
+    let good = fs::read_to_string(&path).unwrap();
+    let seed = std::env::var("HSPH_FUZZ_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(SEED);
+    let mut rng = Rng(seed ^ 0x05e3_3a11);
+    let targets = [
+        "/ranks",
+        "/threads",
+        "/nodes",
+        "/particles",
+        "/steps",
+        "/wall_s",
+        "/t",
+    ];
+    let (mut read, mut refused) = (0usize, 0usize);
+    for k in 0..MUTANTS {
+        let (text, note) = if rng.below(8) < 7 {
+            let mut v: Value = serde_json::from_str(&good).unwrap();
+            let mut notes = Vec::new();
+            for _ in 0..1 + rng.below(3) {
+                let ptr = if rng.below(3) == 0 {
+                    s(pick(&mut rng, &targets))
+                } else {
+                    random_pointer(&v, &mut rng)
+                };
+                notes.push(mutate_json_at(&mut v, &ptr, &mut rng));
+            }
+            (raw_json(&v), notes.join("; "))
+        } else {
+            let mut t = good.clone();
+            for _ in 0..1 + rng.below(3) {
+                t = mutate(&t, &mut rng);
+            }
+            (t, s("text mutated"))
+        };
+        fs::write(&path, &text).unwrap();
+        let outcome = std::panic::catch_unwind(|| -> hsph::error::Result<()> {
+            hsph::limits::read_summary(&path)?;
+            hsph::model::Measured::read(&run)?;
+            Ok(())
+        });
+        match outcome {
+            Err(_) => panic!("summary mutant {k} panicked ({note}):\n{text}"),
+            Ok(Ok(())) => read += 1,
+            Ok(Err(e @ hsph::error::Error::Input { .. })) => {
+                let msg = e.to_string();
+                assert!(msg.contains("summary.json"), "mutant {k} ({note}): {msg}");
+                refused += 1;
+            }
+            Ok(Err(e)) => panic!("summary mutant {k} ({note}) is not an input error: {e}"),
+        }
+    }
+    fs::write(&path, &good).unwrap();
+    eprintln!("summaries in process: {MUTANTS} mutants, {read} read, {refused} refused");
+    assert!(
+        refused > MUTANTS / 4 && read > 0,
+        "{read} read, {refused} refused"
+    );
+}
