@@ -203,12 +203,7 @@ impl Tracker {
             Some(Reference::Hole { major, minor, .. }) => {
                 // the hole of the final state (the settled history is the probe's, in
                 // summary.json's `hole`)
-                let probe = sim.scene.probes.iter().find_map(|p| match p {
-                    crate::scene::Probe::Hole {
-                        plate, projectile, ..
-                    } => Some((plate, projectile)),
-                    _ => None,
-                });
+                let probe = sim.scene.probes.iter().find_map(|p| p.hole_bodies());
                 if let Some((plate, projectile)) = probe {
                     let setup = crate::probes::hole::HoleSetup::<D>::of(sim.scene, plate, projectile);
                     let ids: Vec<usize> = (0..sim.p.n_owned).collect();
@@ -333,12 +328,9 @@ impl Tracker {
             scene
                 .probes
                 .iter()
-                .find_map(|p| match p {
-                    crate::scene::Probe::Gauge { name: n, point, .. } if n == name => {
-                        Some((0..e.len()).map(|k| e[k] * point[k]).sum::<f64>() - face)
-                    }
-                    _ => None,
-                })
+                .filter(|p| p.name() == name)
+                .find_map(|p| p.gauge_point())
+                .map(|point| (0..e.len()).map(|k| e[k] * point[k]).sum::<f64>() - face)
                 .unwrap_or(f64::NAN)
         };
         // a gauge's crest, once the wave has passed it: the run reaches the crest's time by

@@ -12,6 +12,7 @@ const ENUMS: &[(&str, &str, &str)] = &[
     ("WallMethod", "scene/walls.rs", "boundary/mod.rs"),
     ("DensityDiffusion", "scene/mod.rs", "physics/fluid.rs"),
     ("PressureGradient", "scene/mod.rs", "physics/fluid.rs"),
+    ("Probe", "scene/probes.rs", "probes/sensors.rs"),
 ];
 
 fn src() -> PathBuf {

@@ -107,20 +107,16 @@ pub fn check_limits(
 /// Every probe's sample count within [`crate::limits::MAX_PROBE_POINTS`] (a line probe holds
 /// its points and their values in memory).
 fn check_probe_sizes(scene: &Scene) -> Result<()> {
-    use crate::scene::Probe;
     for (k, p) in scene.probes.iter().enumerate() {
-        match p {
-            Probe::VelocityLine { points, .. } => {
-                crate::limits::count(
-                    &format!("probe[{k}].points"),
-                    *points as u64,
-                    crate::limits::MAX_PROBE_POINTS,
-                )?;
-            }
-            Probe::Pressure { diameter, normal, .. } if *diameter != 0.0 => {
-                face_points(k, *diameter, normal.as_deref(), scene)?
-            }
-            _ => {}
+        if let Some(points) = p.line_points() {
+            crate::limits::count(
+                &format!("probe[{k}].points"),
+                points as u64,
+                crate::limits::MAX_PROBE_POINTS,
+            )?;
+        }
+        if let Some((diameter, normal)) = p.face() {
+            face_points(k, diameter, normal, scene)?
         }
     }
     Ok(())

@@ -119,10 +119,12 @@ impl<'a, const D: usize> RankRun<'a, D> {
     /// The settled hole of the scene's hole probe, read back from its file on rank 0 (the
     /// whole history, across restarts); null without one.
     fn hole_summary(&self) -> serde_json::Value {
-        let Some(name) = self.scene.probes.iter().find_map(|p| match p {
-            crate::scene::Probe::Hole { name, .. } => Some(name),
-            _ => None,
-        }) else {
+        let Some(name) = self
+            .scene
+            .probes
+            .iter()
+            .find_map(|p| p.hole_bodies().map(|_| p.name()))
+        else {
             return serde_json::Value::Null;
         };
         let path = self.dir.join("probes").join(format!("{name}.csv"));

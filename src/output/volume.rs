@@ -135,60 +135,8 @@ mod tests {
     /// names (a pressure probe was once estimated at 1 + 2D columns; it writes `t,p`).
     #[test]
     fn the_estimate_counts_every_probe_kinds_header_columns() {
-        let v = |d: usize| vec![0.5; d];
         for d in [2, 3] {
-            let kinds = [
-                Probe::Pressure {
-                    name: "p".into(),
-                    point: v(d),
-                    diameter: 0.0,
-                    normal: None,
-                    window: 0.0,
-                    interval: None,
-                },
-                Probe::VelocityLine {
-                    name: "v".into(),
-                    from: v(d),
-                    to: vec![0.6; d],
-                    points: 7,
-                    interval: None,
-                },
-                Probe::Gauge {
-                    name: "g".into(),
-                    point: v(d),
-                    interval: None,
-                },
-                Probe::Front {
-                    name: "f".into(),
-                    axis: 0,
-                    direction: Default::default(),
-                    link: 1.5,
-                    interval: None,
-                },
-                Probe::Force {
-                    name: "F".into(),
-                    body: "w".into(),
-                    about: None,
-                    window: 0.0,
-                    interval: None,
-                },
-                Probe::Hole {
-                    name: "h".into(),
-                    plate: "a".into(),
-                    projectile: "b".into(),
-                    interval: None,
-                },
-            ];
-            for p in &kinds {
-                // a new kind is listed above before it compiles here
-                match p {
-                    Probe::Pressure { .. }
-                    | Probe::VelocityLine { .. }
-                    | Probe::Gauge { .. }
-                    | Probe::Front { .. }
-                    | Probe::Force { .. }
-                    | Probe::Hole { .. } => {}
-                }
+            for p in &crate::scene::one_of_each(d) {
                 let header = p.header(d).split(',').count();
                 assert_eq!(probe_columns(p, d), header, "{} in {d}D", p.name());
             }

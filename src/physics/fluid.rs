@@ -171,6 +171,8 @@ impl<const D: usize> Correction<D> {
             DensityDiffusion::Antuono => Correction::Gradients,
             DensityDiffusion::Fourtakas => Correction::Hydrostatic(model.g),
             DensityDiffusion::None | DensityDiffusion::Molteni => Correction::None,
+            #[cfg(test)]
+            DensityDiffusion::Toy => Correction::None,
         }
     }
 }
@@ -181,6 +183,8 @@ pub(crate) fn diffusion_line(diffusion: DensityDiffusion, delta: f64, lagged: bo
     match diffusion {
         DensityDiffusion::None => None,
         DensityDiffusion::Molteni => Some(format!("δ-SPH Molteni–Colagrossi, δ = {delta}")),
+        #[cfg(test)]
+        DensityDiffusion::Toy => Some(format!("δ-SPH toy (Molteni's term), δ = {delta}")),
         DensityDiffusion::Fourtakas => {
             Some(format!("δ-SPH Fourtakas (hydrostatic part removed), δ = {delta}"))
         }
@@ -530,4 +534,43 @@ pub fn pair_acceleration_with<const D: usize, K: PairKernel>(
         acc += vij * (mj * mu_sum * f / (rhoi * rhoj));
     }
     acc
+}
+
+#[cfg(test)]
+mod toy_term {
+    use crate::comm::serial::SerialComm;
+    use crate::scene::DensityDiffusion;
+    use crate::sim::Simulation;
+
+    /// The dam break of `inputs/dam_break_2d.toml` with `physics.density_diffusion = term`,
+    /// after 30 steps: the densities in id order.
+    fn densities(term: &str) -> Vec<u64> {
+        let text = std::fs::read_to_string("inputs/dam_break_2d.toml").unwrap();
+        let set = [format!("physics.density_diffusion=\"{term}\"")];
+        let scene = crate::scene::load_scene_str(&text, std::path::Path::new("toy.toml"), "toy", &set)
+            .unwrap()
+            .0;
+        let comm = SerialComm::new();
+        let mut sim = Simulation::<2>::new(&scene, &comm).unwrap();
+        for _ in 0..30 {
+            sim.advance(&comm).unwrap();
+        }
+        let mut rho: Vec<(u64, u64)> = (0..sim.p.n_owned)
+            .map(|i| (sim.p.id[i] as u64, sim.p.rho[i].to_bits()))
+            .collect();
+        rho.sort_unstable();
+        rho.into_iter().map(|r| r.1).collect()
+    }
+
+    /// A density term added by its recipe's two files (`scene/mod.rs`, this file) is selected
+    /// by a scene key, runs in the continuity pass (it changes the densities of a run without
+    /// diffusion) and gives, as Molteni's term under another name, Molteni's bits.
+    #[test]
+    fn a_density_term_added_in_its_files_runs_from_a_scene() {
+        assert!(DensityDiffusion::Toy.diffuses());
+        assert!(super::diffusion_line(DensityDiffusion::Toy, 0.1, false).is_some());
+        let toy = densities("toy");
+        assert_eq!(toy, densities("molteni"));
+        assert_ne!(toy, densities("none"));
+    }
 }

@@ -30,6 +30,7 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 pub use sensors::sample;
+use sensors::{fields_of, Reach};
 
 /// The fields a probe or the reference tracker reads from the gathered view: all but the sort
 /// key, the density gradient and the solid fields (a force probe evaluates the solver's own
@@ -38,17 +39,6 @@ pub use sensors::sample;
 /// takes it out of this list: the view holds no other, and a missing one fails every test of
 /// that probe at its first sample.
 const PROBED: Fields = Fields::ALL.without(Fields::KEY.or(Fields::GRAD_RHO).or(Fields::SOLID));
-
-/// The fields probe `probe` reads. A front probe reads where the fluid is and nothing else:
-/// its view, which holds every fluid particle of the run (the largest of a run's views), is
-/// then 33 B a particle in 3D (id, kind, position) instead of PROBED's ~115 B. Every other
-/// probe reads [`PROBED`] over its small region.
-fn fields_of(probe: &Probe) -> Fields {
-    match probe {
-        Probe::Front { .. } => Fields::ID.or(Fields::KIND).or(Fields::X),
-        _ => PROBED,
-    }
-}
 
 /// When a probe writes a row.
 #[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
@@ -124,11 +114,10 @@ impl<const D: usize> ProbeSet<D> {
             .collect();
         let walls = probes
             .iter()
-            .map(|p| match p {
-                Probe::Force { body, .. } => {
-                    scene.walls.iter().position(|w| w.name == *body).unwrap_or(0) as u16
-                }
-                _ => 0,
+            .map(|p| {
+                p.force_body()
+                    .and_then(|body| scene.walls.iter().position(|w| w.name == body))
+                    .unwrap_or(0) as u16
             })
             .collect();
         let mut files = Vec::new();
@@ -283,7 +272,6 @@ impl<const D: usize> ProbeSet<D> {
     /// (all-reduced: walls may move) grown by the interaction reach.
     fn region(&self, k: usize, sim: &Simulation<D>, comm: &dyn Comm) -> Result<Region<D>> {
         let reach = sim.model.kernel.support.max(sim.model.repulsive.r0);
-        let vec_of = |x: &[f64]| Vector::<D>::from_fn(|a, _| x[a]);
         let everywhere = Region {
             min: Vector::from_element(f64::NEG_INFINITY),
             max: Vector::from_element(f64::INFINITY),
@@ -296,28 +284,21 @@ impl<const D: usize> ProbeSet<D> {
             max: hi.add_scalar(grow),
             ..everywhere
         };
-        Ok(match &self.probes[k] {
-            Probe::Pressure { point, diameter, .. } => {
-                let c = vec_of(point);
-                around(c, c, reach + 0.5 * diameter)
-            }
-            Probe::VelocityLine { from, to, .. } => {
-                let (a, b) = (vec_of(from), vec_of(to));
-                around(a.inf(&b), b.sup(&a), reach)
-            }
-            Probe::Gauge { point, .. } => {
-                let mut r = around(vec_of(point), vec_of(point), reach);
+        Ok(match sensors::reach::<D>(&self.probes[k]) {
+            Reach::Box { lo, hi, margin } => around(lo, hi, reach + margin),
+            Reach::Column(at) => {
+                let mut r = around(at, at, reach);
                 r.min[D - 1] = f64::NEG_INFINITY;
                 r.max[D - 1] = f64::INFINITY;
                 r.walls = true;
                 r
             }
-            Probe::Front { .. } => everywhere,
-            Probe::Hole { .. } => Region {
+            Reach::Fluid => everywhere,
+            Reach::Solids => Region {
                 solids: true,
                 ..everywhere
             },
-            Probe::Force { .. } => {
+            Reach::Wall => {
                 let b = self.walls[k];
                 let p = &sim.p;
                 let (mut lo, mut hi) = ([f64::INFINITY; D], [f64::NEG_INFINITY; D]);
@@ -337,7 +318,7 @@ impl<const D: usize> ProbeSet<D> {
                 hi.iter_mut().zip(&both[D..]).for_each(|(h, b)| *h = -b);
                 Region {
                     body: Some(b),
-                    ..around(vec_of(&lo), vec_of(&hi), reach)
+                    ..around(Vector::from(lo), Vector::from(hi), reach)
                 }
             }
         })

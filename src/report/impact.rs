@@ -6,7 +6,7 @@ use super::charts::{both, font, register_font, viridis, Res};
 use crate::error::{Error, Result};
 use crate::particles::{Kind, Particles, Record};
 use crate::probes::hole::{cell_size, in_plane_axes, measure_with_cells, HoleSetup};
-use crate::scene::{load_scene, Probe, Scene};
+use crate::scene::{load_scene, Scene};
 use crate::Vector;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
@@ -96,12 +96,11 @@ fn read_final(path: &Path, field: &str) -> Result<Final> {
 
 /// The run's hole probe (plate, projectile), if its scene has one.
 fn hole_probe(scene: &Scene) -> Option<(String, String)> {
-    scene.probes.iter().find_map(|p| match p {
-        Probe::Hole {
-            plate, projectile, ..
-        } => Some((plate.clone(), projectile.clone())),
-        _ => None,
-    })
+    scene
+        .probes
+        .iter()
+        .find_map(|p| p.hole_bodies())
+        .map(|(plate, projectile)| (plate.to_string(), projectile.to_string()))
 }
 
 /// Colour scale of `values` (5th to 95th percentile, so that a few extreme particles do not

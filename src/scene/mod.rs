@@ -22,6 +22,8 @@ pub use checks::face as face_of;
 pub(crate) use load::{first_line, key_at, line_of, span_of_key};
 pub use load::{load_scene, load_scene_str, SceneFlags, SceneSource};
 pub use materials::{Material, MaterialKind, StrengthKind};
+#[cfg(test)]
+pub(crate) use probes::one_of_each;
 pub use probes::{Direction, Probe, HOLE_COLUMNS};
 pub use reference::Reference;
 pub use validate::{check_rank_weights, dt_upper_bound, expected_speed, validate};
@@ -489,6 +491,11 @@ pub enum DensityDiffusion {
     /// Fourtakas et al. (2019): Molteni's term on the density difference less its hydrostatic
     /// part, Δρ_ji − ρ̄ g·x_ji / c²(ρ̄) (no gradient pass; what DualSPHysics calls DDT2).
     Fourtakas,
+    /// Test only (`crate::physics::fluid`): Molteni's pair term under a name of its own. It
+    /// proves the density-term recipe of ARCHITECTURE.md: a term is this file and
+    /// `physics/fluid.rs`.
+    #[cfg(test)]
+    Toy,
 }
 
 impl DensityDiffusion {
@@ -497,6 +504,8 @@ impl DensityDiffusion {
         match self {
             DensityDiffusion::None => false,
             DensityDiffusion::Molteni | DensityDiffusion::Antuono | DensityDiffusion::Fourtakas => true,
+            #[cfg(test)]
+            DensityDiffusion::Toy => true,
         }
     }
 
@@ -506,6 +515,8 @@ impl DensityDiffusion {
         match self {
             DensityDiffusion::Antuono => true,
             DensityDiffusion::None | DensityDiffusion::Molteni | DensityDiffusion::Fourtakas => false,
+            #[cfg(test)]
+            DensityDiffusion::Toy => false,
         }
     }
 }

@@ -110,6 +110,17 @@ pub enum Probe {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         interval: Option<f64>,
     },
+    /// Test only (`crate::probes::sensors`): the run's fluid mass Σ m_j in id order (kg; per
+    /// metre of depth in 2D), column `mass`. It proves the probe recipe of ARCHITECTURE.md: a
+    /// kind is this file and `probes/sensors.rs`.
+    #[cfg(test)]
+    Toy {
+        /// Probe name.
+        name: String,
+        /// Seconds between rows (default: the output interval; 0 = every step).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        interval: Option<f64>,
+    },
 }
 
 /// Which way a front probe looks along its axis.
@@ -138,6 +149,8 @@ impl Probe {
             | Probe::Front { name, .. }
             | Probe::Force { name, .. }
             | Probe::Hole { name, .. } => name,
+            #[cfg(test)]
+            Probe::Toy { name, .. } => name,
         }
     }
 
@@ -150,6 +163,8 @@ impl Probe {
             | Probe::Front { interval, .. }
             | Probe::Force { interval, .. }
             | Probe::Hole { interval, .. } => *interval,
+            #[cfg(test)]
+            Probe::Toy { interval, .. } => *interval,
         }
     }
 
@@ -157,7 +172,11 @@ impl Probe {
     pub fn window(&self) -> f64 {
         match self {
             Probe::Pressure { window, .. } | Probe::Force { window, .. } => *window,
-            _ => 0.0,
+            Probe::VelocityLine { .. } | Probe::Gauge { .. } | Probe::Front { .. } | Probe::Hole { .. } => {
+                0.0
+            }
+            #[cfg(test)]
+            Probe::Toy { .. } => 0.0,
         }
     }
 
@@ -173,12 +192,92 @@ impl Probe {
                 .collect(),
             Probe::Gauge { .. } => vec!["eta".into()],
             Probe::Front { .. } => vec!["front".into()],
+            #[cfg(test)]
+            Probe::Toy { .. } => vec!["mass".into()],
             Probe::Hole { .. } => HOLE_COLUMNS.iter().map(|c| c.to_string()).collect(),
             Probe::Force { .. } => {
                 let f = ["fx", "fy", "fz"][..dim].iter().map(|s| s.to_string());
                 let m: &[&str] = if dim == 3 { &["mx", "my", "mz"] } else { &["mz"] };
                 f.chain(m.iter().map(|s| s.to_string())).collect()
             }
+        }
+    }
+
+    /// A velocity line's number of sample points (`None` for every other kind): bounded by
+    /// `limits::MAX_PROBE_POINTS` before anything is allocated.
+    pub fn line_points(&self) -> Option<usize> {
+        match self {
+            Probe::VelocityLine { points, .. } => Some(*points),
+            Probe::Pressure { .. }
+            | Probe::Gauge { .. }
+            | Probe::Front { .. }
+            | Probe::Force { .. }
+            | Probe::Hole { .. } => None,
+            #[cfg(test)]
+            Probe::Toy { .. } => None,
+        }
+    }
+
+    /// A pressure transducer's sensing face, (diameter (m), normal), when it has one
+    /// (diameter > 0); `None` for a point sensor and every other kind.
+    pub fn face(&self) -> Option<(f64, Option<&[f64]>)> {
+        match self {
+            Probe::Pressure { diameter, normal, .. } if *diameter != 0.0 => {
+                Some((*diameter, normal.as_deref()))
+            }
+            Probe::Pressure { .. }
+            | Probe::VelocityLine { .. }
+            | Probe::Gauge { .. }
+            | Probe::Front { .. }
+            | Probe::Force { .. }
+            | Probe::Hole { .. } => None,
+            #[cfg(test)]
+            Probe::Toy { .. } => None,
+        }
+    }
+
+    /// The `[[wall]]` a force probe measures (`None` for every other kind).
+    pub fn force_body(&self) -> Option<&str> {
+        match self {
+            Probe::Force { body, .. } => Some(body),
+            Probe::Pressure { .. }
+            | Probe::VelocityLine { .. }
+            | Probe::Gauge { .. }
+            | Probe::Front { .. }
+            | Probe::Hole { .. } => None,
+            #[cfg(test)]
+            Probe::Toy { .. } => None,
+        }
+    }
+
+    /// A hole probe's (plate, projectile) `[[solid]]` bodies (`None` for every other kind).
+    pub fn hole_bodies(&self) -> Option<(&str, &str)> {
+        match self {
+            Probe::Hole {
+                plate, projectile, ..
+            } => Some((plate, projectile)),
+            Probe::Pressure { .. }
+            | Probe::VelocityLine { .. }
+            | Probe::Gauge { .. }
+            | Probe::Front { .. }
+            | Probe::Force { .. } => None,
+            #[cfg(test)]
+            Probe::Toy { .. } => None,
+        }
+    }
+
+    /// A wave gauge's station (m; the last coordinate is ignored), `None` for every other
+    /// kind: the gauges a reference's wave compares with.
+    pub fn gauge_point(&self) -> Option<&[f64]> {
+        match self {
+            Probe::Gauge { point, .. } => Some(point),
+            Probe::Pressure { .. }
+            | Probe::VelocityLine { .. }
+            | Probe::Front { .. }
+            | Probe::Force { .. }
+            | Probe::Hole { .. } => None,
+            #[cfg(test)]
+            Probe::Toy { .. } => None,
         }
     }
 
@@ -202,6 +301,7 @@ pub const HOLE_COLUMNS: [&str; 10] = [
     "debris_width",
 ];
 
+/// The keys of probe `k` that depend on its kind.
 fn validate_probe_kind(
     k: &str,
     probe: &mut Probe,
@@ -250,6 +350,8 @@ fn validate_probe_kind(
             Ok(())
         }
         Probe::Force { body, about, .. } => check_force(k, body, about, d, t),
+        #[cfg(test)]
+        Probe::Toy { .. } => Ok(()),
     }
 }
 
@@ -379,7 +481,6 @@ pub(super) fn validate_probes(s: &mut Scene) -> Result<()> {
     Ok(())
 }
 
-/// The keys of probe `i` (named `k`) that depend on its kind.
 /// The bodies probes refer to by name, looked up in O(1) (a scene may hold thousands of
 /// probes and bodies).
 struct ProbeTargets<'s> {
@@ -387,4 +488,70 @@ struct ProbeTargets<'s> {
     solids: std::collections::HashMap<&'s str, &'s FluidBody>,
     wall_names: Names,
     solid_names: Names,
+}
+
+/// One probe of every kind in a `d`-dimensional scene, for tests that must cover them all
+/// (the volume estimate's columns): a new kind is added here, where its variant is.
+#[cfg(test)]
+pub(crate) fn one_of_each(d: usize) -> Vec<Probe> {
+    let v = |d: usize| vec![0.5; d];
+    let all = vec![
+        Probe::Pressure {
+            name: "p".into(),
+            point: v(d),
+            diameter: 0.0,
+            normal: None,
+            window: 0.0,
+            interval: None,
+        },
+        Probe::VelocityLine {
+            name: "v".into(),
+            from: v(d),
+            to: vec![0.6; d],
+            points: 7,
+            interval: None,
+        },
+        Probe::Gauge {
+            name: "g".into(),
+            point: v(d),
+            interval: None,
+        },
+        Probe::Front {
+            name: "f".into(),
+            axis: 0,
+            direction: Default::default(),
+            link: 1.5,
+            interval: None,
+        },
+        Probe::Force {
+            name: "F".into(),
+            body: "w".into(),
+            about: None,
+            window: 0.0,
+            interval: None,
+        },
+        Probe::Hole {
+            name: "h".into(),
+            plate: "a".into(),
+            projectile: "b".into(),
+            interval: None,
+        },
+        Probe::Toy {
+            name: "m".into(),
+            interval: None,
+        },
+    ];
+    // every kind is listed above: this match stops compiling when one is added
+    for p in &all {
+        match p {
+            Probe::Pressure { .. }
+            | Probe::VelocityLine { .. }
+            | Probe::Gauge { .. }
+            | Probe::Front { .. }
+            | Probe::Force { .. }
+            | Probe::Hole { .. }
+            | Probe::Toy { .. } => {}
+        }
+    }
+    all
 }

@@ -138,7 +138,7 @@ pub(super) fn validate_reference(s: &Scene) -> Result<()> {
         Reference::Hole { major, minor, .. } => {
             positive(*major, "reference.major", "major = 0.0106")?;
             positive(*minor, "reference.minor", "minor = 0.0085")?;
-            if !s.probes.iter().any(|p| matches!(p, Probe::Hole { .. })) {
+            if !s.probes.iter().any(|p| p.hole_bodies().is_some()) {
                 return err(
                     "reference",
                     "a hole reference needs a [[probe]] of kind = \"hole\"",
@@ -252,12 +252,12 @@ fn validate_solitary_reference(s: &Scene, gauges: [&String; 3]) -> Result<()> {
         if !s
             .probes
             .iter()
-            .any(|p| matches!(p, Probe::Gauge { .. }) && p.name() == name)
+            .any(|p| p.gauge_point().is_some() && p.name() == name)
         {
             let gauges: Vec<&str> = s
                 .probes
                 .iter()
-                .filter(|p| matches!(p, Probe::Gauge { .. }))
+                .filter(|p| p.gauge_point().is_some())
                 .map(|p| p.name())
                 .collect();
             return err(

@@ -95,6 +95,40 @@ impl WallMethod {
         }
     }
 
+    /// True if the wall's rows beyond the fluid's support are not built ([`rows_reaching`]):
+    /// its particles list fluid neighbours only, so a deeper row takes part in no sum (dummy
+    /// and dynamic walls; a repulsive wall keeps its `layers`).
+    pub fn trims_to_support(self) -> bool {
+        match self {
+            WallMethod::Dummy | WallMethod::Dynamic => true,
+            WallMethod::Repulsive | WallMethod::Mirror => false,
+            #[cfg(test)]
+            WallMethod::Toy => false,
+        }
+    }
+
+    /// True if a `[[wall]]` of the method may set `no_slip = "morris"`: dummy walls (β from
+    /// their particles' depths) and mirror walls (their images carry it).
+    pub fn allows_morris_no_slip(self) -> bool {
+        match self {
+            WallMethod::Dummy | WallMethod::Mirror => true,
+            WallMethod::Dynamic | WallMethod::Repulsive => false,
+            #[cfg(test)]
+            WallMethod::Toy => false,
+        }
+    }
+
+    /// True if a `[[wall]]` of the method may set `volume = "lattice"`: dummy walls, whose
+    /// density the fluid's pressure sets each step.
+    pub fn allows_lattice_volume(self) -> bool {
+        match self {
+            WallMethod::Dummy => true,
+            WallMethod::Dynamic | WallMethod::Repulsive | WallMethod::Mirror => false,
+            #[cfg(test)]
+            WallMethod::Toy => false,
+        }
+    }
+
     /// True if `no_slip = "morris"` acts on the wall (`crate::physics::viscous`: β from the
     /// depths either side of its surface): dummy walls.
     pub fn takes_morris_no_slip(self) -> bool {
@@ -254,9 +288,10 @@ pub fn rows_reaching(support: f64, dx: f64) -> usize {
 impl WallBody {
     /// Layers of a container built (`layers`, a dummy wall's at most [`rows_reaching`]).
     pub fn built_layers(&self, support: f64, dx: f64) -> usize {
-        match self.method {
-            WallMethod::Dummy | WallMethod::Dynamic => self.layers.min(rows_reaching(support, dx).max(1)),
-            _ => self.layers,
+        if self.method.trims_to_support() {
+            self.layers.min(rows_reaching(support, dx).max(1))
+        } else {
+            self.layers
         }
     }
 
@@ -270,8 +305,7 @@ impl WallBody {
         } else {
             reach
         };
-        (self.shape == WallShape::Block && matches!(self.method, WallMethod::Dummy | WallMethod::Dynamic))
-            .then_some(rows as u64)
+        (self.shape == WallShape::Block && self.method.trims_to_support()).then_some(rows as u64)
     }
 }
 
@@ -320,9 +354,10 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
             WallShape::Container => {
                 seams_open(w, &k, &s.domain.periodic, d)?;
                 if w.layers == 0 {
-                    w.layers = match w.method {
-                        WallMethod::Dummy | WallMethod::Dynamic => rows_reaching(support, dx).max(1),
-                        _ => (support / dx - 1e-9).ceil().max(1.0) as usize,
+                    w.layers = if w.method.trims_to_support() {
+                        rows_reaching(support, dx).max(1)
+                    } else {
+                        (support / dx - 1e-9).ceil().max(1.0) as usize
                     };
                 }
                 // the layers built: a dummy or dynamic wall's beyond the support's reach are not
@@ -337,12 +372,12 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
                         hi[a] += built * dx;
                     }
                 }
-                if w.method != WallMethod::Mirror {
+                if !w.method.makes_images() {
                     in_domain(&lo, &hi, &k, &s.domain)?;
                 }
             }
             WallShape::Block => {
-                if w.method == WallMethod::Mirror {
+                if w.method.makes_images() {
                     return err(
                         format!("{k}.method"),
                         "mirror walls reflect across the inner faces of a container: use \
@@ -357,8 +392,7 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
         }
         validate_motion(w, &k, d)?;
         if w.no_slip == crate::scene::NoSlipMethod::Morris
-            && (!matches!(w.method, WallMethod::Dummy | WallMethod::Mirror)
-                || w.slip != crate::scene::Slip::NoSlip)
+            && (!w.method.allows_morris_no_slip() || w.slip != crate::scene::Slip::NoSlip)
         {
             return err(
                 format!("{k}.no_slip"),
@@ -367,7 +401,7 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
                  no_slip = \"adami\"",
             );
         }
-        if w.volume == WallVolume::Lattice && w.method != WallMethod::Dummy {
+        if w.volume == WallVolume::Lattice && !w.method.allows_lattice_volume() {
             return err(
                 format!("{k}.volume"),
                 "`lattice` fixes the volume of dummy wall particles, whose density the fluid's \
@@ -406,7 +440,7 @@ fn seams_open(w: &crate::scene::WallBody, k: &str, periodic: &[bool], d: usize) 
 /// A wall's motion law: not on a mirror wall, not with a surface velocity, valid constants.
 fn validate_motion(w: &mut crate::scene::WallBody, k: &str, d: usize) -> Result<()> {
     if let Some(m) = &mut w.motion {
-        if w.method == WallMethod::Mirror {
+        if w.method.makes_images() {
             return err(
                 format!("{k}.motion"),
                 "mirror walls cannot move (their planes are fixed); use method = \"dummy\" for a \
