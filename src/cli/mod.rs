@@ -188,17 +188,9 @@ Examples:
         /// Override a scene key (repeatable).
         #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
         set: Vec<String>,
-        /// Pair loops: `gather` (each particle sums all its neighbours; the same bits on any
-        /// layout) or `pairs` (each pair once); default: the scene's `[performance]`.
-        #[arg(long, value_enum)]
-        interactions: Option<crate::scene::Interactions>,
-        /// Neighbour search: `lists`, `cells` (no stored lists) or `verlet` (lists kept between
-        /// ghost builds); default: the scene's.
-        #[arg(long, value_enum)]
-        neighbours: Option<crate::scene::NeighbourMode>,
-        /// Halo refreshes overlapped with the interior (`on`, `off`); default: the scene's.
-        #[arg(long, value_enum)]
-        overlap: Option<crate::scene::Overlap>,
+        /// `--interactions`, `--neighbours`, `--overlap` (declared once, in `scene::SceneFlags`).
+        #[command(flatten)]
+        flags: SceneFlags,
     },
     /// Speed against accuracy: run validation cases at several resolutions and method
     /// variants, each run's error against its reference and its cost in one CSV row, charts
@@ -394,17 +386,8 @@ fn dispatch(cmd: Command) -> Result<i32> {
             steps,
             repeat,
             set,
-            interactions,
-            neighbours,
-            overlap,
-        } => {
-            let flags = SceneFlags {
-                interactions,
-                neighbours,
-                overlap,
-            };
-            cmd_bench(scenes, threads, steps, repeat, set, flags)
-        }
+            flags,
+        } => cmd_bench(scenes, threads, steps, repeat, set, flags),
         Command::Report {
             runs,
             compare,

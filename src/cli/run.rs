@@ -50,23 +50,9 @@ pub struct RunArgs {
     /// Override a scene key by its dotted TOML path, e.g. --set time.t_end=0.5 (repeatable).
     #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
     set: Vec<String>,
-    /// Pair loops: `gather` (each particle sums all its neighbours in a fixed order: the same
-    /// bits on any number of ranks and threads) or `pairs` (each pair of fluid particles once,
-    /// fewer kernel evaluations; also the same bits on any number of ranks and threads — its
-    /// own, equal to gather's to round-off). Default: the scene's `[performance] interactions`, else gather.
-    #[arg(long, value_enum)]
-    interactions: Option<crate::scene::Interactions>,
-    /// Neighbour search: `lists` (stored once per step, 4 B per pair), `cells` (no lists,
-    /// each pass scans the cells again: the lean-memory mode, same bits) or `verlet` (lists to
-    /// the support·(1 + skin), kept until the ghosts are built again). Default: the scene's
-    /// `[performance] neighbours`, else lists.
-    #[arg(long, value_enum)]
-    neighbours: Option<crate::scene::NeighbourMode>,
-    /// Halo refreshes overlapped with the interior's compute: `on` (the ghosts' fields travel
-    /// while the particles no ghost reaches are computed) or `off`; the same bits either way.
-    /// Default: the scene's `[performance] overlap`, else off.
-    #[arg(long, value_enum)]
-    overlap: Option<crate::scene::Overlap>,
+    /// `--interactions`, `--neighbours`, `--overlap` (declared once, in `scene::SceneFlags`).
+    #[command(flatten)]
+    flags: SceneFlags,
     /// Communication back end.
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
     backend: Backend,
@@ -109,9 +95,7 @@ pub(super) fn cmd_run_args(a: RunArgs) -> Result<i32> {
         force,
         threads,
         set,
-        interactions,
-        neighbours,
-        overlap,
+        flags,
         backend,
         ranks,
         ranks_per_node,
@@ -122,11 +106,6 @@ pub(super) fn cmd_run_args(a: RunArgs) -> Result<i32> {
         max_memory,
         min_particles_per_rank,
     } = a;
-    let flags = SceneFlags {
-        interactions,
-        neighbours,
-        overlap,
-    };
     check_run_flags(backend, bind, ranks, checkpoint_every_minutes)?;
     if let Some(dir) = &out {
         output_path("--out", dir, Written::RunDir)?;

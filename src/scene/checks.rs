@@ -211,10 +211,10 @@ pub(super) fn in_domain(min: &[f64], max: &[f64], body: &str, dom: &Domain) -> R
 /// or cylinder's comes from its `centre`, `radius` and `length`, and a box outside the domain
 /// is blamed on the key that set it (`radius`, or a cylinder's `length` along its axis), not
 /// on a `min` the scene never wrote.
-pub(super) fn body_in_domain(f: &super::FluidBody, k: &str, dom: &Domain) -> Result<()> {
+pub(super) fn body_in_domain(f: super::shape::ShapeKeys, k: &str, dom: &Domain) -> Result<()> {
     use super::BodyShape;
     if f.shape == BodyShape::Block {
-        return in_domain(&f.min, &f.max, k, dom);
+        return in_domain(f.min, f.max, k, dom);
     }
     let tol = 1e-9 * disc_scale(dom);
     for a in 0..f.min.len() {
@@ -270,7 +270,7 @@ pub(super) fn point_in_domain(p: &[f64], key: &str, dom: &Domain) -> Result<()> 
 
 /// A sphere's or cylinder's box from its centre, radius (and axis and length); a resolved
 /// scene already holds it, any other box is an error; no such keys on a block.
-pub(super) fn sphere_box(f: &mut super::FluidBody, k: &str, d: usize) -> Result<()> {
+pub(super) fn sphere_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Result<()> {
     use super::BodyShape;
     if f.shape == BodyShape::Block {
         if !f.centre.is_empty() || f.radius != 0.0 || f.axis.is_some() || f.length != 0.0 {
@@ -298,7 +298,7 @@ pub(super) fn sphere_box(f: &mut super::FluidBody, k: &str, d: usize) -> Result<
             format!("is missing: a {shape} is placed by `centre` and `radius`{boxed}; e.g. centre = [{example}], radius = 0.05"),
         );
     }
-    check_vec(&mut f.centre, d, &format!("{k}.centre"), false)?;
+    check_vec(f.centre, d, &format!("{k}.centre"), false)?;
     if f.radius == 0.0 {
         return err(
             format!("{k}.radius"),
@@ -338,19 +338,19 @@ pub(super) fn sphere_box(f: &mut super::FluidBody, k: &str, d: usize) -> Result<
                 ),
             );
         }
-        f.axis = Some(axis);
+        *f.axis = Some(axis);
         half[axis] = 0.5 * f.length;
     } else if f.axis.is_some() || f.length != 0.0 {
         return err(format!("{k}.axis"), "`axis` and `length` belong to a cylinder");
     }
     let lo: Vec<f64> = (0..d).map(|a| f.centre[a] - half[a]).collect();
     let hi: Vec<f64> = (0..d).map(|a| f.centre[a] + half[a]).collect();
-    if (!f.min.is_empty() && f.min != lo) || (!f.max.is_empty() && f.max != hi) {
+    if (!f.min.is_empty() && *f.min != lo) || (!f.max.is_empty() && *f.max != hi) {
         return err(
             format!("{k}.min"),
             "the box of a sphere or cylinder comes from its centre, radius and length: leave out min and max",
         );
     }
-    (f.min, f.max) = (lo, hi);
+    (*f.min, *f.max) = (lo, hi);
     Ok(())
 }

@@ -27,13 +27,26 @@ pub struct SceneSource {
 /// formatted as text and parsed again — and are written into the scene's text, so that the run
 /// directory's `scene.toml` (and a restart from it) keeps them; an error about such a key
 /// names the flag.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+/// The one declaration of these flags: `hsph run` and `hsph bench` flatten it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::Args)]
 pub struct SceneFlags {
-    /// `--interactions`.
+    /// Pair loops: `gather` (each particle sums all its neighbours in a fixed order: the same
+    /// bits on any number of ranks and threads) or `pairs` (each pair of fluid particles once,
+    /// fewer kernel evaluations; also the same bits on any number of ranks and threads — its
+    /// own, equal to gather's to round-off). Default: the scene's `[performance]
+    /// interactions`, else gather.
+    #[arg(long, value_enum)]
     pub interactions: Option<Interactions>,
-    /// `--neighbours`.
+    /// Neighbour search: `lists` (stored once per step, 4 B per pair), `cells` (no lists,
+    /// each pass scans the cells again: the lean-memory mode, same bits) or `verlet` (lists to
+    /// the support·(1 + skin), kept until the ghosts are built again). Default: the scene's
+    /// `[performance] neighbours`, else lists.
+    #[arg(long, value_enum)]
     pub neighbours: Option<NeighbourMode>,
-    /// `--overlap`.
+    /// Halo refreshes overlapped with the interior's compute: `on` (the ghosts' fields travel
+    /// while the particles no ghost reaches are computed) or `off`; the same bits either way.
+    /// Default: the scene's `[performance] overlap`, else off.
+    #[arg(long, value_enum)]
     pub overlap: Option<Overlap>,
 }
 

@@ -15,6 +15,7 @@ mod models;
 mod probes;
 mod reference;
 pub mod refine;
+pub mod shape;
 mod validate;
 mod walls;
 
@@ -26,11 +27,13 @@ pub use materials::{Material, MaterialKind, StrengthKind};
 pub(crate) use probes::one_of_each;
 pub use probes::{Direction, Probe, HOLE_COLUMNS};
 pub use reference::Reference;
+pub use shape::BodyShape;
 pub use validate::{check_rank_weights, dt_upper_bound, expected_speed, validate};
 pub use walls::{rows_reaching, Motion, NoSlipMethod, Slip, WallBody, WallMethod, WallShape, WallVolume};
 
 use crate::kernel::KernelKind;
 use serde::{Deserialize, Serialize};
+use shape::is_zero;
 use std::collections::BTreeMap;
 
 /// A whole scene.
@@ -678,6 +681,7 @@ impl Default for Physics {
     }
 }
 
+shape::shaped_table! {
 /// A block of fluid filled on the lattice: every lattice site with its centre in [min, max).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -687,29 +691,7 @@ pub struct FluidBody {
     pub name: String,
     /// Material name.
     pub material: String,
-    /// Shape: `block` (every site in [min, max); a plate is a thin block), `sphere` (a disc in
-    /// 2D: every site closer than `radius` to `centre`) or `cylinder` (3D: every site closer than
-    /// `radius` to the axis through `centre` along `axis`, within `length`/2 of `centre`).
-    #[serde(default)]
-    pub shape: BodyShape,
-    /// Lower corner (m); for a sphere, set from centre and radius.
-    #[serde(default)]
-    pub min: Vec<f64>,
-    /// Upper corner (m); for a sphere, set from centre and radius.
-    #[serde(default)]
-    pub max: Vec<f64>,
-    /// Centre of a sphere (m).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub centre: Vec<f64>,
-    /// Radius of a sphere or cylinder (m).
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub radius: f64,
-    /// Axis of a cylinder: 0, 1 or 2 (x, y, z).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub axis: Option<usize>,
-    /// Length of a cylinder along its axis (m).
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub length: f64,
+    ..shape_keys,
     /// Initial velocity (m/s); default zero.
     #[serde(default)]
     pub velocity: Vec<f64>,
@@ -730,18 +712,6 @@ pub struct FluidBody {
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub clamped: bool,
 }
-
-/// Shape of a fluid body.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum BodyShape {
-    /// A block [min, max).
-    #[default]
-    Block,
-    /// A sphere (a disc in 2D): the sites with |x − centre| < radius.
-    Sphere,
-    /// A cylinder (3D): the sites closer than radius to the axis, within length/2 of centre.
-    Cylinder,
 }
 
 impl FluidBody {
@@ -795,26 +765,8 @@ impl FluidBody {
     /// True if the lattice site at `x` (inside [min, max)) belongs to the body.
     #[inline]
     pub fn contains(&self, x: &[f64]) -> bool {
-        match self.shape {
-            BodyShape::Block => true,
-            BodyShape::Sphere => {
-                let r2: f64 = x.iter().zip(&self.centre).map(|(a, c)| (a - c) * (a - c)).sum();
-                r2 < self.radius * self.radius
-            }
-            BodyShape::Cylinder => {
-                let axis = self.axis.unwrap_or(2);
-                let r2: f64 = (0..x.len())
-                    .filter(|&a| a != axis)
-                    .map(|a| (x[a] - self.centre[a]).powi(2))
-                    .sum();
-                r2 < self.radius * self.radius
-            }
-        }
+        self.keys().contains(x)
     }
-}
-
-fn is_zero(v: &f64) -> bool {
-    *v == 0.0
 }
 
 /// Time integration settings.

@@ -20,32 +20,13 @@ pub const MAX_LEVEL: u32 = 3;
 /// The levels a region may take, as the messages that refuse another one name them.
 pub const LEVELS: &str = "1, 2 or 3 (particles of spacing dx/2, dx/4 or dx/8)";
 
-/// One refinement region.
+super::shape::shaped_table! {
+/// One refinement region: the shape keys of a body (`block`, `sphere` or `cylinder`), its
+/// level and the bodies it refines.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Refine {
-    /// Shape of the region: `block` ([min, max)), `sphere` (a disc in 2D) or `cylinder` (3D),
-    /// with the keys of a body of that shape.
-    #[serde(default)]
-    pub shape: BodyShape,
-    /// Lower corner (m); for a sphere or cylinder, set from centre and radius.
-    #[serde(default)]
-    pub min: Vec<f64>,
-    /// Upper corner (m); for a sphere or cylinder, set from centre and radius.
-    #[serde(default)]
-    pub max: Vec<f64>,
-    /// Centre of a sphere or cylinder (m).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub centre: Vec<f64>,
-    /// Radius of a sphere or cylinder (m).
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub radius: f64,
-    /// Axis of a cylinder: 0, 1 or 2.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub axis: Option<usize>,
-    /// Length of a cylinder along its axis (m).
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub length: f64,
+    ..shape_keys,
     /// Level ℓ ∈ 1..=3: particles of spacing dx / 2^ℓ.
     pub level: u32,
     /// Names of the fluid and solid bodies and dummy walls the region refines (empty: every
@@ -74,6 +55,7 @@ pub struct Refine {
     /// own spacing inside it. Off by default: the particles keep the size they were built with.
     #[serde(default, skip_serializing_if = "is_false")]
     pub adapt: bool,
+}
 }
 
 /// `bodies` as written: a list of at least one name. An empty list would read as "every
@@ -104,35 +86,10 @@ pub enum RegionH {
     Level,
 }
 
-fn is_zero(v: &f64) -> bool {
-    *v == 0.0
-}
-
 impl Refine {
-    /// The region's geometry as a body of its shape (the shape tests are a body's).
-    fn as_body(&self) -> FluidBody {
-        FluidBody {
-            name: String::new(),
-            material: String::new(),
-            shape: self.shape,
-            min: self.min.clone(),
-            max: self.max.clone(),
-            centre: self.centre.clone(),
-            radius: self.radius,
-            axis: self.axis,
-            length: self.length,
-            velocity: Vec::new(),
-            hydrostatic: false,
-            velocity_field: None,
-            pressure_field: None,
-            clamped: false,
-        }
-    }
-
     /// True if the point `x` (m) lies in the region.
     pub fn contains(&self, x: &[f64]) -> bool {
-        let in_box = (0..x.len()).all(|a| x[a] >= self.min[a] && x[a] < self.max[a]);
-        in_box && self.as_body().contains(x)
+        self.keys().contains_point(x)
     }
 
     /// True if the region refines the body named `name`.
@@ -581,13 +538,11 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
                 format!("must be {LEVELS}, got {}; e.g. level = 1", r.level),
             );
         }
-        let mut g = r.as_body();
-        super::checks::sphere_box(&mut g, &k, d)?;
-        super::checks::check_vec(&mut g.min, d, &format!("{k}.min"), false)?;
-        super::checks::check_vec(&mut g.max, d, &format!("{k}.max"), false)?;
-        super::checks::check_box(&g.min, &g.max, &k)?;
-        super::checks::body_in_domain(&g, &k, &s.domain)?;
-        (r.min, r.max, r.axis) = (g.min, g.max, g.axis);
+        super::checks::sphere_box(r.keys_mut(), &k, d)?;
+        super::checks::check_vec(&mut r.min, d, &format!("{k}.min"), false)?;
+        super::checks::check_vec(&mut r.max, d, &format!("{k}.max"), false)?;
+        super::checks::check_box(&r.min, &r.max, &k)?;
+        super::checks::body_in_domain(r.keys(), &k, &s.domain)?;
         let support = s.discretisation.support();
         match r.transition {
             None => r.transition = Some(support),

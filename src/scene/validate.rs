@@ -564,14 +564,14 @@ fn validate_fluids(s: &mut Scene, mat_names: &Names) -> Result<()> {
         if !mat_names.contains(&f.material) {
             return unknown_material(&k, &f.material, mat_names);
         }
-        sphere_box(f, &k, d)?;
+        sphere_box(f.keys_mut(), &k, d)?;
         check_vec(&mut f.min, d, &format!("{k}.min"), false)?;
         check_vec(&mut f.max, d, &format!("{k}.max"), false)?;
         check_box(&f.min, &f.max, &k)?;
         check_vec(&mut f.velocity, d, &format!("{k}.velocity"), true)?;
         speed_at_most(&f.velocity, &format!("{k}.velocity"))?;
         validate_fields(f, &k, d, &s.constants)?;
-        body_in_domain(f, &k, &s.domain)?;
+        body_in_domain(f.keys(), &k, &s.domain)?;
     }
     super::materials::body_kinds(s)
 }

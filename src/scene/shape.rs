@@ -1,0 +1,175 @@
+//! The shape keys of a scene table, declared once: `shape`, `min`, `max`, `centre`, `radius`,
+//! `axis` and `length`. [`shaped_table!`] puts them into every table that has a shape (fluid
+//! and solid bodies, `FluidBody`; refinement regions, `Refine`) and gives the table
+//! [`ShapeKeys`] (borrowed, no copy) and [`ShapeKeysMut`] (for the checks that resolve a
+//! sphere's box). What a shape contains is answered here, once, for all of them.
+
+use serde::{Deserialize, Serialize};
+
+/// Shape of a body or region.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum BodyShape {
+    /// A block [min, max).
+    #[default]
+    Block,
+    /// A sphere (a disc in 2D): the sites with |x − centre| < radius.
+    Sphere,
+    /// A cylinder (3D): the sites closer than radius to the axis, within length/2 of centre.
+    Cylinder,
+}
+
+impl BodyShape {
+    /// The shape's name as a scene file writes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            BodyShape::Block => "block",
+            BodyShape::Sphere => "sphere",
+            BodyShape::Cylinder => "cylinder",
+        }
+    }
+}
+
+/// A table's shape keys, borrowed.
+#[derive(Debug, Clone, Copy)]
+pub struct ShapeKeys<'a> {
+    /// `shape`.
+    pub shape: BodyShape,
+    /// `min` (m).
+    pub min: &'a [f64],
+    /// `max` (m).
+    pub max: &'a [f64],
+    /// `centre` (m).
+    pub centre: &'a [f64],
+    /// `radius` (m).
+    pub radius: f64,
+    /// `axis` (0, 1 or 2).
+    pub axis: Option<usize>,
+    /// `length` (m).
+    pub length: f64,
+}
+
+/// A table's shape keys, the ones a check may resolve borrowed mutably.
+#[derive(Debug)]
+pub struct ShapeKeysMut<'a> {
+    /// `shape`.
+    pub shape: BodyShape,
+    /// `min` (m; a sphere's or cylinder's is set from its centre and radius).
+    pub min: &'a mut Vec<f64>,
+    /// `max` (m; likewise).
+    pub max: &'a mut Vec<f64>,
+    /// `centre` (m).
+    pub centre: &'a mut Vec<f64>,
+    /// `radius` (m).
+    pub radius: f64,
+    /// `axis` (0, 1 or 2; a cylinder's default is 2).
+    pub axis: &'a mut Option<usize>,
+    /// `length` (m).
+    pub length: f64,
+}
+
+impl ShapeKeys<'_> {
+    /// True if the lattice site at `x` (m; inside [min, max)) lies in the shape.
+    #[inline]
+    pub fn contains(&self, x: &[f64]) -> bool {
+        match self.shape {
+            BodyShape::Block => true,
+            BodyShape::Sphere => {
+                let r2: f64 = x.iter().zip(self.centre).map(|(a, c)| (a - c) * (a - c)).sum();
+                r2 < self.radius * self.radius
+            }
+            BodyShape::Cylinder => {
+                let axis = self.axis.unwrap_or(2);
+                let r2: f64 = (0..x.len())
+                    .filter(|&a| a != axis)
+                    .map(|a| (x[a] - self.centre[a]).powi(2))
+                    .sum();
+                r2 < self.radius * self.radius
+            }
+        }
+    }
+
+    /// True if `x` (m) lies in the box [min, max) and in the shape.
+    #[inline]
+    pub fn contains_point(&self, x: &[f64]) -> bool {
+        (0..x.len()).all(|a| x[a] >= self.min[a] && x[a] < self.max[a]) && self.contains(x)
+    }
+}
+
+/// Declares a scene table whose keys are its own leading keys, then the shape keys, then its
+/// own trailing keys (`..shape_keys,` marks the place), with `keys()` and `keys_mut()`. A new
+/// shape's keys (a mesh's file, placement and fill) are added here, once, for every table.
+macro_rules! shaped_table {
+    (
+        $(#[$meta:meta])*
+        pub struct $name:ident {
+            $( $(#[$hm:meta])* pub $hf:ident : $ht:ty, )*
+            ..shape_keys,
+            $( $(#[$tm:meta])* pub $tf:ident : $tt:ty, )*
+        }
+    ) => {
+        $(#[$meta])*
+        pub struct $name {
+            $( $(#[$hm])* pub $hf: $ht, )*
+            /// Shape: `block` (every site in [min, max); a plate is a thin block), `sphere` (a
+            /// disc in 2D: every site closer than `radius` to `centre`) or `cylinder` (3D: every
+            /// site closer than `radius` to the axis through `centre` along `axis`, within
+            /// `length`/2 of `centre`).
+            #[serde(default)]
+            pub shape: $crate::scene::BodyShape,
+            /// Lower corner (m); for a sphere or cylinder, set from centre and radius.
+            #[serde(default)]
+            pub min: Vec<f64>,
+            /// Upper corner (m); for a sphere or cylinder, set from centre and radius.
+            #[serde(default)]
+            pub max: Vec<f64>,
+            /// Centre of a sphere or cylinder (m).
+            #[serde(default, skip_serializing_if = "Vec::is_empty")]
+            pub centre: Vec<f64>,
+            /// Radius of a sphere or cylinder (m).
+            #[serde(default, skip_serializing_if = "crate::scene::shape::is_zero")]
+            pub radius: f64,
+            /// Axis of a cylinder: 0, 1 or 2 (x, y, z; default 2).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub axis: Option<usize>,
+            /// Length of a cylinder along its axis (m).
+            #[serde(default, skip_serializing_if = "crate::scene::shape::is_zero")]
+            pub length: f64,
+            $( $(#[$tm])* pub $tf: $tt, )*
+        }
+
+        impl $name {
+            /// The shape keys, borrowed.
+            pub fn keys(&self) -> $crate::scene::shape::ShapeKeys<'_> {
+                $crate::scene::shape::ShapeKeys {
+                    shape: self.shape,
+                    min: &self.min,
+                    max: &self.max,
+                    centre: &self.centre,
+                    radius: self.radius,
+                    axis: self.axis,
+                    length: self.length,
+                }
+            }
+
+            /// The shape keys, for the checks that resolve them.
+            pub fn keys_mut(&mut self) -> $crate::scene::shape::ShapeKeysMut<'_> {
+                $crate::scene::shape::ShapeKeysMut {
+                    shape: self.shape,
+                    min: &mut self.min,
+                    max: &mut self.max,
+                    centre: &mut self.centre,
+                    radius: self.radius,
+                    axis: &mut self.axis,
+                    length: self.length,
+                }
+            }
+        }
+    };
+}
+pub(crate) use shaped_table;
+
+/// Serde's test for a key left at zero (not written in a resolved scene).
+pub(crate) fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
