@@ -470,7 +470,7 @@ pub struct Prediction {
     pub speedup: f64,
     /// `speedup / (P·t)`: against one core.
     pub efficiency: f64,
-    /// max/mean owned particles.
+    /// The load imbalance of the plan row (max/mean of the balanced load).
     pub imbalance: f64,
 }
 
@@ -713,6 +713,7 @@ mod tests {
             placement: Placement::RankOrder,
             ran: Placement::RankOrder,
             imbalance: 1.0,
+            count_imbalance: 1.0,
             ghost_fraction: 0.0,
             intra_node_bytes: 0,
             inter_node_bytes: 0,

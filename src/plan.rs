@@ -30,8 +30,12 @@ pub struct PlanRow {
     pub placement: Placement,
     /// Placement method that placed the blocks (differs when `node-grid` finds no fit).
     pub ran: Placement,
-    /// max/mean owned particles over ranks.
+    /// The load imbalance: max/mean over ranks of the load the decomposition balances
+    /// (`balance.load`: particles, or their expected pairs; under `balance.weights`), the
+    /// figure a run reports as `imbalance`.
     pub imbalance: f64,
+    /// max/mean owned particles over ranks (memory: a rank's share of the particles).
+    pub count_imbalance: f64,
     /// Ghosts received from other ranks over all particles.
     pub ghost_fraction: f64,
     /// Halo payload bytes of one step between ranks of one node (self-sends included).
@@ -148,11 +152,14 @@ fn plan_dim<const D: usize>(
         }
         let mut owned = vec![0u64; ranks];
         let mut work = vec![0.0; ranks];
+        let mut loads = vec![0u64; ranks];
         for (b, c) in block_owned.iter().enumerate() {
             owned[block_to_rank[b]] = c.0;
+            loads[block_to_rank[b]] = c.1;
             work[block_to_rank[b]] = c.1 as f64 * per_load;
         }
         let mut row = plan_row(method, ran, counts, owned, topology, per_ghost, exchanges);
+        row.imbalance = crate::decomp::rank_imbalance(&loads, &scene.balance.weights);
         row.work = work;
         rows.push(row);
     }
@@ -173,7 +180,7 @@ fn plan_row(
     let ranks = owned.len();
     let n: u64 = owned.iter().sum();
     let mean = n as f64 / ranks as f64;
-    let imbalance = *owned.iter().max().unwrap_or(&0) as f64 / mean.max(1e-300);
+    let count_imbalance = *owned.iter().max().unwrap_or(&0) as f64 / mean.max(1e-300);
     let (mut intra, mut inter, mut remote, mut messages) = (0u64, 0u64, 0u64, 0u64);
     let nodes = topology.nodes();
     let mut node_pair = vec![0u64; nodes * nodes];
@@ -204,7 +211,8 @@ fn plan_row(
     PlanRow {
         placement: method,
         ran,
-        imbalance,
+        imbalance: count_imbalance,
+        count_imbalance,
         ghost_fraction: remote as f64 / n.max(1) as f64,
         intra_node_bytes: intra,
         inter_node_bytes: inter,
@@ -234,16 +242,17 @@ pub fn table(scene: &Scene, ranks: usize, topology: &Topology, rows: &[PlanRow])
     );
     let _ = writeln!(
         s,
-        "| placement | imbalance | ghost fraction | intra-node MB | inter-node MB | inter % | node pairs | max node inter MB |"
+        "| placement | load imbalance | count imbalance | ghost fraction | intra-node MB | inter-node MB | inter % | node pairs | max node inter MB |"
     );
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in rows {
         let tot = (r.intra_node_bytes + r.inter_node_bytes).max(1) as f64;
         let _ = writeln!(
             s,
-            "| {} | {:.4} | {:.4} | {:.3} | {:.3} | {:.1} | {} | {:.3} |",
+            "| {} | {:.4} | {:.4} | {:.4} | {:.3} | {:.3} | {:.1} | {} | {:.3} |",
             placement_label(r),
             r.imbalance,
+            r.count_imbalance,
             r.ghost_fraction,
             r.intra_node_bytes as f64 / 1e6,
             r.inter_node_bytes as f64 / 1e6,
@@ -274,6 +283,7 @@ pub fn write(dir: &Path, scene: &Scene, ranks: usize, topology: &Topology, rows:
                 "placement": r.placement.name(),
                 "placement_ran": r.ran.name(),
                 "imbalance": r.imbalance,
+                "count_imbalance": r.count_imbalance,
                 "ghost_fraction": r.ghost_fraction,
                 "halo_intra_node_bytes": r.intra_node_bytes,
                 "halo_inter_node_bytes": r.inter_node_bytes,
@@ -296,14 +306,15 @@ pub fn write(dir: &Path, scene: &Scene, ranks: usize, topology: &Topology, rows:
     let text = serde_json::to_string_pretty(&doc).map_err(|e| Error::run(e.to_string()))?;
     crate::output::write_file(&pj, (text + "\n").as_bytes())?;
     let mut csv = String::from(
-        "placement,imbalance,ghost_fraction,halo_intra_node_bytes,halo_inter_node_bytes,halo_messages,node_pairs,max_node_inter_bytes\n",
+        "placement,imbalance,count_imbalance,ghost_fraction,halo_intra_node_bytes,halo_inter_node_bytes,halo_messages,node_pairs,max_node_inter_bytes\n",
     );
     for r in rows {
         let _ = writeln!(
             csv,
-            "{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{}",
             r.placement.name(),
             r.imbalance,
+            r.count_imbalance,
             r.ghost_fraction,
             r.intra_node_bytes,
             r.inter_node_bytes,

@@ -162,7 +162,7 @@ pub(super) fn cmd_model(a: ModelArgs) -> Result<i32> {
     say(&format!(
         "{}: {n} particles on {ranks} ranks × {threads} thread(s) ({} node(s) of {per_node} ranks), {cores} cores{}; network {bandwidth} GB/s, {latency} µs\n\
          one rank: {:.4} s/step\n\
-         | placement | imbalance | s/step | compute s | network s | speed-up | efficiency |\n|---|---:|---:|---:|---:|---:|---:|\n",
+         | placement | load imbalance | s/step | compute s | network s | speed-up | efficiency |\n|---|---:|---:|---:|---:|---:|---:|\n",
         scene.name,
         topo.nodes(),
         if overlap { ", exchange overlapped" } else { "" },

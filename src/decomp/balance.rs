@@ -156,6 +156,17 @@ pub fn imbalance_weighted(loads: &[u64], weights: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The load imbalance of ranks with `loads` under the scene's `balance.weights` (`weights`,
+/// cycled over the ranks; empty: all equal): [`imbalance_weighted`], or [`imbalance`]. The one
+/// rule `hsph plan`, the run's checks, `diagnostics.csv` and `summary.json` call "imbalance".
+pub fn rank_imbalance(loads: &[u64], weights: &[f64]) -> f64 {
+    if weights.is_empty() {
+        return imbalance(loads);
+    }
+    let w: Vec<f64> = (0..loads.len()).map(|r| weights[r % weights.len()]).collect();
+    imbalance_weighted(loads, &w)
+}
+
 /// One round of the search: candidate planes along one axis, each in a parent region.
 /// The caller's `count` closure answers with the global load strictly left of each candidate
 /// (`(x[axis], id) < (candidate, tie)`, module docs of [`super`]), among the particles of its

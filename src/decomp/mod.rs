@@ -28,7 +28,8 @@ mod balance;
 mod factor;
 
 pub use balance::{
-    eq6_residual, imbalance, imbalance_weighted, tolerance, BalanceParams, Counter, Report, Stage,
+    eq6_residual, imbalance, imbalance_weighted, rank_imbalance, tolerance, BalanceParams, Counter, Report,
+    Stage,
 };
 pub use factor::{factorise, ordered_factorisations, r_diff, TIE_RELATIVE};
 

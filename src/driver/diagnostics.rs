@@ -15,7 +15,7 @@ pub(super) fn diag_header() -> String {
         }
     }
     h.push_str(
-        ",ghosts,remote_ghosts,ghost_fraction,imbalance,migrated,rebalances,particle_steps_per_s,removed",
+        ",ghosts,remote_ghosts,ghost_fraction,imbalance,count_imbalance,migrated,rebalances,particle_steps_per_s,removed",
     );
     h
 }
@@ -27,6 +27,8 @@ pub(super) struct Reduced {
     pub(super) ghosts: u64,
     pub(super) remote: u64,
     pub(super) particles: u64,
+    /// The most particles a rank owns.
+    pub(super) most_owned: u64,
     pub(super) migrated: u64,
     /// Per rank: most particles held at once, most ghosts held at once, the process's peak
     /// RSS (bytes; 0 where unknown; local ranks share one process). Empty unless asked for.
@@ -37,6 +39,15 @@ impl Reduced {
     /// Mean seconds of `phase` over ranks.
     pub(super) fn mean(&self, phase: Timer) -> f64 {
         self.timers[phase as usize][1]
+    }
+
+    /// The count imbalance: max/mean of the particles the ranks own (their memory's share;
+    /// `imbalance` is the balanced load's).
+    pub(super) fn count_imbalance(&self, ranks: usize) -> f64 {
+        if self.particles == 0 {
+            return 1.0;
+        }
+        self.most_owned as f64 * ranks as f64 / self.particles as f64
     }
 
     /// Min, mean and max over ranks of the phases' seconds, in the order of [`PHASES`].
@@ -107,8 +118,14 @@ pub(super) fn reduce<const D: usize>(
             .collect(),
         None => Vec::new(),
     };
+    let most_owned = all
+        .iter()
+        .map(|b| u64::from_le_bytes(word(b, n + 2)))
+        .max()
+        .unwrap_or(0);
     Ok(Reduced {
         timers,
+        most_owned,
         ghosts: count(0),
         remote: count(1),
         particles: count(2),
@@ -131,11 +148,12 @@ pub(super) fn diag_row<const D: usize>(r: &Reduced, sim: &Simulation<D>, wall: f
     };
     let b = &sim.balance;
     row.push_str(&format!(
-        ",{},{},{:.6},{:.6},{},{},{rate:.1},{}",
+        ",{},{},{:.6},{:.6},{:.6},{},{},{rate:.1},{}",
         r.ghosts,
         r.remote,
         r.remote as f64 / r.particles.max(1) as f64,
         b.imbalance,
+        r.count_imbalance(sim.ranks),
         r.migrated,
         b.rebalance_steps.len(),
         removed

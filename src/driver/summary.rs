@@ -233,6 +233,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "traffic": self.totals.json(&cost),
             "ghost_fraction": r.remote as f64 / (r.particles as usize).max(1) as f64,
             "imbalance": sim.balance.imbalance,
+            "count_imbalance": r.count_imbalance(self.comm.size()),
             "migrations": r.migrated,
             "migrations_per_step": r.migrated as f64 / steps.max(1) as f64,
             "rebalances": sim.balance.rebalance_steps.len(),

@@ -263,8 +263,12 @@ fn summary_table(w: &mut String, run: &Run) {
         opt(run.num("ghost_fraction"), percent),
     );
     row(
-        "load imbalance (final, max/mean)",
+        "load imbalance (final, max/mean of the balanced load)",
         opt(run.num("imbalance"), |x| format!("{x:.4}")),
+    );
+    row(
+        "count imbalance (final, max/mean of the particles)",
+        opt(run.num("count_imbalance"), |x| format!("{x:.4}")),
     );
     row(
         "communication fraction (halo + migration / wall)",
@@ -444,7 +448,7 @@ pub fn compare_markdown(rows: &[CompareRow]) -> String {
     let _ = writeln!(w, "# hsph run comparison\n");
     let _ = writeln!(
         w,
-        "| # | run | scene | layout | placement | particle-steps/s | intra-node bytes | inter-node bytes | inter-node share | ghost fraction | imbalance | communication fraction |"
+        "| # | run | scene | layout | placement | particle-steps/s | intra-node bytes | inter-node bytes | inter-node share | ghost fraction | load imbalance | communication fraction |"
     );
     let _ = writeln!(w, "|---:|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|");
     for (i, r) in rows.iter().enumerate() {

@@ -6,7 +6,7 @@ use super::multirate::Substep;
 use super::timers::Timer;
 use super::Simulation;
 use crate::comm::{Comm, Phase};
-use crate::decomp::{imbalance, imbalance_weighted, BalanceParams};
+use crate::decomp::{imbalance_weighted, rank_imbalance, BalanceParams};
 use crate::error::Result;
 use crate::halo::migrate;
 use crate::scene::LoadKind;
@@ -47,17 +47,15 @@ impl BalanceStats {
 }
 
 impl<const D: usize> Simulation<D> {
-    /// max/mean of the owned-particle counts over ranks.
+    /// The load imbalance: max/mean over ranks of the load being balanced (`balance.load`:
+    /// particles, or their expected pairs), under `balance.weights`.
     pub(super) fn load_imbalance(&self, comm: &dyn Comm) -> Result<f64> {
         let mut loads = vec![0u64; self.ranks];
         loads[self.rank] = self.particle_loads().sum();
         let prev = comm.set_phase(Phase::Balance);
         comm.all_reduce_sum_u64(&mut loads)?;
         comm.set_phase(prev);
-        Ok(match self.rank_weights() {
-            Some(w) => imbalance_weighted(&loads, &w),
-            None => imbalance(&loads),
-        })
+        Ok(rank_imbalance(&loads, &self.scene.balance.weights))
     }
 
     /// Load of each owned particle (`[balance] load`): 1, or 1 + its neighbour count from the
