@@ -5,7 +5,7 @@
 
 use crate::common;
 
-use common::cli::{assert_input_error, hsph_in, stderr};
+use common::cli::{assert_input_error, stderr};
 use common::{repo_path, temp_dir};
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -16,9 +16,7 @@ const SCENE: &str = "inputs/dam_break_2d.toml";
 /// A small scene of local time stepping (cycles of 2 steps).
 const LOCAL: &str = "tests/data/drift_local_2d.toml";
 
-fn hsph(args: &[&str]) -> Output {
-    hsph_in(&repo_path(""), args)
-}
+use crate::common::cli::hsph_out as hsph;
 
 /// `hsph ARGS` under `ulimit -v` of 2 GiB: a number read from a file or flag that sized an
 /// allocation before it was checked would abort it (exit 134), not refuse it (exit 2).

@@ -124,20 +124,9 @@ fn has_checkpoint(run: &Path) -> bool {
 
 /// Every file under `dir`, relative, with its bytes.
 fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
-    fn walk(root: &Path, d: &Path, out: &mut BTreeMap<String, Vec<u8>>) {
-        for e in fs::read_dir(d).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                walk(root, &p, out);
-            } else {
-                let rel = p.strip_prefix(root).unwrap().to_string_lossy().into_owned();
-                out.insert(rel, fs::read(&p).unwrap());
-            }
-        }
-    }
-    let mut out = BTreeMap::new();
-    walk(dir, dir, &mut out);
-    out
+    let mut all = crate::common::dir_snapshot(dir);
+    all.retain(|k, _| !k.ends_with('/') && !k.ends_with(" (special)"));
+    all
 }
 
 /// The files compared with the uninterrupted run (see the module's doc).

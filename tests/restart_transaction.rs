@@ -15,31 +15,8 @@ use std::time::{Duration, Instant};
 
 const SCENE: &str = "inputs/dam_break_2d.toml";
 
-fn hsph(args: &[&str]) -> Output {
-    hsph_in(&repo_path(""), args)
-}
-
-/// Every file under `dir` (relative path → bytes).
-fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
-    fn walk(root: &Path, d: &Path, out: &mut BTreeMap<String, Vec<u8>>) {
-        for e in fs::read_dir(d).unwrap().flatten() {
-            let p = e.path();
-            let rel = p.strip_prefix(root).unwrap().to_string_lossy().into_owned();
-            let ty = fs::symlink_metadata(&p).unwrap().file_type();
-            if ty.is_dir() {
-                out.insert(format!("{rel}/"), Vec::new());
-                walk(root, &p, out);
-            } else if ty.is_file() {
-                out.insert(rel, fs::read(&p).unwrap());
-            } else {
-                out.insert(format!("{rel} (special)"), Vec::new());
-            }
-        }
-    }
-    let mut out = BTreeMap::new();
-    walk(dir, dir, &mut out);
-    out
-}
+use crate::common::cli::hsph_out as hsph;
+use crate::common::dir_snapshot as snapshot;
 
 /// Assert `dir` holds exactly `before`, naming the first difference.
 fn assert_unchanged(dir: &Path, before: &BTreeMap<String, Vec<u8>>, what: &str) {

@@ -47,6 +47,7 @@ mod scaleout;
 mod scene_limits;
 mod settle;
 mod shifting;
+mod shipped_bits;
 mod signals;
 mod solids;
 mod solitary;

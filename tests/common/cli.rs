@@ -4,6 +4,11 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 /// Run `hsph ARGS` in `cwd` and keep its whole output.
+/// `hsph ARGS` run from the crate root.
+pub fn hsph_out(args: &[&str]) -> Output {
+    hsph_in(&super::repo_path(""), args)
+}
+
 pub fn hsph_in(cwd: &Path, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_hsph"))
         .args(args)

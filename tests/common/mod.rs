@@ -286,3 +286,27 @@ pub fn position_and_density_gap(a: &Path, b: &Path) -> (f64, f64) {
     let dx = largest_difference(&a, &b, "x").max(largest_difference(&a, &b, "y"));
     (dx, largest_difference(&a, &b, "rho"))
 }
+
+/// Every entry under `dir` by relative path: a file's bytes, a directory as `name/` and any
+/// other kind as `name (special)` (both with no bytes). Tests that a run or a refused command
+/// left a directory as it was compare two of these.
+pub fn dir_snapshot(dir: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    fn walk(root: &Path, d: &Path, out: &mut std::collections::BTreeMap<String, Vec<u8>>) {
+        for e in std::fs::read_dir(d).unwrap().flatten() {
+            let p = e.path();
+            let rel = p.strip_prefix(root).unwrap().to_string_lossy().into_owned();
+            let ty = std::fs::symlink_metadata(&p).unwrap().file_type();
+            if ty.is_dir() {
+                out.insert(format!("{rel}/"), Vec::new());
+                walk(root, &p, out);
+            } else if ty.is_file() {
+                out.insert(rel, std::fs::read(&p).unwrap());
+            } else {
+                out.insert(format!("{rel} (special)"), Vec::new());
+            }
+        }
+    }
+    let mut out = std::collections::BTreeMap::new();
+    walk(dir, dir, &mut out);
+    out
+}
