@@ -537,7 +537,7 @@ pub fn pair_acceleration_with<const D: usize, K: PairKernel>(
 }
 
 #[cfg(test)]
-mod toy_term {
+mod tests {
     use crate::comm::serial::SerialComm;
     use crate::scene::DensityDiffusion;
     use crate::sim::Simulation;
