@@ -5,7 +5,7 @@
 
 use crate::common;
 
-use common::cli::{assert_input_error, stderr};
+use common::cli::{assert_input_error, run_args, stderr};
 use common::{repo_path, temp_dir};
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -33,20 +33,9 @@ fn hsph_bounded(args: &[&str]) -> Output {
 /// A short finished run of the dam break on `ranks` ranks in `dir/name`.
 fn short_run(dir: &Path, name: &str, ranks: usize) -> PathBuf {
     let out = dir.join(name);
-    let r = ranks.to_string();
-    let o = hsph(&[
-        "run",
-        SCENE,
-        "-q",
-        "--threads",
-        "1",
-        "--ranks",
-        &r,
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        "time.max_steps=12",
-    ]);
+    let mut args = run_args(SCENE, &out, &["time.max_steps=12"]);
+    args.extend(["--ranks".into(), ranks.to_string()]);
+    let o = hsph(&args);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     out
 }
@@ -270,6 +259,29 @@ fn class_12_output_paths_are_checked_before_anything_runs() {
     let scene = repo_path(SCENE).display().to_string();
     let run = short_run(&dir, "r1", 1);
     let under_file = file.join("x").join("y");
+    // the flags that name a file: jobscript's --script and validate's --write
+    let v = dir.join("v");
+    let file_flags = |p: &str| {
+        let job = ["--nodes", "1", "--ranks-per-node", "2", "--time", "01:00:00"];
+        let script: Vec<&str> = ["jobscript", &scene]
+            .into_iter()
+            .chain(job)
+            .chain(["--script", p])
+            .collect();
+        let write = [
+            "validate",
+            "poiseuille",
+            "--resolutions",
+            "8",
+            "--target",
+            "0.5",
+            "--write",
+            p,
+            "--out",
+            v.to_str().unwrap(),
+        ];
+        [("--script", hsph(&script)), ("--write", hsph(&write))]
+    };
     for (path, needle) in [(PathBuf::from("/dev/null"), "not a"), (under_file, "lies under")] {
         let p = path.to_str().unwrap();
         let dir_flags: Vec<Vec<&str>> = vec![
@@ -293,63 +305,17 @@ fn class_12_output_paths_are_checked_before_anything_runs() {
         for args in dir_flags {
             assert_input_error(&hsph(&args), &["--out", p, needle]);
         }
-        let o = hsph(&[
-            "jobscript",
-            &scene,
-            "--nodes",
-            "1",
-            "--ranks-per-node",
-            "2",
-            "--time",
-            "01:00:00",
-            "--script",
-            p,
-        ]);
-        assert_input_error(&o, &["--script", p, needle]);
-        let o = hsph(&[
-            "validate",
-            "poiseuille",
-            "--resolutions",
-            "8",
-            "--target",
-            "0.5",
-            "--write",
-            p,
-            "--out",
-            dir.join("v").to_str().unwrap(),
-        ]);
-        assert_input_error(&o, &["--write", p, needle]);
+        for (flag, o) in file_flags(p) {
+            assert_input_error(&o, &[flag, p, needle]);
+        }
     }
     // a file's parent must exist (a directory's missing parents are made, as `run` always
     // made `runs/`)
     let missing = dir.join("no-such-dir").join("job.sh");
     let p = missing.to_str().unwrap();
-    let o = hsph(&[
-        "jobscript",
-        &scene,
-        "--nodes",
-        "1",
-        "--ranks-per-node",
-        "2",
-        "--time",
-        "01:00:00",
-        "--script",
-        p,
-    ]);
-    assert_input_error(&o, &["--script", p, "does not exist"]);
-    let o = hsph(&[
-        "validate",
-        "poiseuille",
-        "--resolutions",
-        "8",
-        "--target",
-        "0.5",
-        "--write",
-        p,
-        "--out",
-        dir.join("v").to_str().unwrap(),
-    ]);
-    assert_input_error(&o, &["--write", p, "does not exist"]);
+    for (flag, o) in file_flags(p) {
+        assert_input_error(&o, &[flag, p, "does not exist"]);
+    }
     let deep = dir.join("new").join("plan");
     let o = hsph(&["plan", &scene, "--ranks", "2", "--out", deep.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
@@ -490,21 +456,12 @@ fn class_14_odd_step_counts_under_local_stepping_are_warned() {
     assert!(!e.contains("is odd"), "{e}");
     // the run says it too, and writes where it said
     let out = dir.join("run");
-    let o = hsph(&[
-        "run",
-        LOCAL,
-        "-q",
-        "--threads",
-        "1",
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
+    let sets = [
         "time.max_steps=220",
-        "--set",
         "checkpoint.every_steps=51",
-        "--set",
         "checkpoint.keep=10",
-    ]);
+    ];
+    let o = hsph(&run_args(LOCAL, &out, &sets));
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(stderr(&o).contains("checkpoint.every_steps = 51 is odd"));
     let mut cks: Vec<String> = fs::read_dir(out.join("checkpoints"))

@@ -5,7 +5,7 @@
 
 use crate::common;
 
-use common::cli::{assert_input_error, hsph_in, stderr};
+use common::cli::{assert_input_error, hsph_in, run_args, stderr};
 use common::{repo_path, temp_dir};
 use std::collections::BTreeMap;
 use std::fs;
@@ -32,20 +32,8 @@ fn assert_unchanged(dir: &Path, before: &BTreeMap<String, Vec<u8>>, what: &str) 
 /// `dir/name`.
 fn finished_run(dir: &Path, name: &str, extra: &[&str]) -> PathBuf {
     let out = dir.join(name);
-    let mut args = vec![
-        "run",
-        SCENE,
-        "-q",
-        "--threads",
-        "1",
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        "time.max_steps=30",
-        "--set",
-        "checkpoint.every_steps=1000",
-    ];
-    args.extend(extra);
+    let mut args = run_args(SCENE, &out, &["time.max_steps=30", "checkpoint.every_steps=1000"]);
+    args.extend(extra.iter().map(|s| s.to_string()));
     let o = hsph(&args);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     out
@@ -208,20 +196,9 @@ fn force_removes_only_what_a_run_wrote() {
         fs::create_dir_all(p.parent().unwrap()).unwrap();
         fs::write(&p, f).unwrap();
     }
-    let o = hsph(&[
-        "run",
-        SCENE,
-        "-q",
-        "--threads",
-        "1",
-        "--out",
-        run.to_str().unwrap(),
-        "--force",
-        "--set",
-        "checkpoint.every_steps=1000",
-        "--set",
-        "time.max_steps=10",
-    ]);
+    let mut args = run_args(SCENE, &run, &["checkpoint.every_steps=1000", "time.max_steps=10"]);
+    args.push("--force".into());
+    let o = hsph(&args);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     for f in mine {
         assert_eq!(fs::read_to_string(run.join(f)).unwrap(), f, "{f} lost to --force");
@@ -326,7 +303,7 @@ fn a_tampered_manifest_is_refused_whatever_it_would_duplicate() {
 
 /// Spawn `hsph ARGS` (from the crate root), send `signals` (names, at once) after `after`, and
 /// return its output and how long it took to end after them.
-fn signalled(args: &[&str], after: Duration, signals: &[&str]) -> (Output, Duration) {
+fn signalled(args: &[String], after: Duration, signals: &[&str]) -> (Output, Duration) {
     let child = Command::new(env!("CARGO_BIN_EXE_hsph"))
         .args(args)
         .current_dir(repo_path(""))
@@ -362,17 +339,7 @@ fn every_phase_stops_within_an_iteration_and_sighup_is_a_stop() {
         ),
     ] {
         let out = dir.join(phase);
-        let args = [
-            "run",
-            scene,
-            "-q",
-            "--threads",
-            "1",
-            "--out",
-            out.to_str().unwrap(),
-            "--set",
-            set,
-        ];
+        let args = run_args(scene, &out, &[set]);
         let (o, took) = signalled(&args, Duration::from_millis(1500), &["TERM"]);
         let e = stderr(&o);
         assert_eq!(o.status.code(), Some(3), "{phase}: {e}");
@@ -389,19 +356,7 @@ fn every_phase_stops_within_an_iteration_and_sighup_is_a_stop() {
     }
     for signals in [&["HUP"][..], &["TERM", "TERM"], &["INT", "TERM"]] {
         let out = dir.join(format!("run-{}", signals.join("-")));
-        let args = [
-            "run",
-            SCENE,
-            "-q",
-            "--threads",
-            "1",
-            "--out",
-            out.to_str().unwrap(),
-            "--set",
-            "time.t_end=10",
-            "--set",
-            "output.interval=0.5",
-        ];
+        let args = run_args(SCENE, &out, &["time.t_end=10", "output.interval=0.5"]);
         let (o, _) = signalled(&args, Duration::from_millis(1500), signals);
         let e = stderr(&o);
         assert_eq!(o.status.code(), Some(3), "{signals:?}: {e}");
@@ -415,19 +370,7 @@ fn every_phase_stops_within_an_iteration_and_sighup_is_a_stop() {
     }
     // settling to 50 s of a dam break is millions of steps: max_steps = 5 bounds them
     let out = dir.join("bounded");
-    let o = hsph(&[
-        "run",
-        SCENE,
-        "-q",
-        "--threads",
-        "1",
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        "time.settle=50",
-        "--set",
-        "time.max_steps=5",
-    ]);
+    let o = hsph(&run_args(SCENE, &out, &["time.settle=50", "time.max_steps=5"]));
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(0), "{e}");
     assert!(e.contains("cut short after 5 steps"), "{e}");

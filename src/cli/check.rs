@@ -287,31 +287,8 @@ pub(super) fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
     if let Some(line) = solid_speeds(scene) {
         let _ = writeln!(w, "{line}");
     }
-    // steps count a cycle's two substeps (`time.stepping = "local"`)
-    let dt0 = sim.step_length();
-    let steps = (scene.time.t_end / dt0).ceil();
-    let settle = scene.time.settle;
-    let settling = if settle > 0.0 {
-        format!(
-            "; settling {settle} s before t = 0 (about {:.0} steps more)",
-            (settle / dt0).ceil()
-        )
-    } else {
-        String::new()
-    };
-    let _ = writeln!(
-        w,
-        "time        t_end {} s, dt₀ {:.4e} s{}, about {:.0} steps, {} output steps{settling}",
-        scene.time.t_end,
-        dt0,
-        if sim.cycle {
-            " (local steps: the coarse particles take 2 dt₀)"
-        } else {
-            ""
-        },
-        steps,
-        (scene.time.t_end / scene.output.interval).round()
-    );
+    let (line, dt0, steps) = time_line(scene, &sim);
+    let _ = writeln!(w, "{line}");
     let bytes = n * Particles::<D>::bytes_per_particle_carried(sim.p.dropped)
         + sim.halo.len() * Particles::<D>::bytes_per_ghost_carried(sim.p.dropped)
         + sim.nl.entries() * 4
@@ -329,4 +306,33 @@ pub(super) fn check_dim<const D: usize>(scene: &Scene) -> Result<String> {
         let _ = writeln!(w, "reference   {r:?}");
     }
     Ok(s)
+}
+
+/// `hsph check`'s `time` line for `sim` built from `scene`, with dt₀ (s) and the steps to
+/// t_end (a cycle's two substeps counted under `time.stepping = "local"`).
+fn time_line<const D: usize>(scene: &Scene, sim: &crate::sim::Simulation<D>) -> (String, f64, f64) {
+    let dt0 = sim.step_length();
+    let steps = (scene.time.t_end / dt0).ceil();
+    let settle = scene.time.settle;
+    let settling = if settle > 0.0 {
+        format!(
+            "; settling {settle} s before t = 0 (about {:.0} steps more)",
+            (settle / dt0).ceil()
+        )
+    } else {
+        String::new()
+    };
+    let line = format!(
+        "time        t_end {} s, dt₀ {:.4e} s{}, about {:.0} steps, {} output steps{settling}",
+        scene.time.t_end,
+        dt0,
+        if sim.cycle {
+            " (local steps: the coarse particles take 2 dt₀)"
+        } else {
+            ""
+        },
+        steps,
+        (scene.time.t_end / scene.output.interval).round()
+    );
+    (line, dt0, steps)
 }

@@ -1,15 +1,30 @@
 //! Running the `hsph` binary and reading its refusals, for the tests of bad input.
 
+use std::ffi::OsStr;
 use std::path::Path;
 use std::process::{Command, Output};
 
-/// Run `hsph ARGS` in `cwd` and keep its whole output.
-/// `hsph ARGS` run from the crate root.
-pub fn hsph_out(args: &[&str]) -> Output {
+/// `hsph ARGS` run from the crate root, its whole output kept.
+pub fn hsph_out<S: AsRef<OsStr>>(args: &[S]) -> Output {
     hsph_in(&super::repo_path(""), args)
 }
 
-pub fn hsph_in(cwd: &Path, args: &[&str]) -> Output {
+/// The arguments of a quiet one-thread run of `scene` into `out`, with `--set S` for each of
+/// `sets`: `run SCENE -q --threads 1 --out OUT --set S…` (append more flags to the vector).
+pub fn run_args(scene: &str, out: &Path, sets: &[&str]) -> Vec<String> {
+    let mut a: Vec<String> = ["run", scene, "-q", "--threads", "1", "--out"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    a.push(out.to_str().unwrap().to_string());
+    for s in sets {
+        a.extend(["--set".to_string(), s.to_string()]);
+    }
+    a
+}
+
+/// Run `hsph ARGS` in `cwd` and keep its whole output.
+pub fn hsph_in<S: AsRef<OsStr>>(cwd: &Path, args: &[S]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_hsph"))
         .args(args)
         .current_dir(cwd)
