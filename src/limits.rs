@@ -195,7 +195,7 @@ pub fn read_text(path: &Path, key: &str) -> Result<String> {
 }
 
 /// An input error at `path` (and `line`), about `key`.
-fn file_error(path: &Path, key: &str, line: Option<usize>, message: String) -> Error {
+pub(crate) fn file_error(path: &Path, key: &str, line: Option<usize>, message: String) -> Error {
     Error::Input {
         at: Some(crate::error::Location {
             file: path.to_path_buf(),

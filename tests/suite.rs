@@ -37,6 +37,7 @@ mod pairs;
 mod parallel;
 mod physics_validation;
 mod plan;
+mod pressure_loads;
 mod probes;
 mod refinement;
 mod report;

@@ -1,19 +1,22 @@
 //! The `hsph` command line (clap derive): the commands and their flags here, with `main`, the
 //! dispatch and the small helpers every command uses (`say`, locating errors in a scene,
 //! duration and memory parsers); each larger command in its own file: `run.rs` (run, restart),
-//! `check.rs` (`hsph check`'s report), `plan.rs` (`hsph plan`, `hsph model`), `jobscript.rs`.
+//! `check.rs` (`hsph check`'s report), `plan.rs` (`hsph plan`, `hsph model`), `jobscript.rs`, `loads.rs`
+//! (`hsph loads`).
 //!
 //! Every user-facing failure becomes an [`Error`] whose exit status is 2 for bad input (scene,
 //! flags, a feature the build lacks) and 1 for a run that failed; nothing here panics.
 
 mod check;
 mod jobscript;
+mod loads;
 mod plan;
 mod run;
 
 pub use check::check_report;
 use check::{cmd_check, layout_limits, rank_weights};
 use jobscript::{cmd_jobscript, JobArgs};
+use loads::{cmd_loads, LoadsArgs};
 use plan::{cmd_model, cmd_plan, ModelArgs};
 use run::cmd_run_args;
 pub use run::RunArgs;
@@ -153,6 +156,14 @@ Examples:
   hsph model inputs/dam_break_3d.toml --one r1 --many r2 --two r1t2 --layouts 24 --nodes 4 \\
       --set discretisation.dx=0.0035                 which ranks × threads of 4 nodes of 24 cores")]
     Model(ModelArgs),
+    /// The loads of a pressure series in a CSV file (an experiment's run) by the rules
+    /// `summary.json` gives a run's pressure probes: raw maximum, maximum after a centred box
+    /// filter, and the first impact's impulse (docs/pressure.md).
+    #[command(after_help = "\
+Example (Lobovsky et al. 2014, sensor 1, in t·√(g/H) and p/(ρgH) with H = 0.3 m):
+  hsph loads inputs/reference/dambreak_lobovsky2014_H300_pressure_run.csv --time tstar \\
+      --column p_sensor1_3mm --time-scale 0.174874 --scale 2943 --impulse-span 0.035")]
+    Loads(LoadsArgs),
     /// Validate a scene and print what a run would do, without running it.
     #[command(after_help = "Example:\n  hsph check inputs/dam_break_3d.toml --set discretisation.dx=0.01")]
     Check {
@@ -343,6 +354,7 @@ fn dispatch(cmd: Command) -> Result<i32> {
             )
         }
         Command::Model(a) => cmd_model(a),
+        Command::Loads(a) => cmd_loads(a),
         Command::Validate {
             cases,
             sweep,

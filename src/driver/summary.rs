@@ -140,6 +140,35 @@ impl<'a, const D: usize> RankRun<'a, D> {
         }
     }
 
+    /// The loads of every pressure probe (`crate::probes::loads`), read back from its file on
+    /// rank 0 (the whole history, across restarts), with how its rows were sampled: raw and
+    /// box-filtered maxima (Pa) and, with `impulse_span`, the first impact's impulse (Pa·s).
+    /// A file that cannot be read gives null.
+    fn loads_summary(&self) -> serde_json::Value {
+        let mut out = serde_json::Map::new();
+        for probe in &self.scene.probes {
+            let Some((filter, span)) = probe.load_rules() else {
+                continue;
+            };
+            let path = self.dir.join("probes").join(format!("{}.csv", probe.name()));
+            let read = crate::probes::loads::read_csv(&path, ("t", "p"), (1.0, 1.0));
+            let value = match read
+                .ok()
+                .and_then(|(t, p)| crate::probes::loads::loads(&t, &p, filter, span))
+            {
+                Some(l) => json!({
+                    "loads": l,
+                    // a trailing window already averaged the rows the filter reads
+                    "trailing_window_s": probe.window(),
+                    "interval_s": probe.interval(),
+                }),
+                None => serde_json::Value::Null,
+            };
+            out.insert(probe.name().to_string(), value);
+        }
+        serde_json::Value::Object(out)
+    }
+
     /// `summary.json`.
     fn summary(&self, r: &Reduced, wall: f64, n_fluid: usize, n_solid: usize) -> serde_json::Value {
         let sim = &self.sim;
@@ -185,6 +214,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
             summary["measured"] = json!(self.tracker.measured);
         }
         summary["hole"] = self.hole_summary();
+        summary["pressure_loads"] = self.loads_summary();
         self.add_parallel(&mut summary, r, wall);
         self.add_population(&mut summary);
         self.add_stepping(&mut summary);

@@ -15,6 +15,7 @@
 mod bins;
 pub mod disorder;
 pub mod hole;
+pub mod loads;
 pub mod sensors;
 
 use crate::comm::{Comm, Phase};

@@ -25,7 +25,7 @@ pub use load::{load_scene, load_scene_str, SceneFlags, SceneSource};
 pub use materials::{Material, MaterialKind, StrengthKind};
 #[cfg(test)]
 pub(crate) use probes::one_of_each;
-pub use probes::{Direction, Probe, HOLE_COLUMNS};
+pub use probes::{Direction, Probe, DEFAULT_LOAD_FILTER_S, HOLE_COLUMNS};
 pub use reference::Reference;
 pub use shape::BodyShape;
 pub use validate::{check_rank_weights, dt_upper_bound, expected_speed, validate};

@@ -31,6 +31,15 @@ pub enum Probe {
         /// Seconds between rows (default: the output interval; 0 = every step).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         interval: Option<f64>,
+        /// Width (s) of the centred box filter of `summary.json`'s loads (default
+        /// [`DEFAULT_LOAD_FILTER_S`], 2 ms; 0 = none): `crate::probes::loads`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        filter: Option<f64>,
+        /// The span (s) over which `summary.json`'s loads integrate the first impact's impulse
+        /// ∫p dt, from the first time p stays above 10 % of the filtered peak for 1 ms (none
+        /// without it).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        impulse_span: Option<f64>,
     },
     /// Kernel-interpolated velocity at `points` points from `from` to `to`.
     VelocityLine {
@@ -123,6 +132,9 @@ pub enum Probe {
     },
 }
 
+/// The default width (s) of a pressure probe's load filter: a centred 2 ms box.
+pub const DEFAULT_LOAD_FILTER_S: f64 = 2e-3;
+
 /// Which way a front probe looks along its axis.
 #[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
 pub enum Direction {
@@ -200,6 +212,23 @@ impl Probe {
                 let m: &[&str] = if dim == 3 { &["mx", "my", "mz"] } else { &["mz"] };
                 f.chain(m.iter().map(|s| s.to_string())).collect()
             }
+        }
+    }
+
+    /// A pressure probe's load rules for `summary.json` (`crate::probes::loads`): the box
+    /// filter's width (s) and the impulse's span (s, if any); `None` for every other kind.
+    pub fn load_rules(&self) -> Option<(f64, Option<f64>)> {
+        match self {
+            Probe::Pressure {
+                filter, impulse_span, ..
+            } => Some((filter.unwrap_or(DEFAULT_LOAD_FILTER_S), *impulse_span)),
+            Probe::VelocityLine { .. }
+            | Probe::Gauge { .. }
+            | Probe::Front { .. }
+            | Probe::Force { .. }
+            | Probe::Hole { .. } => None,
+            #[cfg(test)]
+            Probe::Toy { .. } => None,
         }
     }
 
@@ -314,8 +343,13 @@ fn validate_probe_kind(
             point,
             diameter,
             normal,
+            filter,
+            impulse_span,
             ..
-        } => check_pressure(k, (point, *diameter, normal), d, domain),
+        } => {
+            check_pressure(k, (point, *diameter, normal), d, domain)?;
+            check_load_rules(k, *filter, *impulse_span)
+        }
         Probe::Gauge { point, .. } => {
             check_vec(point, d, &format!("{k}.point"), false)?;
             point_in_domain(point, &format!("{k}.point"), domain)
@@ -385,6 +419,27 @@ fn check_pressure(
             );
         }
         None => {}
+    }
+    Ok(())
+}
+
+/// A pressure probe's load rules: a filter width ≥ 0 s and an impulse span > 0 s, both finite.
+fn check_load_rules(k: &str, filter: Option<f64>, span: Option<f64>) -> Result<()> {
+    if let Some(f) = filter {
+        if !(f >= 0.0 && f.is_finite()) {
+            return err(
+                format!("{k}.filter"),
+                format!("must be a width ≥ 0 s (0 = no filter), got {f}; e.g. filter = 0.002"),
+            );
+        }
+    }
+    if let Some(w) = span {
+        if !(w > 0.0 && w.is_finite()) {
+            return err(
+                format!("{k}.impulse_span"),
+                format!("must be a span > 0 s, got {w}; e.g. impulse_span = 0.035"),
+            );
+        }
     }
     Ok(())
 }
@@ -503,6 +558,8 @@ pub(crate) fn one_of_each(d: usize) -> Vec<Probe> {
             normal: None,
             window: 0.0,
             interval: None,
+            filter: None,
+            impulse_span: None,
         },
         Probe::VelocityLine {
             name: "v".into(),

@@ -1,0 +1,81 @@
+//! Loads as engineers read them: `summary.json`'s `pressure_loads` of a run's pressure probe
+//! are the rules of `hsph::probes::loads` applied to the probe's own file, and `hsph loads`
+//! applies the very same rules to any CSV series (an experiment's), so both sides of a
+//! comparison go through one code. Bad input to `hsph loads` is exit 2 naming the file.
+
+use crate::common;
+use common::cli::{assert_input_error, hsph_out, run_args, stderr};
+use common::temp_dir;
+
+#[test]
+fn summary_loads_are_the_probe_files_loads_and_hsph_loads_gives_the_same() {
+    let dir = temp_dir("pressure-loads");
+    let out = dir.join("run");
+    let sets = [
+        "probe[1].window=0.0",
+        "probe[1].interval=0.0",
+        "probe[1].impulse_span=0.02",
+        "probe[1].filter=0.003",
+    ];
+    let o = hsph_out(&run_args("inputs/dam_break_2d.toml", &out, &sets));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let got = &summary["pressure_loads"]["p_right_wall"];
+    assert_eq!(got["trailing_window_s"], 0.0);
+    let file = out.join("probes/p_right_wall.csv");
+    let (t, p) = hsph::probes::loads::read_csv(&file, ("t", "p"), (1.0, 1.0)).unwrap();
+    // sampled at every step: one row per step after the start
+    assert_eq!(t.len() as u64, summary["steps"].as_u64().unwrap() + 1);
+    let want = hsph::probes::loads::loads(&t, &p, 0.003, Some(0.02)).unwrap();
+    assert_eq!(got["loads"], serde_json::to_value(want).unwrap());
+    // the water reaches the wall: a first impact with an impulse, the filter below the raw peak
+    assert!(want.impulse.is_some_and(|i| i > 0.0), "{want:?}");
+    assert!(
+        want.filtered_max > 0.0 && want.filtered_max <= want.raw_max,
+        "{want:?}"
+    );
+    // the command line gives the same numbers for the same file
+    let f = file.to_str().unwrap();
+    let o = hsph_out(&[
+        "loads",
+        f,
+        "--column",
+        "p",
+        "--filter",
+        "0.003",
+        "--impulse-span",
+        "0.02",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let cli: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(cli, serde_json::to_value(want).unwrap());
+}
+
+#[test]
+fn bad_series_and_flags_for_hsph_loads_are_exit_2_naming_them() {
+    let dir = temp_dir("pressure-loads-bad");
+    let csv = dir.join("series.csv");
+    std::fs::write(&csv, "t,p\n0.0,1.0\n0.001,2.0\n0.001,3.0\n").unwrap();
+    let f = csv.to_str().unwrap();
+    let o = hsph_out(&["loads", f, "--column", "p"]);
+    assert_input_error(&o, &[f, ":4", "times must increase"]);
+    let o = hsph_out(&["loads", f, "--column", "pressure"]);
+    assert_input_error(&o, &[f, "no column", "pressure"]);
+    std::fs::write(&csv, "t,p\n0.0,1.0\n0.001,nan\n").unwrap();
+    assert_input_error(&hsph_out(&["loads", f, "--column", "p"]), &[f, ":3", "finite"]);
+    std::fs::write(&csv, "t,p\n0.0,1.0\n0.001,2.0\n").unwrap();
+    for (flag, value) in [("--filter", "-1"), ("--scale", "0"), ("--impulse-span", "inf")] {
+        let o = hsph_out(&["loads", f, "--column", "p", &format!("{flag}={value}")]);
+        assert_input_error(&o, &[flag]);
+    }
+    let o = hsph_out(&["loads", f, "--column", "p", "--from", "5"]);
+    assert_input_error(&o, &["no row"]);
+    let o = hsph_out(&[
+        "loads",
+        dir.join("missing.csv").to_str().unwrap(),
+        "--column",
+        "p",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}
