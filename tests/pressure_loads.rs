@@ -79,3 +79,43 @@ fn bad_series_and_flags_for_hsph_loads_are_exit_2_naming_them() {
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
+
+/// `check` warns of a pressure sensor within one kernel support of a corner where two closed
+/// faces meet, and of a face narrower than dx. On the Lobovsky tank (the corner at the foot of
+/// the downstream wall): at dx = 5 mm (support 13 mm) S1, 3 mm up, alone; at 10 mm (26 mm) S1
+/// and S2 (15 mm) but not S3 (30 mm), and S1's 6 mm face.
+#[test]
+fn sensors_within_a_support_of_a_corner_or_narrower_than_dx_are_warned() {
+    let warned = |sets: &[&str]| -> Vec<String> {
+        let mut args = vec!["check", "inputs/dam_break_lobovsky.toml"];
+        for s in sets {
+            args.extend(["--set", s]);
+        }
+        let o = hsph_out(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .filter(|l| l.contains("warning: probe["))
+            .map(str::to_string)
+            .collect()
+    };
+    let w = warned(&[]);
+    assert_eq!(w.len(), 1, "{w:#?}");
+    assert!(w[0].contains("`S1`") && w[0].contains("3.000 mm from a corner") && w[0].contains("13.000 mm"));
+    let w = warned(&[
+        "discretisation.dx=0.01",
+        "domain.min=[-0.05,-0.05]",
+        "domain.max=[1.66,0.85]",
+    ]);
+    assert_eq!(w.len(), 3, "{w:#?}");
+    assert!(w
+        .iter()
+        .any(|l| l.contains("`S1`") && l.contains("face (6.000 mm) is narrower than dx (10.000 mm)")));
+    assert!(w
+        .iter()
+        .any(|l| l.contains("`S2`") && l.contains("15.000 mm from a corner")));
+    assert!(
+        !w.iter().any(|l| l.contains("`S3`") || l.contains("`S4`")),
+        "{w:#?}"
+    );
+}

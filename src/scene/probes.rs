@@ -232,6 +232,20 @@ impl Probe {
         }
     }
 
+    /// A pressure probe's point (m; the centre of its face); `None` for every other kind.
+    pub fn sensor_point(&self) -> Option<&[f64]> {
+        match self {
+            Probe::Pressure { point, .. } => Some(point),
+            Probe::VelocityLine { .. }
+            | Probe::Gauge { .. }
+            | Probe::Front { .. }
+            | Probe::Force { .. }
+            | Probe::Hole { .. } => None,
+            #[cfg(test)]
+            Probe::Toy { .. } => None,
+        }
+    }
+
     /// A velocity line's number of sample points (`None` for every other kind): bounded by
     /// `limits::MAX_PROBE_POINTS` before anything is allocated.
     pub fn line_points(&self) -> Option<usize> {
@@ -421,6 +435,71 @@ fn check_pressure(
         None => {}
     }
     Ok(())
+}
+
+/// Warnings about pressure sensors that read the discretisation more than the flow: a face
+/// narrower than dx (it averages less than one particle's width), and a sensor within one
+/// kernel support of a corner where two closed faces of a wall meet (its reading includes the
+/// corner's error; docs/pressure.md §2).
+pub(super) fn sensor_warnings(s: &Scene) -> Vec<String> {
+    let (d, dx, support) = (s.dimension, s.discretisation.dx, s.discretisation.support());
+    let mut out = Vec::new();
+    for (k, probe) in s.probes.iter().enumerate() {
+        let Some(x) = probe.sensor_point() else {
+            continue;
+        };
+        let name = probe.name();
+        if let Some((diameter, _)) = probe.face().filter(|f| f.0 < dx) {
+            out.push(format!(
+                "probe[{k}] `{name}`: its face ({:.3} mm) is narrower than dx ({:.3} mm), so it \
+                 averages less than one particle's width; widen `diameter` or refine",
+                1e3 * diameter,
+                1e3 * dx
+            ));
+        }
+        if let Some((wall, dist)) = nearest_corner(s, x, d).filter(|c| c.1 < support) {
+            out.push(format!(
+                "probe[{k}] `{name}`: the sensor lies {:.3} mm from a corner of wall `{wall}`, \
+                 within one kernel support ({:.3} mm): its reading includes the corner's error \
+                 (docs/pressure.md §2); move it or refine",
+                1e3 * dist,
+                1e3 * support
+            ));
+        }
+    }
+    out
+}
+
+/// The nearest corner to `x` (m) of any wall with particles or images: where two closed faces
+/// of its box meet (an edge in 3D), measured in the plane of their two axes, for a point
+/// within the box's extent along the other axes. The wall's name and the distance (m).
+fn nearest_corner<'s>(s: &'s Scene, x: &[f64], d: usize) -> Option<(&'s str, f64)> {
+    let mut best: Option<(&str, f64)> = None;
+    for w in &s.walls {
+        let closed = |a: usize, up: bool| !w.open.iter().any(|o| face(o, d) == Some((a, up)));
+        for a in 0..d {
+            for b in a + 1..d {
+                let others = (0..d)
+                    .filter(|&c| c != a && c != b)
+                    .all(|c| x[c] >= w.min[c] && x[c] <= w.max[c]);
+                if !others {
+                    continue;
+                }
+                for (ua, ub) in [(false, false), (false, true), (true, false), (true, true)] {
+                    if !(closed(a, ua) && closed(b, ub)) {
+                        continue;
+                    }
+                    let ca = if ua { w.max[a] } else { w.min[a] };
+                    let cb = if ub { w.max[b] } else { w.min[b] };
+                    let dist = (x[a] - ca).hypot(x[b] - cb);
+                    if best.is_none_or(|(_, bd)| dist < bd) {
+                        best = Some((w.name.as_str(), dist));
+                    }
+                }
+            }
+        }
+    }
+    best
 }
 
 /// A pressure probe's load rules: a filter width ≥ 0 s and an impulse span > 0 s, both finite.
