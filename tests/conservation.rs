@@ -92,7 +92,16 @@ fn momentum_scale<const D: usize>(sim: &Simulation<D>) -> f64 {
 
 /// Largest per-step |ΔP|∞ / Σ m|v| over `steps` steps.
 fn momentum_drift<const D: usize>(diffusion: &str, alpha: f64, nu: f64, steps: usize) -> f64 {
-    let mut sim = sim_of::<D>(&box_scene(D, true, diffusion, alpha, nu));
+    momentum_drift_of::<D>(
+        &box_scene(D, true, diffusion, alpha, nu),
+        &format!("{diffusion} α={alpha} ν={nu}"),
+        steps,
+    )
+}
+
+/// [`momentum_drift`] of a scene's text, `label` naming it in messages.
+fn momentum_drift_of<const D: usize>(text: &str, label: &str, steps: usize) -> f64 {
+    let mut sim = sim_of::<D>(text);
     perturb(&mut sim, 42 + D as u64, 0.2);
     let ke0 = sim.observables(&SerialComm::new()).unwrap().kinetic_energy;
     let mut worst = 0.0f64;
@@ -104,7 +113,7 @@ fn momentum_drift<const D: usize>(diffusion: &str, alpha: f64, nu: f64, steps: u
         let rel = (after - before).amax() / scale;
         assert!(
             rel <= 1e-12,
-            "{D}D {diffusion} α={alpha} ν={nu}: step {} changed the momentum by {:?} (Σ m|v| = {scale:e}), relative {rel:e}",
+            "{D}D {label}: step {} changed the momentum by {:?} (Σ m|v| = {scale:e}), relative {rel:e}",
             sim.step,
             (after - before).as_slice()
         );
@@ -128,6 +137,22 @@ fn periodic_box_conserves_momentum_2d() {
     }
 }
 
+/// The Riemann solver's pressure (`pressure_gradient = "riemann"`, with its density term)
+/// conserves momentum to round-off in both interaction modes: its dissipative part is
+/// symmetric in each pair.
+#[test]
+fn riemann_pressure_conserves_momentum_in_both_modes() {
+    for mode in ["pairs", "gather"] {
+        let extra =
+            format!("pressure_gradient = \"riemann\"\n[performance]\ninteractions = \"{mode}\"\n[[fluid]]");
+        let text2 = box_scene(2, true, "riemann", 0.0, 0.0).replacen("[[fluid]]", &extra, 1);
+        let text3 = box_scene(3, true, "riemann", 0.0, 0.0).replacen("[[fluid]]", &extra, 1);
+        let w2 = momentum_drift_of::<2>(&text2, "riemann", 50);
+        let w3 = momentum_drift_of::<3>(&text3, "riemann", 20);
+        eprintln!("riemann {mode}: worst per-step |ΔP|/Σm|v| = {w2:.2e} (2D), {w3:.2e} (3D)");
+    }
+}
+
 #[test]
 fn periodic_box_conserves_momentum_3d() {
     for diffusion in ["molteni", "antuono"] {
@@ -139,7 +164,7 @@ fn periodic_box_conserves_momentum_3d() {
 /// Σ_i V_i D_i / Σ_i |V_i D_i| for the given diffusion variant.
 fn diffusion_sum<const D: usize>(diffusion: &str, periodic: bool, seed: u64) -> f64 {
     let mut text = box_scene(D, periodic, diffusion, 0.0, 0.0);
-    if diffusion == "fourtakas" {
+    if diffusion == "fourtakas" || diffusion == "riemann" {
         // its hydrostatic part needs a body force (a slanted one: every axis takes part; weak
         // enough for the box's c0 = 20 m/s)
         let g = if D == 2 {
@@ -169,7 +194,7 @@ fn diffusion_sum<const D: usize>(diffusion: &str, periodic: bool, seed: u64) -> 
 
 #[test]
 fn diffusion_term_sums_to_zero() {
-    for diffusion in ["molteni", "antuono", "fourtakas"] {
+    for diffusion in ["molteni", "antuono", "fourtakas", "riemann"] {
         for periodic in [true, false] {
             for seed in 0..3 {
                 let r2 = diffusion_sum::<2>(diffusion, periodic, seed);
@@ -210,9 +235,12 @@ fn fourtakas_term_vanishes_in_still_water() {
             .fold(0.0, f64::max)
     };
     let (m, a, f) = (largest("molteni"), largest("antuono"), largest("fourtakas"));
-    eprintln!("largest |D_i| in still water: Molteni {m:.3e}, Antuono {a:.3e}, Fourtakas {f:.3e} kg/(m³ s)");
+    let r = largest("riemann");
+    eprintln!("largest |D_i| in still water: Molteni {m:.3e}, Antuono {a:.3e}, Fourtakas {f:.3e}, Riemann {r:.3e} kg/(m³ s)");
     assert!(m > 0.0, "Molteni's term diffuses the hydrostatic profile");
     assert!(f < 1e-6 * m, "Fourtakas {f:e} against Molteni {m:e}");
+    // the Riemann term is Fourtakas's bracket with another weight per pair
+    assert!(r < 1e-6 * m, "Riemann {r:e} against Molteni {m:e}");
     assert!(f < a, "Fourtakas {f:e} against Antuono {a:e}");
 }
 

@@ -137,6 +137,16 @@ fn mpi_runs_give_the_local_back_ends_bits() {
             "inputs/poiseuille_2d.toml",
             vec!["time.t_end=0.05", "reference.times=[0.05]"],
         ),
+        // the Riemann solver's pressure and density terms (issue 82) in pair mode
+        (
+            "inputs/dam_break_2d.toml",
+            vec![
+                "time.t_end=0.03",
+                "physics.density_diffusion=\"riemann\"",
+                "physics.pressure_gradient=\"riemann\"",
+                "performance.interactions=\"pairs\"",
+            ],
+        ),
         (
             "tests/data/dam_break_3d_small.toml",
             vec!["time.t_end=0.05", "balance.check_every=5"],

@@ -89,6 +89,23 @@ fn pairs_and_gather_agree_to_round_off_on_one_step_2d_and_3d() {
         n > 10_000 && rho <= 1e-12 && acc <= 1e-12,
         "2D Fourtakas: {rho:e} {acc:e}"
     );
+    // the Riemann solver's pressure and density terms, seen from either side of a pair
+    let r2 = scene(
+        "inputs/dam_break_2d_dsph.toml",
+        &[
+            "output.format=\"none\"",
+            "physics.density_diffusion=\"riemann\"",
+            "physics.pressure_gradient=\"riemann\"",
+            gather[0],
+            gather[1],
+        ],
+    );
+    let (rho, acc, n) = step_difference::<2>(&r2);
+    eprintln!("2D Riemann: dρ/dt {rho:.2e}, acceleration {acc:.2e}");
+    assert!(
+        n > 10_000 && rho <= 1e-12 && acc <= 1e-12,
+        "2D Riemann: {rho:e} {acc:e}"
+    );
     let s3 = scene("inputs/dam_break_3d.toml", &["output.format=\"none\""]);
     let (rho, acc, n) = step_difference::<3>(&s3);
     eprintln!("3D, {n} fluid particles: dρ/dt {rho:.2e}, acceleration {acc:.2e} (relative to the largest)");
@@ -118,7 +135,7 @@ fn pairs_mode_gives_the_same_bits_on_any_ranks_and_threads_and_stays_near_gather
     // 2D dam break (walls, free surface, δ-SPH) and 3D dam break, each long enough that the
     // ranks rebalance and particles migrate
     type Case<'a> = (&'a str, &'a [&'a str], &'a [(usize, usize)]);
-    let cases: [Case; 7] = [
+    let cases: [Case; 8] = [
         (
             "inputs/dam_break_2d.toml",
             &["time.t_end=0.05"],
@@ -129,6 +146,17 @@ fn pairs_mode_gives_the_same_bits_on_any_ranks_and_threads_and_stays_near_gather
             "inputs/dam_break_2d.toml",
             &["time.t_end=0.05", "physics.density_diffusion=\"fourtakas\""],
             &[(1, 1), (3, 2)],
+        ),
+        // the Riemann solver's pressure and density terms (docs/pressure.md), on 1, 3 and 8
+        // ranks
+        (
+            "inputs/dam_break_2d.toml",
+            &[
+                "time.t_end=0.05",
+                "physics.density_diffusion=\"riemann\"",
+                "physics.pressure_gradient=\"riemann\"",
+            ],
+            &[(1, 1), (3, 2), (8, 1)],
         ),
         (
             "inputs/dam_break_3d.toml",

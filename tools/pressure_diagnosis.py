@@ -43,6 +43,22 @@ VARIANTS = {
     "cfl_0.1": ["time.cfl=0.1"],
     "cfl_0.2": ["time.cfl=0.2"],
     "cfl_0.3": ["time.cfl=0.3"],
+    "delta_0.3": ["physics.delta=0.3"],
+    "delta_0.5": ["physics.delta=0.5"],
+    "alpha_0.1": ["physics.artificial_viscosity=0.1"],
+    "riemann": ['physics.pressure_gradient="riemann"', 'physics.density_diffusion="riemann"'],
+    "riemann_pressure": ['physics.pressure_gradient="riemann"'],
+    "riemann_density": ['physics.density_diffusion="riemann"'],
+    "riemann_lattice": ['physics.pressure_gradient="riemann"', 'physics.density_diffusion="riemann"',
+                        'wall[0].volume="lattice"'],
+    "riemann_c0_50": ['physics.pressure_gradient="riemann"', 'physics.density_diffusion="riemann"',
+                      "material[0].c0=50.0"],
+    "riemann_no_slip": ['physics.pressure_gradient="riemann"', 'physics.density_diffusion="riemann"',
+                        'wall[0].slip="no_slip"'],
+    "riemann_cfl_0.2": ['physics.pressure_gradient="riemann"', 'physics.density_diffusion="riemann"',
+                        "time.cfl=0.2"],
+    "riemann_cfl_0.3": ['physics.pressure_gradient="riemann"', 'physics.density_diffusion="riemann"',
+                        "time.cfl=0.3"],
 }
 
 

@@ -120,7 +120,8 @@ pub fn diffusion_term<const D: usize, N: Neighbours>(
     i: usize,
 ) -> f64 {
     let k = &model.kernel;
-    let coef = model.delta * k.h * model.materials[p.mat[i] as usize].c0();
+    let c0 = model.materials[p.mat[i] as usize].c0();
+    let coef = model.diffusion.coefficient(model.delta, k.h, c0);
     let corr = Correction::of(model);
     let mut s = 0.0;
     for j in nl.iter(i) {
@@ -134,7 +135,7 @@ pub fn diffusion_term<const D: usize, N: Neighbours>(
         let coef = if model.varying().is_none() {
             coef
         } else {
-            model.delta * kij.h * model.materials[p.mat[i] as usize].c0()
+            model.diffusion.coefficient(model.delta, kij.h, c0)
         };
         s += coef * psi_dot_grad(p, model, corr, i, j, &xij, f) * (p.mass[j] / p.rho[j]);
     }
@@ -162,6 +163,9 @@ pub(crate) enum Correction<const D: usize> {
     Gradients,
     /// Fourtakas et al.: the hydrostatic part of ρ_j − ρ_i under the body force g (m/s²).
     Hydrostatic(Vector<D>),
+    /// The Riemann solver's density dissipation: Fourtakas's difference times the pair's
+    /// distance r (the coefficient is c0/2 instead of δ h c0).
+    Riemann(Vector<D>),
 }
 
 impl<const D: usize> Correction<D> {
@@ -170,6 +174,7 @@ impl<const D: usize> Correction<D> {
         match model.diffusion {
             DensityDiffusion::Antuono => Correction::Gradients,
             DensityDiffusion::Fourtakas => Correction::Hydrostatic(model.g),
+            DensityDiffusion::Riemann => Correction::Riemann(model.g),
             DensityDiffusion::None | DensityDiffusion::Molteni => Correction::None,
             #[cfg(test)]
             DensityDiffusion::Toy => Correction::None,
@@ -188,6 +193,10 @@ pub(crate) fn diffusion_line(diffusion: DensityDiffusion, delta: f64, lagged: bo
         DensityDiffusion::Fourtakas => {
             Some(format!("δ-SPH Fourtakas (hydrostatic part removed), δ = {delta}"))
         }
+        DensityDiffusion::Riemann => Some(
+            "Riemann-solver density dissipation (Zhang, Hu & Adams 2017; hydrostatic part removed)"
+                .to_string(),
+        ),
         DensityDiffusion::Antuono => Some(format!(
             "δ-SPH Antuono (renormalised gradient{}), δ = {delta}",
             if lagged {
@@ -211,6 +220,11 @@ pub(crate) fn diffusion_line(diffusion: DensityDiffusion, delta: f64, lagged: bo
 ///   (one material), so Σ_i V_i D_i = 0. Fourtakas et al. (2019) take ρ0 and the EOS at ρ0
 ///   relative to particle i, exact only near the surface (1.5 % of the correction off at
 ///   the foot of a 2 m column at c0 = 88 m/s).
+/// - Riemann, Fourtakas's bracket times r = |x_ij|: with the coefficient c0/2 the term is
+///   (1/c0) Σ_j V_j (p_i − p_j − ρ̄ g·x_ij) ∂W/∂r to first order in the density difference,
+///   the linearised Riemann solver's interface velocity U* = Ū + (p_i − p_j)/(2 ρ0 c0) in
+///   dρ_i/dt = 2 ρ_i Σ_j V_j (v_i − v*)·∇_i W_ij (Zhang, Hu & Adams 2017) with ρ_i/ρ0 → 1,
+///   which keeps Σ_i V_i D_i = 0.
 #[inline(always)]
 pub(crate) fn psi_dot_grad<const D: usize>(
     p: &Particles<D>,
@@ -225,14 +239,41 @@ pub(crate) fn psi_dot_grad<const D: usize>(
     let t = match corr {
         Correction::None => base,
         Correction::Gradients => base - (p.grad_rho[i] + p.grad_rho[j]).dot(xij),
-        Correction::Hydrostatic(g) => {
-            let rho = 0.5 * (p.rho[i] + p.rho[j]);
-            // ρ^H_ji = ρ̄ g·x_ji / c², x_ji = −x_ij, with ρ̄/c² in one division
-            let hydro = -g.dot(xij) * model.materials[p.mat[i] as usize].density_over_sound_speed2(rho);
-            base + 2.0 * hydro
-        }
+        Correction::Hydrostatic(g) => base + 2.0 * hydrostatic(p, model, g, i, j, xij),
+        Correction::Riemann(g) => (base + 2.0 * hydrostatic(p, model, g, i, j, xij)) * xij.norm(),
     };
     f * t
+}
+
+/// ρ^H_ji = ρ̄ g·x_ji / c²(ρ̄) (kg/m³), the hydrostatic part of ρ_j − ρ_i under the body force
+/// g (m/s²) at the pair's mean density ([`psi_dot_grad`]).
+#[inline(always)]
+fn hydrostatic<const D: usize>(
+    p: &Particles<D>,
+    model: &Model<D>,
+    g: Vector<D>,
+    i: usize,
+    j: usize,
+    xij: &Vector<D>,
+) -> f64 {
+    let rho = 0.5 * (p.rho[i] + p.rho[j]);
+    // x_ji = −x_ij, with ρ̄/c² in one division
+    -g.dot(xij) * model.materials[p.mat[i] as usize].density_over_sound_speed2(rho)
+}
+
+/// The dissipative part of the Riemann solver's interface pressure as a pressure factor
+/// (m⁵ kg⁻¹ s⁻², added to p_i/ρ_i² + p_j/ρ_j²) for a pair with v_ij·x_ij = `vx` (m²/s) at
+/// squared distance `r2` (m²), densities `rho_i`, `rho_j` (kg/m³) and mean sound speed `c`
+/// (m/s): 2 · ½ ρ̄ β ΔU / (ρ_i ρ_j) with ΔU = −vx/r and β = min(3ΔU, c) for an approaching
+/// pair, zero for a receding one (`scene::PressureGradient::Riemann`). Symmetric in i and j.
+#[inline(always)]
+pub(crate) fn riemann_dissipation(vx: f64, r2: f64, rho_i: f64, rho_j: f64, c: f64) -> f64 {
+    if vx >= 0.0 {
+        return 0.0;
+    }
+    let du = -vx / r2.sqrt();
+    let beta = (3.0 * du).min(c);
+    0.5 * (rho_i + rho_j) * beta * du / (rho_i * rho_j)
 }
 
 /// dρ_i/dt = Σ_j m_j (v_i − v_j)·∇_i W_ij + δ h c0 Σ_j ψ_ij·∇_i W_ij V_j (fluid j only).
@@ -260,7 +301,7 @@ fn continuity_of<const D: usize, N: Neighbours, K: PairKernel>(
     let c0 = model.materials[p.mat[i] as usize].c0();
     let diffusion = model.diffusion.diffuses();
     let corr = Correction::of(model);
-    let delta_coef = model.delta * k.h * c0;
+    let delta_coef = model.diffusion.coefficient(model.delta, k.h, c0);
     let (xi, vi) = (p.x[i], p.v[i]);
     // walls enter with their own (prescribed) velocity
     let mid_of = |j: usize| (xi - p.x[j]) - (vi - p.v[j]) * half_dt;
@@ -283,7 +324,7 @@ fn continuity_of<const D: usize, N: Neighbours, K: PairKernel>(
             drho += p.mass[j] * (f * vij.dot(&mid));
             if diffusion && diffuses(p, i, j) {
                 let coef = if K::VARIES {
-                    model.delta * kij.h * c0
+                    model.diffusion.coefficient(model.delta, kij.h, c0)
                 } else {
                     delta_coef
                 };
@@ -447,6 +488,8 @@ pub struct PairTerms<const D: usize> {
     pub(crate) lap: f64,
     /// −2 α c0 of particle i's material (m/s): `av_coef` over h, for pairs of two sizes.
     pub(crate) av_c0: f64,
+    /// c0 of particle i's material (m/s).
+    pub(crate) c0: f64,
     /// Index of particle i.
     pub(crate) i: usize,
 }
@@ -465,6 +508,7 @@ impl<const D: usize> PairTerms<D> {
             eta2: 0.01 * h * h,
             lap: if model.viscous.renormalised { p.lap[i] } else { 1.0 },
             av_c0: -2.0 * model.alpha * c0,
+            c0,
             i,
         }
     }
@@ -525,6 +569,9 @@ pub fn pair_acceleration_with<const D: usize, K: PairKernel>(
     let vx = vij.dot(&xij);
     if model.alpha > 0.0 && vx < 0.0 {
         pij += av_coef * vx / ((r2 + eta2) * (rhoi + rhoj));
+    }
+    if model.riemann_dissipation {
+        pij += riemann_dissipation(vx, r2, rhoi, rhoj, terms.c0);
     }
     let mut acc = xij * (-f * mj * pij);
     if model.nu > 0.0 {

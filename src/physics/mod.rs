@@ -42,6 +42,10 @@ pub struct Model<const D: usize> {
     /// pressure term is the renormalised difference form (`physics.pressure_gradient =
     /// "difference"`, [`fluid::PressureDifference`]).
     pub difference_pressure: bool,
+    /// Approaching pairs of smoothed particles are damped by the dissipative part of the
+    /// Riemann solver's interface pressure (`physics.pressure_gradient = "riemann"`,
+    /// [`fluid::riemann_dissipation`]).
+    pub riemann_dissipation: bool,
     /// δ coefficient.
     pub delta: f64,
     /// Monaghan α.
@@ -123,7 +127,8 @@ impl<const D: usize> Model<D> {
             diffusion: s.physics.density_diffusion,
             lagged_gradient: s.physics.density_diffusion.needs_gradient()
                 && s.physics.density_gradient == crate::scene::DensityGradient::Lagged,
-            difference_pressure: !s.physics.pressure_gradient.is_symmetric(),
+            difference_pressure: s.physics.pressure_gradient.is_difference(),
+            riemann_dissipation: s.physics.pressure_gradient.riemann_dissipation(),
             delta: s.physics.delta,
             alpha: s.physics.artificial_viscosity,
             beta: s.physics.artificial_viscosity_beta,

@@ -22,7 +22,9 @@
 //! layouts or thread counts.
 
 use super::batch::{batched, slot_of};
-use super::fluid::{diffuses, pair_acceleration_with, psi_dot_grad, Correction, PairTerms};
+use super::fluid::{
+    diffuses, pair_acceleration_with, psi_dot_grad, riemann_dissipation, Correction, PairTerms,
+};
 use super::moment::{inverse_or_identity, FirstMoment};
 use super::Model;
 use crate::cells::{HalfView, Window};
@@ -152,7 +154,11 @@ impl<const D: usize, K: PairKernel> Home<f64> for Continuity<'_, '_, D, K> {
         let kern = &model.kernel;
         let diffusion = model.diffusion.diffuses();
         let corr = Correction::of(model);
-        let coef = |m: u16| model.delta * kern.h * model.materials[m as usize].c0();
+        let coef = |m: u16| {
+            model
+                .diffusion
+                .coefficient(model.delta, kern.h, model.materials[m as usize].c0())
+        };
         let coef_a = coef(p.mat[a]);
         let (xa, va, ma) = (p.x[a], p.v[a], p.mass[a]);
         let mid_of = |b: usize| (xa - p.x[b]) - (va - p.v[b]) * self.half_dt;
@@ -175,7 +181,11 @@ impl<const D: usize, K: PairKernel> Home<f64> for Continuity<'_, '_, D, K> {
                 let kab = self.kern.of(&p.h, a, b);
                 let vdot = f * vab.dot(&mid);
                 // δ h c0 with the pair's mean h where particles have several sizes
-                let sized = |m: u16| model.delta * kab.h * model.materials[m as usize].c0();
+                let sized = |m: u16| {
+                    model
+                        .diffusion
+                        .coefficient(model.delta, kab.h, model.materials[m as usize].c0())
+                };
                 // fluids of one material only ([`diffuses`]): then a's δ h c0 is b's
                 let diffused = diffusion && fluid_a && diffuses(p, a, b);
                 // ψ_ba·∇_b W = −ψ_ab·∇_a W to the bit for one material (every sum and difference
@@ -386,6 +396,13 @@ fn fluid_pair<const D: usize, K: PairKernel>(
         } else {
             -2.0 * model.alpha * model.materials[p.mat[j] as usize].c0() * k.h * vx / den
         };
+    }
+    if model.riemann_dissipation {
+        // symmetric in i and j with the pair's mean sound speed, so both sides add one value
+        let c = 0.5 * (ti.c0 + model.materials[p.mat[j] as usize].c0());
+        let d = riemann_dissipation(vx, r2, rhoi, rhoj, c);
+        pi += d;
+        pj += d;
     }
     let mut a_i = xij * (-f * mj * pi);
     let mut a_j = xij * (-f * mi * pj);

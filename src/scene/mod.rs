@@ -496,6 +496,11 @@ pub enum DensityDiffusion {
     /// Fourtakas et al. (2019): Molteni's term on the density difference less its hydrostatic
     /// part, Δρ_ji − ρ̄ g·x_ji / c²(ρ̄) (no gradient pass; what DualSPHysics calls DDT2).
     Fourtakas,
+    /// The density dissipation of the linearised Riemann solver's interface velocity (Zhang,
+    /// Hu & Adams 2017, JCP 335:605): (1/(ρ0 c0)) Σ_j V_j (p_i − p_j) ∂W/∂r, here with the
+    /// pressure difference less its hydrostatic part as in `fourtakas`. It is Fourtakas's term
+    /// with δ replaced by r/(2h) in each pair, so δ is not read.
+    Riemann,
     /// Test only (`crate::physics::fluid`): Molteni's pair term under a name of its own. It
     /// proves the density-term recipe of ARCHITECTURE.md: a term is this file and
     /// `physics/fluid.rs`.
@@ -508,9 +513,27 @@ impl DensityDiffusion {
     pub fn diffuses(self) -> bool {
         match self {
             DensityDiffusion::None => false,
-            DensityDiffusion::Molteni | DensityDiffusion::Antuono | DensityDiffusion::Fourtakas => true,
+            DensityDiffusion::Molteni
+            | DensityDiffusion::Antuono
+            | DensityDiffusion::Fourtakas
+            | DensityDiffusion::Riemann => true,
             #[cfg(test)]
             DensityDiffusion::Toy => true,
+        }
+    }
+
+    /// The factor of the pair term ψ_ij·∇_i W_ij V_j in dρ_i/dt (m²/s for the δ-SPH terms,
+    /// δ h c0; m/s for `riemann`, c0/2, whose ψ carries the pair's distance), for the pair's
+    /// smoothing length `h` (m) and i's sound speed `c0` (m/s).
+    pub fn coefficient(self, delta: f64, h: f64, c0: f64) -> f64 {
+        match self {
+            DensityDiffusion::Riemann => 0.5 * c0,
+            DensityDiffusion::None
+            | DensityDiffusion::Molteni
+            | DensityDiffusion::Antuono
+            | DensityDiffusion::Fourtakas => delta * h * c0,
+            #[cfg(test)]
+            DensityDiffusion::Toy => delta * h * c0,
         }
     }
 
@@ -519,7 +542,10 @@ impl DensityDiffusion {
     pub fn needs_gradient(self) -> bool {
         match self {
             DensityDiffusion::Antuono => true,
-            DensityDiffusion::None | DensityDiffusion::Molteni | DensityDiffusion::Fourtakas => false,
+            DensityDiffusion::None
+            | DensityDiffusion::Molteni
+            | DensityDiffusion::Fourtakas
+            | DensityDiffusion::Riemann => false,
             #[cfg(test)]
             DensityDiffusion::Toy => false,
         }
@@ -590,6 +616,14 @@ pub enum PressureGradient {
     /// (Bonet & Lok 1999; Oger et al. 2007): exact for a linear pressure, not conservative
     /// across those pairs; gather mode only.
     Difference,
+    /// The symmetric form with the dissipative part of the linearised Riemann solver's
+    /// interface pressure, P* = (p_i + p_j)/2 + ½ ρ̄ β ΔU, ΔU = −v_ij·x_ij/r the pair's
+    /// approach speed (m/s), and the low-dissipation limiter β = min(3 max(ΔU, 0), c̄)
+    /// (Zhang, Hu & Adams 2017, JCP 335:605): −Σ_j m_j ρ̄ β ΔU/(ρ_i ρ_j) ∇_i W_ij is added,
+    /// antisymmetric in each pair, so momentum stays conserved to round-off. It acts on
+    /// approaching pairs only, quadratically in ΔU up to c̄/3, as an acoustic impedance ρ̄ c̄ ΔU
+    /// beyond.
+    Riemann,
 }
 
 impl PressureGradient {
@@ -597,7 +631,24 @@ impl PressureGradient {
     pub fn is_symmetric(&self) -> bool {
         match self {
             PressureGradient::Symmetric => true,
-            PressureGradient::Difference => false,
+            PressureGradient::Difference | PressureGradient::Riemann => false,
+        }
+    }
+
+    /// True for the renormalised difference form, which needs a particle's whole support at
+    /// once (gather mode) and applies only where h varies.
+    pub fn is_difference(&self) -> bool {
+        match self {
+            PressureGradient::Difference => true,
+            PressureGradient::Symmetric | PressureGradient::Riemann => false,
+        }
+    }
+
+    /// True if the pair's approach is damped by the Riemann solver's dissipative pressure.
+    pub fn riemann_dissipation(&self) -> bool {
+        match self {
+            PressureGradient::Riemann => true,
+            PressureGradient::Symmetric | PressureGradient::Difference => false,
         }
     }
 }

@@ -234,7 +234,7 @@ pub(super) fn check_verlet(s: &Scene) -> Result<()> {
 /// `physics.pressure_gradient = "difference"` changes the pressure term only where a support
 /// holds several smoothing lengths, which needs a region with the level's h.
 fn validate_pressure_gradient(s: &Scene) -> Result<()> {
-    if s.physics.pressure_gradient.is_symmetric()
+    if !s.physics.pressure_gradient.is_difference()
         || s.refine
             .iter()
             .any(|r| r.smoothing_length == refine::RegionH::Level)
