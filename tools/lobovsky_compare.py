@@ -1,19 +1,25 @@
 #!/usr/bin/env python3
 """Compare a run of inputs/dam_break_lobovsky.toml with Lobovsky et al. (2014), H = 300 mm.
 
-Usage: python3 tools/lobovsky_compare.py [RUNDIR [REFDATA_DIR]]
+Usage: python3 tools/lobovsky_compare.py [RUNDIR [REFDATA_DIR]] [--hsph PATH]
 (RUNDIR defaults to the newest runs/dam_break_lobovsky*/ of the working directory, REFDATA_DIR to
-the experiment's series vendored in inputs/reference/). Standard library only.
+the experiment's series vendored in inputs/reference/, PATH to target/release/hsph).
+Standard library only.
 
-Prints, for the pressure sensors S1, S3 and S4 (the digitised experimental curves), the
-first-impact peak p/(rho g H) and its time t sqrt(g/H), simulated against experiment, and for the
-gauges H1-H4 the mean absolute difference of h/H over t sqrt(g/H) in [0, 8] and the arrival time
-of the surge (first h/H > 0.02) against the experiment's series (TNL-SPH's choice of curves).
+Prints, for the pressure sensors S1, S3 and S4, the loads docs/pressure.md §1 defines, of the
+run's probe series and of the experiment's 20 kHz run through the same code (`hsph loads`): the
+maximum after the 2 ms centred box and its time t sqrt(g/H), the raw maximum, and the first
+impact's impulse over 35 ms (S1 and S3). S1 and S3 are read over t sqrt(g/H) in [0, 4.5], S4 over
+[2, 4.5] (its hump, not a spike before it). Then, for the gauges H1-H4, the mean absolute
+difference of h/H over t sqrt(g/H) in [0, 8] and the arrival time of the surge (first
+h/H > 0.02) against the experiment's series (TNL-SPH's choice of curves).
 """
 import csv
 import glob
+import json
 import math
 import os
+import subprocess
 import sys
 
 H, G, RHO = 0.3, 9.81, 1000.0
@@ -41,7 +47,32 @@ def interp(pts, t):
     return float("nan")
 
 
+SPAN = 0.035                  # the impulse's span (s): 0.2 in t sqrt(g/H)
+# sensor: (experiment's column, t sqrt(g/H) range read, impulse scored)
+SENSORS = {"S1": ("p_sensor1_3mm", (0.0, 4.5), True),
+           "S3": ("p_sensor3_30mm", (0.0, 4.5), True),
+           "S4": ("p_sensor4_80mm", (2.0, 4.5), False)}
+
+
+def loads(hsph, path, time, column, time_scale, scale, lo, hi):
+    """The loads of one series through `hsph loads` (the code summary.json uses)."""
+    cmd = [hsph, "loads", path, "--time", time, "--column", column, "--impulse-span", repr(SPAN),
+           "--time-scale", repr(time_scale), "--scale", repr(scale),
+           "--from", repr(lo / TS), "--to", repr(hi / TS)]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit(r.stderr.strip())
+    return json.loads(r.stdout)
+
+
 def main():
+    args = sys.argv[1:]
+    hsph = "target/release/hsph"
+    if "--hsph" in args:
+        k = args.index("--hsph")
+        hsph = args[k + 1]
+        del args[k:k + 2]
+    sys.argv = [sys.argv[0]] + args
     if len(sys.argv) > 1:
         run = sys.argv[1]
     else:
@@ -52,16 +83,21 @@ def main():
         run = os.path.dirname(max(found, key=os.path.getmtime))
         print(f"run: {run}")
     ref = sys.argv[2] if len(sys.argv) > 2 else os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "inputs", "reference")
-    exp_p = rows(os.path.join(ref, "dambreak_lobovsky2014_H300_pressure_digitized.csv"))
-    print("sensor | simulated peak p/(rho g H) at t sqrt(g/H) | experiment | peak error | time error")
-    for s in ["S1", "S3", "S4"]:
-        e = [(float(r["tstar"]), float(r["pstar"])) for r in exp_p if r["sensor"] == s]
-        sim = [(t, p / (RHO * G * H)) for t, p in series(os.path.join(run, "probes", s + ".csv"), "p")]
-        # the first impact: within 1.5 of the experiment's first rise
-        rise = next(t for t, p in e if p > 0.1)
-        pe, ps = first_peak(e, rise - 0.5, rise + 1.0), first_peak(sim, rise - 0.5, rise + 1.0)
-        print(f"{s} | {ps[1]:.3f} at {ps[0]:.3f} | {pe[1]:.3f} at {pe[0]:.3f} | "
-              f"{100 * (ps[1] / pe[1] - 1):+.1f} % | {ps[0] - pe[0]:+.3f}")
+    exp_run = os.path.join(ref, "dambreak_lobovsky2014_H300_pressure_run.csv")
+    ps = RHO * G * H
+    print("sensor | filtered peak p/(rho g H) at t sqrt(g/H), simulated | experiment | error | "
+          "raw peak simulated / experiment | impulse (Pa s) simulated / experiment | error")
+    for s, (col, (lo, hi), scored) in SENSORS.items():
+        sim = loads(hsph, os.path.join(run, "probes", s + ".csv"), "t", "p", 1.0, 1.0, lo, hi)
+        exp = loads(hsph, exp_run, "tstar", col, 1.0 / TS, ps, lo, hi)
+        err = 100 * (sim["filtered_max"] / exp["filtered_max"] - 1)
+        imp = ""
+        if scored and sim.get("impulse") and exp.get("impulse"):
+            imp = (f"{sim['impulse']:.1f} / {exp['impulse']:.1f} | "
+                   f"{100 * (sim['impulse'] / exp['impulse'] - 1):+.1f} %")
+        print(f"{s} | {sim['filtered_max'] / ps:.3f} at {sim['filtered_max_t'] * TS:.3f} | "
+              f"{exp['filtered_max'] / ps:.3f} at {exp['filtered_max_t'] * TS:.3f} | {err:+.1f} % | "
+              f"{sim['raw_max'] / ps:.2f} / {exp['raw_max'] / ps:.2f} | {imp or '|'}")
     lv = rows(os.path.join(ref, "dambreak_lobovsky2014_H300_water_level.csv"))
     print("gauge | mean |h/H - exp| over t* in [0, 8] | arrival t* (h/H > 0.02) simulated / experiment")
     for g, col in [("H1", "h_H1_2"), ("H2", "h_H2_3"), ("H3", "h_H3_3"), ("H4", "h_H4_4")]:

@@ -2,14 +2,15 @@
 """Where the wall-pressure overshoot of the Lobovsky dam break comes from (docs/pressure.md).
 
 Runs inputs/dam_break_lobovsky.toml to t sqrt(g/H) = 4.57 at one resolution in several
-variants (sound speed, the corner's wall volume, density diffusion, wall method and slip, CFL),
+variants (the formulation it ships, the Riemann solver's terms, and delta-SPH as before;
+sound speed, the corner's wall volume, density diffusion, wall method and slip, CFL),
 each with its pressure probes sampled at every step and no trailing window, and reads the
 loads `summary.json` gives them (`pressure_loads`: the raw maximum, the maximum after the 2 ms
 centred box, the first impact's impulse over 35 ms). The experiment's 20 kHz run goes through
 the same code (`hsph loads`). Prints one markdown row per variant and sensor.
 
   python3 tools/pressure_diagnosis.py --dx 0.01                 every variant at 10 mm
-  python3 tools/pressure_diagnosis.py --dx 0.005 base c0_50     two of them at 5 mm
+  python3 tools/pressure_diagnosis.py --dx 0.005 base riemann   delta-SPH and the shipped scene at 5 mm
 
 Standard library only; needs a built hsph (--hsph, default target/release/hsph).
 """
@@ -30,35 +31,33 @@ SENSORS = {"S1": (0, "p_sensor1_3mm"), "S3": (2, "p_sensor3_30mm"), "S4": (3, "p
 EXPERIMENT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "inputs", "reference",
                           "dambreak_lobovsky2014_H300_pressure_run.csv")
 
+# The shipped scene runs the Riemann solver's terms; the δ-SPH variants start from the
+# formulation it shipped with before (Antuono's density diffusion, δ = 0.1, symmetric pressure).
+DSPH = ['physics.density_diffusion="antuono"', "physics.delta=0.1", 'physics.pressure_gradient="symmetric"']
 VARIANTS = {
-    "base": [],
-    "c0_50": ["material[0].c0=50.0"],
-    "c0_100": ["material[0].c0=100.0"],
-    "lattice_volume": ['wall[0].volume="lattice"'],
-    "diffusion_none": ['physics.density_diffusion="none"'],
-    "diffusion_molteni": ['physics.density_diffusion="molteni"'],
-    "diffusion_fourtakas": ['physics.density_diffusion="fourtakas"'],
-    "no_slip": ['wall[0].slip="no_slip"'],
-    "dynamic_wall": ['wall[0].method="dynamic"'],
-    "cfl_0.1": ["time.cfl=0.1"],
-    "cfl_0.2": ["time.cfl=0.2"],
-    "cfl_0.3": ["time.cfl=0.3"],
-    "delta_0.3": ["physics.delta=0.3"],
-    "delta_0.5": ["physics.delta=0.5"],
-    "alpha_0.1": ["physics.artificial_viscosity=0.1"],
-    "riemann": ['physics.pressure_gradient="riemann"', 'physics.density_diffusion="riemann"'],
-    "riemann_pressure": ['physics.pressure_gradient="riemann"'],
-    "riemann_density": ['physics.density_diffusion="riemann"'],
-    "riemann_lattice": ['physics.pressure_gradient="riemann"', 'physics.density_diffusion="riemann"',
-                        'wall[0].volume="lattice"'],
-    "riemann_c0_50": ['physics.pressure_gradient="riemann"', 'physics.density_diffusion="riemann"',
-                      "material[0].c0=50.0"],
-    "riemann_no_slip": ['physics.pressure_gradient="riemann"', 'physics.density_diffusion="riemann"',
-                        'wall[0].slip="no_slip"'],
-    "riemann_cfl_0.2": ['physics.pressure_gradient="riemann"', 'physics.density_diffusion="riemann"',
-                        "time.cfl=0.2"],
-    "riemann_cfl_0.3": ['physics.pressure_gradient="riemann"', 'physics.density_diffusion="riemann"',
-                        "time.cfl=0.3"],
+    "base": DSPH,
+    "c0_50": DSPH + ["material[0].c0=50.0"],
+    "c0_100": DSPH + ["material[0].c0=100.0"],
+    "lattice_volume": DSPH + ['wall[0].volume="lattice"'],
+    "diffusion_none": DSPH + ['physics.density_diffusion="none"'],
+    "diffusion_molteni": DSPH + ['physics.density_diffusion="molteni"'],
+    "diffusion_fourtakas": DSPH + ['physics.density_diffusion="fourtakas"'],
+    "no_slip": DSPH + ['wall[0].slip="no_slip"'],
+    "dynamic_wall": DSPH + ['wall[0].method="dynamic"'],
+    "cfl_0.1": DSPH + ["time.cfl=0.1"],
+    "cfl_0.2": DSPH + ["time.cfl=0.2"],
+    "cfl_0.3": DSPH + ["time.cfl=0.3"],
+    "delta_0.3": DSPH + ["physics.delta=0.3"],
+    "delta_0.5": DSPH + ["physics.delta=0.5"],
+    "alpha_0.1": DSPH + ["physics.artificial_viscosity=0.1"],
+    "riemann": [],
+    "riemann_pressure": DSPH + ['physics.pressure_gradient="riemann"'],
+    "riemann_density": ['physics.pressure_gradient="symmetric"'],
+    "riemann_lattice": ['wall[0].volume="lattice"'],
+    "riemann_no_slip": ['wall[0].slip="no_slip"'],
+    "riemann_c0_50": ["material[0].c0=50.0"],
+    "riemann_cfl_0.2": ["time.cfl=0.2"],
+    "riemann_cfl_0.3": ["time.cfl=0.3"],
 }
 
 
