@@ -268,6 +268,12 @@ impl<const D: usize> Model<D> {
             self.delta,
             self.lagged_gradient,
         ));
+        if self.riemann_dissipation {
+            v.push(
+                "Riemann-solver pressure dissipation ½ ρ̄ β ΔU, β = min(3ΔU, c̄) (Zhang, Hu & Adams 2017)"
+                    .into(),
+            );
+        }
         if self.alpha > 0.0 {
             v.push(format!("Monaghan artificial viscosity α = {}", self.alpha));
         }
