@@ -28,6 +28,7 @@ CODE = ["src", "Cargo.toml", "Cargo.lock", "build.rs"]
 SCENES = {
     "dam_break_2d_dsph": "DualSPHysics's 2D dam break (`inputs/dam_break_2d_dsph.toml`, 23 018 particles)",
     "dam_break_3d_dsph": "DualSPHysics's 3D CaseDambreak (`inputs/dam_break_3d_dsph.toml`, 264 k particles)",
+    "dam_break_lobovsky": "Lobovsky's dam break (`inputs/dam_break_lobovsky.toml`, 9 144 particles)",
     "dam_break_lobovsky_adaptive": "Lobovsky's dam break, adaptive (`inputs/dam_break_lobovsky_adaptive.toml`)",
     "solitary_wave_adaptive": "The solitary wave, adaptive (`inputs/solitary_wave_adaptive.toml`)",
     "impact_oblique_45": "The oblique impact (`inputs/impact_oblique_45.toml`, 73 k particles)",
