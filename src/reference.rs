@@ -1,6 +1,8 @@
 //! Analytic and tabulated references a scene can declare; the named relative errors (as
 //! fractions: 0.004 means 0.4 %) go to `summary.json` under `errors`.
 
+pub mod wall_pressure;
+
 use crate::scene::Reference;
 use crate::sim::View;
 use std::collections::BTreeMap;
@@ -23,6 +25,11 @@ pub const STEADY_RATE: f64 = 1e-3;
 
 /// Length of the window the kinetic energy's trend is fitted over, in units of L/U.
 pub const STEADY_WINDOW: f64 = 5.0;
+
+/// The sensors of a wall-pressure experiment (`reference.sensors` names some of them).
+pub fn wall_pressure_sensors(e: crate::scene::PressureExperiment) -> Vec<&'static str> {
+    wall_pressure::sensors(e)
+}
 
 /// Ghia's interior points (the wall points, which the boundary condition fixes, left out) for
 /// `re`: (coordinate along the line, velocity / U), from `table` (u or v).
@@ -168,6 +175,7 @@ impl Tracker {
             }
             Reference::DamBreakFront { .. }
             | Reference::SolitaryWave { .. }
+            | Reference::WallPressure { .. }
             | Reference::Hydrostatic { .. }
             | Reference::Hole { .. }
             | Reference::Cavity { .. } => {}
@@ -282,6 +290,15 @@ impl Tracker {
     /// crest time against [`crate::boundary::motion::Goring::crest_time`] at its distance
     /// from the paddle's rest face; the run-up gauge's rise against [`su_mirie_runup`].
     pub fn from_probe_files(&mut self, scene: &crate::scene::Scene, dir: &std::path::Path) {
+        if let Some(Reference::WallPressure { experiment, sensors }) = &scene.reference {
+            for (name, c) in wall_pressure::compare(scene, *experiment, sensors, dir) {
+                self.errors.insert(format!("{name}_peak"), c.peak_error.abs());
+                if let Some(e) = c.impulse_error {
+                    self.errors.insert(format!("{name}_impulse"), e.abs());
+                }
+            }
+            return;
+        }
         let Some(Reference::SolitaryWave {
             crest_gauge,
             arrival_gauge,

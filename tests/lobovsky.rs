@@ -149,6 +149,22 @@ fn lobovsky_dam_break_at_1cm_within_its_committed_bounds() {
         exp.impulse.unwrap(),
         100.0 * impulse_err
     );
+    // the scene's wall-pressure reference gives summary.json the same errors by the same code
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["errors"]["S1_peak"].as_f64(), Some(peak_err.abs()));
+    assert_eq!(summary["errors"]["S1_impulse"].as_f64(), Some(impulse_err.abs()));
+    // hsph report draws the compared sensors over the experiment, first
+    let rep = common::temp_dir("lobovsky").join("report");
+    let (code, _, err) = hsph(&["report", out.to_str().unwrap(), "--out", rep.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let md = std::fs::read_to_string(rep.join("report.md")).unwrap();
+    let first_chart = md.find("![").unwrap();
+    assert!(
+        md[first_chart..].starts_with("![Wall pressure at each compared sensor"),
+        "{md}"
+    );
+    assert!(std::fs::metadata(rep.join("pressure_traces.png")).unwrap().len() > 10_000);
     // committed at 1 cm (docs/validation.md §3c, docs/pressure.md); bounds 1.5 ×
     assert!(s1_arrival <= 1.5 * S1_ARRIVAL, "S1 arrival off by {s1_arrival}");
     assert!(

@@ -119,3 +119,44 @@ fn sensors_within_a_support_of_a_corner_or_narrower_than_dx_are_warned() {
         "{w:#?}"
     );
 }
+
+/// A wall-pressure reference names pressure probes that are sensors of its experiment: an
+/// unknown sensor, or a sensor without its probe, is exit 2 naming the key and the choices.
+#[test]
+fn a_wall_pressure_reference_names_sensors_of_its_experiment() {
+    let check = |sets: &[&str]| {
+        let mut args = vec!["check", "inputs/dam_break_lobovsky.toml"];
+        for s in sets {
+            args.extend(["--set", s]);
+        }
+        hsph_out(&args)
+    };
+    assert_input_error(
+        &check(&["reference.sensors=[\"S1\", \"P1\"]"]),
+        &[
+            "reference.sensors[1]",
+            "\"P1\"",
+            "[\"S1\", \"S2\", \"S3\", \"S4\"]",
+        ],
+    );
+    assert_input_error(
+        &check(&["probe[1].name=\"S2b\""]),
+        &[
+            "reference.sensors[1]",
+            "no [[probe]] of kind = \"pressure\" is named \"S2\"",
+        ],
+    );
+    assert_input_error(
+        &check(&["reference.experiment=\"lobovsky\""]),
+        &[
+            "key `reference`",
+            "unknown variant `lobovsky`",
+            "lobovsky2014_h300",
+            "buchner2002",
+        ],
+    );
+    assert_input_error(
+        &check(&["reference.sensors=[]"]),
+        &["reference.sensors", "at least one"],
+    );
+}

@@ -213,7 +213,10 @@ the peak speed; variants include dummy plates with Adami's or Morris's no-slip, 
 and the renormalised viscous operator), hydrostatic (still tank; pressure error below
 mid-depth in units of rho g H; variants include delta-plus shifting),
 cavity (lid-driven, Re = 100, against Ghia et al. 1982 at t = 30 L/U; variants include the
-wall methods dummy, repulsive and mixed: mirror box under a dummy lid).
+wall methods dummy, repulsive and mixed: mirror box under a dummy lid), lobovsky and
+lobovsky_impulse (the dam break's wall pressure at S1 against the experiment's 20 kHz run:
+the filtered peak, the first impact's impulse; at dx = 10 and 5 mm; variants: the Riemann
+solver's terms, delta-SPH Antuono and Fourtakas).
 Writes into --out: sweep.csv (one row per run: error, wall time, particle-steps/s, peak RSS,
 status), runs/<case>-n<N>-<variant>/ (each an ordinary run directory), <case>_cost_error and
 <case>_convergence (.png, .svg) and validate.md. Running again skips the configurations
@@ -226,6 +229,7 @@ Examples:
   hsph validate poiseuille --resolutions 10,20 --variants cubic_spline-h1.2-dummy-none \
        --set time.t_end=0.6 --set reference.times=[0.6] --out validate-short
   hsph validate poiseuille --sweep --target 0.005 --write cheapest.toml
+  hsph validate lobovsky lobovsky_impulse --sweep  wall pressure: error against wall time
   hsph validate --map --out stability               every stability study (a few minutes)
   hsph validate --map walls,lattice --out stability")]
     Validate {

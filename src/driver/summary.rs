@@ -146,6 +146,18 @@ impl<'a, const D: usize> RankRun<'a, D> {
     /// A file that cannot be read gives null.
     fn loads_summary(&self) -> serde_json::Value {
         let mut out = serde_json::Map::new();
+        // against the experiment, where the scene's reference names one
+        let compared = match &self.scene.reference {
+            Some(crate::scene::Reference::WallPressure { experiment, sensors }) => {
+                crate::reference::wall_pressure::compare(
+                    self.scene,
+                    *experiment,
+                    sensors,
+                    &self.dir.join("probes"),
+                )
+            }
+            _ => Default::default(),
+        };
         for probe in &self.scene.probes {
             let Some((filter, span)) = probe.load_rules() else {
                 continue;
@@ -164,6 +176,10 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 }),
                 None => serde_json::Value::Null,
             };
+            let mut value = value;
+            if let (Some(c), Some(v)) = (compared.get(probe.name()), value.as_object_mut()) {
+                v.insert("reference".into(), json!(c));
+            }
             out.insert(probe.name().to_string(), value);
         }
         serde_json::Value::Object(out)

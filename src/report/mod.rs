@@ -12,6 +12,7 @@
 pub mod charts;
 mod impact;
 mod load;
+mod pressure;
 
 pub use load::{Diagnostics, Run, TrafficRow};
 
@@ -86,6 +87,15 @@ pub fn write_run(run: &Run, dir: &Path) -> Result<Vec<PathBuf>> {
     create_dir(dir)?;
     let mut files = Vec::new();
     let mut charts_done = Vec::new();
+    // what an engineer looks at first: the wall pressure against the experiment's
+    let traces = pressure::traces(&run.dir, &run.summary, dir)?;
+    if !traces.is_empty() {
+        files.extend(traces);
+        charts_done.push((
+            "pressure_traces",
+            "Wall pressure at each compared sensor: the run (raw, and through its box filter) over the experiment",
+        ));
+    }
     if let Some(traffic) = &run.traffic {
         let nodes = run.rank_nodes();
         // one rank only sends to itself (its periodic and mirror images): nothing to map

@@ -83,6 +83,17 @@ pub enum Reference {
         /// Times (s) at which the error and the particle disorder are measured.
         times: Vec<f64>,
     },
+    /// Wall pressure at impact against a dam-break experiment compiled into hsph
+    /// (`crate::reference::wall_pressure`): each named pressure probe's loads (docs/pressure.md
+    /// §1) against the experiment's sensor of the same name, over the experiment's own time
+    /// window, both through one code. Errors `<probe>_peak` (filtered peak) and
+    /// `<probe>_impulse` (first impact's impulse) land in `summary.json`.
+    WallPressure {
+        /// The experiment.
+        experiment: PressureExperiment,
+        /// Pressure probes compared, by name (each one of the experiment's sensors).
+        sensors: Vec<String>,
+    },
     /// Koshizuka & Oka (1996) surge front Z = z/L vs T = t·sqrt(2g/L), experiment.
     DamBreakFront {
         /// Column width L (m).
@@ -90,6 +101,16 @@ pub enum Reference {
         /// Left wall position (m) from which the front is measured.
         origin: f64,
     },
+}
+
+/// The dam-break wall-pressure experiments compiled into hsph (`inputs/reference/`).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PressureExperiment {
+    /// Lobovsky et al. (2014), H = 300 mm: the 20 kHz run of sensors S1–S4.
+    Lobovsky2014H300,
+    /// Buchner (2002), H = 0.6 m: P1 and P2 digitised from a figure (no filter applies).
+    Buchner2002,
 }
 
 /// Default corner of a cavity reference.
@@ -133,6 +154,10 @@ pub(super) fn validate_reference(s: &Scene) -> Result<()> {
             runup_gauge,
         } => {
             validate_solitary_reference(s, [crest_gauge, arrival_gauge, runup_gauge])?;
+            &[]
+        }
+        Reference::WallPressure { experiment, sensors } => {
+            validate_wall_pressure(s, *experiment, sensors)?;
             &[]
         }
         Reference::Hole { major, minor, .. } => {
@@ -263,6 +288,37 @@ fn validate_solitary_reference(s: &Scene, gauges: [&String; 3]) -> Result<()> {
             return err(
                 format!("reference.{key}"),
                 format!("no [[probe]] of kind = \"gauge\" is named {name:?}; the gauges are {gauges:?}"),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// A wall-pressure reference names pressure probes of the scene, each one of the experiment's
+/// sensors.
+fn validate_wall_pressure(s: &Scene, experiment: PressureExperiment, sensors: &[String]) -> Result<()> {
+    let known = crate::reference::wall_pressure_sensors(experiment);
+    if sensors.is_empty() {
+        return err(
+            "reference.sensors",
+            format!("name at least one pressure probe; the experiment's sensors are {known:?}"),
+        );
+    }
+    for (k, name) in sensors.iter().enumerate() {
+        if !known.contains(&name.as_str()) {
+            return err(
+                format!("reference.sensors[{k}]"),
+                format!("{name:?} is not a sensor of this experiment; its sensors are {known:?}"),
+            );
+        }
+        if !s
+            .probes
+            .iter()
+            .any(|p| p.name() == name && p.load_rules().is_some())
+        {
+            return err(
+                format!("reference.sensors[{k}]"),
+                format!("no [[probe]] of kind = \"pressure\" is named {name:?}"),
             );
         }
     }

@@ -17,7 +17,11 @@ fn log_range(v: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
         return 1e-3..1.0;
     }
     let f = 10f64.powf(0.2);
-    lo / f..(hi * f).max(lo * f * f)
+    let hi = (hi * f).max(lo * f * f);
+    // a power of ten inside, so that the log axis has labelled ticks (errors of 1.6–4.4 had
+    // none)
+    let decade = 10f64.powf(hi.log10().floor());
+    (lo / f).min(decade)..hi
 }
 
 /// A log-axis tick: two significant figures, without float noise (0.01, not 0.0100000001).

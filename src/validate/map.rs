@@ -70,6 +70,14 @@ fn dam_break_methods() -> Vec<(&'static str, Vec<String>)> {
     ]
     .into_iter()
     .map(|(d, name)| (name, vec![format!("physics.density_diffusion=\"{d}\"")]))
+    // the Riemann solver's pressure and density terms (docs/pressure.md §2d)
+    .chain(std::iter::once((
+        "Riemann-SPH",
+        vec![
+            "physics.density_diffusion=\"riemann\"".to_string(),
+            "physics.pressure_gradient=\"riemann\"".to_string(),
+        ],
+    )))
     .collect()
 }
 
