@@ -216,7 +216,7 @@ cavity (lid-driven, Re = 100, against Ghia et al. 1982 at t = 30 L/U; variants i
 wall methods dummy, repulsive and mixed: mirror box under a dummy lid), lobovsky and
 lobovsky_impulse (the dam break's wall pressure at S1 against the experiment's 20 kHz run:
 the filtered peak, the first impact's impulse; at dx = 10 and 5 mm; variants: the Riemann
-solver's terms, delta-SPH Antuono and Fourtakas).
+solver's terms, delta-SPH Antuono and Fourtakas, the Riemann terms in pair mode).
 Writes into --out: sweep.csv (one row per run: error, wall time, particle-steps/s, peak RSS,
 status), runs/<case>-n<N>-<variant>/ (each an ordinary run directory), <case>_cost_error and
 <case>_convergence (.png, .svg) and validate.md. Running again skips the configurations

@@ -496,14 +496,17 @@ fn lobovsky_default() -> Variant {
     }
 }
 
-/// The shipped Riemann terms, then δ-SPH with Antuono's and Fourtakas's terms.
+/// The shipped Riemann terms, then δ-SPH with Antuono's and Fourtakas's terms, then the
+/// Riemann terms in pair mode.
 fn lobovsky_sweep() -> Vec<Variant> {
-    ["riemann", "antuono", "fourtakas"]
+    let mut out = ["riemann", "antuono", "fourtakas"]
         .map(|diffusion| Variant {
             diffusion,
             ..lobovsky_default()
         })
-        .to_vec()
+        .to_vec();
+    out.push(lobovsky_default().in_pairs());
+    out
 }
 
 /// Lobovsky's S1: its filtered first-impact peak against the experiment's 20 kHz run.
