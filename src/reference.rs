@@ -26,11 +26,6 @@ pub const STEADY_RATE: f64 = 1e-3;
 /// Length of the window the kinetic energy's trend is fitted over, in units of L/U.
 pub const STEADY_WINDOW: f64 = 5.0;
 
-/// The sensors of a wall-pressure experiment (`reference.sensors` names some of them).
-pub fn wall_pressure_sensors(e: crate::scene::PressureExperiment) -> Vec<&'static str> {
-    wall_pressure::sensors(e)
-}
-
 /// Ghia's interior points (the wall points, which the boundary condition fixes, left out) for
 /// `re`: (coordinate along the line, velocity / U), from `table` (u or v).
 pub fn ghia(table: &str, re: u32) -> Vec<(f64, f64)> {

@@ -4,92 +4,19 @@
 //! experiment's time window, by one code on both sides.
 
 use crate::probes::loads::{loads, Loads};
-use crate::scene::{PressureExperiment, Scene};
+use crate::scene::{ExperimentProtocol, PressureExperiment, Scene};
 use std::collections::BTreeMap;
+
+/// An experiment's protocol (declared with the scene's reference, `crate::scene`).
+fn experiment(e: PressureExperiment) -> ExperimentProtocol {
+    e.protocol()
+}
 
 /// Lobovsky et al. (2014), H = 300 mm: the 20 kHz run ("peak event 5"), t√(g/H) and
 /// p/(ρgH) per sensor (`inputs/reference/`, with its source in the header).
 const LOBOVSKY_RUN: &str = include_str!("../../inputs/reference/dambreak_lobovsky2014_H300_pressure_run.csv");
 /// Buchner (2002), H = 0.6 m: digitised curves of P1 (three sources) and P2 (one).
 const BUCHNER: &str = include_str!("../../inputs/reference/dambreak2d_buchner2002_wall_pressure.csv");
-
-/// One sensor of an experiment: its name (the probe's), its series' column (or `source/sensor`
-/// for a long table), and the window [from, to] in t√(g/H) its loads are read over.
-struct Sensor {
-    name: &'static str,
-    column: &'static str,
-    window: (f64, f64),
-}
-
-/// What an experiment is: its water depth H (m), its sensors, and its own filter (s; `None`:
-/// the probe's, for a measured series; `Some(0)`: none, for curves digitised from a figure).
-struct Experiment {
-    depth: f64,
-    sensors: &'static [Sensor],
-    filter: Option<f64>,
-}
-
-const LOBOVSKY_SENSORS: &[Sensor] = &[
-    Sensor {
-        name: "S1",
-        column: "p_sensor1_3mm",
-        window: (0.0, 4.5),
-    },
-    Sensor {
-        name: "S2",
-        column: "p_sensor2_15mm",
-        window: (0.0, 4.5),
-    },
-    Sensor {
-        name: "S3",
-        column: "p_sensor3_30mm",
-        window: (0.0, 4.5),
-    },
-    // the hump, not a spike before it (issue 82)
-    Sensor {
-        name: "S4",
-        column: "p_sensor4_80mm",
-        window: (2.0, 4.5),
-    },
-];
-
-const BUCHNER_SENSORS: &[Sensor] = &[
-    Sensor {
-        name: "P1",
-        column: "trixi/P1",
-        window: (2.3, 3.5),
-    },
-    Sensor {
-        name: "P1_low",
-        column: "trixi/P1",
-        window: (2.3, 3.5),
-    },
-    Sensor {
-        name: "P2",
-        column: "trixi/P2",
-        window: (4.5, 6.5),
-    },
-];
-
-fn experiment(e: PressureExperiment) -> Experiment {
-    match e {
-        PressureExperiment::Lobovsky2014H300 => Experiment {
-            depth: 0.3,
-            sensors: LOBOVSKY_SENSORS,
-            filter: None,
-        },
-        PressureExperiment::Buchner2002 => Experiment {
-            depth: 0.6,
-            sensors: BUCHNER_SENSORS,
-            filter: Some(0.0),
-        },
-    }
-}
-
-/// The names of an experiment's sensors (what `reference.sensors` may name).
-pub fn sensors(e: PressureExperiment) -> Vec<&'static str> {
-    experiment(e).sensors.iter().map(|s| s.name).collect()
-}
 
 /// Gravity's magnitude (m/s²) the experiments' units use.
 const G: f64 = 9.81;

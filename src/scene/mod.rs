@@ -26,7 +26,7 @@ pub use materials::{Material, MaterialKind, StrengthKind};
 #[cfg(test)]
 pub(crate) use probes::one_of_each;
 pub use probes::{Direction, Probe, DEFAULT_LOAD_FILTER_S, HOLE_COLUMNS};
-pub use reference::{PressureExperiment, Reference};
+pub use reference::{ExperimentProtocol, ExperimentSensor, PressureExperiment, Reference};
 pub use shape::BodyShape;
 pub use validate::{check_rank_weights, dt_upper_bound, expected_speed, validate};
 pub use walls::{rows_reaching, Motion, NoSlipMethod, Slip, WallBody, WallMethod, WallShape, WallVolume};

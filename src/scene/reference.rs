@@ -113,6 +113,97 @@ pub enum PressureExperiment {
     Buchner2002,
 }
 
+/// One sensor of a wall-pressure experiment: its name (the probe's), its series' column in
+/// the experiment's file (`source/sensor` for a long table), and the window [from, to] in
+/// t√(g/H) its loads are read over.
+#[derive(Debug, Clone, Copy)]
+pub struct ExperimentSensor {
+    /// Name, as the compared probe's.
+    pub name: &'static str,
+    /// Column of the experiment's series.
+    pub column: &'static str,
+    /// The window in t√(g/H).
+    pub window: (f64, f64),
+}
+
+/// What a wall-pressure experiment is, as hsph compares with it: its water depth H (m), its
+/// sensors, and its own filter (s; `None`: the probe's, for a measured series; `Some(0)`: none,
+/// for curves digitised from a figure).
+#[derive(Debug, Clone, Copy)]
+pub struct ExperimentProtocol {
+    /// H (m).
+    pub depth: f64,
+    /// The sensors.
+    pub sensors: &'static [ExperimentSensor],
+    /// The experiment's filter.
+    pub filter: Option<f64>,
+}
+
+const LOBOVSKY_SENSORS: &[ExperimentSensor] = &[
+    ExperimentSensor {
+        name: "S1",
+        column: "p_sensor1_3mm",
+        window: (0.0, 4.5),
+    },
+    ExperimentSensor {
+        name: "S2",
+        column: "p_sensor2_15mm",
+        window: (0.0, 4.5),
+    },
+    ExperimentSensor {
+        name: "S3",
+        column: "p_sensor3_30mm",
+        window: (0.0, 4.5),
+    },
+    // the hump, not a spike before it (issue 82)
+    ExperimentSensor {
+        name: "S4",
+        column: "p_sensor4_80mm",
+        window: (2.0, 4.5),
+    },
+];
+
+const BUCHNER_SENSORS: &[ExperimentSensor] = &[
+    ExperimentSensor {
+        name: "P1",
+        column: "trixi/P1",
+        window: (2.3, 3.5),
+    },
+    ExperimentSensor {
+        name: "P1_low",
+        column: "trixi/P1",
+        window: (2.3, 3.5),
+    },
+    ExperimentSensor {
+        name: "P2",
+        column: "trixi/P2",
+        window: (4.5, 6.5),
+    },
+];
+
+impl PressureExperiment {
+    /// Its protocol: depth, sensors, filter.
+    pub fn protocol(self) -> ExperimentProtocol {
+        match self {
+            PressureExperiment::Lobovsky2014H300 => ExperimentProtocol {
+                depth: 0.3,
+                sensors: LOBOVSKY_SENSORS,
+                filter: None,
+            },
+            PressureExperiment::Buchner2002 => ExperimentProtocol {
+                depth: 0.6,
+                sensors: BUCHNER_SENSORS,
+                filter: Some(0.0),
+            },
+        }
+    }
+
+    /// The names of its sensors (what `reference.sensors` may name).
+    pub fn sensor_names(self) -> Vec<&'static str> {
+        self.protocol().sensors.iter().map(|s| s.name).collect()
+    }
+}
+
 /// Default corner of a cavity reference.
 fn zero2() -> Vec<f64> {
     vec![0.0, 0.0]
@@ -297,7 +388,7 @@ fn validate_solitary_reference(s: &Scene, gauges: [&String; 3]) -> Result<()> {
 /// A wall-pressure reference names pressure probes of the scene, each one of the experiment's
 /// sensors.
 fn validate_wall_pressure(s: &Scene, experiment: PressureExperiment, sensors: &[String]) -> Result<()> {
-    let known = crate::reference::wall_pressure_sensors(experiment);
+    let known = experiment.sensor_names();
     if sensors.is_empty() {
         return err(
             "reference.sensors",
