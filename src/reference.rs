@@ -122,6 +122,10 @@ pub struct Tracker {
     /// fluid).
     #[serde(default)]
     ke: Vec<(f64, f64)>,
+    /// The wall-pressure comparisons by probe, kept for `summary.json`'s `pressure_loads`
+    /// (computed once, at the end).
+    #[serde(skip)]
+    pub pressure: BTreeMap<String, wall_pressure::Comparison>,
 }
 
 impl Tracker {
@@ -279,6 +283,24 @@ impl Tracker {
 }
 
 impl Tracker {
+    /// The wall-pressure reference: each named probe against the experiment, kept and as
+    /// errors.
+    fn wall_pressure(
+        &mut self,
+        scene: &crate::scene::Scene,
+        experiment: crate::scene::PressureExperiment,
+        sensors: &[String],
+        dir: &std::path::Path,
+    ) {
+        self.pressure = wall_pressure::compare(scene, experiment, sensors, dir);
+        for (name, c) in &self.pressure {
+            self.errors.insert(format!("{name}_peak"), c.peak_error.abs());
+            if let Some(e) = c.impulse_error {
+                self.errors.insert(format!("{name}_impulse"), e.abs());
+            }
+        }
+    }
+
     /// References measured on probe series, read back from the run's probe files in `dir`
     /// on rank 0 at the end (the whole history, across restarts). The solitary wave: the
     /// crest above the gauge's first reading (still water) against A; the arrival gauge's
@@ -286,12 +308,7 @@ impl Tracker {
     /// from the paddle's rest face; the run-up gauge's rise against [`su_mirie_runup`].
     pub fn from_probe_files(&mut self, scene: &crate::scene::Scene, dir: &std::path::Path) {
         if let Some(Reference::WallPressure { experiment, sensors }) = &scene.reference {
-            for (name, c) in wall_pressure::compare(scene, *experiment, sensors, dir) {
-                self.errors.insert(format!("{name}_peak"), c.peak_error.abs());
-                if let Some(e) = c.impulse_error {
-                    self.errors.insert(format!("{name}_impulse"), e.abs());
-                }
-            }
+            self.wall_pressure(scene, *experiment, sensors, dir);
             return;
         }
         let Some(Reference::SolitaryWave {

@@ -146,18 +146,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
     /// A file that cannot be read gives null.
     fn loads_summary(&self) -> serde_json::Value {
         let mut out = serde_json::Map::new();
-        // against the experiment, where the scene's reference names one
-        let compared = match &self.scene.reference {
-            Some(crate::scene::Reference::WallPressure { experiment, sensors }) => {
-                crate::reference::wall_pressure::compare(
-                    self.scene,
-                    *experiment,
-                    sensors,
-                    &self.dir.join("probes"),
-                )
-            }
-            _ => Default::default(),
-        };
+        // against the experiment, where the scene's reference names one (measured once, by
+        // the tracker)
+        let compared = &self.tracker.pressure;
         for probe in &self.scene.probes {
             let Some((filter, span)) = probe.load_rules() else {
                 continue;
