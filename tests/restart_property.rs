@@ -286,3 +286,44 @@ fn a_run_stopped_and_restarted_anyhow_ends_with_the_uninterrupted_files() {
     }
     eprintln!("restart property: {cases} cases, segments by stop: {tally:?}");
 }
+
+/// A restarted segment that writes no output step before a signal stops it at the run's last
+/// step: its checkpoint precedes the last state's row, so the restart that finishes the run
+/// writes that row again (the restart property's seed 81, case 180, found the lost snapshot).
+#[test]
+fn a_signal_at_the_last_step_of_a_restarted_segment_loses_no_output() {
+    let root = temp_dir("restart-last-step");
+    let path = root.join("tiny.toml");
+    fs::write(&path, scene("vtk", "stop", 0.0004)).unwrap();
+    let go = |args: Vec<String>, fault: Option<&str>| {
+        let mut c = Command::new(bin());
+        c.args(&args).stdout(Stdio::null());
+        if let Some(f) = fault {
+            c.env("HSPH_TEST_FAULT", f);
+        }
+        let out = c.output().unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let (reference, run) = (root.join("reference"), root.join("run"));
+    let (code, err) = go(fresh(&path, &reference, 5, STEPS), None);
+    assert_eq!(code, Some(0), "{err}");
+    // a first leg to two steps short of the end, then a restart stopped at the last step
+    let (code, err) = go(fresh(&path, &run, 5, STEPS - 2), None);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, err) = go(restart(&run, STEPS), Some(&format!("0:{STEPS}:signal")));
+    assert_eq!(code, Some(3), "{err}");
+    let (code, err) = go(restart(&run, STEPS), None);
+    assert_eq!(code, Some(0), "{err}");
+    let (got, want) = (compared(&files(&run)), compared(&files(&reference)));
+    let names = |m: &BTreeMap<String, Vec<u8>>| m.keys().cloned().collect::<Vec<_>>();
+    assert_eq!(names(&got), names(&want));
+    for (name, bytes) in &got {
+        assert!(
+            bytes == &want[name],
+            "{name} differs from the uninterrupted run's"
+        );
+    }
+}

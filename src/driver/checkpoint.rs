@@ -143,6 +143,9 @@ impl<'a, const D: usize> RankRun<'a, D> {
         if let Some(n) = count("particles_max") {
             self.population.1 = self.population.1.max(n);
         }
+        // the last output step carries over: a segment that writes none before it stops at the
+        // run's end must still record that its checkpoint precedes the last state's row
+        self.output_step = count("output_step");
         let root = self.comm.rank() == 0;
         if let Some(w) = self.snapshots.as_mut() {
             w.restore(&s["snapshots"], root)?;
