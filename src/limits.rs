@@ -121,6 +121,10 @@ pub const MAX_EXPR_TOTAL_CHARS: usize = 16 * MAX_EXPR_CHARS;
 /// scene: a particle stores its body and material as 16-bit indices.
 pub const MAX_BODIES: usize = 1 << 16;
 
+/// Vertices of one polygon (`shape = "polygon"`): the outline's self-crossing check compares
+/// every pair of edges, 5·10⁷ pairs at this limit.
+pub const MAX_POLYGON_VERTICES: usize = 10_000;
+
 /// `value` of `key` within `1..=max`, else exit 2 naming both.
 pub fn count(key: &str, value: u64, max: u64) -> Result<()> {
     if value == 0 {

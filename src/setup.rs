@@ -172,6 +172,7 @@ fn wall_blocks(s: &Scene) -> Vec<crate::scene::FluidBody> {
             radius: 0.0,
             axis: None,
             length: 0.0,
+            vertices: Vec::new(),
             velocity: Vec::new(),
             hydrostatic: false,
             velocity_field: None,

@@ -51,7 +51,7 @@ fn assert_input_error(out: &Output, needles: &[&str]) -> String {
 }
 
 /// `hsph run` on a mutated scene: located error, no run directory, no summary.json.
-fn run_bad_scene(tag: &str, text: &str, key: &str, line_pat: &str, valid: &[&str]) {
+pub(crate) fn run_bad_scene(tag: &str, text: &str, key: &str, line_pat: &str, valid: &[&str]) {
     let (scene, out) = write_scene(tag, text);
     let o = hsph(&[
         "run",

@@ -18,6 +18,7 @@ mod determinism;
 mod docs;
 mod fidelity;
 mod fuzz;
+mod geometry;
 mod hardening;
 mod hardening_ii;
 mod hardening_iii;

@@ -219,6 +219,16 @@ pub(super) fn body_in_domain(f: super::shape::ShapeKeys, k: &str, dom: &Domain) 
     let tol = 1e-9 * disc_scale(dom);
     for a in 0..f.min.len() {
         if f.min[a] < dom.min[a] - tol || f.max[a] > dom.max[a] + tol {
+            if f.shape == BodyShape::Polygon {
+                return err(
+                    format!("{k}.vertices"),
+                    format!(
+                        "the polygon reaches [{}, {}] on axis {a}, outside the domain [{}, {}]; move \
+                         its vertices or enlarge domain.min/domain.max",
+                        f.min[a], f.max[a], dom.min[a], dom.max[a]
+                    ),
+                );
+            }
             let (key, what) = if f.shape == BodyShape::Cylinder && f.axis == Some(a) {
                 ("length", format!("length {}", f.length))
             } else {
@@ -272,8 +282,27 @@ pub(super) fn point_in_domain(p: &[f64], key: &str, dom: &Domain) -> Result<()> 
 /// scene already holds it, any other box is an error; no such keys on a block.
 pub(super) fn sphere_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Result<()> {
     use super::BodyShape;
+    let round = !f.centre.is_empty() || f.radius != 0.0 || f.axis.is_some() || f.length != 0.0;
+    if f.shape != BodyShape::Polygon && !f.vertices.is_empty() {
+        return err(
+            format!("{k}.vertices"),
+            format!(
+                "belongs to `shape = \"polygon\"`; this body is a {}",
+                f.shape.name()
+            ),
+        );
+    }
+    if f.shape == BodyShape::Polygon {
+        if round {
+            return err(
+                format!("{k}.shape"),
+                "`centre`, `radius`, `axis` and `length` belong to `shape = \"sphere\"` or \"cylinder\"; a polygon takes vertices",
+            );
+        }
+        return polygon_box(f, k, d);
+    }
     if f.shape == BodyShape::Block {
-        if !f.centre.is_empty() || f.radius != 0.0 || f.axis.is_some() || f.length != 0.0 {
+        if round {
             return err(
                 format!("{k}.shape"),
                 "`centre`, `radius`, `axis` and `length` belong to `shape = \"sphere\"` or \"cylinder\"; a block takes min and max",
@@ -349,6 +378,77 @@ pub(super) fn sphere_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Re
         return err(
             format!("{k}.min"),
             "the box of a sphere or cylinder comes from its centre, radius and length: leave out min and max",
+        );
+    }
+    (*f.min, *f.max) = (lo, hi);
+    Ok(())
+}
+
+/// A polygon's box from its vertices (a resolved scene already holds it; any other box is an
+/// error): a 2D scene, at least three vertices of two finite coordinates each, an outline
+/// that encloses an area and does not cross itself.
+fn polygon_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Result<()> {
+    use super::polygon;
+    let key = format!("{k}.vertices");
+    if d != 2 {
+        return err(
+            format!("{k}.shape"),
+            "a polygon needs a 2D scene; in 3D a body is a block, sphere or cylinder",
+        );
+    }
+    let example = "vertices = [[0.0, 0.0], [0.4, 0.0], [0.0, 0.3]]";
+    if f.vertices.len() < 3 {
+        return err(
+            key,
+            format!(
+                "a polygon needs at least 3 vertices [x, y] (m), got {}; e.g. {example}",
+                f.vertices.len()
+            ),
+        );
+    }
+    if f.vertices.len() > crate::limits::MAX_POLYGON_VERTICES {
+        return err(
+            key,
+            format!(
+                "{} vertices exceed the limit of {} (src/limits.rs)",
+                f.vertices.len(),
+                crate::limits::MAX_POLYGON_VERTICES
+            ),
+        );
+    }
+    for (i, v) in f.vertices.iter().enumerate() {
+        if v.len() != 2 || !v.iter().all(|c| c.is_finite()) {
+            return err(
+                format!("{key}[{i}]"),
+                format!("must be two finite coordinates [x, y] (m), got {v:?}; e.g. {example}"),
+            );
+        }
+    }
+    if polygon::signed_area(f.vertices) == 0.0 {
+        return err(key, "the outline encloses no area: its vertices lie on one line");
+    }
+    if let Some((i, j)) = polygon::self_crossing(f.vertices) {
+        let n = f.vertices.len();
+        return err(
+            key,
+            format!(
+                "the outline crosses itself: the edge from vertex {i} to {} crosses the edge from \
+                 vertex {j} to {}; list the vertices in order round the outline",
+                (i + 1) % n,
+                (j + 1) % n
+            ),
+        );
+    }
+    let lo: Vec<f64> = (0..d)
+        .map(|a| f.vertices.iter().map(|v| v[a]).fold(f64::INFINITY, f64::min))
+        .collect();
+    let hi: Vec<f64> = (0..d)
+        .map(|a| f.vertices.iter().map(|v| v[a]).fold(f64::NEG_INFINITY, f64::max))
+        .collect();
+    if (!f.min.is_empty() && *f.min != lo) || (!f.max.is_empty() && *f.max != hi) {
+        return err(
+            format!("{k}.min"),
+            "the box of a polygon comes from its vertices: leave out min and max",
         );
     }
     (*f.min, *f.max) = (lo, hi);

@@ -190,16 +190,25 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
         // of the box's sites the one nearest the centre (per axis, so nearest overall) is
         // inside a sphere or cylinder if any is
         let builds = n > 0
-            && (f.shape == super::BodyShape::Block || {
-                let x: Vec<f64> = (0..D)
-                    .map(|a| {
-                        let i = ((f.centre[a] - lat.origin[a]) / dx - 0.5).round().max(0.0) as u64;
-                        let i = i.clamp(r[a].0, r[a].1 - 1);
-                        lat.origin[a] + (i as f64 + 0.5) * dx
-                    })
-                    .collect();
-                f.contains(&x)
-            });
+            && match f.shape {
+                super::BodyShape::Block => true,
+                // no site is known to be inside if any is: the box's, until one is
+                super::BodyShape::Polygon => {
+                    let mut any = false;
+                    lat.for_each_in(&f.min, &f.max, |_, _, x| any = any || f.contains(x.as_slice()));
+                    any
+                }
+                _ => {
+                    let x: Vec<f64> = (0..D)
+                        .map(|a| {
+                            let i = ((f.centre[a] - lat.origin[a]) / dx - 0.5).round().max(0.0) as u64;
+                            let i = i.clamp(r[a].0, r[a].1 - 1);
+                            lat.origin[a] + (i as f64 + 0.5) * dx
+                        })
+                        .collect();
+                    f.contains(&x)
+                }
+            };
         out.push(BodySites {
             key,
             name: f.name.clone(),
@@ -472,9 +481,9 @@ fn sizes(b: &(Vec<f64>, Vec<f64>)) -> String {
 }
 
 /// One line per body: its size in the scene and as built, its particles per axis and the
-/// volume difference.
+/// volume difference; for a polygon its vertices, box, area and sites.
 pub fn extent_lines<const D: usize>(s: &Scene) -> Vec<String> {
-    built_extents::<D>(s)
+    let mut lines: Vec<String> = built_extents::<D>(s)
         .iter()
         .map(|b| {
             let (_, vol) = b.differences();
@@ -487,6 +496,49 @@ pub fn extent_lines<const D: usize>(s: &Scene) -> Vec<String> {
                 sizes(&b.built),
                 n.join(" × "),
                 100.0 * vol
+            )
+        })
+        .collect();
+    lines.extend(polygon_lines::<D>(s));
+    lines
+}
+
+/// `hsph check`'s line for each polygon body: vertices and their orientation, box, area, and
+/// the sites built with their area's difference from the outline's.
+fn polygon_lines<const D: usize>(s: &Scene) -> Vec<String> {
+    let lat = Lattice::<D>::new(s);
+    let bodies = (s
+        .fluids
+        .iter()
+        .enumerate()
+        .map(|(i, f)| (format!("fluid[{i}]"), f)))
+    .chain(
+        s.solids
+            .iter()
+            .enumerate()
+            .map(|(i, f)| (format!("solid[{i}]"), f)),
+    );
+    bodies
+        .filter(|(_, f)| f.shape == super::BodyShape::Polygon)
+        .map(|(key, f)| {
+            let area = super::polygon::signed_area(&f.vertices);
+            let mut n = 0u64;
+            lat.for_each_in(&f.min, &f.max, |_, _, x| n += f.contains(x.as_slice()) as u64);
+            let built = n as f64 * lat.dx.powi(D as i32);
+            format!(
+                "{key} `{}`: polygon of {} vertices ({}), box {:?} .. {:?} m, area {:.4e} m², \
+                 built {n} sites, area {:+.2} %",
+                f.name,
+                f.vertices.len(),
+                if area > 0.0 {
+                    "counter-clockwise"
+                } else {
+                    "clockwise"
+                },
+                f.min,
+                f.max,
+                area.abs(),
+                100.0 * (built / area.abs() - 1.0)
             )
         })
         .collect()
@@ -722,8 +774,9 @@ fn undamped_warning(s: &Scene) -> Option<String> {
     })
 }
 
-/// Spheres (discs in 2D) whose lattice volume (sites × dx^D) differs from the true volume by
-/// more than 1 %: a sphere is resolved by its diameter in spacings.
+/// Spheres (discs in 2D), cylinders and polygons whose lattice volume (sites × dx^D) differs
+/// from the true volume by more than 1 %: a sphere is resolved by its diameter in spacings, a
+/// polygon by its narrowest part.
 fn sphere_warnings<const D: usize>(s: &Scene) -> Vec<String> {
     let lat = Lattice::<D>::new(s);
     let dx = s.discretisation.dx;
@@ -736,23 +789,26 @@ fn sphere_warnings<const D: usize>(s: &Scene) -> Vec<String> {
         lat.for_each_in(&f.min, &f.max, |_, _, x| n += f.contains(x.as_slice()) as u64);
         let pi = std::f64::consts::PI;
         let exact = match (f.shape, D) {
+            (super::BodyShape::Polygon, _) => super::polygon::signed_area(&f.vertices).abs(),
             (super::BodyShape::Cylinder, _) => pi * f.radius.powi(2) * f.length,
             (_, 2) => pi * f.radius.powi(2),
             _ => 4.0 / 3.0 * pi * f.radius.powi(3),
         };
         let rel = n as f64 * dx.powi(D as i32) / exact - 1.0;
         if rel.abs() > 0.01 {
+            let what = match f.shape {
+                super::BodyShape::Polygon => format!("a polygon of area {exact:.4e} m²"),
+                shape => format!(
+                    "a {} of radius {} m, {:.1} spacings across",
+                    shape.name(),
+                    f.radius,
+                    2.0 * f.radius / dx
+                ),
+            };
             out.push(format!(
-                "fluid[{i}] `{}` (a {} of radius {} m, {:.1} spacings across) is built with a \
-                 volume {:+.1} % off the true one; a finer dx resolves it better",
+                "fluid[{i}] `{}` ({what}) is built with a volume {:+.1} % off the true one; a \
+                 finer dx resolves it better",
                 f.name,
-                if f.shape == super::BodyShape::Cylinder {
-                    "cylinder"
-                } else {
-                    "sphere"
-                },
-                f.radius,
-                2.0 * f.radius / dx,
                 100.0 * rel
             ));
         }

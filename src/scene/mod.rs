@@ -12,6 +12,7 @@ pub mod lattice;
 mod load;
 mod materials;
 mod models;
+pub mod polygon;
 mod probes;
 mod reference;
 pub mod refine;
@@ -790,6 +791,11 @@ impl FluidBody {
             BodyShape::Cylinder => a != self.axis.unwrap_or(2),
             _ => true,
         };
+        if self.shape == BodyShape::Polygon {
+            return polygon::chord(&self.vertices, x, u)
+                .map(|(p0, p1)| (p0.max(s0), p1.min(s1)))
+                .filter(|(p0, p1)| p1 > p0);
+        }
         if self.shape != BodyShape::Block {
             let (mut qa, mut qb, mut qc) = (0.0, 0.0, -self.radius * self.radius);
             for a in (0..x.len()).filter(|&a| across(a)) {

@@ -211,6 +211,13 @@ impl Refine {
                     .sum();
                 (self.radius - r2.sqrt()).min(0.5 * self.length - (x[axis] - self.centre[axis]).abs())
             }
+            BodyShape::Polygon => {
+                let r = super::polygon::distance(&self.vertices, x[0], x[1]);
+                match super::polygon::contains(&self.vertices, x[0], x[1]) {
+                    true => r,
+                    false => -r,
+                }
+            }
         }
     }
 
@@ -263,6 +270,11 @@ impl Refine {
                 let along = pos(off(axis, self.centre[axis]).abs() - 0.5 * self.length);
                 radial.hypot(along)
             }
+            // a polygon's outline is not wrapped round a periodic axis
+            BodyShape::Polygon => match super::polygon::contains(&self.vertices, x[0], x[1]) {
+                true => 0.0,
+                false => super::polygon::distance(&self.vertices, x[0], x[1]),
+            },
         }
     }
 
@@ -383,7 +395,17 @@ pub fn region_warnings<const D: usize>(s: &Scene) -> Vec<String> {
             BodyShape::Block => (0..D).map(|a| 0.5 * (r.min[a] + r.max[a])).collect(),
             _ => r.centre.clone(),
         };
-        let deepest = r.depth(&centre, &bounds);
+        let deepest = match r.shape {
+            // no point is known to be the deepest: the deepest site of the box
+            BodyShape::Polygon => {
+                let mut m = f64::NEG_INFINITY;
+                lat.for_each_in(&r.min, &r.max, |_, _, x| {
+                    m = m.max(r.depth(x.as_slice(), &bounds))
+                });
+                m
+            }
+            _ => r.depth(&centre, &bounds),
+        };
         if r.adapt && deepest < dx {
             out.push(format!(
                 "refine[{k}] adapts, but no point of it lies deeper than {deepest:.4e} m inside its \

@@ -17,6 +17,9 @@ pub enum BodyShape {
     Sphere,
     /// A cylinder (3D): the sites closer than radius to the axis, within length/2 of centre.
     Cylinder,
+    /// A closed polygon (2D): the sites inside the outline through `vertices`
+    /// ([`crate::scene::polygon`]).
+    Polygon,
 }
 
 impl BodyShape {
@@ -26,6 +29,7 @@ impl BodyShape {
             BodyShape::Block => "block",
             BodyShape::Sphere => "sphere",
             BodyShape::Cylinder => "cylinder",
+            BodyShape::Polygon => "polygon",
         }
     }
 }
@@ -47,6 +51,8 @@ pub struct ShapeKeys<'a> {
     pub axis: Option<usize>,
     /// `length` (m).
     pub length: f64,
+    /// `vertices` (m), each `[x, y]`.
+    pub vertices: &'a [Vec<f64>],
 }
 
 /// A table's shape keys, the ones a check may resolve borrowed mutably.
@@ -66,6 +72,8 @@ pub struct ShapeKeysMut<'a> {
     pub axis: &'a mut Option<usize>,
     /// `length` (m).
     pub length: f64,
+    /// `vertices` (m), each `[x, y]`.
+    pub vertices: &'a [Vec<f64>],
 }
 
 impl ShapeKeys<'_> {
@@ -86,6 +94,7 @@ impl ShapeKeys<'_> {
                     .sum();
                 r2 < self.radius * self.radius
             }
+            BodyShape::Polygon => crate::scene::polygon::contains(self.vertices, x[0], x[1]),
         }
     }
 
@@ -112,9 +121,10 @@ macro_rules! shaped_table {
         pub struct $name {
             $( $(#[$hm])* pub $hf: $ht, )*
             /// Shape: `block` (every site in [min, max); a plate is a thin block), `sphere` (a
-            /// disc in 2D: every site closer than `radius` to `centre`) or `cylinder` (3D: every
+            /// disc in 2D: every site closer than `radius` to `centre`), `cylinder` (3D: every
             /// site closer than `radius` to the axis through `centre` along `axis`, within
-            /// `length`/2 of `centre`).
+            /// `length`/2 of `centre`) or `polygon` (2D: every site inside the closed outline
+            /// through `vertices`).
             #[serde(default)]
             pub shape: $crate::scene::BodyShape,
             /// Lower corner (m); for a sphere or cylinder, set from centre and radius.
@@ -135,6 +145,10 @@ macro_rules! shaped_table {
             /// Length of a cylinder along its axis (m).
             #[serde(default, skip_serializing_if = "crate::scene::shape::is_zero")]
             pub length: f64,
+            /// Vertices of a polygon (m), `[[x, y], …]` in order round the outline (either
+            /// way); the last joins the first.
+            #[serde(default, skip_serializing_if = "Vec::is_empty")]
+            pub vertices: Vec<Vec<f64>>,
             $( $(#[$tm])* pub $tf: $tt, )*
         }
 
@@ -149,6 +163,7 @@ macro_rules! shaped_table {
                     radius: self.radius,
                     axis: self.axis,
                     length: self.length,
+                    vertices: &self.vertices,
                 }
             }
 
@@ -162,6 +177,7 @@ macro_rules! shaped_table {
                     radius: self.radius,
                     axis: &mut self.axis,
                     length: self.length,
+                    vertices: &self.vertices,
                 }
             }
         }
