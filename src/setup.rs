@@ -173,6 +173,7 @@ fn wall_blocks(s: &Scene) -> Vec<crate::scene::FluidBody> {
             axis: None,
             length: 0.0,
             vertices: Vec::new(),
+            file: None,
             velocity: Vec::new(),
             hydrostatic: false,
             velocity_field: None,

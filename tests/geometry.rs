@@ -316,3 +316,94 @@ fn random_outlines_are_refused_or_built_never_a_panic() {
     // both outcomes are exercised
     assert!(refused > 30 && built > 30, "{refused} refused, {built} built");
 }
+
+/// An outline from a file beside the scene (`file = "…"`, x y rows, `#` comments) builds what
+/// the same `vertices` do, the resolved scene carries the vertices (no file), and a bad file is
+/// an input error naming it, its line and the key.
+#[test]
+fn an_outline_file_builds_its_vertices_and_a_bad_one_is_refused() {
+    let dir = temp_dir("outline-file");
+    let v = "vertices = [[0.1, 0.05], [0.4, 0.05], [0.25, 0.3]]";
+    std::fs::create_dir_all(dir.join("shapes")).unwrap();
+    std::fs::write(
+        dir.join("shapes/tri.txt"),
+        "# x y (m)\n0.1 0.05\n\n0.4, 0.05\n0.25\t0.3\n",
+    )
+    .unwrap();
+    let scene_path = dir.join("scene.toml");
+    std::fs::write(
+        &scene_path,
+        scene("shape = \"polygon\"\nfile = \"shapes/tri.txt\""),
+    )
+    .unwrap();
+    let (from_file, _) = hsph::scene::load_scene(&scene_path, &[]).unwrap();
+    assert!(from_file.fluids[0].file.is_none());
+    assert_eq!(
+        particles(&from_file),
+        particles(&load(&scene(&format!("shape = \"polygon\"\n{v}"))))
+    );
+    let hsph = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_hsph"))
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    for (text, line, needles) in [
+        (
+            "0.1 0.05\n0.4\n0.25 0.3\n",
+            Some(2),
+            vec!["1 columns where a vertex has 2"],
+        ),
+        (
+            "0.1 0.05\n0.4 x\n0.25 0.3\n",
+            Some(2),
+            vec!["`x` is not a number"],
+        ),
+        ("0.1 0.05\n0.4 inf\n0.25 0.3\n", Some(2), vec!["not finite"]),
+    ] {
+        std::fs::write(dir.join("shapes/tri.txt"), text).unwrap();
+        let o = hsph(&["check", scene_path.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        let at = format!("{}:{}:", dir.join("shapes/tri.txt").display(), line.unwrap());
+        assert!(err.contains(&at) && err.contains("fluid[0].file"), "{err}");
+        for n in needles {
+            assert!(err.contains(n), "{err}");
+        }
+    }
+    // a missing file, a directory, and a file beside vertices or on a block
+    std::fs::remove_file(dir.join("shapes/tri.txt")).unwrap();
+    let o = hsph(&["check", scene_path.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.code() == Some(2) && err.contains("relative to the scene file"),
+        "{err}"
+    );
+    std::fs::create_dir_all(dir.join("shapes/tri.txt")).unwrap();
+    let o = hsph(&["check", scene_path.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.code() == Some(2) && err.contains("not a regular file"),
+        "{err}"
+    );
+    for (body, needle) in [
+        (
+            format!("shape = \"polygon\"\n{v}\nfile = \"shapes/tri.txt\""),
+            "not both",
+        ),
+        (
+            "min = [0.1, 0.1]\nmax = [0.3, 0.3]\nfile = \"shapes/tri.txt\"".to_string(),
+            "belongs to `shape = \"polygon\"`",
+        ),
+    ] {
+        std::fs::write(&scene_path, scene(&body)).unwrap();
+        let o = hsph(&["check", scene_path.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        let at = format!("{}:", scene_path.display());
+        assert!(
+            o.status.code() == Some(2) && err.contains(needle) && err.contains(&at),
+            "{err}"
+        );
+        assert!(err.contains("key `fluid[0].file`"), "{err}");
+    }
+}

@@ -12,6 +12,7 @@ pub mod lattice;
 mod load;
 mod materials;
 mod models;
+mod outline_file;
 pub mod polygon;
 mod probes;
 mod reference;

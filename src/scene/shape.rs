@@ -149,6 +149,10 @@ macro_rules! shaped_table {
             /// way); the last joins the first.
             #[serde(default, skip_serializing_if = "Vec::is_empty")]
             pub vertices: Vec<Vec<f64>>,
+            /// A polygon's vertices from a text file instead, `x y` (m) per row, relative to
+            /// the scene file; read into `vertices` when the scene is loaded.
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub file: Option<String>,
             $( $(#[$tm])* pub $tf: $tt, )*
         }
 
