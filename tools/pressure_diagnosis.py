@@ -58,6 +58,10 @@ VARIANTS = {
     "riemann_c0_50": ["material[0].c0=50.0"],
     "riemann_cfl_0.2": ["time.cfl=0.2"],
     "riemann_cfl_0.3": ["time.cfl=0.3"],
+    "riemann_shifting": ['physics.shifting="delta_plus"', "discretisation.h_over_dx=2.0"],
+    "riemann_h2": ["discretisation.h_over_dx=2.0"],
+    "riemann_h17": ["discretisation.h_over_dx=1.7"],
+    "riemann_alpha_0": ["physics.artificial_viscosity=0.0"],
 }
 
 
