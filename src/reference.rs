@@ -502,6 +502,7 @@ fn inside_fluid_region<const D: usize>(sim: &View<D>, i: usize) -> bool {
                 (lo_open || x[a] >= w.min[a]) && (hi_open || x[a] <= w.max[a])
             }),
             WallShape::Block => !(0..D).all(|a| x[a] >= w.min[a] && x[a] <= w.max[a]),
+            WallShape::Polygon => !crate::scene::polygon::contains(&w.vertices, x[0], x[1]),
         }
     })
 }

@@ -135,11 +135,13 @@ enum Claim<const D: usize> {
         fields: Box<BodyFields<D>>,
     },
     /// A dummy or repulsive wall: every site of its box, except those of `inner` (site index
-    /// ranges per axis: a container's inner box).
+    /// ranges per axis: a container's inner box); a polygon wall only the sites of its
+    /// `outline` within its depth (m) of it.
     Wall {
         rho0: f64,
         v: Vector<D>,
         inner: Option<Vec<(u64, u64)>>,
+        outline: Option<(Vec<Vec<f64>>, f64)>,
     },
 }
 
@@ -328,6 +330,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
             let (min, max, inner) = match w.shape {
                 // a dummy block is its shell: its core reaches no fluid
                 WallShape::Block => (w.min.clone(), w.max.clone(), block_core(s, w, &lat)),
+                WallShape::Polygon => (w.min.clone(), w.max.clone(), None),
                 WallShape::Container => {
                     let (lo, hi) = container_outer(s, w);
                     let inner = (0..D).map(|a| lat.range(a, w.min[a], w.max[a])).collect();
@@ -345,6 +348,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                     rho0: materials[mat as usize].rho0(),
                     v: Vector::<D>::from_fn(|a, _| w.velocity[a]),
                     inner,
+                    outline: crate::scene::lattice::wall_outline(s, w),
                 },
             });
         }
@@ -415,10 +419,16 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                 });
                 self.each_fine(&b.name, &lo, &hi, None, |_, x| b.contains(x.as_slice()), &mut f);
             }
-            Claim::Wall { inner, .. } => {
+            Claim::Wall { inner, outline, .. } => {
                 let h_scene = self.sizes.as_ref().map_or(0.0, |z| z.h[0]);
-                // only dummy walls are refined (a repulsive wall's force has the range dx)
-                let refined = !self.fine.is_empty() && src.kind == Kind::Dummy;
+                // only dummy walls are refined (a repulsive wall's force has the range dx), and
+                // not polygons (a region that would is refused)
+                let refined = !self.fine.is_empty() && src.kind == Kind::Dummy && outline.is_none();
+                let in_outline = |x: &[f64]| {
+                    outline
+                        .as_ref()
+                        .is_none_or(|(v, depth)| crate::scene::lattice::claims_outline(v, *depth, x))
+                };
                 let name = &self.scene.walls[src.index as usize].name;
                 let outer: Vec<(u64, u64)> = (0..D)
                     .map(|a| self.lat.range(a, src.min[a], src.max[a]))
@@ -438,7 +448,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                 // the inner box's rows are jumped over, not visited
                 let hole = inner.as_deref();
                 self.lat.for_each_in_except(&lo, &hi, hole, |idx, id, x| {
-                    if claims(idx) && region_at(x.as_slice()).is_none() {
+                    if claims(idx) && in_outline(x.as_slice()) && region_at(x.as_slice()).is_none() {
                         f(id, x, 0, h_scene)
                     }
                 });

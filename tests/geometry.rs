@@ -407,3 +407,139 @@ fn an_outline_file_builds_its_vertices_and_a_bad_one_is_refused() {
         assert!(err.contains("key `fluid[0].file`"), "{err}");
     }
 }
+
+/// The test tank with a block column and a second wall `step` (its shape keys).
+fn with_step(step: &str) -> String {
+    scene("min = [0.0, 0.0]\nmax = [0.2, 0.4]")
+        + &format!("[[wall]]\nname = \"step\"\nmethod = \"dummy\"\n{step}\n")
+}
+
+/// A step on the tank's floor as a polygon wall builds the block wall's particles (its shell
+/// rows included) bit for bit, and a surge over it runs to the same bits.
+#[test]
+fn a_rectangle_as_a_polygon_wall_builds_the_block_wall_bit_for_bit() {
+    let block = with_step("shape = \"block\"\nmin = [0.35, 0.0]\nmax = [0.55, 0.12]");
+    let polygon =
+        with_step("shape = \"polygon\"\nvertices = [[0.35, 0.0], [0.55, 0.0], [0.55, 0.12], [0.35, 0.12]]");
+    let want = particles(&load(&block));
+    assert!(particles(&load(&polygon)) == want);
+    // the block is a shell: its core is not built (12 rows tall, 20 wide)
+    let step = want.iter().filter(|p| p[5] == 1 && p[4] != 0).count();
+    assert!(step < 20 * 12, "{step} particles in the step");
+    let dir = temp_dir("polygon-wall-run");
+    let run = |name: &str, text: &str| {
+        let path = dir.join(format!("{name}.toml"));
+        std::fs::write(&path, text).unwrap();
+        let out = dir.join(name);
+        let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
+            .args(["run", path.to_str().unwrap(), "-q", "--threads", "1", "--out"])
+            .arg(&out)
+            .args(["--set", "time.t_end=0.25"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read(out.join("final.csv")).unwrap()
+    };
+    assert!(
+        run("block", &block) == run("polygon", &polygon),
+        "final.csv differs"
+    );
+}
+
+/// A wedge on the floor (a ramp of 1:2) under the surge: no fluid particle ends inside it, and
+/// the run gives the same bits on 1 and 3 ranks.
+#[test]
+fn a_surge_over_a_polygon_ramp_stays_out_of_it_on_any_layout() {
+    let ramp = with_step("shape = \"polygon\"\nvertices = [[0.3, 0.0], [0.55, 0.0], [0.55, 0.125]]");
+    let dir = temp_dir("polygon-ramp");
+    let path = dir.join("ramp.toml");
+    std::fs::write(&path, &ramp).unwrap();
+    let run = |ranks: &str| {
+        let out = dir.join(format!("r{ranks}"));
+        let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
+            .args([
+                "run",
+                path.to_str().unwrap(),
+                "-q",
+                "--threads",
+                "1",
+                "--ranks",
+                ranks,
+                "--out",
+            ])
+            .arg(&out)
+            .args(["--set", "time.t_end=0.3"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read_to_string(out.join("final.csv")).unwrap()
+    };
+    let one = run("1");
+    assert_eq!(one, run("3"), "1 and 3 ranks differ");
+    let mut reached = 0;
+    for row in one.lines().skip(1) {
+        let f: Vec<&str> = row.split(',').collect();
+        if f[1] != "0" {
+            continue;
+        }
+        let (x, y): (f64, f64) = (f[3].parse().unwrap(), f[4].parse().unwrap());
+        // under the ramp's face y = (x − 0.3)/2
+        assert!(
+            !(x > 0.3 && x < 0.55 && y > 0.0 && y < 0.5 * (x - 0.3)),
+            "fluid at ({x}, {y}) inside the ramp"
+        );
+        reached += (x > 0.3) as usize;
+    }
+    assert!(reached > 50, "{reached} fluid particles reached the ramp");
+}
+
+/// A polygon wall refuses what needs a box (mirror images, open faces, Morris's distances) and
+/// a refinement region over it, each as a located input error.
+#[test]
+fn a_polygon_wall_refuses_what_needs_a_box() {
+    let poly = "shape = \"polygon\"\nvertices = [[0.3, 0.0], [0.55, 0.0], [0.55, 0.125]]";
+    for (extra, key, line, needle) in [
+        (
+            "method = \"mirror\"",
+            "wall[1].method",
+            "method = \"mirror\"",
+            "mirror walls reflect",
+        ),
+        (
+            "open = [\"x-\"]",
+            "wall[1].open",
+            "open = [\"x-\"]",
+            "only a container has open faces",
+        ),
+        (
+            "no_slip = \"morris\"",
+            "wall[1].no_slip",
+            "no_slip = \"morris\"",
+            "a polygon wall takes no_slip",
+        ),
+        (
+            "min = [0.31, 0.0]",
+            "wall[1].min",
+            "min = [0.31, 0.0]",
+            "leave out min and max",
+        ),
+    ] {
+        let mut text = with_step(&format!("{poly}\n{extra}"));
+        if extra.starts_with("method") {
+            text = text.replacen(
+                "method = \"dummy\"\nshape = \"polygon\"",
+                "shape = \"polygon\"",
+                1,
+            );
+        }
+        crate::bad_input::run_bad_scene("polygon-wall", &text, key, line, &[needle]);
+    }
+    let text = with_step(poly) + "[[refine]]\nmin = [0.2, 0.0]\nmax = [0.6, 0.2]\nlevel = 1\n";
+    crate::bad_input::run_bad_scene(
+        "polygon-wall",
+        &text,
+        "refine[0].bodies",
+        "[[refine]]",
+        &["polygon wall `step`", "bodies = [\"column\", \"tank\"]"],
+    );
+}

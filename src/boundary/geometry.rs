@@ -25,6 +25,8 @@ pub struct WallSurface<const D: usize> {
     /// Per axis: the wall spans the whole domain along it, so its faces have no edge there (a
     /// plate along a periodic axis); set by [`WallSurface::spanning`].
     span: [bool; D],
+    /// A polygon wall's outline (2D), its vertices counter-clockwise (m); `None` for a box.
+    outline: Option<Vec<[f64; 2]>>,
 }
 
 /// Where a moving wall is during one drift: its displacement from rest before and after it,
@@ -53,11 +55,19 @@ impl<const D: usize> WallSurface<D> {
             }
             closed
         });
+        let outline = (w.shape == WallShape::Polygon).then(|| {
+            let mut v: Vec<[f64; 2]> = w.vertices.iter().map(|p| [p[0], p[1]]).collect();
+            if crate::scene::polygon::signed_area(&w.vertices) < 0.0 {
+                v.reverse();
+            }
+            v
+        });
         WallSurface {
             lo,
             hi,
             container,
             span: [false; D],
+            outline,
         }
     }
 
@@ -65,7 +75,9 @@ impl<const D: usize> WallSurface<D> {
     /// domain `[min, max]` (m): a particle that a drift carries past the domain's end, before
     /// it is wrapped, still meets the face.
     pub fn spanning(mut self, min: &[f64], max: &[f64]) -> Self {
-        self.span = std::array::from_fn(|a| self.lo[a] <= min[a] && self.hi[a] >= max[a]);
+        // an outline's edges end at its vertices, whatever its box spans
+        let boxed = self.outline.is_none();
+        self.span = std::array::from_fn(|a| boxed && self.lo[a] <= min[a] && self.hi[a] >= max[a]);
         self
     }
 
@@ -81,6 +93,13 @@ impl<const D: usize> WallSurface<D> {
     /// lost. Returns true if it bounced.
     pub fn bounce(&self, old: &Vector<D>, x: &mut Vector<D>, v: &mut Vector<D>, m: &WallMove<D>) -> bool {
         let (o, mut n) = (old - m.from, *x - m.to);
+        if let Some(outline) = &self.outline {
+            let bounced = bounce_outline(outline, (&o, &mut n), v, m);
+            if bounced {
+                *x = n + m.to;
+            }
+            return bounced;
+        }
         let mut first: Option<(f64, usize, f64)> = None;
         for a in 0..D {
             for up in [false, true] {
@@ -133,6 +152,8 @@ impl<const D: usize> WallSurface<D> {
     /// the fluid side of the surface (inside a block, outside a container's inner box) or the
     /// container has no closed face.
     pub fn depths(&self, xf: &Vector<D>, xw: &Vector<D>, shift: &Vector<D>) -> Option<(f64, f64)> {
+        // Morris's condition is refused on polygon walls (`scene/walls.rs`)
+        self.outline.is_none().then_some(())?;
         let (lo, hi) = (self.lo + shift, self.hi + shift);
         match &self.container {
             None => {
@@ -158,6 +179,49 @@ impl<const D: usize> WallSurface<D> {
             }
         }
     }
+}
+
+/// [`WallSurface::bounce`] at a polygon's outline (counter-clockwise vertices, m): the first
+/// edge the path `o` → `n` (the wall's frame) crosses from outside its line to inside, within
+/// the edge, reflects n across that line and the velocity's normal part about the wall's,
+/// v ← v − 2((v − u)·n̂) n̂ with n̂ the edge's outward normal. Returns true if it bounced.
+fn bounce_outline<const D: usize>(
+    outline: &[[f64; 2]],
+    (o, n): (&Vector<D>, &mut Vector<D>),
+    v: &mut Vector<D>,
+    m: &WallMove<D>,
+) -> bool {
+    let k = outline.len();
+    let mut first: Option<(f64, [f64; 2], f64)> = None;
+    for i in 0..k {
+        let (a, b) = (outline[i], outline[(i + 1) % k]);
+        let e = [b[0] - a[0], b[1] - a[1]];
+        let len = e[0].hypot(e[1]);
+        if len == 0.0 {
+            continue;
+        }
+        let nrm = [e[1] / len, -e[0] / len];
+        let side = |p: &Vector<D>| (p[0] - a[0]) * nrm[0] + (p[1] - a[1]) * nrm[1];
+        let (d_o, d_n) = (side(o), side(n));
+        if !(d_o >= 0.0 && d_n < 0.0) {
+            continue;
+        }
+        let s = d_o / (d_o - d_n);
+        let c = [o[0] + s * (n[0] - o[0]), o[1] + s * (n[1] - o[1])];
+        let t = ((c[0] - a[0]) * e[0] + (c[1] - a[1]) * e[1]) / (len * len);
+        if (0.0..=1.0).contains(&t) && first.is_none_or(|(s0, _, _)| s < s0) {
+            first = Some((s, nrm, d_n));
+        }
+    }
+    let Some((_, nrm, d_n)) = first else {
+        return false;
+    };
+    let vn = (v[0] - m.u[0]) * nrm[0] + (v[1] - m.u[1]) * nrm[1];
+    for a in 0..2 {
+        n[a] -= 2.0 * d_n * nrm[a];
+        v[a] -= 2.0 * vn * nrm[a];
+    }
+    true
 }
 
 /// β = 1 + d_w/d_f of Morris et al. (1997), with d_f no less than `floor` (m; half a
@@ -275,6 +339,49 @@ mod tests {
         assert!(!s.bounce(&Vector::<2>::new(0.4, 0.5), &mut x, &mut v, &m));
         let (mut x, mut v) = (Vector::<2>::new(1.01, 1.2), Vector::<2>::new(1.0, 0.0));
         assert!(!s.bounce(&Vector::<2>::new(0.99, 1.2), &mut x, &mut v, &m));
+    }
+
+    /// A wedge (vertices clockwise: the surface orients them) bounces a particle that crosses
+    /// its slanted face back to the mirror image of where it went, with the normal velocity
+    /// reversed; a path past its tip, and one that starts inside, do not bounce; a moving
+    /// wedge bounces what it sweeps, at 2u_n − v_n.
+    #[test]
+    fn a_polygon_bounces_fluid_across_the_edge_it_crossed() {
+        let w: WallBody = toml::from_str(
+            "name = \"w\"\nshape = \"polygon\"\nmin = [0.0, 0.0]\nmax = [1.0, 1.0]\n\
+             vertices = [[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]]",
+        )
+        .unwrap();
+        let s = WallSurface::<2>::new(&w);
+        let m = at_rest();
+        // the face x + y = 1, outward normal (1, 1)/√2; from (0.6, 0.6) to (0.45, 0.45)
+        let (mut x, mut v) = (Vector::<2>::new(0.45, 0.45), Vector::<2>::new(-1.0, -1.0));
+        assert!(s.bounce(&Vector::<2>::new(0.6, 0.6), &mut x, &mut v, &m));
+        assert!((x - Vector::<2>::new(0.55, 0.55)).norm() < 1e-15, "{x}");
+        assert!((v - Vector::<2>::new(1.0, 1.0)).norm() < 1e-15, "{v}");
+        // tangential velocity is kept
+        let (mut x, mut v) = (Vector::<2>::new(0.45, 0.45), Vector::<2>::new(1.0, -1.0));
+        assert!(s.bounce(&Vector::<2>::new(0.55, 0.55), &mut x, &mut v, &m));
+        assert!((v - Vector::<2>::new(1.0, -1.0)).norm() < 1e-15, "{v}");
+        // beyond the tip at (1, 0), below the floor's line: no edge is crossed within it
+        let (mut x, mut v) = (Vector::<2>::new(1.05, -0.01), Vector::<2>::new(0.0, -1.0));
+        assert!(!s.bounce(&Vector::<2>::new(1.05, 0.01), &mut x, &mut v, &m));
+        // inside to inside
+        let (mut x, mut v) = (Vector::<2>::new(0.2, 0.2), Vector::<2>::new(0.0, -1.0));
+        assert!(!s.bounce(&Vector::<2>::new(0.2, 0.3), &mut x, &mut v, &m));
+        // the wedge moves +x by 0.01 at 1 m/s over a particle at rest 0.005/√2 in front of its
+        // slanted face, which ends 0.005/√2 inside it: it is put that far outside, at
+        // v = 2u_n n̂ = (1, 1)
+        let m = WallMove {
+            from: Vector::<2>::zeros(),
+            to: Vector::<2>::new(0.01, 0.0),
+            u: Vector::<2>::new(1.0, 0.0),
+        };
+        let (mut x, mut v) = (Vector::<2>::new(0.555, 0.45), Vector::<2>::zeros());
+        assert!(s.bounce(&Vector::<2>::new(0.555, 0.45), &mut x, &mut v, &m));
+        assert!((x - Vector::<2>::new(0.56, 0.455)).norm() < 1e-15, "{x}");
+        assert!((v - Vector::<2>::new(1.0, 1.0)).norm() < 1e-15, "{v}");
+        assert_eq!(s.depths(&x, &x, &Vector::<2>::zeros()), None);
     }
 
     #[test]

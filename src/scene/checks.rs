@@ -385,9 +385,23 @@ pub(super) fn sphere_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Re
 }
 
 /// A polygon's box from its vertices (a resolved scene already holds it; any other box is an
-/// error): a 2D scene, at least three vertices of two finite coordinates each, an outline
-/// that encloses an area and does not cross itself.
+/// error).
 fn polygon_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Result<()> {
+    let (lo, hi) = outline_box(f.vertices, k, d)?;
+    if (!f.min.is_empty() && *f.min != lo) || (!f.max.is_empty() && *f.max != hi) {
+        return err(
+            format!("{k}.min"),
+            "the box of a polygon comes from its vertices: leave out min and max",
+        );
+    }
+    (*f.min, *f.max) = (lo, hi);
+    Ok(())
+}
+
+/// The box of the outline through `vertices` of table `k`, checked: a 2D scene, at least three
+/// vertices of two finite coordinates each, at most [`crate::limits::MAX_POLYGON_VERTICES`],
+/// an outline that encloses an area and does not cross itself.
+pub(super) fn outline_box(vertices: &[Vec<f64>], k: &str, d: usize) -> Result<(Vec<f64>, Vec<f64>)> {
     use super::polygon;
     let key = format!("{k}.vertices");
     if d != 2 {
@@ -397,26 +411,26 @@ fn polygon_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Result<()> {
         );
     }
     let example = "vertices = [[0.0, 0.0], [0.4, 0.0], [0.0, 0.3]]";
-    if f.vertices.len() < 3 {
+    if vertices.len() < 3 {
         return err(
             key,
             format!(
                 "a polygon needs at least 3 vertices [x, y] (m), got {}; e.g. {example}",
-                f.vertices.len()
+                vertices.len()
             ),
         );
     }
-    if f.vertices.len() > crate::limits::MAX_POLYGON_VERTICES {
+    if vertices.len() > crate::limits::MAX_POLYGON_VERTICES {
         return err(
             key,
             format!(
                 "{} vertices exceed the limit of {} (src/limits.rs)",
-                f.vertices.len(),
+                vertices.len(),
                 crate::limits::MAX_POLYGON_VERTICES
             ),
         );
     }
-    for (i, v) in f.vertices.iter().enumerate() {
+    for (i, v) in vertices.iter().enumerate() {
         if v.len() != 2 || !v.iter().all(|c| c.is_finite()) {
             return err(
                 format!("{key}[{i}]"),
@@ -424,11 +438,11 @@ fn polygon_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Result<()> {
             );
         }
     }
-    if polygon::signed_area(f.vertices) == 0.0 {
+    if polygon::signed_area(vertices) == 0.0 {
         return err(key, "the outline encloses no area: its vertices lie on one line");
     }
-    if let Some((i, j)) = polygon::self_crossing(f.vertices) {
-        let n = f.vertices.len();
+    if let Some((i, j)) = polygon::self_crossing(vertices) {
+        let n = vertices.len();
         return err(
             key,
             format!(
@@ -440,17 +454,10 @@ fn polygon_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Result<()> {
         );
     }
     let lo: Vec<f64> = (0..d)
-        .map(|a| f.vertices.iter().map(|v| v[a]).fold(f64::INFINITY, f64::min))
+        .map(|a| vertices.iter().map(|v| v[a]).fold(f64::INFINITY, f64::min))
         .collect();
     let hi: Vec<f64> = (0..d)
-        .map(|a| f.vertices.iter().map(|v| v[a]).fold(f64::NEG_INFINITY, f64::max))
+        .map(|a| vertices.iter().map(|v| v[a]).fold(f64::NEG_INFINITY, f64::max))
         .collect();
-    if (!f.min.is_empty() && *f.min != lo) || (!f.max.is_empty() && *f.max != hi) {
-        return err(
-            format!("{k}.min"),
-            "the box of a polygon comes from its vertices: leave out min and max",
-        );
-    }
-    (*f.min, *f.max) = (lo, hi);
-    Ok(())
+    Ok((lo, hi))
 }

@@ -230,10 +230,22 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
                 let (lo, hi) = container_outer(s, w);
                 (ranges(&lo, &hi), Some(ranges(&w.min, &w.max)))
             }
+            WallShape::Polygon => (ranges(&w.min, &w.max), None),
         };
-        let n = sites(&outer).saturating_sub(hole.as_ref().map_or(0, |h| sites(h)));
+        let n = match w.shape {
+            // the sites of its outline, counted
+            WallShape::Polygon => {
+                let (outline, depth) = wall_outline(s, w).unwrap_or_default();
+                let mut n = 0u64;
+                lat.for_each_in(&w.min, &w.max, |_, _, x| {
+                    n += claims_outline(&outline, depth, x.as_slice()) as u64
+                });
+                n
+            }
+            _ => sites(&outer).saturating_sub(hole.as_ref().map_or(0, |h| sites(h))),
+        };
         // only refinable walls (dummy and dynamic) are built on the refined lattice
-        let (added, list_extra) = if w.method.refinable() {
+        let (added, list_extra) = if w.method.refinable() && w.shape != WallShape::Polygon {
             refined::<D>(s, &lat, &w.name, &outer, hole.as_deref())
         } else {
             (0, 0.0)
@@ -251,6 +263,24 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
         });
     }
     out
+}
+
+/// A polygon wall's outline and the depth (m) inside it within which it keeps its sites (its
+/// shell rows × dx; infinite for a wall without shell rows); `None` for other walls.
+pub(crate) fn wall_outline(s: &Scene, w: &super::WallBody) -> Option<(Vec<Vec<f64>>, f64)> {
+    let dx = s.discretisation.dx;
+    let depth = w
+        .shell_rows(s.discretisation.support(), dx)
+        .map_or(f64::INFINITY, |rows| rows as f64 * dx);
+    (w.shape == WallShape::Polygon).then(|| (w.vertices.clone(), depth))
+}
+
+/// True if a polygon wall of `outline` keeping the sites within `depth` (m) of it claims the
+/// site at `x` (m).
+#[inline]
+pub(crate) fn claims_outline(outline: &[Vec<f64>], depth: f64, x: &[f64]) -> bool {
+    super::polygon::contains(outline, x[0], x[1])
+        && (depth.is_infinite() || super::polygon::distance(outline, x[0], x[1]) < depth)
 }
 
 /// The lattice ranges (of `lat`, the scene's lattice) of wall `w`'s core: for a dummy block,
@@ -504,9 +534,30 @@ pub fn extent_lines<const D: usize>(s: &Scene) -> Vec<String> {
 }
 
 /// `hsph check`'s line for each polygon body: vertices and their orientation, box, area, and
-/// the sites built with their area's difference from the outline's.
+/// the sites built with their area's difference from the outline's; for a polygon wall the
+/// sites of its shell.
 fn polygon_lines<const D: usize>(s: &Scene) -> Vec<String> {
     let lat = Lattice::<D>::new(s);
+    let walls = (s.walls.iter().enumerate()).filter_map(|(i, w)| {
+        let (outline, depth) = wall_outline(s, w)?;
+        let mut n = 0u64;
+        lat.for_each_in(&w.min, &w.max, |_, _, x| {
+            n += claims_outline(&outline, depth, x.as_slice()) as u64
+        });
+        let shell = match depth.is_finite() {
+            true => format!("its shell within {depth:.4e} m of the outline"),
+            false => "solid".to_string(),
+        };
+        Some(format!(
+            "wall[{i}] `{}`: polygon of {} vertices, box {:?} .. {:?} m, area {:.4e} m², built {n} \
+             sites ({shell})",
+            w.name,
+            outline.len(),
+            w.min,
+            w.max,
+            super::polygon::signed_area(&outline).abs(),
+        ))
+    });
     let bodies = (s
         .fluids
         .iter()
@@ -541,6 +592,7 @@ fn polygon_lines<const D: usize>(s: &Scene) -> Vec<String> {
                 100.0 * (built / area.abs() - 1.0)
             )
         })
+        .chain(walls)
         .collect()
 }
 
@@ -626,7 +678,9 @@ pub fn thin_dynamic_wall_warnings(s: &Scene) -> Vec<String> {
     for (i, w) in s.walls.iter().enumerate() {
         let rows = match w.shape {
             super::WallShape::Container => w.built_layers(support, dx),
-            super::WallShape::Block => w.shell_rows(support, dx).unwrap_or(0) as usize,
+            super::WallShape::Block | super::WallShape::Polygon => {
+                w.shell_rows(support, dx).unwrap_or(0) as usize
+            }
         };
         if w.method.integrates_density() && rows < reach {
             out.push(format!(

@@ -8,7 +8,7 @@ use crate::error::Result;
 use crate::limits::file_error;
 use std::path::Path;
 
-/// Read the outline file of every fluid, solid and refinement region that names one, the path
+/// Read the outline file of every fluid, solid, wall and refinement region that names one, the path
 /// taken relative to the directory of `scene_file`.
 pub(super) fn read_outlines(s: &mut Scene, scene_file: &Path) -> Result<()> {
     let dir = scene_file.parent().unwrap_or(Path::new(""));
@@ -22,6 +22,15 @@ pub(super) fn read_outlines(s: &mut Scene, scene_file: &Path) -> Result<()> {
             (s.refine.iter_mut().enumerate())
                 .map(|(i, r)| (format!("refine[{i}]"), r.shape, &mut r.file, &mut r.vertices)),
         );
+    // a wall's shape, as a body's for the check below
+    let walls = (s.walls.iter_mut().enumerate()).map(|(i, w)| {
+        let shape = match w.shape {
+            super::WallShape::Polygon => super::BodyShape::Polygon,
+            _ => super::BodyShape::Block,
+        };
+        (format!("wall[{i}]"), shape, &mut w.file, &mut w.vertices)
+    });
+    let tables = tables.chain(walls);
     for (k, shape, file, vertices) in tables {
         let Some(name) = file.take() else {
             continue;

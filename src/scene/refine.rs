@@ -459,7 +459,7 @@ pub fn region_warnings<const D: usize>(s: &Scene) -> Vec<String> {
         // its layers (a container)
         let on_wall = s.walls.iter().any(|w| {
             let (lo, hi) = match w.shape {
-                WallShape::Block => (w.min.clone(), w.max.clone()),
+                WallShape::Block | WallShape::Polygon => (w.min.clone(), w.max.clone()),
                 WallShape::Container => container_outer(s, w),
             };
             let meets = (0..D).all(|a| lo[a] < r.max[a] && r.min[a] < hi[a]);
@@ -600,6 +600,30 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
                     "{what} name fluids, solids or dummy walls ({}), or leave out `bodies` for \
                      all of them",
                     bodies.join(", ")
+                ),
+            );
+        }
+        // a polygon wall is built at the scene's spacing only (its outline is not refined)
+        let polygon = s.walls.iter().find(|w| {
+            w.shape == WallShape::Polygon
+                && w.method.refinable()
+                && r.applies_to(&w.name)
+                && (0..d).all(|a| w.min[a] < r.max[a] && r.min[a] < w.max[a])
+        });
+        if let Some(w) = polygon {
+            return err(
+                format!("{k}.bodies"),
+                format!(
+                    "the region reaches the polygon wall `{}`, and polygon walls are built at the \
+                     scene's spacing only: list the bodies it refines without it, e.g. bodies = \
+                     [{}]",
+                    w.name,
+                    bodies
+                        .iter()
+                        .filter(|b| **b != w.name)
+                        .map(|b| format!("\"{b}\""))
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 ),
             );
         }

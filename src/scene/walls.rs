@@ -15,6 +15,10 @@ pub enum WallShape {
     /// A container around the inner box [min, max): `layers` layers outside each face except
     /// the faces listed in `open`.
     Container,
+    /// A solid outline (2D): every lattice site inside the closed polygon through `vertices`
+    /// ([`crate::scene::polygon`]); a dummy or dynamic one keeps the sites within its shell
+    /// rows of the outline, like a block.
+    Polygon,
 }
 
 /// Boundary method of a wall.
@@ -234,12 +238,22 @@ pub enum Motion {
 pub struct WallBody {
     /// Name, unique among all bodies (fluids, solids, walls).
     pub name: String,
-    /// `block` or `container`.
+    /// `block`, `container` or `polygon`.
     pub shape: WallShape,
-    /// Lower corner (m) of the block, or of the container's inner box.
+    /// Lower corner (m) of the block, or of the container's inner box; a polygon's box is set
+    /// from its vertices.
+    #[serde(default)]
     pub min: Vec<f64>,
     /// Upper corner (m).
+    #[serde(default)]
     pub max: Vec<f64>,
+    /// Vertices of a polygon wall (m), `[[x, y], …]` in order round the outline.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub vertices: Vec<Vec<f64>>,
+    /// A polygon wall's vertices from a text file, `x y` (m) per row, relative to the scene
+    /// file; read into `vertices` when the scene is loaded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
     /// Container wall thickness in particle layers outside each closed face, or rows kept
     /// inside each face of a dummy or dynamic block (default: enough to cover the support; a
     /// dummy or dynamic wall builds at most the rows within the support of fluid at its face,
@@ -305,7 +319,8 @@ impl WallBody {
         } else {
             reach
         };
-        (self.shape == WallShape::Block && self.method.trims_to_support()).then_some(rows as u64)
+        let solid = matches!(self.shape, WallShape::Block | WallShape::Polygon);
+        (solid && self.method.trims_to_support()).then_some(rows as u64)
     }
 }
 
@@ -328,6 +343,21 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
         .map_or_else(|| mat_names.list[0].clone(), |f| f.material.clone());
     for (i, w) in s.walls.iter_mut().enumerate() {
         let k = format!("wall[{i}]");
+        if w.shape == WallShape::Polygon {
+            let (lo, hi) = super::checks::outline_box(&w.vertices, &k, d)?;
+            if (!w.min.is_empty() && w.min != lo) || (!w.max.is_empty() && w.max != hi) {
+                return err(
+                    format!("{k}.min"),
+                    "the box of a polygon comes from its vertices: leave out min and max",
+                );
+            }
+            (w.min, w.max) = (lo, hi);
+        } else if !w.vertices.is_empty() {
+            return err(
+                format!("{k}.vertices"),
+                "belongs to `shape = \"polygon\"`; a block or container takes min and max",
+            );
+        }
         check_vec(&mut w.min, d, &format!("{k}.min"), false)?;
         check_vec(&mut w.max, d, &format!("{k}.max"), false)?;
         check_box(&w.min, &w.max, &k)?;
@@ -376,12 +406,19 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
                     in_domain(&lo, &hi, &k, &s.domain)?;
                 }
             }
-            WallShape::Block => {
+            WallShape::Block | WallShape::Polygon => {
                 if w.method.makes_images() {
                     return err(
                         format!("{k}.method"),
                         "mirror walls reflect across the inner faces of a container: use \
                          shape = \"container\", or method = \"dummy\" for a block",
+                    );
+                }
+                if w.shape == WallShape::Polygon && w.no_slip == crate::scene::NoSlipMethod::Morris {
+                    return err(
+                        format!("{k}.no_slip"),
+                        "`morris` needs the distance to a block's or container's faces; a polygon \
+                         wall takes no_slip = \"adami\"",
                     );
                 }
                 if !w.open.is_empty() {
