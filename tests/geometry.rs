@@ -543,3 +543,66 @@ fn a_polygon_wall_refuses_what_needs_a_box() {
         &["polygon wall `step`", "bodies = [\"column\", \"tank\"]"],
     );
 }
+
+/// `hsph check --preview DIR` writes the particles the set-up builds (the same count and the
+/// same bodies as `build_particles`) as `particles.vtu` with kind and body, and a picture (2D:
+/// one; 3D: a section per axis); a preview path that is a file is refused naming the flag.
+#[test]
+fn check_previews_the_built_particles_without_running() {
+    let dir = temp_dir("preview");
+    let text = with_step("shape = \"polygon\"\nvertices = [[0.3, 0.0], [0.55, 0.0], [0.55, 0.125]]");
+    let path = dir.join("ramp.toml");
+    std::fs::write(&path, &text).unwrap();
+    let out = dir.join("preview");
+    let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
+        .args(["check", path.to_str().unwrap(), "--preview"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let vtu = std::fs::read_to_string(out.join("particles.vtu")).unwrap();
+    let want = particles(&load(&text));
+    assert!(
+        vtu.contains(&format!("NumberOfPoints=\"{}\"", want.len())),
+        "point count"
+    );
+    // the body array lists each particle's body in id order
+    let body = vtu.split("Name=\"body\"").nth(1).unwrap();
+    let body: Vec<u64> = body[body.find('>').unwrap() + 1..body.find("</DataArray>").unwrap()]
+        .split_whitespace()
+        .map(|s| s.parse().unwrap())
+        .collect();
+    assert_eq!(body, want.iter().map(|p| p[5]).collect::<Vec<_>>());
+    for f in ["preview.png", "preview.svg"] {
+        assert!(std::fs::metadata(out.join(f)).unwrap().len() > 1000, "{f}");
+    }
+    assert!(!out.join("summary.json").exists() && !dir.join("runs").exists());
+    // 3D: a section per axis
+    let out3 = dir.join("preview3");
+    let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
+        .args([
+            "check",
+            "inputs/dam_break_3d.toml",
+            "--set",
+            "discretisation.dx=0.04",
+            "--preview",
+        ])
+        .arg(&out3)
+        .current_dir(common::repo_path(""))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for a in ["x", "y", "z"] {
+        assert!(out3.join(format!("preview_{a}.png")).is_file(), "{a}");
+    }
+    // a file where the directory should be
+    let file = dir.join("taken");
+    std::fs::write(&file, "x").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
+        .args(["check", path.to_str().unwrap(), "--preview"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.code() == Some(2) && err.contains("--preview"), "{err}");
+}

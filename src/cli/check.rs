@@ -9,6 +9,7 @@ pub(super) fn cmd_check(
     set: &[String],
     ranks: usize,
     max_memory: Option<f64>,
+    preview: Option<&std::path::Path>,
 ) -> Result<i32> {
     let (scene, src) = load_scene(scene, set)?;
     rank_weights(&scene, &src, ranks, &format!("--ranks {ranks}"))?;
@@ -36,6 +37,11 @@ pub(super) fn cmd_check(
              box), {memory}\n",
             est.particles
         ));
+    }
+    if let Some(dir) = preview {
+        let files = crate::report::preview::write(dir, &scene).map_err(|e| locate(&src, e))?;
+        let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+        say(&format!("preview     {}\n", names.join(", ")));
     }
     Ok(0)
 }

@@ -165,7 +165,10 @@ Example (Lobovsky et al. 2014, sensor 1, in t·√(g/H) and p/(ρgH) with H = 0.
       --column p_sensor1_3mm --time-scale 0.174874 --scale 2943 --impulse-span 0.035")]
     Loads(LoadsArgs),
     /// Validate a scene and print what a run would do, without running it.
-    #[command(after_help = "Example:\n  hsph check inputs/dam_break_3d.toml --set discretisation.dx=0.01")]
+    #[command(after_help = "\
+Examples:
+  hsph check inputs/dam_break_3d.toml --set discretisation.dx=0.01
+  hsph check inputs/dam_break_2d.toml --preview runs/preview    the built particles, as VTK and pictures")]
     Check {
         /// Scene file (TOML).
         scene: PathBuf,
@@ -178,6 +181,11 @@ Example (Lobovsky et al. 2014, sensor 1, in t·√(g/H) and p/(ρgH) with H = 0.
         /// Override a scene key (repeatable).
         #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
         set: Vec<String>,
+        /// Write the particles the set-up builds, before any step, into this directory:
+        /// `particles.vtu` (kind, body, level, mass, density, pressure) and pictures coloured
+        /// by body (2D: one; 3D: a section through the domain's middle per axis).
+        #[arg(long, value_name = "DIR")]
+        preview: Option<PathBuf>,
     },
     /// Measure particle-steps/s and pair interactions/s (no output files).
     #[command(after_help = "\
@@ -395,7 +403,13 @@ fn dispatch(cmd: Command) -> Result<i32> {
             set,
             ranks,
             max_memory,
-        } => cmd_check(&scene, &set, ranks.max(1), max_memory),
+            preview,
+        } => {
+            if let Some(dir) = &preview {
+                output_path("--preview", dir, Written::Dir)?;
+            }
+            cmd_check(&scene, &set, ranks.max(1), max_memory, preview.as_deref())
+        }
         Command::Bench {
             scenes,
             threads,

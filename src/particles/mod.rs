@@ -234,7 +234,7 @@ particle_table! {
         }
         /// Body index: into the scene's fluids for fluid particles, walls for wall particles.
         body / BODY: u16 {
-            image: Same, csv: Some("body"), snapshot: None, unit: "1", long_name: "body index",
+            image: Same, csv: Some("body"), snapshot: Some("body"), unit: "1", long_name: "body index",
         }
         /// Material index into the scene's materials.
         mat / MAT: u16 {

@@ -13,6 +13,7 @@ pub mod charts;
 mod impact;
 mod load;
 mod pressure;
+pub mod preview;
 
 pub use load::{Diagnostics, Run, TrafficRow};
 

@@ -1,0 +1,172 @@
+//! `hsph check SCENE --preview DIR`: the particles a run's set-up builds
+//! ([`crate::setup::build_particles`], the code a run calls), written before any step: the
+//! whole set as `particles.vtu` (kind, body, level, mass, density, pressure) and pictures of
+//! them coloured by body, drawn as `hsph report` draws. A 2D scene gives one picture; a 3D scene
+//! one per axis, each a section one spacing thick through the middle of the domain (a
+//! projection would hide a baffle behind a wall).
+
+use super::charts::{both, font, register_font, Res, PALETTE};
+use crate::error::{Error, Result};
+use crate::particles::Particles;
+use crate::scene::Scene;
+use plotters::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// The snapshot fields `particles.vtu` carries, of those the scene's particles hold.
+const FIELDS: [&str; 6] = ["kind", "body", "level", "mass", "density", "pressure"];
+
+/// Write the preview of `scene` into `dir` (created if missing); returns the files written.
+pub fn write(dir: &Path, scene: &Scene) -> Result<Vec<PathBuf>> {
+    crate::with_dim!(scene.dimension, D => write_dim::<D>(dir, scene))
+}
+
+fn write_dim<const D: usize>(dir: &Path, scene: &Scene) -> Result<Vec<PathBuf>> {
+    let p = crate::setup::build_particles::<D>(scene)?;
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let mut order: Vec<usize> = (0..p.n_owned).collect();
+    order.sort_unstable_by_key(|&i| p.id[i]);
+    let vtu = dir.join("particles.vtu");
+    crate::output::refuse_non_regular(&vtu)?;
+    // those the scene's table holds (a level only where regions refine)
+    let table = Particles::<D>::field_table();
+    let fields: Vec<String> = (FIELDS.iter())
+        .filter(|f| {
+            table
+                .iter()
+                .any(|m| m.snapshot == Some(**f) && p.column(m.name).is_some())
+        })
+        .map(|s| s.to_string())
+        .collect();
+    crate::output::vtk::write_vtu(&vtu, &p, &order, &fields)?;
+    let mut files = vec![vtu];
+    let (names, body_of) = bodies(scene, &p);
+    if D == 2 {
+        files.extend(section(dir, scene, &p, (&names, &body_of), None)?);
+    } else {
+        for normal in 0..D {
+            files.extend(section(dir, scene, &p, (&names, &body_of), Some(normal))?);
+        }
+    }
+    Ok(files)
+}
+
+/// The bodies' labels (`fluid column`, `wall tank`, …) and each particle's index into them.
+fn bodies<const D: usize>(scene: &Scene, p: &Particles<D>) -> (Vec<String>, Vec<usize>) {
+    let mut names: Vec<String> = Vec::new();
+    let mut keys: Vec<(u8, u16)> = Vec::new();
+    let of = (0..p.n_owned)
+        .map(|i| {
+            let (class, label) = match p.kind[i] {
+                k if k.is_fluid() => (0, "fluid"),
+                k if k.is_solid() => (1, "solid"),
+                _ => (2, "wall"),
+            };
+            let key = (class, p.body[i]);
+            match keys.iter().position(|k| *k == key) {
+                Some(j) => j,
+                None => {
+                    let b = p.body[i] as usize;
+                    let name = match class {
+                        0 => scene.fluids.get(b).map(|f| f.name.as_str()),
+                        1 => scene.solids.get(b).map(|f| f.name.as_str()),
+                        _ => scene.walls.get(b).map(|w| w.name.as_str()),
+                    };
+                    names.push(format!("{label} {}", name.unwrap_or("?")));
+                    keys.push(key);
+                    keys.len() - 1
+                }
+            }
+        })
+        .collect();
+    (names, of)
+}
+
+/// One picture: every particle (2D), or those of the lattice layer nearest the domain's middle
+/// along `normal` (3D), on the other two axes in order, coloured by body.
+fn section<const D: usize>(
+    dir: &Path,
+    scene: &Scene,
+    p: &Particles<D>,
+    (names, body_of): (&[String], &[usize]),
+    normal: Option<usize>,
+) -> Result<Vec<PathBuf>> {
+    const AXES: [&str; 3] = ["x", "y", "z"];
+    let (lo, hi, dx) = (&scene.domain.min, &scene.domain.max, scene.discretisation.dx);
+    let (u, v) = match normal {
+        None => (0, 1),
+        Some(n) => {
+            let others: Vec<usize> = (0..D).filter(|&a| a != n).collect();
+            (others[0], others[1])
+        }
+    };
+    // the layer of lattice sites (domain.min + (i + ½) dx) nearest the middle
+    let at = normal.map(|n| {
+        let i = ((0.5 * (lo[n] + hi[n]) - lo[n]) / dx - 0.5).round().max(0.0);
+        (n, lo[n] + (i + 0.5) * dx)
+    });
+    let shown: Vec<usize> = (0..p.n_owned)
+        .filter(|&i| at.is_none_or(|(n, c)| (p.x[i][n] - c).abs() < 0.5 * dx))
+        .collect();
+    let (w, h) = picture_size(hi[u] - lo[u], hi[v] - lo[v]);
+    // each particle a disc about a spacing across, at least a pixel
+    let radius = ((dx / (hi[u] - lo[u]) * f64::from(w) * 0.45).round() as i32).clamp(1, 12);
+    let (stem, caption) = match at {
+        None => (
+            "preview".to_string(),
+            format!(
+                "{}: {} particles as built, coloured by body",
+                scene.name,
+                shown.len()
+            ),
+        ),
+        Some((n, c)) => (
+            format!("preview_{}", AXES[n]),
+            format!(
+                "{}: the section {} = {c:.4} m ({} particles), coloured by body",
+                scene.name,
+                AXES[n],
+                shown.len()
+            ),
+        ),
+    };
+    let colour = |k: usize| PALETTE[k % PALETTE.len()];
+    both!(dir, stem, (w, h), |root| {
+        root.fill(&WHITE)?;
+        let mut ch = ChartBuilder::on(root)
+            .caption(&caption, font(14))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(lo[u]..hi[u], lo[v]..hi[v])?;
+        ch.configure_mesh()
+            .x_desc(format!("{} (m)", AXES[u]))
+            .y_desc(format!("{} (m)", AXES[v]))
+            .label_style(font(12))
+            .axis_desc_style(font(14))
+            .draw()?;
+        for (k, name) in names.iter().enumerate() {
+            let c = colour(k);
+            ch.draw_series(
+                shown
+                    .iter()
+                    .filter(|&&i| body_of[i] == k)
+                    .map(|&i| Circle::new((p.x[i][u], p.x[i][v]), radius, c.filled())),
+            )?
+            .label(name.as_str())
+            .legend(move |(x, y)| Circle::new((x, y), 4, c.filled()));
+        }
+        ch.configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(font(12))
+            .draw()?;
+        Ok(())
+    })
+}
+
+/// Pixels for a picture of the extents `a` × `b` (m): 1000 wide, the height in proportion
+/// within 300..1000, plus room for the caption and axes.
+fn picture_size(a: f64, b: f64) -> (u32, u32) {
+    let h = (1000.0 * b / a).clamp(300.0, 1000.0);
+    (1000, h as u32 + 90)
+}
