@@ -573,6 +573,10 @@ fn check_previews_the_built_particles_without_running() {
         .map(|s| s.parse().unwrap())
         .collect();
     assert_eq!(body, want.iter().map(|p| p[5]).collect::<Vec<_>>());
+    // the netCDF: classic format (CDF-2) holding the body variable
+    let nc = std::fs::read(out.join("particles.nc")).unwrap();
+    assert_eq!(&nc[..4], b"CDF\x02");
+    assert!(nc.windows(4).any(|w| w == b"body"));
     for f in ["preview.png", "preview.svg"] {
         assert!(std::fs::metadata(out.join(f)).unwrap().len() > 1000, "{f}");
     }

@@ -182,8 +182,9 @@ Examples:
         #[arg(long = "set", value_name = "KEY.PATH=VALUE")]
         set: Vec<String>,
         /// Write the particles the set-up builds, before any step, into this directory:
-        /// `particles.vtu` (kind, body, level, mass, density, pressure) and pictures coloured
-        /// by body (2D: one; 3D: a section through the domain's middle per axis).
+        /// `particles.vtu` and `particles.nc` (kind, body, level, mass, density, pressure) and
+        /// pictures coloured by body (2D: one; 3D: a section through the domain's middle per
+        /// axis).
         #[arg(long, value_name = "DIR")]
         preview: Option<PathBuf>,
     },

@@ -127,6 +127,12 @@ fn nc_err(path: &Path, e: impl std::fmt::Debug) -> Error {
 
 /// Write a classic (CDF-2) snapshot file: dimension `particle`, a scalar `time` and `step`,
 /// the variables along `particle` (atomically: temporary file, then rename).
+/// One piece written alone as a classic netCDF file (CDF-2, pure Rust) in the snapshots' CF
+/// point layout: `hsph check --preview`'s `particles.nc`.
+pub fn write_piece<const D: usize>(path: &Path, piece: &Piece<D>, fields: &[String]) -> Result<()> {
+    write_file(path, &piece_data(piece, fields))
+}
+
 fn write_file(path: &Path, data: &PieceData) -> Result<()> {
     let e = |err| nc_err(path, err);
     let (vars, coordinates) = (&data.vars, data.coordinates);

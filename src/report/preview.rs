@@ -1,6 +1,7 @@
 //! `hsph check SCENE --preview DIR`: the particles a run's set-up builds
 //! ([`crate::setup::build_particles`], the code a run calls), written before any step: the
-//! whole set as `particles.vtu` (kind, body, level, mass, density, pressure) and pictures of
+//! whole set as `particles.vtu` and `particles.nc` (kind, body, level, mass, density, pressure;
+//! the netCDF in the snapshots' CF point layout) and pictures of
 //! them coloured by body, drawn as `hsph report` draws. A 2D scene gives one picture; a 3D scene
 //! one per axis, each a section one spacing thick through the middle of the domain (a
 //! projection would hide a baffle behind a wall).
@@ -38,7 +39,12 @@ fn write_dim<const D: usize>(dir: &Path, scene: &Scene) -> Result<Vec<PathBuf>> 
         .map(|s| s.to_string())
         .collect();
     crate::output::vtk::write_vtu(&vtu, &p, &order, &fields)?;
-    let mut files = vec![vtu];
+    // the same particles in the snapshots' netCDF point layout, at t = 0 before step 1
+    let nc = dir.join("particles.nc");
+    crate::output::refuse_non_regular(&nc)?;
+    let piece = crate::output::snapshot::Piece::new(&p, (0.0, 0), (0, 1), scene);
+    crate::output::netcdf::write_piece(&nc, &piece, &fields)?;
+    let mut files = vec![vtu, nc];
     let (names, body_of) = bodies(scene, &p);
     if D == 2 {
         files.extend(section(dir, scene, &p, (&names, &body_of), None)?);
