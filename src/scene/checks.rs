@@ -384,24 +384,34 @@ pub(super) fn sphere_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Re
     Ok(())
 }
 
-/// A polygon's box from its vertices (a resolved scene already holds it; any other box is an
-/// error).
+/// A polygon's box from its vertices.
 fn polygon_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Result<()> {
-    let (lo, hi) = outline_box(f.vertices, k, d)?;
-    if (!f.min.is_empty() && *f.min != lo) || (!f.max.is_empty() && *f.max != hi) {
+    resolve_outline_box(f.vertices, (f.min, f.max), k, d)
+}
+
+/// Set `min` and `max` of table `k` to the box of its outline through `vertices` (checked by
+/// [`outline_box`]); a resolved scene already holds that box, any other is an error.
+pub(super) fn resolve_outline_box(
+    vertices: &[Vec<f64>],
+    (min, max): (&mut Vec<f64>, &mut Vec<f64>),
+    k: &str,
+    d: usize,
+) -> Result<()> {
+    let (lo, hi) = outline_box(vertices, k, d)?;
+    if (!min.is_empty() && *min != lo) || (!max.is_empty() && *max != hi) {
         return err(
             format!("{k}.min"),
             "the box of a polygon comes from its vertices: leave out min and max",
         );
     }
-    (*f.min, *f.max) = (lo, hi);
+    (*min, *max) = (lo, hi);
     Ok(())
 }
 
 /// The box of the outline through `vertices` of table `k`, checked: a 2D scene, at least three
 /// vertices of two finite coordinates each, at most [`crate::limits::MAX_POLYGON_VERTICES`],
 /// an outline that encloses an area and does not cross itself.
-pub(super) fn outline_box(vertices: &[Vec<f64>], k: &str, d: usize) -> Result<(Vec<f64>, Vec<f64>)> {
+fn outline_box(vertices: &[Vec<f64>], k: &str, d: usize) -> Result<(Vec<f64>, Vec<f64>)> {
     use super::polygon;
     let key = format!("{k}.vertices");
     if d != 2 {

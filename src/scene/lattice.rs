@@ -234,14 +234,7 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
         };
         let n = match w.shape {
             // the sites of its outline, counted
-            WallShape::Polygon => {
-                let (outline, depth) = wall_outline(s, w).unwrap_or_default();
-                let mut n = 0u64;
-                lat.for_each_in(&w.min, &w.max, |_, _, x| {
-                    n += claims_outline(&outline, depth, x.as_slice()) as u64
-                });
-                n
-            }
+            WallShape::Polygon => outline_sites(s, w, &lat),
             _ => sites(&outer).saturating_sub(hole.as_ref().map_or(0, |h| sites(h))),
         };
         // only refinable walls (dummy and dynamic) are built on the refined lattice
@@ -273,6 +266,18 @@ pub(crate) fn wall_outline(s: &Scene, w: &super::WallBody) -> Option<(Vec<Vec<f6
         .shell_rows(s.discretisation.support(), dx)
         .map_or(f64::INFINITY, |rows| rows as f64 * dx);
     (w.shape == WallShape::Polygon).then(|| (w.vertices.clone(), depth))
+}
+
+/// The sites of the scene's lattice `lat` a polygon wall `w` claims (0 for other walls).
+fn outline_sites<const D: usize>(s: &Scene, w: &super::WallBody, lat: &Lattice<D>) -> u64 {
+    let Some((outline, depth)) = wall_outline(s, w) else {
+        return 0;
+    };
+    let mut n = 0u64;
+    lat.for_each_in(&w.min, &w.max, |_, _, x| {
+        n += claims_outline(&outline, depth, x.as_slice()) as u64
+    });
+    n
 }
 
 /// True if a polygon wall of `outline` keeping the sites within `depth` (m) of it claims the
@@ -540,10 +545,7 @@ fn polygon_lines<const D: usize>(s: &Scene) -> Vec<String> {
     let lat = Lattice::<D>::new(s);
     let walls = (s.walls.iter().enumerate()).filter_map(|(i, w)| {
         let (outline, depth) = wall_outline(s, w)?;
-        let mut n = 0u64;
-        lat.for_each_in(&w.min, &w.max, |_, _, x| {
-            n += claims_outline(&outline, depth, x.as_slice()) as u64
-        });
+        let n = outline_sites(s, w, &lat);
         let shell = match depth.is_finite() {
             true => format!("its shell within {depth:.4e} m of the outline"),
             false => "solid".to_string(),

@@ -395,17 +395,7 @@ pub fn region_warnings<const D: usize>(s: &Scene) -> Vec<String> {
             BodyShape::Block => (0..D).map(|a| 0.5 * (r.min[a] + r.max[a])).collect(),
             _ => r.centre.clone(),
         };
-        let deepest = match r.shape {
-            // no point is known to be the deepest: the deepest site of the box
-            BodyShape::Polygon => {
-                let mut m = f64::NEG_INFINITY;
-                lat.for_each_in(&r.min, &r.max, |_, _, x| {
-                    m = m.max(r.depth(x.as_slice(), &bounds))
-                });
-                m
-            }
-            _ => r.depth(&centre, &bounds),
-        };
+        let deepest = deepest::<D>(r, &centre, &lat, &bounds);
         if r.adapt && deepest < dx {
             out.push(format!(
                 "refine[{k}] adapts, but no point of it lies deeper than {deepest:.4e} m inside its \
@@ -603,30 +593,7 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
                 ),
             );
         }
-        // a polygon wall is built at the scene's spacing only (its outline is not refined)
-        let polygon = s.walls.iter().find(|w| {
-            w.shape == WallShape::Polygon
-                && w.method.refinable()
-                && r.applies_to(&w.name)
-                && (0..d).all(|a| w.min[a] < r.max[a] && r.min[a] < w.max[a])
-        });
-        if let Some(w) = polygon {
-            return err(
-                format!("{k}.bodies"),
-                format!(
-                    "the region reaches the polygon wall `{}`, and polygon walls are built at the \
-                     scene's spacing only: list the bodies it refines without it, e.g. bodies = \
-                     [{}]",
-                    w.name,
-                    bodies
-                        .iter()
-                        .filter(|b| **b != w.name)
-                        .map(|b| format!("\"{b}\""))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            );
-        }
+        no_polygon_wall(&s.walls, r, &k, &bodies)?;
         let diagonal = (d as f64).sqrt() * s.discretisation.dx;
         if r.adapt && support < diagonal {
             return err(
@@ -653,6 +620,46 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
         }
     }
     check_overlaps(s)
+}
+
+/// How deep (m) the deepest point of region `r` lies: at `centre` for a block, sphere or
+/// cylinder; for a polygon, where no point is known to be the deepest, its deepest site of
+/// the scene's lattice `lat`.
+fn deepest<const D: usize>(r: &Refine, centre: &[f64], lat: &Lattice<D>, bounds: &Bounds) -> f64 {
+    if r.shape != BodyShape::Polygon {
+        return r.depth(centre, bounds);
+    }
+    let mut m = f64::NEG_INFINITY;
+    lat.for_each_in(&r.min, &r.max, |_, _, x| m = m.max(r.depth(x.as_slice(), bounds)));
+    m
+}
+
+/// Region `r` (key `k`) may not reach a polygon wall it would refine: polygon walls are built at
+/// the scene's spacing only (their outline is not refined). `bodies` are the refinable names.
+fn no_polygon_wall(walls: &[super::WallBody], r: &Refine, k: &str, bodies: &[String]) -> Result<()> {
+    let d = r.min.len();
+    let polygon = walls.iter().find(|w| {
+        w.shape == WallShape::Polygon
+            && w.method.refinable()
+            && r.applies_to(&w.name)
+            && (0..d).all(|a| w.min[a] < r.max[a] && r.min[a] < w.max[a])
+    });
+    let Some(w) = polygon else {
+        return Ok(());
+    };
+    let others: Vec<String> = (bodies.iter())
+        .filter(|b| **b != w.name)
+        .map(|b| format!("\"{b}\""))
+        .collect();
+    err(
+        format!("{k}.bodies"),
+        format!(
+            "the region reaches the polygon wall `{}`, and polygon walls are built at the scene's \
+             spacing only: list the bodies it refines without it, e.g. bodies = [{}]",
+            w.name,
+            others.join(", ")
+        ),
+    )
 }
 
 /// The names of the bodies a region may refine: fluids, solids and dummy and dynamic walls

@@ -343,21 +343,7 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
         .map_or_else(|| mat_names.list[0].clone(), |f| f.material.clone());
     for (i, w) in s.walls.iter_mut().enumerate() {
         let k = format!("wall[{i}]");
-        if w.shape == WallShape::Polygon {
-            let (lo, hi) = super::checks::outline_box(&w.vertices, &k, d)?;
-            if (!w.min.is_empty() && w.min != lo) || (!w.max.is_empty() && w.max != hi) {
-                return err(
-                    format!("{k}.min"),
-                    "the box of a polygon comes from its vertices: leave out min and max",
-                );
-            }
-            (w.min, w.max) = (lo, hi);
-        } else if !w.vertices.is_empty() {
-            return err(
-                format!("{k}.vertices"),
-                "belongs to `shape = \"polygon\"`; a block or container takes min and max",
-            );
-        }
+        outline_keys(w, &k, d)?;
         check_vec(&mut w.min, d, &format!("{k}.min"), false)?;
         check_vec(&mut w.max, d, &format!("{k}.max"), false)?;
         check_box(&w.min, &w.max, &k)?;
@@ -448,6 +434,20 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
         }
     }
     Ok(())
+}
+
+/// A polygon wall's box from its vertices; `vertices` on any other wall is an error.
+fn outline_keys(w: &mut crate::scene::WallBody, k: &str, d: usize) -> Result<()> {
+    match (w.shape, w.vertices.is_empty()) {
+        (WallShape::Polygon, _) => {
+            super::checks::resolve_outline_box(&w.vertices, (&mut w.min, &mut w.max), k, d)
+        }
+        (_, true) => Ok(()),
+        (_, false) => err(
+            format!("{k}.vertices"),
+            "belongs to `shape = \"polygon\"`; a block or container takes min and max",
+        ),
+    }
 }
 
 /// A container across a periodic axis must leave both faces on it open: fluid could never
