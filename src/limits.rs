@@ -125,6 +125,14 @@ pub const MAX_BODIES: usize = 1 << 16;
 /// every pair of edges, 5·10⁷ pairs at this limit.
 pub const MAX_POLYGON_VERTICES: usize = 10_000;
 
+/// Triangles of one mesh (`shape = "mesh"`): 10⁷ is a 500 MB binary STL and about 2.2 GB of
+/// placed triangles and index per rank.
+pub const MAX_MESH_TRIANGLES: u64 = 10_000_000;
+
+/// Bytes of one mesh file, checked before it is read: a binary STL of
+/// [`MAX_MESH_TRIANGLES`] (84 + 50 per triangle), or an ASCII one of about 2·10⁶ triangles.
+pub const MAX_MESH_BYTES: u64 = 84 + 50 * MAX_MESH_TRIANGLES;
+
 /// `value` of `key` within `1..=max`, else exit 2 naming both.
 pub fn count(key: &str, value: u64, max: u64) -> Result<()> {
     if value == 0 {

@@ -11,6 +11,7 @@ pub mod expr;
 pub mod lattice;
 mod load;
 mod materials;
+pub mod mesh;
 mod models;
 mod outline_file;
 pub mod polygon;

@@ -90,7 +90,13 @@ pub fn chord(v: &[Vec<f64>], x: &[f64], u: &[f64]) -> Option<(f64, f64)> {
         }
     }
     cuts.sort_by(f64::total_cmp);
-    let mut start = contains(v, x[0], x[1]).then_some(0.0);
+    first_stretch(contains(v, x[0], x[1]), cuts)
+}
+
+/// The first stretch `(s0, s1)` inside a closed shape of a ray that starts `inside` it (or
+/// not) and crosses its outline at the sorted distances `cuts` (all > 0).
+pub(crate) fn first_stretch(inside: bool, cuts: Vec<f64>) -> Option<(f64, f64)> {
+    let mut start = inside.then_some(0.0);
     for s in cuts {
         match start {
             Some(s0) if s > s0 => return Some((s0, s)),

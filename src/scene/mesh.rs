@@ -1,0 +1,780 @@
+//! Triangle meshes as shapes (`shape = "mesh"`, 3D): an STL file, binary or ASCII (read through
+//! `stl_io`), placed by `scale`, `rotate` and `translate`, checked, and asked which lattice sites
+//! it holds.
+//!
+//! **Inside.** A site is inside a closed mesh if the ray from it along +z crosses the surface an
+//! odd number of times. Every site is judged as if moved by (ε, ε², ε³), ε → 0 (a symbolic
+//! perturbation): a site exactly on a face, edge or vertex is inside exactly when the moved point
+//! is. So a box-shaped mesh claims the sites of the block [min, max) (the `[min, max)` rule of
+//! blocks, "+ε along every axis"), and a ray through an edge or vertex shared by several
+//! triangles crosses exactly one of them. The projected tests use Shewchuk's exact orientation
+//! predicate (`robust::orient2d`), so the tie rule is applied to exact signs.
+//!
+//! **Index.** Triangles are binned by their (x, y) box in a uniform grid of columns (about one
+//! column per triangle), so a site tests only the triangles over its column: a 10⁶-triangle mesh
+//! fills a 10⁶-site lattice in about a second (BENCHMARKS.md).
+
+use crate::error::Result;
+use crate::limits::file_error;
+use robust::{orient2d, Coord};
+use std::path::Path;
+
+/// Where a mesh file's coordinates go: scaled by `scale`, rotated about x, then y, then z by
+/// `rotate` (degrees, right-handed), then moved by `translate` (m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Placement {
+    /// Factor from the file's unit to metres (0.001 for a CAD file in mm).
+    pub scale: f64,
+    /// Rotations about x, y and z (degrees), applied in that order.
+    pub rotate: [f64; 3],
+    /// Translation (m), applied last.
+    pub translate: [f64; 3],
+}
+
+impl Placement {
+    /// The placed position (m) of the file's vertex `v`.
+    pub fn apply(&self, v: [f32; 3]) -> [f64; 3] {
+        let mut p = v.map(|c| c as f64 * self.scale);
+        for (axis, &deg) in self.rotate.iter().enumerate() {
+            if deg == 0.0 {
+                continue;
+            }
+            let (s, c) = sin_cos_degrees(deg);
+            let (i, j) = ((axis + 1) % 3, (axis + 2) % 3);
+            let (a, b) = (p[i], p[j]);
+            p[i] = c * a - s * b;
+            p[j] = s * a + c * b;
+        }
+        for (a, t) in p.iter_mut().zip(self.translate) {
+            *a += t;
+        }
+        p
+    }
+}
+
+/// sin and cos of `deg` degrees, exact at multiples of 90° (so a quarter turn keeps a box's
+/// faces on the planes they were on).
+fn sin_cos_degrees(deg: f64) -> (f64, f64) {
+    let q = deg / 90.0;
+    if q == q.round() {
+        return [(0.0, 1.0), (1.0, 0.0), (0.0, -1.0), (-1.0, 0.0)][q.rem_euclid(4.0) as usize];
+    }
+    deg.to_radians().sin_cos()
+}
+
+/// One triangle's corners (m).
+type Tri = [[f64; 3]; 3];
+
+/// A placed triangle mesh with its column index.
+pub struct Mesh {
+    tri: Vec<Tri>,
+    /// Lower corner of the mesh's box (m).
+    pub lo: [f64; 3],
+    /// Upper corner of the mesh's box (m).
+    pub hi: [f64; 3],
+    cols: Columns,
+    /// SHA-256 of the file's bytes, hex.
+    pub sha256: String,
+    /// `binary` or `ASCII`.
+    pub format: &'static str,
+}
+
+impl std::fmt::Debug for Mesh {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Mesh({} triangles, sha256 {})", self.tri.len(), self.sha256)
+    }
+}
+
+impl PartialEq for Mesh {
+    fn eq(&self, other: &Self) -> bool {
+        self.tri == other.tri
+    }
+}
+
+/// What [`Mesh::topology`] finds wrong with a surface, if anything.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Defect {
+    /// Edges used by an odd number of triangles (a hole's rim): how many, and the first one's
+    /// triangle (1-based, file order) and ends (m).
+    Open(usize, usize, [f64; 3], [f64; 3]),
+    /// Edges two triangles run the same way (one of them faces inward): how many, and the first
+    /// one's two triangles (1-based).
+    Misoriented(usize, usize, usize),
+}
+
+impl Defect {
+    /// The defect as a sentence with its remedy.
+    pub fn message(&self) -> String {
+        match self {
+            Defect::Open(n, t, a, b) => format!(
+                "the mesh is not closed: {n} open edge(s), the first of triangle {t} from {a:?} to \
+                 {b:?}; an inside fill needs a watertight surface (repair the mesh, e.g. close its \
+                 holes in the CAD export)"
+            ),
+            Defect::Misoriented(n, t, u) => format!(
+                "the mesh's normals are inconsistent: {n} edge(s) run the same way in both their \
+                 triangles, the first shared by triangles {t} and {u}; re-orient the faces \
+                 consistently (e.g. \"unify normals\" in the CAD or mesh tool)"
+            ),
+        }
+    }
+}
+
+impl Mesh {
+    /// A mesh of the placed triangles `tri` (at least one).
+    pub fn new(tri: Vec<Tri>, sha256: String, format: &'static str) -> Self {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for v in tri.iter().flatten() {
+            for a in 0..3 {
+                lo[a] = lo[a].min(v[a]);
+                hi[a] = hi[a].max(v[a]);
+            }
+        }
+        let cols = Columns::new(&tri, [lo[0], lo[1]], [hi[0], hi[1]]);
+        Mesh {
+            tri,
+            lo,
+            hi,
+            cols,
+            sha256,
+            format,
+        }
+    }
+
+    /// Number of triangles.
+    pub fn triangles(&self) -> usize {
+        self.tri.len()
+    }
+
+    /// Bytes the mesh and its index take in memory.
+    pub fn bytes(&self) -> u64 {
+        (self.tri.len() * std::mem::size_of::<Tri>() + 4 * (self.cols.start.len() + self.cols.items.len()))
+            as u64
+    }
+
+    /// The signed volume Σ a·(b × c)/6 (m³), summed in file order: positive when the normals
+    /// (by the right-hand rule on each triangle's corner order) point outward.
+    pub fn signed_volume(&self) -> f64 {
+        self.tri
+            .iter()
+            .map(|[a, b, c]| dot(a, &cross(b, c)) / 6.0)
+            .fold(0.0, |s, v| s + v)
+    }
+
+    /// True if the site `p` (m), moved by (ε, ε², ε³), lies inside the surface (crossing parity
+    /// of the ray along +z; module doc).
+    pub fn contains(&self, p: &[f64]) -> bool {
+        if (0..3).any(|a| p[a] < self.lo[a] || p[a] >= self.hi[a]) {
+            return false;
+        }
+        let mut odd = false;
+        for &t in self.cols.over(p[0], p[1]) {
+            let t = &self.tri[t as usize];
+            if covers(t, p[0], p[1]) && above(t, p) {
+                odd = !odd;
+            }
+        }
+        odd
+    }
+
+    /// The first stretch `(s0, s1)`, 0 ≤ s0 < s1 (m), of the ray x + s·u (s ≥ 0, u a unit
+    /// vector) inside the mesh, if any. Along ±z the column index answers; other directions
+    /// test every triangle.
+    pub fn chord(&self, x: &[f64], u: &[f64]) -> Option<(f64, f64)> {
+        let mut cuts = Vec::new();
+        if u[0] == 0.0 && u[1] == 0.0 {
+            let inside_xy = (0..2).all(|a| x[a] >= self.lo[a] && x[a] < self.hi[a]);
+            if inside_xy {
+                for &t in self.cols.over(x[0], x[1]) {
+                    let t = &self.tri[t as usize];
+                    if covers(t, x[0], x[1]) {
+                        cuts.push((height(t, x[0], x[1]) - x[2]) / u[2]);
+                    }
+                }
+            }
+        } else {
+            cuts.extend(self.tri.iter().filter_map(|t| ray_hit(t, x, u)));
+        }
+        cuts.retain(|&s| s > 0.0);
+        cuts.sort_by(f64::total_cmp);
+        super::polygon::first_stretch(self.contains(x), cuts)
+    }
+
+    /// Whether the surface is closed and consistently wound, judged on shared corners (equal
+    /// coordinates); triangles with two equal corners are left out.
+    pub fn topology(&self) -> Option<Defect> {
+        use std::collections::HashMap;
+        let mut ids: HashMap<[u64; 3], u32> = HashMap::with_capacity(self.tri.len() / 2 + 3);
+        let corners: Vec<[u32; 3]> = (self.tri.iter())
+            .map(|t| {
+                t.map(|v| {
+                    let n = ids.len() as u32;
+                    *ids.entry(v.map(f64::to_bits)).or_insert(n)
+                })
+            })
+            .collect();
+        // per undirected edge: uses, and the balance of its two directions
+        let mut edges: HashMap<(u32, u32), (u32, i32)> = HashMap::with_capacity(3 * self.tri.len() / 2 + 3);
+        for c in &corners {
+            for (a, b) in each_edge(*c) {
+                let e = edges.entry((a.min(b), a.max(b))).or_insert((0, 0));
+                e.0 += 1;
+                e.1 += if a < b { 1 } else { -1 };
+            }
+        }
+        let open = edges.values().filter(|e| e.0 % 2 == 1).count();
+        let turned = edges.values().filter(|e| e.0 % 2 == 0 && e.1 != 0).count();
+        // the first offending edge in file order
+        let first = |bad: &dyn Fn(&(u32, i32)) -> bool| {
+            (corners.iter().enumerate())
+                .flat_map(|(t, c)| each_edge(*c).map(move |e| (t, e)))
+                .find(|(_, (a, b))| bad(&edges[&((*a).min(*b), (*a).max(*b))]))
+        };
+        if open > 0 {
+            let (t, (a, b)) = first(&|e| e.0 % 2 == 1)?;
+            let at = |i: u32| self.tri[t][(0..3).find(|&k| corners[t][k] == i).unwrap_or(0)];
+            return Some(Defect::Open(open, t + 1, at(a), at(b)));
+        }
+        if turned > 0 {
+            let (t, (a, b)) = first(&|e| e.1 != 0)?;
+            let other = (corners.iter().enumerate())
+                .filter(|&(u, _)| u != t)
+                .find(|(_, c)| each_edge(**c).any(|e| e == (a, b)))
+                .map_or(t, |(u, _)| u);
+            return Some(Defect::Misoriented(turned, t + 1, other + 1));
+        }
+        None
+    }
+}
+
+/// The directed edges of a triangle of corner ids `c`; none if two corners coincide.
+fn each_edge(c: [u32; 3]) -> impl Iterator<Item = (u32, u32)> {
+    let ok = c[0] != c[1] && c[1] != c[2] && c[2] != c[0];
+    (0..3).filter(move |_| ok).map(move |e| (c[e], c[(e + 1) % 3]))
+}
+
+/// a · b.
+fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// a × b.
+fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// The exact orientation of (a, b, p) projected on (x, y): +1 counter-clockwise, −1 clockwise;
+/// on the line through a and b, the side the point p + (ε, ε²) lies on (never 0 for a ≠ b).
+fn side(a: &[f64; 3], b: &[f64; 3], px: f64, py: f64) -> i8 {
+    let o = orient2d(
+        Coord { x: a[0], y: a[1] },
+        Coord { x: b[0], y: b[1] },
+        Coord { x: px, y: py },
+    );
+    if o != 0.0 {
+        return if o > 0.0 { 1 } else { -1 };
+    }
+    // (b − a) × (p + (ε, ε²) − a) = (bx − ax) ε² − (by − ay) ε
+    if b[1] != a[1] {
+        if b[1] > a[1] {
+            -1
+        } else {
+            1
+        }
+    } else if b[0] > a[0] {
+        1
+    } else {
+        -1
+    }
+}
+
+/// The exact orientation of a triangle's projection on (x, y) (0: seen edge-on from +z).
+fn facing(t: &Tri) -> f64 {
+    let c = |v: &[f64; 3]| Coord { x: v[0], y: v[1] };
+    orient2d(c(&t[0]), c(&t[1]), c(&t[2]))
+}
+
+/// True if the projection of `t` on (x, y) covers (px + ε, py + ε²).
+fn covers(t: &Tri, px: f64, py: f64) -> bool {
+    let o = facing(t);
+    if o == 0.0 {
+        return false;
+    }
+    let s = if o > 0.0 { 1 } else { -1 };
+    side(&t[0], &t[1], px, py) == s && side(&t[1], &t[2], px, py) == s && side(&t[2], &t[0], px, py) == s
+}
+
+/// The normal (b − a) × (c − a) of `t`, its z taken from the exact orientation's sign.
+fn normal(t: &Tri) -> [f64; 3] {
+    let [a, b, c] = t;
+    let (u, v) = (
+        [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+        [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+    );
+    let n = cross(&u, &v);
+    [n[0], n[1], facing(t)]
+}
+
+/// The height (m) of the plane of `t` over (px, py); exact for a horizontal triangle.
+fn height(t: &Tri, px: f64, py: f64) -> f64 {
+    let n = normal(t);
+    let a = &t[0];
+    a[2] - (n[0] * (px - a[0]) + n[1] * (py - a[1])) / n[2]
+}
+
+/// True if the plane of `t` (covering p) lies above p + (ε, ε², ε³).
+fn above(t: &Tri, p: &[f64]) -> bool {
+    let dz = height(t, p[0], p[1]) - p[2];
+    if dz != 0.0 {
+        return dz > 0.0;
+    }
+    // z(p + (ε, ε²)) − (pz + ε³) = −(nx/nz) ε − (ny/nz) ε² − ε³
+    let n = normal(t);
+    let lead = if n[0] != 0.0 { -n[0] } else { -n[1] };
+    lead != 0.0 && (lead > 0.0) == (n[2] > 0.0)
+}
+
+/// The distance s (m) along x + s·u at which the ray meets `t`, if it does (Möller–Trumbore).
+fn ray_hit(t: &Tri, x: &[f64], u: &[f64]) -> Option<f64> {
+    let [a, b, c] = t;
+    let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+    let u = [u[0], u[1], u[2]];
+    let p = cross(&u, &e2);
+    let det = dot(&e1, &p);
+    if det == 0.0 {
+        return None;
+    }
+    let r = [x[0] - a[0], x[1] - a[1], x[2] - a[2]];
+    let bu = dot(&r, &p) / det;
+    let q = cross(&r, &e1);
+    let bv = dot(&u, &q) / det;
+    (bu >= 0.0 && bv >= 0.0 && bu + bv < 1.0).then(|| dot(&e2, &q) / det)
+}
+
+/// Triangles binned by their (x, y) box in a uniform grid (compressed rows: `start[c]..start[c
+/// + 1]` of `items` are column c's triangles). Triangles seen edge-on from +z are left out.
+struct Columns {
+    origin: [f64; 2],
+    /// Columns per metre along x and y.
+    inv: [f64; 2],
+    n: [usize; 2],
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Columns {
+    fn new(tri: &[Tri], lo: [f64; 2], hi: [f64; 2]) -> Self {
+        let seen: Vec<u32> = (0..tri.len() as u32)
+            .filter(|&t| facing(&tri[t as usize]) != 0.0)
+            .collect();
+        // about one column per triangle, square in shape, at most 2048 a side
+        let ext = [hi[0] - lo[0], hi[1] - lo[1]];
+        let target = (seen.len() as f64).max(1.0);
+        let side = if ext[0] > 0.0 && ext[1] > 0.0 {
+            (ext[0] * ext[1] / target).sqrt()
+        } else {
+            ext[0].max(ext[1]).max(1e-300)
+        };
+        let n = ext.map(|e| ((e / side).ceil() as usize).clamp(1, 2048));
+        let inv = [0, 1].map(|a| if ext[a] > 0.0 { n[a] as f64 / ext[a] } else { 0.0 });
+        let mut cols = Columns {
+            origin: lo,
+            inv,
+            n,
+            start: vec![0; n[0] * n[1] + 1],
+            items: Vec::new(),
+        };
+        let range = |c: &Columns, t: &Tri, a: usize| {
+            let (mn, mx) = t.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(m, x), v| {
+                (m.min(v[a]), x.max(v[a]))
+            });
+            c.cell(a, mn)..=c.cell(a, mx)
+        };
+        for &t in &seen {
+            let t = &tri[t as usize];
+            for i in range(&cols, t, 0) {
+                for j in range(&cols, t, 1) {
+                    cols.start[i * n[1] + j + 1] += 1;
+                }
+            }
+        }
+        for c in 1..cols.start.len() {
+            cols.start[c] += cols.start[c - 1];
+        }
+        let mut fill = cols.start.clone();
+        cols.items = vec![0; *cols.start.last().unwrap_or(&0) as usize];
+        for &k in &seen {
+            let t = &tri[k as usize];
+            for i in range(&cols, t, 0) {
+                for j in range(&cols, t, 1) {
+                    let c = i * n[1] + j;
+                    cols.items[fill[c] as usize] = k;
+                    fill[c] += 1;
+                }
+            }
+        }
+        cols
+    }
+
+    /// The column index along axis `a` of coordinate `x` (m): monotone in x, so a triangle
+    /// whose box holds x is binned in x's column.
+    fn cell(&self, a: usize, x: f64) -> usize {
+        (((x - self.origin[a]) * self.inv[a]).floor().max(0.0) as usize).min(self.n[a] - 1)
+    }
+
+    /// The triangles binned over (x, y).
+    fn over(&self, x: f64, y: f64) -> &[u32] {
+        let c = self.cell(0, x) * self.n[1] + self.cell(1, y);
+        &self.items[self.start[c] as usize..self.start[c + 1] as usize]
+    }
+}
+
+/// How an STL file is laid out: binary with its triangle count, or ASCII.
+fn layout(b: &[u8]) -> std::result::Result<Option<u64>, String> {
+    let count = (b.len() >= 84).then(|| u32::from_le_bytes([b[80], b[81], b[82], b[83]]) as u64);
+    if let Some(n) = count {
+        if 84 + 50 * n == b.len() as u64 {
+            return Ok(Some(n));
+        }
+    }
+    if b.starts_with(b"solid") {
+        return Ok(None);
+    }
+    Err(match count {
+        None => format!(
+            "{} bytes: too short for a binary STL (an 84-byte header and count) and not an ASCII STL \
+             (which starts with `solid`)",
+            b.len()
+        ),
+        Some(n) => format!(
+            "its binary header counts {n} triangles, 84 + 50·{n} = {} bytes, but the file has {}: it \
+             is truncated, or not an STL",
+            84 + 50 * n,
+            b.len()
+        ),
+    })
+}
+
+/// Read the STL file at `path` for key `key` (a scene's `…file`) and place it. Every defect
+/// of the file is an input error naming it: not a regular file (checked before opening, a
+/// FIFO would block), larger than [`crate::limits::MAX_MESH_BYTES`] (before reading), a
+/// binary count that disagrees with the size or exceeds [`crate::limits::MAX_MESH_TRIANGLES`]
+/// (before allocating), a malformed triangle, a non-finite coordinate, or no triangle.
+pub fn read(path: &Path, key: &str, place: &Placement) -> Result<Mesh> {
+    use crate::limits::{MAX_MESH_BYTES, MAX_MESH_TRIANGLES};
+    let fail = |m: String| file_error(path, key, None, m);
+    let meta = std::fs::metadata(path).map_err(|e| {
+        fail(format!(
+            "cannot be read: {e}; the path is relative to the scene file"
+        ))
+    })?;
+    if !meta.is_file() {
+        return Err(fail(
+            "is not a regular file; name a binary or ASCII STL file".into(),
+        ));
+    }
+    if meta.len() > MAX_MESH_BYTES {
+        return Err(fail(format!(
+            "{} bytes exceed the limit of {MAX_MESH_BYTES} for a mesh (src/limits.rs)",
+            meta.len()
+        )));
+    }
+    let mut bytes = std::fs::read(path).map_err(|e| fail(format!("cannot be read: {e}")))?;
+    let sha256 = {
+        use sha2::Digest;
+        sha2::Sha256::digest(&bytes)
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect::<String>()
+    };
+    let count = layout(&bytes).map_err(fail)?;
+    match count {
+        // the header is free text: blank it, so that the reader's probe does not take a
+        // binary file whose header starts with `solid` for text
+        Some(_) => bytes[..80].fill(b' '),
+        // the reader wants `solid ` with its space
+        None if bytes.get(5) != Some(&b' ') => bytes.insert(5, b' '),
+        None => {}
+    }
+    let mut cursor = std::io::Cursor::new(bytes);
+    let reader =
+        stl_io::create_stl_reader(&mut cursor).map_err(|e| fail(format!("is not a readable STL: {e}")))?;
+    let mut tri = Vec::with_capacity(count.unwrap_or(0) as usize);
+    for (n, t) in reader.enumerate() {
+        let t = t.map_err(|e| fail(format!("triangle {}: {e}", n + 1)))?;
+        if n as u64 >= MAX_MESH_TRIANGLES {
+            return Err(fail(format!(
+                "more than {MAX_MESH_TRIANGLES} triangles (src/limits.rs)"
+            )));
+        }
+        let v = t.vertices.map(|v| v.0);
+        if v.iter().flatten().any(|c| !c.is_finite()) {
+            return Err(fail(format!(
+                "triangle {} has a coordinate that is not finite: {v:?}",
+                n + 1
+            )));
+        }
+        tri.push(v.map(|v| place.apply(v)));
+    }
+    if tri.is_empty() {
+        return Err(fail("holds no triangle".into()));
+    }
+    let format = if count.is_some() { "binary" } else { "ASCII" };
+    Ok(Mesh::new(tri, sha256, format))
+}
+
+/// Test meshes: a box and a sphere as triangles, outward.
+#[cfg(test)]
+pub(crate) mod shapes {
+    use super::Tri;
+
+    /// The 12 triangles of the box [lo, hi], normals outward.
+    pub fn cuboid(lo: [f64; 3], hi: [f64; 3]) -> Vec<Tri> {
+        let c = |i: usize| {
+            [
+                [lo[0], hi[0]][i & 1],
+                [lo[1], hi[1]][(i >> 1) & 1],
+                [lo[2], hi[2]][(i >> 2) & 1],
+            ]
+        };
+        // faces as corner quads, counter-clockwise seen from outside
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        quads
+            .iter()
+            .flat_map(|q| [[c(q[0]), c(q[1]), c(q[2])], [c(q[0]), c(q[2]), c(q[3])]])
+            .collect()
+    }
+
+    /// A UV sphere of `n` bands about `centre` with vertices on the radius `r`, outward.
+    pub fn sphere(centre: [f64; 3], r: f64, n: usize) -> Vec<Tri> {
+        let at = |i: usize, j: usize| {
+            let th = std::f64::consts::PI * i as f64 / n as f64;
+            let ph = 2.0 * std::f64::consts::PI * (j % (2 * n)) as f64 / (2 * n) as f64;
+            if i == 0 || i == n {
+                return [centre[0], centre[1], centre[2] + if i == 0 { r } else { -r }];
+            }
+            [
+                centre[0] + r * th.sin() * ph.cos(),
+                centre[1] + r * th.sin() * ph.sin(),
+                centre[2] + r * th.cos(),
+            ]
+        };
+        let mut out = Vec::new();
+        for i in 0..n {
+            for j in 0..2 * n {
+                let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+                if i != 0 {
+                    out.push([a, b, d]);
+                }
+                if i != n - 1 {
+                    out.push([b, c, d]);
+                }
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shapes::{cuboid, sphere};
+    use super::*;
+
+    fn mesh(t: Vec<Tri>) -> Mesh {
+        Mesh::new(t, String::new(), "binary")
+    }
+
+    /// Sites of a lattice of spacing `dx` offset by `off` over [lo, hi)³.
+    fn sites(lo: f64, hi: f64, dx: f64, off: f64) -> Vec<[f64; 3]> {
+        let n = ((hi - lo) / dx).round() as usize;
+        let c = |i: usize| lo + (i as f64 + off) * dx;
+        (0..n * n * n)
+            .map(|k| [c(k % n), c(k / n % n), c(k / (n * n))])
+            .collect()
+    }
+
+    #[test]
+    fn a_box_mesh_holds_exactly_the_sites_of_the_block_min_max_also_on_its_faces() {
+        // faces on lattice lines (off = 0: sites on the faces, edges and corners) and between
+        for off in [0.0, 0.5] {
+            let (lo, hi) = ([0.25, 0.125, 0.375], [0.75, 0.5, 0.625]);
+            let m = mesh(cuboid(lo, hi));
+            for p in sites(0.0, 1.0, 0.0625, off) {
+                let block = (0..3).all(|a| p[a] >= lo[a] && p[a] < hi[a]);
+                assert_eq!(m.contains(&p), block, "site {p:?} (offset {off})");
+            }
+            assert_eq!(m.topology(), None);
+            assert!((m.signed_volume() - 0.5 * 0.375 * 0.25).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn a_turned_box_is_the_box_turned_and_a_quarter_turn_is_exact() {
+        let place = Placement {
+            scale: 2.0,
+            rotate: [90.0, 0.0, 180.0],
+            translate: [1.0, 0.0, 0.0],
+        };
+        // x then z: (x, y, z) -> (x, -z, y) -> (-x, z, y), scaled by 2, moved by +1 in x
+        assert_eq!(place.apply([0.25, 0.5, 0.125]), [0.5, 0.25, 1.0]);
+        let p = Placement {
+            scale: 1.0,
+            rotate: [0.0, 30.0, 0.0],
+            translate: [0.0; 3],
+        };
+        let q = p.apply([1.0, 0.0, 0.0]);
+        let s = 0.5f64;
+        assert!((q[0] - 3f64.sqrt() / 2.0).abs() < 1e-15 && q[1] == 0.0 && (q[2] + s).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_fine_sphere_mesh_differs_from_the_sphere_only_within_half_a_spacing_of_its_surface() {
+        // not r = 15 dx: 240 sites lie at r·√(899/900), inside the sphere by 0.008 dx and
+        // outside any inscribed mesh of this fineness (sagitta 0.008 dx)
+        let (c, r, dx) = ([0.5, 0.5, 0.5], 0.29, 0.02);
+        let m = mesh(sphere(c, r, 48));
+        assert_eq!(m.topology(), None);
+        let exact = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
+        assert!((m.signed_volume() - exact).abs() < 0.01 * exact);
+        let (mut n_mesh, mut n_ball) = (0, 0);
+        for p in sites(0.0, 1.0, dx, 0.5) {
+            let d = ((0..3).map(|a| (p[a] - c[a]).powi(2)).sum::<f64>()).sqrt();
+            let (inm, inb) = (m.contains(&p), d < r);
+            n_mesh += inm as usize;
+            n_ball += inb as usize;
+            if inm != inb {
+                assert!((d - r).abs() < 0.5 * dx, "site {p:?} at {d} from the centre");
+            }
+        }
+        assert!(
+            (n_mesh as f64 - n_ball as f64).abs() < 0.01 * n_ball as f64,
+            "{n_mesh} against {n_ball}"
+        );
+    }
+
+    #[test]
+    fn rays_through_shared_edges_and_vertices_count_one_crossing() {
+        // an octahedron's vertices and edges lie on lattice lines: every column through them
+        let c = [0.5, 0.5, 0.5];
+        let v = |a: usize, s: f64| {
+            let mut p = c;
+            p[a] += s * 0.25;
+            p
+        };
+        let (px, nx, py, ny, pz, nz) = (v(0, 1.), v(0, -1.), v(1, 1.), v(1, -1.), v(2, 1.), v(2, -1.));
+        let oct = vec![
+            [px, py, pz],
+            [py, nx, pz],
+            [nx, ny, pz],
+            [ny, px, pz],
+            [py, px, nz],
+            [nx, py, nz],
+            [ny, nx, nz],
+            [px, ny, nz],
+        ];
+        let m = mesh(oct);
+        assert_eq!(m.topology(), None);
+        assert!(m.signed_volume() > 0.0);
+        // the moved point p + (ε, ε², ε³) is inside the open octahedron |x|₁ < 0.25 or, on its
+        // surface, on the inner side: the perturbation decides, an ulp-free oracle
+        for p in sites(0.0, 1.0, 0.03125, 0.0) {
+            let d: [f64; 3] = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+            let l1 = d.iter().map(|x| x.abs()).sum::<f64>();
+            // on the surface, |d + (ε, ε², ε³)|₁ − |d|₁ starts with ε·(sign dx, or +1 where
+            // dx = 0): inside exactly when dx < 0
+            let oracle = if l1 != 0.25 { l1 < 0.25 } else { d[0] < 0.0 };
+            assert_eq!(m.contains(&p), oracle, "site {p:?}");
+        }
+    }
+
+    #[test]
+    fn holes_and_turned_faces_are_found_and_located() {
+        let mut t = cuboid([0.0; 3], [1.0; 3]);
+        t.remove(3);
+        match mesh(t.clone()).topology() {
+            Some(Defect::Open(n, _, _, _)) => assert_eq!(n, 3),
+            d => panic!("{d:?}"),
+        }
+        let mut t = cuboid([0.0; 3], [1.0; 3]);
+        t[5].swap(0, 1);
+        match mesh(t).topology() {
+            Some(Defect::Misoriented(n, a, b)) => {
+                assert_eq!(n, 3);
+                assert!(a == 6 || b == 6, "{a} {b}");
+            }
+            d => panic!("{d:?}"),
+        }
+    }
+
+    #[test]
+    fn chords_along_z_and_aslant_match_the_box() {
+        let m = mesh(cuboid([0.0; 3], [1.0, 1.0, 2.0]));
+        let close = |a: Option<(f64, f64)>, b: (f64, f64)| {
+            let a = a.unwrap();
+            assert!(
+                (a.0 - b.0).abs() < 1e-12 && (a.1 - b.1).abs() < 1e-12,
+                "{a:?} against {b:?}"
+            );
+        };
+        close(m.chord(&[0.5, 0.5, -1.0], &[0.0, 0.0, 1.0]), (1.0, 3.0));
+        close(m.chord(&[0.5, 0.5, 0.5], &[0.0, 0.0, 1.0]), (0.0, 1.5));
+        close(m.chord(&[0.5, 0.5, 3.0], &[0.0, 0.0, -1.0]), (1.0, 3.0));
+        assert_eq!(m.chord(&[1.5, 0.5, -1.0], &[0.0, 0.0, 1.0]), None);
+        close(m.chord(&[0.2, 0.5, -1.0], &[0.6, 0.0, 0.8]), (1.25, 0.8 / 0.6));
+    }
+
+    #[test]
+    fn bad_files_are_refused_before_allocation_with_the_reason() {
+        let dir = std::env::temp_dir().join(format!("hsph-mesh-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let place = Placement {
+            scale: 1.0,
+            rotate: [0.0; 3],
+            translate: [0.0; 3],
+        };
+        let try_bytes = |name: &str, b: &[u8]| {
+            let p = dir.join(name);
+            std::fs::write(&p, b).unwrap();
+            read(&p, "fluid[0].file", &place)
+                .map(|m| m.triangles())
+                .map_err(|e| e.to_string())
+        };
+        // a header counting 4·10⁹ triangles in a 134-byte file
+        let mut b = vec![0u8; 134];
+        b[80..84].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert!(try_bytes("huge.stl", &b).unwrap_err().contains("truncated"));
+        assert!(try_bytes("short.stl", b"abc").unwrap_err().contains("too short"));
+        // one triangle with a NaN
+        let mut b = vec![0u8; 134];
+        b[80] = 1;
+        b[96..100].copy_from_slice(&f32::NAN.to_le_bytes());
+        assert!(try_bytes("nan.stl", &b).unwrap_err().contains("not finite"));
+        // a binary file whose header starts with `solid` is still binary
+        let mut b = vec![0u8; 134];
+        b[..6].copy_from_slice(b"solid ");
+        b[80] = 1;
+        b[100..104].copy_from_slice(&1f32.to_le_bytes());
+        assert_eq!(try_bytes("solidbin.stl", &b), Ok(1));
+        let ascii = "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n";
+        assert_eq!(try_bytes("a.stl", ascii.as_bytes()), Ok(1));
+        assert!(try_bytes("cut.stl", &ascii.as_bytes()[..60]).is_err());
+        assert!(read(&dir, "fluid[0].file", &place)
+            .unwrap_err()
+            .to_string()
+            .contains("not a regular file"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
