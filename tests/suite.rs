@@ -30,6 +30,7 @@ mod layers;
 mod layout_report;
 mod lean;
 mod lobovsky;
+mod mesh;
 mod method_sites;
 mod multirate;
 mod neighbours;

@@ -193,6 +193,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
             "complete": self.stopped_by.is_none(),
             "stopped_by": self.stopped_by,
             "scene": self.scene.name,
+            // the files the scene builds from beside itself, with their hashes
+            "inputs": { "meshes": crate::scene::mesh_file::mesh_inputs(self.scene) },
             "dimension": D,
             "particles": n,
             "fluid_particles": n_fluid,

@@ -219,12 +219,17 @@ pub(super) fn body_in_domain(f: super::shape::ShapeKeys, k: &str, dom: &Domain) 
     let tol = 1e-9 * disc_scale(dom);
     for a in 0..f.min.len() {
         if f.min[a] < dom.min[a] - tol || f.max[a] > dom.max[a] + tol {
-            if f.shape == BodyShape::Polygon {
+            let placed = match f.shape {
+                BodyShape::Polygon => Some(("vertices", "polygon", "move its vertices")),
+                BodyShape::Mesh => Some(("translate", "mesh", "place it by translate, rotate and scale")),
+                _ => None,
+            };
+            if let Some((key, shape, how)) = placed {
                 return err(
-                    format!("{k}.vertices"),
+                    format!("{k}.{key}"),
                     format!(
-                        "the polygon reaches [{}, {}] on axis {a}, outside the domain [{}, {}]; move \
-                         its vertices or enlarge domain.min/domain.max",
+                        "the {shape} reaches [{}, {}] on axis {a}, outside the domain [{}, {}]; {how} \
+                         or enlarge domain.min/domain.max",
                         f.min[a], f.max[a], dom.min[a], dom.max[a]
                     ),
                 );
@@ -278,37 +283,17 @@ pub(super) fn point_in_domain(p: &[f64], key: &str, dom: &Domain) -> Result<()> 
     )
 }
 
-/// A sphere's or cylinder's box from its centre, radius (and axis and length); a resolved
-/// scene already holds it, any other box is an error; no such keys on a block.
+/// A sphere's or cylinder's box from its centre, radius (and axis and length), a polygon's
+/// from its vertices and a mesh's from its file; a resolved scene already holds it, any other
+/// box is an error; no such keys on a block.
 pub(super) fn sphere_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Result<()> {
     use super::BodyShape;
-    let round = !f.centre.is_empty() || f.radius != 0.0 || f.axis.is_some() || f.length != 0.0;
-    if f.shape != BodyShape::Polygon && !f.vertices.is_empty() {
-        return err(
-            format!("{k}.vertices"),
-            format!(
-                "belongs to `shape = \"polygon\"`; this body is a {}",
-                f.shape.name()
-            ),
-        );
-    }
-    if f.shape == BodyShape::Polygon {
-        if round {
-            return err(
-                format!("{k}.shape"),
-                "`centre`, `radius`, `axis` and `length` belong to `shape = \"sphere\"` or \"cylinder\"; a polygon takes vertices",
-            );
-        }
-        return polygon_box(f, k, d);
-    }
-    if f.shape == BodyShape::Block {
-        if round {
-            return err(
-                format!("{k}.shape"),
-                "`centre`, `radius`, `axis` and `length` belong to `shape = \"sphere\"` or \"cylinder\"; a block takes min and max",
-            );
-        }
-        return Ok(());
+    foreign_keys(&f, k)?;
+    match f.shape {
+        BodyShape::Block => return Ok(()),
+        BodyShape::Polygon => return polygon_box(f, k, d),
+        BodyShape::Mesh => return mesh_box(f, k, d),
+        BodyShape::Sphere | BodyShape::Cylinder => {}
     }
     let shape = if f.shape == BodyShape::Sphere {
         "sphere"
@@ -374,19 +359,89 @@ pub(super) fn sphere_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Re
     }
     let lo: Vec<f64> = (0..d).map(|a| f.centre[a] - half[a]).collect();
     let hi: Vec<f64> = (0..d).map(|a| f.centre[a] + half[a]).collect();
-    if (!f.min.is_empty() && *f.min != lo) || (!f.max.is_empty() && *f.max != hi) {
+    set_box(
+        (lo, hi),
+        (f.min, f.max),
+        k,
+        "of a sphere or cylinder comes from its centre, radius and length",
+    )
+}
+
+/// The keys of another shape on table `k` (of shape `f.shape`): `vertices` off a polygon,
+/// `centre`, `radius`, `axis` or `length` off a sphere or cylinder.
+fn foreign_keys(f: &super::shape::ShapeKeysMut, k: &str) -> Result<()> {
+    use super::BodyShape;
+    let round = !f.centre.is_empty() || f.radius != 0.0 || f.axis.is_some() || f.length != 0.0;
+    if f.shape != BodyShape::Polygon && !f.vertices.is_empty() {
         return err(
-            format!("{k}.min"),
-            "the box of a sphere or cylinder comes from its centre, radius and length: leave out min and max",
+            format!("{k}.vertices"),
+            format!(
+                "belongs to `shape = \"polygon\"`; this body is a {}",
+                f.shape.name()
+            ),
         );
     }
-    (*f.min, *f.max) = (lo, hi);
+    let takes = match f.shape {
+        BodyShape::Block => "min and max",
+        BodyShape::Polygon => "vertices",
+        BodyShape::Mesh => "file, scale, rotate and translate",
+        BodyShape::Sphere | BodyShape::Cylinder => return Ok(()),
+    };
+    if round {
+        return err(
+            format!("{k}.shape"),
+            format!(
+                "`centre`, `radius`, `axis` and `length` belong to `shape = \"sphere\"` or \"cylinder\"; a {} takes {takes}",
+                f.shape.name()
+            ),
+        );
+    }
+    Ok(())
+}
+
+/// Set the box `(min, max)` of table `k` to `(lo, hi)`, the box its shape gives (`from` says
+/// how, for the message); a resolved scene already holds that box, any other is an error.
+fn set_box(
+    (lo, hi): (Vec<f64>, Vec<f64>),
+    (min, max): (&mut Vec<f64>, &mut Vec<f64>),
+    k: &str,
+    from: &str,
+) -> Result<()> {
+    if (!min.is_empty() && *min != lo) || (!max.is_empty() && *max != hi) {
+        return err(
+            format!("{k}.min"),
+            format!("the box {from}: leave out min and max"),
+        );
+    }
+    (*min, *max) = (lo, hi);
     Ok(())
 }
 
 /// A polygon's box from its vertices.
 fn polygon_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Result<()> {
     resolve_outline_box(f.vertices, (f.min, f.max), k, d)
+}
+
+/// A mesh's box from its placed triangles (a 3D scene only).
+fn mesh_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Result<()> {
+    if d != 3 {
+        return err(
+            format!("{k}.shape"),
+            "a mesh needs a 3D scene; in 2D an outline is `shape = \"polygon\"`",
+        );
+    }
+    let Some(m) = f.mesh else {
+        return err(
+            format!("{k}.file"),
+            "a mesh needs `file = \"…\"`, a binary or ASCII STL file relative to the scene file; e.g. file = \"hull.stl\"",
+        );
+    };
+    set_box(
+        (m.lo.to_vec(), m.hi.to_vec()),
+        (f.min, f.max),
+        k,
+        "of a mesh comes from its file and placement",
+    )
 }
 
 /// Set `min` and `max` of table `k` to the box of its outline through `vertices` (checked by
@@ -397,15 +452,8 @@ pub(super) fn resolve_outline_box(
     k: &str,
     d: usize,
 ) -> Result<()> {
-    let (lo, hi) = outline_box(vertices, k, d)?;
-    if (!min.is_empty() && *min != lo) || (!max.is_empty() && *max != hi) {
-        return err(
-            format!("{k}.min"),
-            "the box of a polygon comes from its vertices: leave out min and max",
-        );
-    }
-    (*min, *max) = (lo, hi);
-    Ok(())
+    let bounds = outline_box(vertices, k, d)?;
+    set_box(bounds, (min, max), k, "of a polygon comes from its vertices")
 }
 
 /// The box of the outline through `vertices` of table `k`, checked: a 2D scene, at least three

@@ -193,7 +193,7 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
             && match f.shape {
                 super::BodyShape::Block => true,
                 // no site is known to be inside if any is: the box's, until one is
-                super::BodyShape::Polygon => {
+                super::BodyShape::Polygon | super::BodyShape::Mesh => {
                     let mut any = false;
                     lat.for_each_in(&f.min, &f.max, |_, _, x| any = any || f.contains(x.as_slice()));
                     any
@@ -535,7 +535,42 @@ pub fn extent_lines<const D: usize>(s: &Scene) -> Vec<String> {
         })
         .collect();
     lines.extend(polygon_lines::<D>(s));
+    lines.extend(mesh_lines::<D>(s));
     lines
+}
+
+/// `hsph check`'s line for each mesh body: its file's triangles, format and hash, the placed
+/// box, the signed volume (positive: normals outward), the sites built with their volume's
+/// difference from the mesh's, and the memory the mesh and its index take on every rank.
+fn mesh_lines<const D: usize>(s: &Scene) -> Vec<String> {
+    let lat = Lattice::<D>::new(s);
+    let bodies = (s.fluids.iter().enumerate())
+        .map(|(i, f)| (format!("fluid[{i}]"), f))
+        .chain((s.solids.iter().enumerate()).map(|(i, f)| (format!("solid[{i}]"), f)));
+    bodies
+        .filter_map(|(key, f)| Some((key, f, f.mesh.as_ref()?)))
+        .map(|(key, f, m)| {
+            let vol = m.signed_volume();
+            let mut n = 0u64;
+            lat.for_each_in(&f.min, &f.max, |_, _, x| n += f.contains(x.as_slice()) as u64);
+            let built = n as f64 * lat.dx.powi(D as i32);
+            format!(
+                "{key} `{}`: mesh of {} triangles ({} STL, SHA-256 {}…), box {:?} .. {:?} m, volume \
+                 {:.4e} m³ (normals {}), built {n} sites, volume {:+.2} %; the mesh takes {:.1} MiB \
+                 per rank",
+                f.name,
+                m.triangles(),
+                m.format,
+                &m.sha256[..12.min(m.sha256.len())],
+                f.min,
+                f.max,
+                vol.abs(),
+                if vol > 0.0 { "outward" } else { "inward" },
+                100.0 * (built / vol.abs() - 1.0),
+                m.bytes() as f64 / (1u64 << 20) as f64
+            )
+        })
+        .collect()
 }
 
 /// `hsph check`'s line for each polygon body: vertices and their orientation, box, area, and
@@ -846,6 +881,7 @@ fn sphere_warnings<const D: usize>(s: &Scene) -> Vec<String> {
         let pi = std::f64::consts::PI;
         let exact = match (f.shape, D) {
             (super::BodyShape::Polygon, _) => super::polygon::signed_area(&f.vertices).abs(),
+            (super::BodyShape::Mesh, _) => f.mesh.as_ref().map_or(0.0, |m| m.signed_volume().abs()),
             (super::BodyShape::Cylinder, _) => pi * f.radius.powi(2) * f.length,
             (_, 2) => pi * f.radius.powi(2),
             _ => 4.0 / 3.0 * pi * f.radius.powi(3),
@@ -854,6 +890,7 @@ fn sphere_warnings<const D: usize>(s: &Scene) -> Vec<String> {
         if rel.abs() > 0.01 {
             let what = match f.shape {
                 super::BodyShape::Polygon => format!("a polygon of area {exact:.4e} m²"),
+                super::BodyShape::Mesh => format!("a mesh of volume {exact:.4e} m³"),
                 shape => format!(
                     "a {} of radius {} m, {:.1} spacings across",
                     shape.name(),

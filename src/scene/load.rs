@@ -194,6 +194,7 @@ pub fn load_scene_str(
         scene.name = default_name.to_string();
     }
     super::outline_file::read_outlines(&mut scene, file).map_err(|e| src.locate(e))?;
+    super::mesh_file::read_meshes(&mut scene, file).map_err(|e| src.locate(e))?;
     // duplicate body names, the later in the file named (validation alone knows only kinds)
     super::validate::check_body_names(&scene, Some(&body_positions(&src.text))).map_err(|e| src.locate(e))?;
     super::validate(&mut scene).map_err(|e| src.locate(e))?;

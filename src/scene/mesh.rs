@@ -210,10 +210,11 @@ impl Mesh {
             .map(|t| {
                 t.map(|v| {
                     let n = ids.len() as u32;
-                    *ids.entry(v.map(f64::to_bits)).or_insert(n)
+                    *ids.entry(v.map(|c| (c + 0.0).to_bits())).or_insert(n)
                 })
             })
             .collect();
+        // (+ 0.0 above: −0 and +0 are one corner)
         // per undirected edge: uses, and the balance of its two directions
         let mut edges: HashMap<(u32, u32), (u32, i32)> = HashMap::with_capacity(3 * self.tri.len() / 2 + 3);
         for c in &corners {

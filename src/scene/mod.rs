@@ -12,6 +12,7 @@ pub mod lattice;
 mod load;
 mod materials;
 pub mod mesh;
+pub mod mesh_file;
 mod models;
 mod outline_file;
 pub mod polygon;
@@ -793,8 +794,13 @@ impl FluidBody {
             BodyShape::Cylinder => a != self.axis.unwrap_or(2),
             _ => true,
         };
-        if self.shape == BodyShape::Polygon {
-            return polygon::chord(&self.vertices, x, u)
+        let outlined = match (self.shape, &self.mesh) {
+            (BodyShape::Polygon, _) => Some(polygon::chord(&self.vertices, x, u)),
+            (BodyShape::Mesh, Some(m)) => Some(m.chord(x, u)),
+            _ => None,
+        };
+        if let Some(c) = outlined {
+            return c
                 .map(|(p0, p1)| (p0.max(s0), p1.min(s1)))
                 .filter(|(p0, p1)| p1 > p0);
         }

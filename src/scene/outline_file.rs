@@ -32,6 +32,9 @@ pub(super) fn read_outlines(s: &mut Scene, scene_file: &Path) -> Result<()> {
     });
     let tables = tables.chain(walls);
     for (k, shape, file, vertices) in tables {
+        if shape == super::BodyShape::Mesh {
+            continue; // a mesh's file is read by `mesh_file`
+        }
         let Some(name) = file.take() else {
             continue;
         };

@@ -198,7 +198,8 @@ impl Refine {
         };
         let to_box = (0..d).map(face).fold(f64::INFINITY, f64::min);
         match self.shape {
-            BodyShape::Block => to_box,
+            // a mesh region is refused when the scene is loaded (`mesh_file`): its box stands in
+            BodyShape::Block | BodyShape::Mesh => to_box,
             BodyShape::Sphere => {
                 let r2: f64 = (0..d).map(|a| (x[a] - self.centre[a]).powi(2)).sum();
                 self.radius - r2.sqrt()
@@ -236,7 +237,7 @@ impl Refine {
         };
         let pos = |v: f64| v.max(0.0);
         match self.shape {
-            BodyShape::Block => (0..d)
+            BodyShape::Block | BodyShape::Mesh => (0..d)
                 .map(|a| {
                     let c = 0.5 * (self.min[a] + self.max[a]);
                     let half = 0.5 * (self.max[a] - self.min[a]);

@@ -20,6 +20,9 @@ pub enum BodyShape {
     /// A closed polygon (2D): the sites inside the outline through `vertices`
     /// ([`crate::scene::polygon`]).
     Polygon,
+    /// A closed triangle mesh (3D) from an STL file: the sites inside its surface
+    /// ([`crate::scene::mesh`]).
+    Mesh,
 }
 
 impl BodyShape {
@@ -30,6 +33,7 @@ impl BodyShape {
             BodyShape::Sphere => "sphere",
             BodyShape::Cylinder => "cylinder",
             BodyShape::Polygon => "polygon",
+            BodyShape::Mesh => "mesh",
         }
     }
 }
@@ -53,6 +57,8 @@ pub struct ShapeKeys<'a> {
     pub length: f64,
     /// `vertices` (m), each `[x, y]`.
     pub vertices: &'a [Vec<f64>],
+    /// The mesh read from `file` (a mesh's, once loaded).
+    pub mesh: Option<&'a crate::scene::mesh::Mesh>,
 }
 
 /// A table's shape keys, the ones a check may resolve borrowed mutably.
@@ -74,6 +80,8 @@ pub struct ShapeKeysMut<'a> {
     pub length: f64,
     /// `vertices` (m), each `[x, y]`.
     pub vertices: &'a [Vec<f64>],
+    /// The mesh read from `file` (a mesh's, once loaded).
+    pub mesh: Option<&'a crate::scene::mesh::Mesh>,
 }
 
 impl ShapeKeys<'_> {
@@ -95,6 +103,7 @@ impl ShapeKeys<'_> {
                 r2 < self.radius * self.radius
             }
             BodyShape::Polygon => crate::scene::polygon::contains(self.vertices, x[0], x[1]),
+            BodyShape::Mesh => self.mesh.is_some_and(|m| m.contains(x)),
         }
     }
 
@@ -123,8 +132,9 @@ macro_rules! shaped_table {
             /// Shape: `block` (every site in [min, max); a plate is a thin block), `sphere` (a
             /// disc in 2D: every site closer than `radius` to `centre`), `cylinder` (3D: every
             /// site closer than `radius` to the axis through `centre` along `axis`, within
-            /// `length`/2 of `centre`) or `polygon` (2D: every site inside the closed outline
-            /// through `vertices`).
+            /// `length`/2 of `centre`), `polygon` (2D: every site inside the closed outline
+            /// through `vertices`) or `mesh` (3D: every site inside the closed STL surface in
+            /// `file`, placed by `scale`, `rotate` and `translate`).
             #[serde(default)]
             pub shape: $crate::scene::BodyShape,
             /// Lower corner (m); for a sphere or cylinder, set from centre and radius.
@@ -150,9 +160,29 @@ macro_rules! shaped_table {
             #[serde(default, skip_serializing_if = "Vec::is_empty")]
             pub vertices: Vec<Vec<f64>>,
             /// A polygon's vertices from a text file instead, `x y` (m) per row, relative to
-            /// the scene file; read into `vertices` when the scene is loaded.
+            /// the scene file; read into `vertices` when the scene is loaded. A mesh's STL
+            /// file (binary or ASCII), relative to the scene file; a resolved scene holds its
+            /// absolute path.
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub file: Option<String>,
+            /// A mesh's scale from the file's unit to metres, applied first (0.001 for a CAD
+            /// file in mm); default 1.
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub scale: Option<f64>,
+            /// A mesh's rotations about x, y and z (degrees, right-handed), applied in that
+            /// order after the scale; default none.
+            #[serde(default, skip_serializing_if = "Vec::is_empty")]
+            pub rotate: Vec<f64>,
+            /// A mesh's translation (m), applied last; default none.
+            #[serde(default, skip_serializing_if = "Vec::is_empty")]
+            pub translate: Vec<f64>,
+            /// SHA-256 of a mesh's file, set when the scene is loaded; a resolved scene's (a
+            /// run directory's, a restart's) must match the file, which must not change.
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub sha256: Option<String>,
+            /// The mesh read from `file`, placed (not a key).
+            #[serde(skip)]
+            pub mesh: Option<std::sync::Arc<$crate::scene::mesh::Mesh>>,
             $( $(#[$tm])* pub $tf: $tt, )*
         }
 
@@ -168,6 +198,20 @@ macro_rules! shaped_table {
                     axis: self.axis,
                     length: self.length,
                     vertices: &self.vertices,
+                    mesh: self.mesh.as_deref(),
+                }
+            }
+
+            /// The mesh keys, for the loader that reads the file.
+            pub fn mesh_keys_mut(&mut self) -> $crate::scene::mesh_file::MeshKeys<'_> {
+                $crate::scene::mesh_file::MeshKeys {
+                    shape: self.shape,
+                    file: &mut self.file,
+                    scale: self.scale,
+                    rotate: &self.rotate,
+                    translate: &self.translate,
+                    sha256: &mut self.sha256,
+                    mesh: &mut self.mesh,
                 }
             }
 
@@ -182,6 +226,7 @@ macro_rules! shaped_table {
                     axis: &mut self.axis,
                     length: self.length,
                     vertices: &self.vertices,
+                    mesh: self.mesh.as_deref(),
                 }
             }
         }

@@ -1,0 +1,167 @@
+//! Mesh files (`shape = "mesh"` with `file = "…"` on a `[[fluid]]` or `[[solid]]`): read when
+//! the scene is loaded, placed, checked for closure, and kept beside the table. The table's
+//! `file` becomes the absolute path and `sha256` the file's hash, so a resolved scene (a run
+//! directory's, a restart's) finds the same file and refuses it if it has changed.
+
+use super::mesh::{self, Mesh, Placement};
+use super::{BodyShape, Scene};
+use crate::error::{Error, Result};
+use crate::limits::file_error;
+use std::path::Path;
+use std::sync::Arc;
+
+/// A table's mesh keys, borrowed for the loader.
+pub struct MeshKeys<'a> {
+    /// `shape`.
+    pub shape: BodyShape,
+    /// `file`, relative to the scene file (absolute once loaded).
+    pub file: &'a mut Option<String>,
+    /// `scale`.
+    pub scale: Option<f64>,
+    /// `rotate` (degrees).
+    pub rotate: &'a [f64],
+    /// `translate` (m).
+    pub translate: &'a [f64],
+    /// `sha256`: set when loaded; given, it must match.
+    pub sha256: &'a mut Option<String>,
+    /// The mesh, once read.
+    pub mesh: &'a mut Option<Arc<Mesh>>,
+}
+
+/// Read the mesh of every fluid and solid body of shape `mesh`, the path taken relative to the
+/// directory of `scene_file`. Placement keys on another shape, and meshes on refinement regions
+/// (not supported yet), are input errors.
+pub(super) fn read_meshes(s: &mut Scene, scene_file: &Path) -> Result<()> {
+    let dir = scene_file.parent().unwrap_or(Path::new(""));
+    let bodies = (s.fluids.iter_mut().enumerate())
+        .map(|(i, f)| (format!("fluid[{i}]"), f.mesh_keys_mut()))
+        .chain((s.solids.iter_mut().enumerate()).map(|(i, f)| (format!("solid[{i}]"), f.mesh_keys_mut())));
+    for (k, m) in bodies {
+        load(&k, m, dir)?;
+    }
+    for (i, r) in s.refine.iter_mut().enumerate() {
+        let k = format!("refine[{i}]");
+        if r.shape == BodyShape::Mesh {
+            return Err(Error::input(
+                format!("{k}.shape"),
+                "a refinement region cannot be a mesh yet; give a block, sphere or cylinder around \
+                 the mesh body, or name the body in `bodies`",
+            ));
+        }
+        load(&k, r.mesh_keys_mut(), dir)?;
+    }
+    Ok(())
+}
+
+/// Read, place and check the mesh of table `k`, or refuse a mesh's keys on another shape.
+fn load(k: &str, m: MeshKeys, dir: &Path) -> Result<()> {
+    let given = [
+        ("scale", m.scale.is_some()),
+        ("rotate", !m.rotate.is_empty()),
+        ("translate", !m.translate.is_empty()),
+        ("sha256", m.sha256.is_some()),
+    ];
+    if m.shape != BodyShape::Mesh {
+        if let Some((key, _)) = given.iter().find(|(_, g)| *g) {
+            return Err(Error::input(
+                format!("{k}.{key}"),
+                format!("belongs to `shape = \"mesh\"`; this body is a {}", m.shape.name()),
+            ));
+        }
+        return Ok(());
+    }
+    let place = placement(k, &m)?;
+    let key = format!("{k}.file");
+    let Some(name) = m.file.clone() else {
+        return Err(Error::input(
+            key,
+            "a mesh needs `file = \"…\"`, a binary or ASCII STL file relative to the scene file; \
+             e.g. file = \"hull.stl\"",
+        ));
+    };
+    let path = dir.join(&name);
+    let read = mesh::read(&path, &key, &place)?;
+    if let Some(h) = m.sha256.as_deref() {
+        if h != read.sha256 {
+            return Err(file_error(
+                &path,
+                &format!("{k}.sha256"),
+                None,
+                format!(
+                    "has changed since the scene was resolved (SHA-256 {h}, now {}): a run and its \
+                     restarts build from one mesh; restore the file, or start a new run from the \
+                     original scene",
+                    read.sha256
+                ),
+            ));
+        }
+    }
+    if let Some(defect) = read.topology() {
+        return Err(file_error(&path, &key, None, defect.message()));
+    }
+    let abs = std::fs::canonicalize(&path).unwrap_or(path);
+    *m.file = Some(abs.to_string_lossy().into_owned());
+    *m.sha256 = Some(read.sha256.clone());
+    *m.mesh = Some(Arc::new(read));
+    Ok(())
+}
+
+/// The placement keys of mesh `k`, checked: `scale` finite and positive, `rotate` and
+/// `translate` three finite numbers each.
+fn placement(k: &str, m: &MeshKeys) -> Result<Placement> {
+    let scale = m.scale.unwrap_or(1.0);
+    if !(scale > 0.0 && scale.is_finite()) {
+        return Err(Error::input(
+            format!("{k}.scale"),
+            format!("must be a positive factor from the file's unit to metres, got {scale}; e.g. scale = 0.001 for a file in mm"),
+        ));
+    }
+    let three = |key: &str, v: &[f64], example: &str| -> Result<[f64; 3]> {
+        if v.is_empty() {
+            return Ok([0.0; 3]);
+        }
+        match <[f64; 3]>::try_from(v) {
+            Ok(a) if a.iter().all(|x| x.is_finite()) => Ok(a),
+            _ => Err(Error::input(
+                format!("{k}.{key}"),
+                format!("must be three finite numbers, got {v:?}; e.g. {key} = {example}"),
+            )),
+        }
+    };
+    Ok(Placement {
+        scale,
+        rotate: three("rotate", m.rotate, "[0.0, 0.0, 90.0] (degrees about x, y, z)")?,
+        translate: three("translate", m.translate, "[0.5, 0.0, 0.1] (m)")?,
+    })
+}
+
+/// One mesh a scene builds from, for provenance (`summary.json`'s `inputs.meshes`).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct MeshInput {
+    /// The table, e.g. `fluid[0]`.
+    pub key: String,
+    /// The file's absolute path.
+    pub file: String,
+    /// SHA-256 of the file's bytes, hex.
+    pub sha256: String,
+    /// Triangles in the file.
+    pub triangles: usize,
+}
+
+/// The meshes of the scene's bodies, in table order.
+pub fn mesh_inputs(s: &Scene) -> Vec<MeshInput> {
+    let bodies = (s.fluids.iter().enumerate())
+        .map(|(i, f)| (format!("fluid[{i}]"), f))
+        .chain((s.solids.iter().enumerate()).map(|(i, f)| (format!("solid[{i}]"), f)));
+    bodies
+        .filter_map(|(key, f)| {
+            let m = f.mesh.as_ref()?;
+            Some(MeshInput {
+                key,
+                file: f.file.clone().unwrap_or_default(),
+                sha256: m.sha256.clone(),
+                triangles: m.triangles(),
+            })
+        })
+        .collect()
+}
