@@ -503,6 +503,7 @@ fn inside_fluid_region<const D: usize>(sim: &View<D>, i: usize) -> bool {
             }),
             WallShape::Block => !(0..D).all(|a| x[a] >= w.min[a] && x[a] <= w.max[a]),
             WallShape::Polygon => !crate::scene::polygon::contains(&w.vertices, x[0], x[1]),
+            WallShape::Mesh => !w.mesh.as_ref().is_some_and(|m| m.contains(x.as_slice())),
         }
     })
 }

@@ -141,7 +141,7 @@ enum Claim<const D: usize> {
         rho0: f64,
         v: Vector<D>,
         inner: Option<Vec<(u64, u64)>>,
-        outline: Option<(Vec<Vec<f64>>, f64)>,
+        outline: Option<crate::scene::lattice::Shell>,
     },
 }
 
@@ -335,7 +335,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
             let (min, max, inner) = match w.shape {
                 // a dummy block is its shell: its core reaches no fluid
                 WallShape::Block => (w.min.clone(), w.max.clone(), block_core(s, w, &lat)),
-                WallShape::Polygon => (w.min.clone(), w.max.clone(), None),
+                WallShape::Polygon | WallShape::Mesh => (w.min.clone(), w.max.clone(), None),
                 WallShape::Container => {
                     let (lo, hi) = container_outer(s, w);
                     let inner = (0..D).map(|a| lat.range(a, w.min[a], w.max[a])).collect();
@@ -353,7 +353,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                     rho0: materials[mat as usize].rho0(),
                     v: Vector::<D>::from_fn(|a, _| w.velocity[a]),
                     inner,
-                    outline: crate::scene::lattice::wall_outline(s, w),
+                    outline: crate::scene::lattice::wall_shell(s, w),
                 },
             });
         }
@@ -429,11 +429,7 @@ impl<'s, const D: usize> SiteSource<'s, D> {
                 // only dummy walls are refined (a repulsive wall's force has the range dx), and
                 // not polygons (a region that would is refused)
                 let refined = !self.fine.is_empty() && src.kind == Kind::Dummy && outline.is_none();
-                let in_outline = |x: &[f64]| {
-                    outline
-                        .as_ref()
-                        .is_none_or(|(v, depth)| crate::scene::lattice::claims_outline(v, *depth, x))
-                };
+                let in_outline = |x: &[f64]| outline.as_ref().is_none_or(|shell| shell.claims(x));
                 let name = &self.scene.walls[src.index as usize].name;
                 let outer: Vec<(u64, u64)> = (0..D)
                     .map(|a| self.lat.range(a, src.min[a], src.max[a]))

@@ -515,7 +515,7 @@ fn a_polygon_wall_refuses_what_needs_a_box() {
             "no_slip = \"morris\"",
             "wall[1].no_slip",
             "no_slip = \"morris\"",
-            "a polygon wall takes no_slip",
+            "a polygon or mesh wall takes no_slip",
         ),
         (
             "min = [0.31, 0.0]",

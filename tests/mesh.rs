@@ -562,3 +562,174 @@ fn random_meshes_are_refused_or_built_never_a_panic() {
         }
     }
 }
+
+/// A 3D tank (inner box [0, 0.6] × [0, 0.2] × [0, 0.4], dummy walls, open top) with a water
+/// column [0, 0.2) × [0, 0.2) × [0, 0.3) and a second wall `OBSTACLE` (its shape keys).
+fn tank(obstacle: &str) -> String {
+    format!(
+        r#"name = "mesh_tank"
+dimension = 3
+[domain]
+min = [-0.07, -0.07, -0.07]
+max = [0.67, 0.27, 0.55]
+[discretisation]
+dx = 0.02
+h_over_dx = 1.3
+[[material]]
+name = "water"
+rho0 = 1000.0
+c0 = 25.0
+eos = "tait"
+gamma = 7.0
+[physics]
+density_diffusion = "antuono"
+delta = 0.1
+artificial_viscosity = 0.02
+body_force = [0.0, 0.0, -9.81]
+[[fluid]]
+name = "column"
+material = "water"
+min = [0.0, 0.0, 0.0]
+max = [0.2, 0.2, 0.3]
+hydrostatic = true
+[[wall]]
+name = "tank"
+shape = "container"
+min = [0.0, 0.0, 0.0]
+max = [0.6, 0.2, 0.4]
+open = ["z+"]
+method = "dummy"
+[[wall]]
+name = "obstacle"
+method = "dummy"
+{obstacle}
+[time]
+t_end = 0.25
+cfl = 0.2
+[output]
+interval = 1.0
+format = "none"
+"#
+    )
+}
+
+/// Run the scene `text` (written to DIR/NAME.toml) on `ranks` ranks; its `final.csv`.
+fn run_tank(dir: &Path, name: &str, text: &str, ranks: &str) -> String {
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, text).unwrap();
+    let out = dir.join(format!("{name}-{ranks}"));
+    let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
+        .args([
+            "run",
+            path.to_str().unwrap(),
+            "-q",
+            "--threads",
+            "1",
+            "--ranks",
+            ranks,
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::read_to_string(out.join("final.csv")).unwrap()
+}
+
+/// A block on the tank's floor as a mesh wall builds the block wall's particles (its shell
+/// rows included) bit for bit, and the surge against it runs to the same bits (t = 0.25 s).
+#[test]
+fn a_box_as_a_mesh_wall_builds_the_block_wall_bit_for_bit() {
+    let dir = temp_dir("mesh-wall-box");
+    // faces between the sites (at −0.06 + 0.02 k) but the floor's, z = 0, all exact in f32:
+    // the bounce reflects across the face's own coordinate
+    stl(
+        &dir,
+        "step.stl",
+        &[
+            "box", "--min", "0.375", "0.0625", "0", "--max", "0.46875", "0.15625", "0.109375",
+        ],
+    );
+    let block = tank("shape = \"block\"\nmin = [0.375, 0.0625, 0.0]\nmax = [0.46875, 0.15625, 0.109375]");
+    let meshed = tank("shape = \"mesh\"\nfile = \"step.stl\"");
+    let build = |text: &str| {
+        let path = dir.join("b.toml");
+        std::fs::write(&path, text).unwrap();
+        let s = load_scene(&path, &[]).unwrap().0;
+        let p = build_particles::<3>(&s).unwrap();
+        (0..p.n_owned)
+            .map(|i| [p.x[i][0], p.x[i][1], p.x[i][2], p.rho[i], p.mass[i]].map(f64::to_bits))
+            .collect::<Vec<_>>()
+    };
+    let want = build(&block);
+    assert!(build(&meshed) == want);
+    assert!(run_tank(&dir, "block", &block, "1") == run_tank(&dir, "meshed", &meshed, "1"));
+}
+
+/// A sphere of 24 bands hung in the surge's path as a mesh wall: no fluid particle ends
+/// inside it, fluid reaches it, and the run gives the same bits on 1 and 3 ranks.
+#[test]
+fn a_surge_past_a_mesh_sphere_stays_out_of_it_on_any_layout() {
+    let dir = temp_dir("mesh-wall-ball");
+    let (c, r) = ([0.4, 0.1, 0.09], 0.07);
+    stl(
+        &dir,
+        "ball.stl",
+        &[
+            "sphere", "--centre", "0.4", "0.1", "0.09", "--radius", "0.07", "--bands", "24",
+        ],
+    );
+    let text = tank("shape = \"mesh\"\nfile = \"ball.stl\"");
+    let one = run_tank(&dir, "ball", &text, "1");
+    assert_eq!(one, run_tank(&dir, "ball", &text, "3"), "1 and 3 ranks differ");
+    let mut near = 0;
+    for row in one.lines().skip(1) {
+        let f: Vec<&str> = row.split(',').collect();
+        if f[1] != "0" {
+            continue;
+        }
+        let x: Vec<f64> = (3..6).map(|k| f[k].parse().unwrap()).collect();
+        let d = ((0..3).map(|a| (x[a] - c[a]).powi(2)).sum::<f64>()).sqrt();
+        // the facets lie inside the sphere by up to r (1 − cos(π/24)) = 6e-4 m
+        assert!(
+            d > r - 1e-3,
+            "fluid at {x:?}, {d} m from the centre, inside the ball"
+        );
+        near += (d < r + 0.03) as usize;
+    }
+    assert!(near > 20, "{near} fluid particles came near the ball");
+}
+
+/// A mesh wall refuses what needs a box (mirror images, open faces, Morris's distances) and a
+/// refinement region over it, each as a located input error.
+#[test]
+fn a_mesh_wall_refuses_what_needs_a_box() {
+    let dir = temp_dir("mesh-wall-bad");
+    stl(
+        &dir,
+        "step.stl",
+        &[
+            "box", "--min", "0.35", "0.05", "0", "--max", "0.45", "0.15", "0.11",
+        ],
+    );
+    let path = dir.join("scene.toml");
+    let mesh = "shape = \"mesh\"\nfile = \"step.stl\"";
+    let region = "[[refine]]\nmin = [0.3, 0.0, 0.0]\nmax = [0.5, 0.2, 0.2]\nlevel = 1\n";
+    for (text, key, needle) in [
+        (tank(mesh).replace("name = \"obstacle\"\nmethod = \"dummy\"", "name = \"obstacle\"\nmethod = \"mirror\""), "wall[1].method", "mirror walls"),
+        (tank(&format!("{mesh}\nopen = [\"x-\"]")), "wall[1].open", "only a container"),
+        (tank(&format!("{mesh}\nno_slip = \"morris\"")), "wall[1].no_slip", "polygon or mesh wall"),
+        (tank(&format!("{mesh}\nscale = 0.0")), "wall[1].scale", "positive factor"),
+        (tank("min = [0.35, 0.05, 0.0]\nmax = [0.45, 0.15, 0.11]\nshape = \"block\"\nrotate = [0.0, 0.0, 1.0]"), "wall[1].rotate", "belongs to `shape = \"mesh\"`"),
+        (format!("{}{region}", tank(mesh)), "refine[0].bodies", "polygon and mesh walls are built"),
+    ] {
+        std::fs::write(&path, &text).unwrap();
+        let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
+            .args(["check", path.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{key}: {err}");
+        assert!(err.contains(&format!("key `{key}`")) && err.contains(needle), "{key}: {err}");
+    }
+}

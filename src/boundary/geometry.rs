@@ -27,6 +27,8 @@ pub struct WallSurface<const D: usize> {
     span: [bool; D],
     /// A polygon wall's outline (2D), its vertices counter-clockwise (m); `None` for a box.
     outline: Option<Vec<[f64; 2]>>,
+    /// A mesh wall's surface (3D); `None` for a box.
+    mesh: Option<std::sync::Arc<crate::scene::mesh::Mesh>>,
 }
 
 /// Where a moving wall is during one drift: its displacement from rest before and after it,
@@ -62,12 +64,14 @@ impl<const D: usize> WallSurface<D> {
             }
             v
         });
+        let mesh = (w.shape == WallShape::Mesh).then(|| w.mesh.clone()).flatten();
         WallSurface {
             lo,
             hi,
             container,
             span: [false; D],
             outline,
+            mesh,
         }
     }
 
@@ -76,7 +80,7 @@ impl<const D: usize> WallSurface<D> {
     /// it is wrapped, still meets the face.
     pub fn spanning(mut self, min: &[f64], max: &[f64]) -> Self {
         // an outline's edges end at its vertices, whatever its box spans
-        let boxed = self.outline.is_none();
+        let boxed = self.outline.is_none() && self.mesh.is_none();
         self.span = std::array::from_fn(|a| boxed && self.lo[a] <= min[a] && self.hi[a] >= max[a]);
         self
     }
@@ -95,6 +99,13 @@ impl<const D: usize> WallSurface<D> {
         let (o, mut n) = (old - m.from, *x - m.to);
         if let Some(outline) = &self.outline {
             let bounced = bounce_outline(outline, (&o, &mut n), v, m);
+            if bounced {
+                *x = n + m.to;
+            }
+            return bounced;
+        }
+        if let Some(mesh) = &self.mesh {
+            let bounced = bounce_mesh(mesh, (&o, &mut n), v, m);
             if bounced {
                 *x = n + m.to;
             }
@@ -153,7 +164,7 @@ impl<const D: usize> WallSurface<D> {
     /// container has no closed face.
     pub fn depths(&self, xf: &Vector<D>, xw: &Vector<D>, shift: &Vector<D>) -> Option<(f64, f64)> {
         // Morris's condition is refused on polygon walls (`scene/walls.rs`)
-        self.outline.is_none().then_some(())?;
+        (self.outline.is_none() && self.mesh.is_none()).then_some(())?;
         let (lo, hi) = (self.lo + shift, self.hi + shift);
         match &self.container {
             None => {
@@ -218,6 +229,39 @@ fn bounce_outline<const D: usize>(
     };
     let vn = (v[0] - m.u[0]) * nrm[0] + (v[1] - m.u[1]) * nrm[1];
     for a in 0..2 {
+        n[a] -= 2.0 * d_n * nrm[a];
+        v[a] -= 2.0 * vn * nrm[a];
+    }
+    true
+}
+
+/// [`WallSurface::bounce`] at a closed mesh: the first triangle the path `o` → `n` (the
+/// wall's frame) crosses from outside to inside reflects n across the triangle's plane and
+/// the velocity's normal part about the wall's, v ← v − 2((v − u)·n̂) n̂, n̂ the outward unit
+/// normal. A face normal to an axis reflects as a block's face does (n ← 2f − n, v ← 2u − v
+/// along it), so a box given as a mesh bounces to the block's bits. Returns true if it
+/// bounced.
+fn bounce_mesh<const D: usize>(
+    mesh: &crate::scene::mesh::Mesh,
+    (o, n): (&Vector<D>, &mut Vector<D>),
+    v: &mut Vector<D>,
+    m: &WallMove<D>,
+) -> bool {
+    let Some((plane, nrm)) = mesh.crossing(o.as_slice(), n.as_slice()) else {
+        return false;
+    };
+    if let Some(a) = (0..D).find(|&a| nrm[a].abs() == 1.0) {
+        // the face's coordinate f: plane = ±f, exact
+        n[a] = 2.0 * (nrm[a] * plane) - n[a];
+        v[a] = 2.0 * m.u[a] - v[a];
+        return true;
+    }
+    let (mut d_n, mut vn) = (-plane, 0.0);
+    for a in 0..D {
+        d_n += n[a] * nrm[a];
+        vn += (v[a] - m.u[a]) * nrm[a];
+    }
+    for a in 0..D {
         n[a] -= 2.0 * d_n * nrm[a];
         v[a] -= 2.0 * vn * nrm[a];
     }

@@ -222,12 +222,15 @@ fn wall_lines(scene: &Scene) -> Vec<String> {
                 (crate::scene::WallShape::Container, false) => {
                     format!("{} layer(s) outside", w.built_layers(support, dx))
                 }
-                (crate::scene::WallShape::Block | crate::scene::WallShape::Polygon, false) => {
-                    match w.shell_rows(support, dx) {
-                        Some(r) => format!("a shell {r} row(s) deep"),
-                        None => "solid".to_string(),
-                    }
-                }
+                (
+                    crate::scene::WallShape::Block
+                    | crate::scene::WallShape::Polygon
+                    | crate::scene::WallShape::Mesh,
+                    false,
+                ) => match w.shell_rows(support, dx) {
+                    Some(r) => format!("a shell {r} row(s) deep"),
+                    None => "solid".to_string(),
+                },
             };
             format!(
                 "wall[{i}] `{}`: {method}, {rows}, {slip}, material `{}`",

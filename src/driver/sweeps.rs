@@ -11,7 +11,7 @@ use crate::scene::{num, Motion, Scene, WallShape};
 fn built_box(s: &Scene, w: &crate::scene::WallBody) -> (Vec<f64>, Vec<f64>) {
     match w.shape {
         WallShape::Container => crate::scene::lattice::container_outer(s, w),
-        WallShape::Block | WallShape::Polygon => (w.min.clone(), w.max.clone()),
+        WallShape::Block | WallShape::Polygon | WallShape::Mesh => (w.min.clone(), w.max.clone()),
     }
 }
 

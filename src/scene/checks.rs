@@ -424,13 +424,24 @@ fn polygon_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Result<()> {
 
 /// A mesh's box from its placed triangles (a 3D scene only).
 fn mesh_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Result<()> {
+    resolve_mesh_box(f.mesh, (f.min, f.max), k, d)
+}
+
+/// Set `min` and `max` of table `k` to the box of its placed mesh (a 3D scene only); a
+/// resolved scene already holds that box, any other is an error.
+pub(super) fn resolve_mesh_box(
+    mesh: Option<&super::mesh::Mesh>,
+    (min, max): (&mut Vec<f64>, &mut Vec<f64>),
+    k: &str,
+    d: usize,
+) -> Result<()> {
     if d != 3 {
         return err(
             format!("{k}.shape"),
             "a mesh needs a 3D scene; in 2D an outline is `shape = \"polygon\"`",
         );
     }
-    let Some(m) = f.mesh else {
+    let Some(m) = mesh else {
         return err(
             format!("{k}.file"),
             "a mesh needs `file = \"…\"`, a binary or ASCII STL file relative to the scene file; e.g. file = \"hull.stl\"",
@@ -438,7 +449,7 @@ fn mesh_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Result<()> {
     };
     set_box(
         (m.lo.to_vec(), m.hi.to_vec()),
-        (f.min, f.max),
+        (min, max),
         k,
         "of a mesh comes from its file and placement",
     )

@@ -230,15 +230,15 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
                 let (lo, hi) = container_outer(s, w);
                 (ranges(&lo, &hi), Some(ranges(&w.min, &w.max)))
             }
-            WallShape::Polygon => (ranges(&w.min, &w.max), None),
+            WallShape::Polygon | WallShape::Mesh => (ranges(&w.min, &w.max), None),
         };
         let n = match w.shape {
             // the sites of its outline, counted
-            WallShape::Polygon => outline_sites(s, w, &lat),
+            WallShape::Polygon | WallShape::Mesh => outline_sites(s, w, &lat),
             _ => sites(&outer).saturating_sub(hole.as_ref().map_or(0, |h| sites(h))),
         };
         // only refinable walls (dummy and dynamic) are built on the refined lattice
-        let (added, list_extra) = if w.method.refinable() && w.shape != WallShape::Polygon {
+        let (added, list_extra) = if w.method.refinable() && !w.shape.outlined() {
             refined::<D>(s, &lat, &w.name, &outer, hole.as_deref())
         } else {
             (0, 0.0)
@@ -258,25 +258,60 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
     out
 }
 
-/// A polygon wall's outline and the depth (m) inside it within which it keeps its sites (its
-/// shell rows × dx; infinite for a wall without shell rows); `None` for other walls.
-pub(crate) fn wall_outline(s: &Scene, w: &super::WallBody) -> Option<(Vec<Vec<f64>>, f64)> {
+/// A polygon or mesh wall's surface and the depth (m) inside it within which it keeps its
+/// sites (its shell rows × dx; infinite for a wall without shell rows).
+#[derive(Debug, Clone)]
+pub(crate) struct Shell {
+    surface: Surface,
+    depth: f64,
+}
+
+/// The surface of a [`Shell`].
+#[derive(Debug, Clone)]
+enum Surface {
+    /// A polygon's vertices (m).
+    Outline(Vec<Vec<f64>>),
+    /// A closed mesh.
+    Mesh(std::sync::Arc<super::mesh::Mesh>),
+}
+
+impl Shell {
+    /// True if the site at `x` (m) lies inside the surface and within the depth of it.
+    pub(crate) fn claims(&self, x: &[f64]) -> bool {
+        let deep = self.depth.is_infinite();
+        match &self.surface {
+            Surface::Outline(v) => claims_outline(v, self.depth, x),
+            Surface::Mesh(m) => m.contains(x) && (deep || m.distance(x) < self.depth),
+        }
+    }
+
+    /// The depth (m) within which the wall keeps its sites (infinite: all).
+    pub(crate) fn depth(&self) -> f64 {
+        self.depth
+    }
+}
+
+/// A polygon or mesh wall's [`Shell`]; `None` for other walls.
+pub(crate) fn wall_shell(s: &Scene, w: &super::WallBody) -> Option<Shell> {
     let dx = s.discretisation.dx;
     let depth = w
         .shell_rows(s.discretisation.support(), dx)
         .map_or(f64::INFINITY, |rows| rows as f64 * dx);
-    (w.shape == WallShape::Polygon).then(|| (w.vertices.clone(), depth))
+    let surface = match w.shape {
+        WallShape::Polygon => Surface::Outline(w.vertices.clone()),
+        WallShape::Mesh => Surface::Mesh(w.mesh.clone()?),
+        _ => return None,
+    };
+    Some(Shell { surface, depth })
 }
 
-/// The sites of the scene's lattice `lat` a polygon wall `w` claims (0 for other walls).
+/// The sites of the scene's lattice `lat` a polygon or mesh wall `w` claims (0 for others).
 fn outline_sites<const D: usize>(s: &Scene, w: &super::WallBody, lat: &Lattice<D>) -> u64 {
-    let Some((outline, depth)) = wall_outline(s, w) else {
+    let Some(shell) = wall_shell(s, w) else {
         return 0;
     };
     let mut n = 0u64;
-    lat.for_each_in(&w.min, &w.max, |_, _, x| {
-        n += claims_outline(&outline, depth, x.as_slice()) as u64
-    });
+    lat.for_each_in(&w.min, &w.max, |_, _, x| n += shell.claims(x.as_slice()) as u64);
     n
 }
 
@@ -579,20 +614,30 @@ fn mesh_lines<const D: usize>(s: &Scene) -> Vec<String> {
 fn polygon_lines<const D: usize>(s: &Scene) -> Vec<String> {
     let lat = Lattice::<D>::new(s);
     let walls = (s.walls.iter().enumerate()).filter_map(|(i, w)| {
-        let (outline, depth) = wall_outline(s, w)?;
+        let depth = wall_shell(s, w)?.depth();
+        let outline = &w.vertices;
         let n = outline_sites(s, w, &lat);
         let shell = match depth.is_finite() {
             true => format!("its shell within {depth:.4e} m of the outline"),
             false => "solid".to_string(),
         };
         Some(format!(
-            "wall[{i}] `{}`: polygon of {} vertices, box {:?} .. {:?} m, area {:.4e} m², built {n} \
-             sites ({shell})",
+            "wall[{i}] `{}`: {}, box {:?} .. {:?} m, built {n} sites ({shell})",
             w.name,
-            outline.len(),
+            match &w.mesh {
+                Some(m) => format!(
+                    "mesh of {} triangles, volume {:.4e} m³",
+                    m.triangles(),
+                    m.signed_volume().abs()
+                ),
+                None => format!(
+                    "polygon of {} vertices, area {:.4e} m²",
+                    outline.len(),
+                    super::polygon::signed_area(outline).abs()
+                ),
+            },
             w.min,
             w.max,
-            super::polygon::signed_area(&outline).abs(),
         ))
     });
     let bodies = (s
@@ -715,7 +760,7 @@ pub fn thin_dynamic_wall_warnings(s: &Scene) -> Vec<String> {
     for (i, w) in s.walls.iter().enumerate() {
         let rows = match w.shape {
             super::WallShape::Container => w.built_layers(support, dx),
-            super::WallShape::Block | super::WallShape::Polygon => {
+            super::WallShape::Block | super::WallShape::Polygon | super::WallShape::Mesh => {
                 w.shell_rows(support, dx).unwrap_or(0) as usize
             }
         };

@@ -73,6 +73,11 @@ pub struct Mesh {
     /// Upper corner of the mesh's box (m).
     pub hi: [f64; 3],
     cols: Columns,
+    /// The triangles binned in 3D, for distances and crossings.
+    grid: Grid,
+    /// +1 if the corners' order makes the normals point outward (positive signed volume), −1
+    /// if inward: a closed mesh is oriented by its volume, so no `flip` is needed.
+    outward: f64,
     /// SHA-256 of the file's bytes, hex.
     pub sha256: String,
     /// `binary` or `ASCII`.
@@ -132,14 +137,78 @@ impl Mesh {
             }
         }
         let cols = Columns::new(&tri, [lo[0], lo[1]], [hi[0], hi[1]]);
-        Mesh {
+        let grid = Grid::new(&tri, lo, hi);
+        let mut m = Mesh {
             tri,
             lo,
             hi,
             cols,
+            grid,
+            outward: 1.0,
             sha256,
             format,
+        };
+        m.outward = if m.signed_volume() < 0.0 { -1.0 } else { 1.0 };
+        m
+    }
+
+    /// Distance (m) from `p` to the nearest point of the surface: the grid's cells in shells
+    /// of growing Chebyshev radius k round p's cell, until the nearest found is no farther
+    /// than k cells (any triangle not yet seen has its nearest point in a cell beyond).
+    pub fn distance(&self, p: &[f64]) -> f64 {
+        let g = &self.grid;
+        let c0 = [0, 1, 2].map(|a| g.cell(a, p[a]) as i64);
+        let mut best = f64::INFINITY;
+        let reach = *g.n.iter().max().unwrap_or(&1) as i64;
+        for k in 0..=reach {
+            g.shell(c0, k, |t| {
+                best = best.min(point_triangle(&self.tri[t as usize], p));
+            });
+            if best <= k as f64 * g.size {
+                break;
+            }
         }
+        best
+    }
+
+    /// The first triangle the path `o` → `n` (m) crosses from the outside of the surface to
+    /// its inside: its plane x·n̂ = c, as (c, n̂) with n̂ the outward unit normal (a face normal
+    /// to axis a has n̂ = ±e_a exactly, and c = ±its coordinate).
+    pub fn crossing(&self, o: &[f64], n: &[f64]) -> Option<(f64, [f64; 3])> {
+        let d = [n[0] - o[0], n[1] - o[1], n[2] - o[2]];
+        let mut first: Option<(f64, f64, [f64; 3])> = None;
+        let lo = [0, 1, 2].map(|a| o[a].min(n[a]));
+        let hi = [0, 1, 2].map(|a| o[a].max(n[a]));
+        self.grid.in_box(lo, hi, |t| {
+            let t = &self.tri[t as usize];
+            let [a, b, c] = t;
+            let e = cross(
+                &[b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+                &[c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+            );
+            let len = dot(&e, &e).sqrt();
+            if len == 0.0 {
+                return;
+            }
+            let nrm = e.map(|x| self.outward * x / len);
+            let side = |p: &[f64]| (p[0] - a[0]) * nrm[0] + (p[1] - a[1]) * nrm[1] + (p[2] - a[2]) * nrm[2];
+            let (d_o, d_n) = (side(o), side(n));
+            if !(d_o >= 0.0 && d_n < 0.0) {
+                return;
+            }
+            let s = d_o / (d_o - d_n);
+            let x = [o[0] + s * d[0], o[1] + s * d[1], o[2] + s * d[2]];
+            // on the triangle, to a rounding of its size
+            if point_triangle(t, &x) <= 1e-12 * len.sqrt() && first.is_none_or(|(s0, _, _)| s < s0) {
+                // an axis's normal: the plane's coordinate itself, exact
+                let c = match (0..3).find(|&k| nrm[k].abs() == 1.0) {
+                    Some(k) => nrm[k] * a[k],
+                    None => dot(a, &nrm),
+                };
+                first = Some((s, c, nrm));
+            }
+        });
+        first.map(|(_, c, nrm)| (c, nrm))
     }
 
     /// Number of triangles.
@@ -149,8 +218,9 @@ impl Mesh {
 
     /// Bytes the mesh and its index take in memory.
     pub fn bytes(&self) -> u64 {
-        (self.tri.len() * std::mem::size_of::<Tri>() + 4 * (self.cols.start.len() + self.cols.items.len()))
-            as u64
+        let index =
+            self.cols.start.len() + self.cols.items.len() + self.grid.start.len() + self.grid.items.len();
+        (self.tri.len() * std::mem::size_of::<Tri>() + 4 * index) as u64
     }
 
     /// The signed volume Σ a·(b × c)/6 (m³), summed in file order: positive when the normals
@@ -436,6 +506,152 @@ impl Columns {
     }
 }
 
+/// Distance (m) from `p` to the triangle `t`: to its nearest point, found by the region of
+/// the triangle's plane p projects into (a corner, an edge or the face; Ericson, Real-Time
+/// Collision Detection, 2005, §5.1.5).
+fn point_triangle(t: &Tri, p: &[f64]) -> f64 {
+    let sub = |x: &[f64], y: &[f64; 3]| [x[0] - y[0], x[1] - y[1], x[2] - y[2]];
+    let [a, b, c] = t;
+    let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
+    let dist = |q: [f64; 3]| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt();
+    // o + s u + w v
+    let at = |o: &[f64; 3], u: [f64; 3], s: f64, v: [f64; 3], w: f64| {
+        [0, 1, 2].map(|k| o[k] + s * u[k] + w * v[k])
+    };
+    let (d1, d2) = (dot(&ab, &ap), dot(&ac, &ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return dist(*a);
+    }
+    let bp = sub(p, b);
+    let (d3, d4) = (dot(&ab, &bp), dot(&ac, &bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return dist(*b);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return dist(at(a, ab, d1 / (d1 - d3), ac, 0.0));
+    }
+    let cp = sub(p, c);
+    let (d5, d6) = (dot(&ab, &cp), dot(&ac, &cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return dist(*c);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return dist(at(a, ab, 0.0, ac, d2 / (d2 - d6)));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return dist(at(b, sub(c, b), w, [0.0; 3], 0.0));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    dist(at(a, ab, vb * denom, ac, vc * denom))
+}
+
+/// Triangles binned by their box in a uniform grid of cubic cells (compressed rows, as
+/// [`Columns`]), for distances and crossings.
+struct Grid {
+    origin: [f64; 3],
+    /// Cell edge (m).
+    size: f64,
+    n: [usize; 3],
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Grid {
+    fn new(tri: &[Tri], lo: [f64; 3], hi: [f64; 3]) -> Self {
+        // about one cell per triangle, at most 256 a side
+        let ext = [0, 1, 2].map(|a| hi[a] - lo[a]);
+        let widest = ext.iter().fold(0.0f64, |m, &e| m.max(e)).max(1e-300);
+        let vol: f64 = ext.iter().map(|&e| e.max(widest / 256.0)).product();
+        let size = (vol / tri.len().max(1) as f64).cbrt().max(widest / 256.0);
+        let n = ext.map(|e| ((e / size).ceil() as usize).clamp(1, 256));
+        let mut g = Grid {
+            origin: lo,
+            size,
+            n,
+            start: vec![0; n[0] * n[1] * n[2] + 1],
+            items: Vec::new(),
+        };
+        for t in tri {
+            g.each_cell(t, |g, c| g.start[c + 1] += 1);
+        }
+        for c in 1..g.start.len() {
+            g.start[c] += g.start[c - 1];
+        }
+        let mut fill = g.start.clone();
+        g.items = vec![0; *g.start.last().unwrap_or(&0) as usize];
+        for (k, t) in tri.iter().enumerate() {
+            g.each_cell(t, |g, c| {
+                g.items[fill[c] as usize] = k as u32;
+                fill[c] += 1;
+            });
+        }
+        g
+    }
+
+    /// `f(self, c)` for every cell c that the box of triangle `t` reaches.
+    fn each_cell(&mut self, t: &Tri, mut f: impl FnMut(&mut Self, usize)) {
+        let r = [0, 1, 2].map(|a| {
+            let (mn, mx) = t.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(m, x), v| {
+                (m.min(v[a]), x.max(v[a]))
+            });
+            (self.cell(a, mn), self.cell(a, mx))
+        });
+        for i in r[0].0..=r[0].1 {
+            for j in r[1].0..=r[1].1 {
+                for k in r[2].0..=r[2].1 {
+                    let c = (i * self.n[1] + j) * self.n[2] + k;
+                    f(self, c);
+                }
+            }
+        }
+    }
+
+    /// The cell index along axis `a` of coordinate `x` (m), clamped into the grid.
+    fn cell(&self, a: usize, x: f64) -> usize {
+        (((x - self.origin[a]) / self.size).floor().max(0.0) as usize).min(self.n[a] - 1)
+    }
+
+    /// The triangles of cell (i, j, k).
+    fn at(&self, c: [usize; 3]) -> &[u32] {
+        let c = (c[0] * self.n[1] + c[1]) * self.n[2] + c[2];
+        &self.items[self.start[c] as usize..self.start[c + 1] as usize]
+    }
+
+    /// Every triangle of the cells at Chebyshev distance exactly `k` from cell `c0`, inside
+    /// the grid (a triangle in several cells may come more than once).
+    fn shell(&self, c0: [i64; 3], k: i64, mut f: impl FnMut(u32)) {
+        let n = self.n.map(|x| x as i64);
+        let (zlo, zhi) = ((c0[2] - k).max(0), (c0[2] + k).min(n[2] - 1));
+        for i in (c0[0] - k).max(0)..=(c0[0] + k).min(n[0] - 1) {
+            for j in (c0[1] - k).max(0)..=(c0[1] + k).min(n[1] - 1) {
+                let rim = (i - c0[0]).abs() == k || (j - c0[1]).abs() == k;
+                for z in zlo..=zhi {
+                    if rim || (z - c0[2]).abs() == k {
+                        self.at([i as usize, j as usize, z as usize])
+                            .iter()
+                            .for_each(|&t| f(t));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Every triangle of the cells that the box [lo, hi] (m) reaches.
+    fn in_box(&self, lo: [f64; 3], hi: [f64; 3], mut f: impl FnMut(u32)) {
+        for i in self.cell(0, lo[0])..=self.cell(0, hi[0]) {
+            for j in self.cell(1, lo[1])..=self.cell(1, hi[1]) {
+                for k in self.cell(2, lo[2])..=self.cell(2, hi[2]) {
+                    self.at([i, j, k]).iter().for_each(|&t| f(t));
+                }
+            }
+        }
+    }
+}
+
 /// How an STL file is laid out: binary with its triangle count, or ASCII.
 fn layout(b: &[u8]) -> std::result::Result<Option<u64>, String> {
     let count = (b.len() >= 84).then(|| u32::from_le_bytes([b[80], b[81], b[82], b[83]]) as u64);
@@ -699,6 +915,40 @@ mod tests {
             let oracle = if l1 != 0.25 { l1 < 0.25 } else { d[0] < 0.0 };
             assert_eq!(m.contains(&p), oracle, "site {p:?}");
         }
+    }
+
+    #[test]
+    fn distances_and_crossings_match_the_sphere_and_a_brute_force_oracle() {
+        let m = mesh(sphere([0.5, 0.5, 0.5], 0.3, 24));
+        let mut worst = 0.0f64;
+        for p in sites(-0.5, 1.5, 0.125, 0.37) {
+            let brute = m
+                .tri
+                .iter()
+                .map(|t| point_triangle(t, &p))
+                .fold(f64::INFINITY, f64::min);
+            assert_eq!(m.distance(&p), brute, "{p:?}");
+            let r = ((0..3).map(|a| (p[a] - 0.5f64).powi(2)).sum::<f64>()).sqrt();
+            worst = worst.max((brute - (r - 0.3).abs()).abs());
+        }
+        // the facets' sagitta: r (1 − cos(π/24)) = 2.6e-3 m
+        assert!(worst < 3e-3, "{worst}");
+        // a path into the ball along −x crosses near x = 0.8 with the outward normal near +x
+        let (c, n) = m.crossing(&[0.9, 0.5, 0.5], &[0.7, 0.5, 0.5]).unwrap();
+        assert!(
+            (c - dot(&[0.8, 0.5, 0.5], &n)).abs() < 3e-3 && n[0] > 0.99,
+            "{c} {n:?}"
+        );
+        // out of it, or outside it: none
+        assert_eq!(m.crossing(&[0.7, 0.5, 0.5], &[0.9, 0.5, 0.5]), None);
+        assert_eq!(m.crossing(&[0.95, 0.5, 0.5], &[0.9, 0.5, 0.5]), None);
+        // a mesh wound inward is oriented by its volume
+        let inward: Vec<Tri> = sphere([0.5, 0.5, 0.5], 0.3, 24)
+            .into_iter()
+            .map(|[a, b, c]| [a, c, b])
+            .collect();
+        let (_, n) = mesh(inward).crossing(&[0.9, 0.5, 0.5], &[0.7, 0.5, 0.5]).unwrap();
+        assert!(n[0] > 0.99);
     }
 
     #[test]

@@ -12,8 +12,10 @@ use std::sync::Arc;
 
 /// A table's mesh keys, borrowed for the loader.
 pub struct MeshKeys<'a> {
-    /// `shape`.
-    pub shape: BodyShape,
+    /// `shape`: true for a mesh.
+    pub is_mesh: bool,
+    /// The shape's name, for messages.
+    pub shape: &'static str,
     /// `file`, relative to the scene file (absolute once loaded).
     pub file: &'a mut Option<String>,
     /// `scale`.
@@ -28,7 +30,7 @@ pub struct MeshKeys<'a> {
     pub mesh: &'a mut Option<Arc<Mesh>>,
 }
 
-/// Read the mesh of every fluid and solid body of shape `mesh`, the path taken relative to the
+/// Read the mesh of every fluid, solid and wall body of shape `mesh`, the path taken relative to the
 /// directory of `scene_file`. Placement keys on another shape, and meshes on refinement regions
 /// (not supported yet), are input errors.
 pub(super) fn read_meshes(s: &mut Scene, scene_file: &Path) -> Result<()> {
@@ -38,6 +40,25 @@ pub(super) fn read_meshes(s: &mut Scene, scene_file: &Path) -> Result<()> {
         .chain((s.solids.iter_mut().enumerate()).map(|(i, f)| (format!("solid[{i}]"), f.mesh_keys_mut())));
     for (k, m) in bodies {
         load(&k, m, dir)?;
+    }
+    for (i, w) in s.walls.iter_mut().enumerate() {
+        let shape = match w.shape {
+            super::WallShape::Block => "block",
+            super::WallShape::Container => "container",
+            super::WallShape::Polygon => "polygon",
+            super::WallShape::Mesh => "mesh",
+        };
+        let keys = MeshKeys {
+            is_mesh: w.shape == super::WallShape::Mesh,
+            shape,
+            file: &mut w.file,
+            scale: w.scale,
+            rotate: &w.rotate,
+            translate: &w.translate,
+            sha256: &mut w.sha256,
+            mesh: &mut w.mesh,
+        };
+        load(&format!("wall[{i}]"), keys, dir)?;
     }
     for (i, r) in s.refine.iter_mut().enumerate() {
         let k = format!("refine[{i}]");
@@ -61,11 +82,11 @@ fn load(k: &str, m: MeshKeys, dir: &Path) -> Result<()> {
         ("translate", !m.translate.is_empty()),
         ("sha256", m.sha256.is_some()),
     ];
-    if m.shape != BodyShape::Mesh {
+    if !m.is_mesh {
         if let Some((key, _)) = given.iter().find(|(_, g)| *g) {
             return Err(Error::input(
                 format!("{k}.{key}"),
-                format!("belongs to `shape = \"mesh\"`; this body is a {}", m.shape.name()),
+                format!("belongs to `shape = \"mesh\"`; this body is a {}", m.shape),
             ));
         }
         return Ok(());

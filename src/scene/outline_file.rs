@@ -26,6 +26,7 @@ pub(super) fn read_outlines(s: &mut Scene, scene_file: &Path) -> Result<()> {
     let walls = (s.walls.iter_mut().enumerate()).map(|(i, w)| {
         let shape = match w.shape {
             super::WallShape::Polygon => super::BodyShape::Polygon,
+            super::WallShape::Mesh => super::BodyShape::Mesh,
             _ => super::BodyShape::Block,
         };
         (format!("wall[{i}]"), shape, &mut w.file, &mut w.vertices)

@@ -450,7 +450,7 @@ pub fn region_warnings<const D: usize>(s: &Scene) -> Vec<String> {
         // its layers (a container)
         let on_wall = s.walls.iter().any(|w| {
             let (lo, hi) = match w.shape {
-                WallShape::Block | WallShape::Polygon => (w.min.clone(), w.max.clone()),
+                WallShape::Block | WallShape::Polygon | WallShape::Mesh => (w.min.clone(), w.max.clone()),
                 WallShape::Container => container_outer(s, w),
             };
             let meets = (0..D).all(|a| lo[a] < r.max[a] && r.min[a] < hi[a]);
@@ -640,7 +640,7 @@ fn deepest<const D: usize>(r: &Refine, centre: &[f64], lat: &Lattice<D>, bounds:
 fn no_polygon_wall(walls: &[super::WallBody], r: &Refine, k: &str, bodies: &[String]) -> Result<()> {
     let d = r.min.len();
     let polygon = walls.iter().find(|w| {
-        w.shape == WallShape::Polygon
+        w.shape.outlined()
             && w.method.refinable()
             && r.applies_to(&w.name)
             && (0..d).all(|a| w.min[a] < r.max[a] && r.min[a] < w.max[a])
@@ -655,8 +655,13 @@ fn no_polygon_wall(walls: &[super::WallBody], r: &Refine, k: &str, bodies: &[Str
     err(
         format!("{k}.bodies"),
         format!(
-            "the region reaches the polygon wall `{}`, and polygon walls are built at the scene's \
-             spacing only: list the bodies it refines without it, e.g. bodies = [{}]",
+            "the region reaches the {} wall `{}`, and polygon and mesh walls are built at the \
+             scene's spacing only: list the bodies it refines without it, e.g. bodies = [{}]",
+            if w.shape == WallShape::Mesh {
+                "mesh"
+            } else {
+                "polygon"
+            },
             w.name,
             others.join(", ")
         ),

@@ -205,7 +205,8 @@ macro_rules! shaped_table {
             /// The mesh keys, for the loader that reads the file.
             pub fn mesh_keys_mut(&mut self) -> $crate::scene::mesh_file::MeshKeys<'_> {
                 $crate::scene::mesh_file::MeshKeys {
-                    shape: self.shape,
+                    is_mesh: self.shape == $crate::scene::BodyShape::Mesh,
+                    shape: self.shape.name(),
                     file: &mut self.file,
                     scale: self.scale,
                     rotate: &self.rotate,

@@ -19,6 +19,17 @@ pub enum WallShape {
     /// ([`crate::scene::polygon`]); a dummy or dynamic one keeps the sites within its shell
     /// rows of the outline, like a block.
     Polygon,
+    /// A solid closed triangle mesh (3D) from an STL `file`: every lattice site inside it
+    /// ([`crate::scene::mesh`]); a dummy or dynamic one keeps the sites within its shell rows
+    /// of the surface, like a block.
+    Mesh,
+}
+
+impl WallShape {
+    /// True for a wall given by an outline or a mesh rather than a box.
+    pub fn outlined(self) -> bool {
+        matches!(self, WallShape::Polygon | WallShape::Mesh)
+    }
 }
 
 /// Boundary method of a wall.
@@ -251,9 +262,26 @@ pub struct WallBody {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub vertices: Vec<Vec<f64>>,
     /// A polygon wall's vertices from a text file, `x y` (m) per row, relative to the scene
-    /// file; read into `vertices` when the scene is loaded.
+    /// file; read into `vertices` when the scene is loaded. A mesh wall's STL file, relative
+    /// to the scene file (absolute in a resolved scene).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub file: Option<String>,
+    /// A mesh wall's scale from the file's unit to metres (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<f64>,
+    /// A mesh wall's rotations about x, y and z (degrees), in that order after the scale.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub rotate: Vec<f64>,
+    /// A mesh wall's translation (m), applied last.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub translate: Vec<f64>,
+    /// SHA-256 of a mesh wall's file, set when the scene is loaded; a resolved scene's must
+    /// match the file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sha256: Option<String>,
+    /// The mesh read from `file`, placed (not a key).
+    #[serde(skip)]
+    pub mesh: Option<std::sync::Arc<crate::scene::mesh::Mesh>>,
     /// Container wall thickness in particle layers outside each closed face, or rows kept
     /// inside each face of a dummy or dynamic block (default: enough to cover the support; a
     /// dummy or dynamic wall builds at most the rows within the support of fluid at its face,
@@ -319,7 +347,10 @@ impl WallBody {
         } else {
             reach
         };
-        let solid = matches!(self.shape, WallShape::Block | WallShape::Polygon);
+        let solid = matches!(
+            self.shape,
+            WallShape::Block | WallShape::Polygon | WallShape::Mesh
+        );
         (solid && self.method.trims_to_support()).then_some(rows as u64)
     }
 }
@@ -392,7 +423,7 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
                     in_domain(&lo, &hi, &k, &s.domain)?;
                 }
             }
-            WallShape::Block | WallShape::Polygon => {
+            WallShape::Block | WallShape::Polygon | WallShape::Mesh => {
                 if w.method.makes_images() {
                     return err(
                         format!("{k}.method"),
@@ -400,11 +431,11 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
                          shape = \"container\", or method = \"dummy\" for a block",
                     );
                 }
-                if w.shape == WallShape::Polygon && w.no_slip == crate::scene::NoSlipMethod::Morris {
+                if w.shape.outlined() && w.no_slip == crate::scene::NoSlipMethod::Morris {
                     return err(
                         format!("{k}.no_slip"),
                         "`morris` needs the distance to a block's or container's faces; a polygon \
-                         wall takes no_slip = \"adami\"",
+                         or mesh wall takes no_slip = \"adami\"",
                     );
                 }
                 if !w.open.is_empty() {
@@ -441,6 +472,9 @@ fn outline_keys(w: &mut crate::scene::WallBody, k: &str, d: usize) -> Result<()>
     match (w.shape, w.vertices.is_empty()) {
         (WallShape::Polygon, _) => {
             super::checks::resolve_outline_box(&w.vertices, (&mut w.min, &mut w.max), k, d)
+        }
+        (WallShape::Mesh, true) => {
+            super::checks::resolve_mesh_box(w.mesh.as_deref(), (&mut w.min, &mut w.max), k, d)
         }
         (_, true) => Ok(()),
         (_, false) => err(
