@@ -171,6 +171,29 @@ impl Mesh {
         best
     }
 
+    /// True if some point of the surface lies closer than `r` (m) to `p`: the cells within
+    /// ⌈r / cell⌉ + 1 of p's, stopping at the first such triangle (a site deep inside a large
+    /// mesh costs a few cells, where [`Mesh::distance`] would search out to the surface).
+    pub fn within(&self, p: &[f64], r: f64) -> bool {
+        let g = &self.grid;
+        let c0 = [0, 1, 2].map(|a| g.cell(a, p[a]) as i64);
+        let reach = ((r / g.size).ceil() as i64 + 1).min(*g.n.iter().max().unwrap_or(&1) as i64);
+        let c = (c0[0] as usize * g.n[1] + c0[1] as usize) * g.n[2] + c0[2] as usize;
+        if (g.far[c] as i64) > reach {
+            return false;
+        }
+        let mut near = false;
+        for k in 0..=reach {
+            g.shell(c0, k, |t| {
+                near = near || point_triangle(&self.tri[t as usize], p) < r;
+            });
+            if near {
+                return true;
+            }
+        }
+        false
+    }
+
     /// The first triangle the path `o` → `n` (m) crosses from the outside of the surface to
     /// its inside: its plane x·n̂ = c, as (c, n̂) with n̂ the outward unit normal (a face normal
     /// to axis a has n̂ = ±e_a exactly, and c = ±its coordinate).
@@ -220,7 +243,7 @@ impl Mesh {
     pub fn bytes(&self) -> u64 {
         let index =
             self.cols.start.len() + self.cols.items.len() + self.grid.start.len() + self.grid.items.len();
-        (self.tri.len() * std::mem::size_of::<Tri>() + 4 * index) as u64
+        (self.tri.len() * std::mem::size_of::<Tri>() + 4 * index + self.grid.far.len()) as u64
     }
 
     /// The signed volume Σ a·(b × c)/6 (m³), summed in file order: positive when the normals
@@ -558,6 +581,9 @@ struct Grid {
     n: [usize; 3],
     start: Vec<u32>,
     items: Vec<u32>,
+    /// Per cell, the Chebyshev distance in cells to the nearest cell holding a triangle
+    /// (at most 255): a site deeper than a shell's reach is answered without a search.
+    far: Vec<u8>,
 }
 
 impl Grid {
@@ -574,6 +600,7 @@ impl Grid {
             n,
             start: vec![0; n[0] * n[1] * n[2] + 1],
             items: Vec::new(),
+            far: Vec::new(),
         };
         for t in tri {
             g.each_cell(t, |g, c| g.start[c + 1] += 1);
@@ -589,7 +616,42 @@ impl Grid {
                 fill[c] += 1;
             });
         }
+        g.far = g.distance_transform();
         g
+    }
+
+    /// [`Grid::far`]: 0 in cells holding a triangle, then the exact Chebyshev distance by two
+    /// raster passes over the 26 neighbours (forward over the 13 before a cell, backward over
+    /// the 13 after it).
+    fn distance_transform(&self) -> Vec<u8> {
+        let n = self.n.map(|x| x as i64);
+        let idx = |i: i64, j: i64, k: i64| ((i * n[1] + j) * n[2] + k) as usize;
+        let cells = self.start.len() - 1;
+        let mut far: Vec<u8> = (0..cells)
+            .map(|c| if self.start[c + 1] > self.start[c] { 0 } else { 255 })
+            .collect();
+        let before: Vec<[i64; 3]> = (0..27)
+            .map(|q| [q / 9 - 1, q / 3 % 3 - 1, q % 3 - 1])
+            .filter(|d| (d[0], d[1], d[2]) < (0, 0, 0))
+            .collect();
+        let pass = |far: &mut Vec<u8>, sign: i64, order: &mut dyn Iterator<Item = usize>| {
+            for c in order {
+                let (i, j, k) = (
+                    (c as i64) / (n[1] * n[2]),
+                    (c as i64) / n[2] % n[1],
+                    (c as i64) % n[2],
+                );
+                for d in &before {
+                    let (a, b, e) = (i + sign * d[0], j + sign * d[1], k + sign * d[2]);
+                    if (0..n[0]).contains(&a) && (0..n[1]).contains(&b) && (0..n[2]).contains(&e) {
+                        far[c] = far[c].min(far[idx(a, b, e)].saturating_add(1));
+                    }
+                }
+            }
+        };
+        pass(&mut far, 1, &mut (0..cells));
+        pass(&mut far, -1, &mut (0..cells).rev());
+        far
     }
 
     /// `f(self, c)` for every cell c that the box of triangle `t` reaches.
@@ -928,6 +990,9 @@ mod tests {
                 .map(|t| point_triangle(t, &p))
                 .fold(f64::INFINITY, f64::min);
             assert_eq!(m.distance(&p), brute, "{p:?}");
+            for r in [0.01, 0.05, 0.2] {
+                assert_eq!(m.within(&p, r), brute < r, "{p:?} {r}");
+            }
             let r = ((0..3).map(|a| (p[a] - 0.5f64).powi(2)).sum::<f64>()).sqrt();
             worst = worst.max((brute - (r - 0.3).abs()).abs());
         }
