@@ -92,12 +92,19 @@ def git(*args):
     return subprocess.run(["git", "-C", ROOT, *args], capture_output=True, text=True)
 
 
+def scene_file(scene):
+    """The record's scene file: inputs/<scene>.toml, or docs/bench/<scene>.toml for a scene
+    made for a benchmark only."""
+    bench = os.path.join("docs", "bench", scene + ".toml")
+    return bench if os.path.exists(bench) else os.path.join("inputs", scene + ".toml")
+
+
 def code_changed(commit, scene):
     """True if a non-comment line of the code or the scene changed since `commit`; None if git
     cannot tell (no git, or the commit is not in this history)."""
     if git("cat-file", "-e", commit + "^{commit}").returncode != 0:
         return None
-    paths = CODE + [os.path.join("inputs", scene + ".toml")]
+    paths = CODE + [scene_file(scene)]
     d = git("diff", "--unified=0", "--no-color", commit, "HEAD", "--", *paths)
     if d.returncode != 0:
         return None
@@ -142,7 +149,7 @@ def render(rows):
     n = 0
     for s in scenes:
         out.append(f"## {s}\n")
-        out.append(SCENES.get(s, f"`inputs/{s}.toml`") + ".\n")
+        out.append(SCENES.get(s, f"`{scene_file(s)}`") + ".\n")
         out.append("| # | mode | threads | span | quantity | hsph | against | its figure | ratio | commit | date | status |")
         out.append("|---|---|---|---|---|---|---|---|---|---|---|---|")
         notes = []
