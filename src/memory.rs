@@ -10,7 +10,9 @@
 //!   for a moment; placement adds a P × P table of halo volumes;
 //! - **halo and migration counts**: a P × P table of u64 all-reduced (two copies) per rank;
 //! - **running**: the owned particles and their ghosts (a fraction of the owned ones), the
-//!   cell list and the neighbour lists (4 B per neighbour).
+//!   cell list and the neighbour lists (4 B per neighbour);
+//! - **meshes** (`shape = "mesh"`): each placed mesh and its indexes, held once per process
+//!   (the ranks of one process share the scene) from the load to the end.
 //!
 //! Ranks of the local back end share one process, so their estimates add up; under MPI each
 //! process holds one rank. Limits apply per process.
@@ -76,7 +78,9 @@ pub fn estimate<const D: usize>(
             + counts;
         (setup, run)
     };
+    let meshes = crate::scene::mesh_file::mesh_bytes(scene) as f64;
     let (rank_setup, rank_run) = per_rank((n / p * cap).min(n * 1.05));
+    let (rank_setup, rank_run) = (rank_setup + meshes, rank_run + meshes);
     // the ranks of one process own at most every particle between them
     let k = ranks_in_process.max(1) as f64;
     let (setup, run) = per_rank((n / p * cap * k).min(n * 1.05) / k);
@@ -85,7 +89,7 @@ pub fn estimate<const D: usize>(
         rank_setup,
         rank_run,
         ranks_in_process: ranks_in_process.max(1),
-        process: k * (setup + run),
+        process: k * (setup + run) + meshes,
     }
 }
 

@@ -169,20 +169,29 @@ pub struct MeshInput {
     pub triangles: usize,
 }
 
-/// The meshes of the scene's bodies, in table order.
+/// The meshes of the scene's bodies and walls, in table order.
 pub fn mesh_inputs(s: &Scene) -> Vec<MeshInput> {
     let bodies = (s.fluids.iter().enumerate())
-        .map(|(i, f)| (format!("fluid[{i}]"), f))
-        .chain((s.solids.iter().enumerate()).map(|(i, f)| (format!("solid[{i}]"), f)));
+        .map(|(i, f)| (format!("fluid[{i}]"), &f.file, &f.mesh))
+        .chain((s.solids.iter().enumerate()).map(|(i, f)| (format!("solid[{i}]"), &f.file, &f.mesh)))
+        .chain((s.walls.iter().enumerate()).map(|(i, w)| (format!("wall[{i}]"), &w.file, &w.mesh)));
     bodies
-        .filter_map(|(key, f)| {
-            let m = f.mesh.as_ref()?;
+        .filter_map(|(key, file, mesh)| {
+            let m = mesh.as_ref()?;
             Some(MeshInput {
                 key,
-                file: f.file.clone().unwrap_or_default(),
+                file: file.clone().unwrap_or_default(),
                 sha256: m.sha256.clone(),
                 triangles: m.triangles(),
             })
         })
         .collect()
+}
+
+/// Bytes the scene's meshes and their indexes take (each counted once: bodies may not share
+/// a mesh, but a mesh read twice is held twice).
+pub fn mesh_bytes(s: &Scene) -> u64 {
+    let bodies = (s.fluids.iter().map(|f| &f.mesh)).chain(s.solids.iter().map(|f| &f.mesh));
+    let walls = s.walls.iter().map(|w| &w.mesh);
+    bodies.chain(walls).flatten().map(|m| m.bytes()).sum()
 }
