@@ -624,7 +624,10 @@ fn polygon_lines<const D: usize>(s: &Scene) -> Vec<String> {
         let outline = &w.vertices;
         let n = outline_sites(s, w, &lat);
         let shell = match depth.is_finite() {
-            true => format!("its shell within {depth:.4e} m of the outline"),
+            true => format!(
+                "its shell within {depth:.4e} m of the {}",
+                if w.mesh.is_some() { "surface" } else { "outline" }
+            ),
             false => "solid".to_string(),
         };
         Some(format!(
