@@ -317,13 +317,11 @@ fn the_wigley_hull_fills_four_ninths_of_l_b_t() {
     );
 }
 
-/// Each bad mesh or bad mesh key is refused by `hsph check` with exit status 2, the key, the
-/// file where the file is at fault, and the reason.
-#[test]
-fn a_bad_mesh_is_an_input_error() {
-    let dir = temp_dir("mesh-bad");
+/// A good box in DIR/box.stl and, beside it, the bad files of [`a_bad_mesh_is_an_input_error`]:
+/// cut short, a NaN, a missing triangle (3 open edges), a turned triangle, and no triangle.
+fn write_bad_files(dir: &Path) {
     let good = stl(
-        &dir,
+        dir,
         "box.stl",
         &["box", "--min", "0.1", "0.1", "0", "--max", "0.4", "0.3", "0.2"],
     );
@@ -349,6 +347,14 @@ fn a_bad_mesh_is_an_input_error() {
     for (name, b) in &files {
         std::fs::write(dir.join(name), b).unwrap();
     }
+}
+
+/// Each bad mesh or bad mesh key is refused by `hsph check` with exit status 2, the key, the
+/// file where the file is at fault, and the reason.
+#[test]
+fn a_bad_mesh_is_an_input_error() {
+    let dir = temp_dir("mesh-bad");
+    write_bad_files(&dir);
     std::fs::create_dir_all(dir.join("folder.stl")).unwrap();
     let m = |extra: &str| format!("shape = \"mesh\"\nfile = \"box.stl\"\n{extra}");
     let cases: Vec<(String, &str, &str)> = vec![

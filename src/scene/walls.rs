@@ -423,26 +423,7 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
                     in_domain(&lo, &hi, &k, &s.domain)?;
                 }
             }
-            WallShape::Block | WallShape::Polygon | WallShape::Mesh => {
-                if w.method.makes_images() {
-                    return err(
-                        format!("{k}.method"),
-                        "mirror walls reflect across the inner faces of a container: use \
-                         shape = \"container\", or method = \"dummy\" for a block",
-                    );
-                }
-                if w.shape.outlined() && w.no_slip == crate::scene::NoSlipMethod::Morris {
-                    return err(
-                        format!("{k}.no_slip"),
-                        "`morris` needs the distance to a block's or container's faces; a polygon \
-                         or mesh wall takes no_slip = \"adami\"",
-                    );
-                }
-                if !w.open.is_empty() {
-                    return err(format!("{k}.open"), "only a container has open faces");
-                }
-                in_domain(&w.min, &w.max, &k, &s.domain)?;
-            }
+            WallShape::Block | WallShape::Polygon | WallShape::Mesh => solid_wall(w, &k, &s.domain)?,
         }
         validate_motion(w, &k, d)?;
         if w.no_slip == crate::scene::NoSlipMethod::Morris
@@ -465,6 +446,29 @@ pub(super) fn validate_walls(s: &mut Scene, mat_names: &Names, support: f64) -> 
         }
     }
     Ok(())
+}
+
+/// The checks of a solid wall (a block, polygon or mesh) `w` of key `k`: no mirror images, no
+/// Morris distances on an outline or mesh, no open faces, inside the domain.
+fn solid_wall(w: &crate::scene::WallBody, k: &str, domain: &Domain) -> Result<()> {
+    if w.method.makes_images() {
+        return err(
+            format!("{k}.method"),
+            "mirror walls reflect across the inner faces of a container: use \
+                 shape = \"container\", or method = \"dummy\" for a block",
+        );
+    }
+    if w.shape.outlined() && w.no_slip == crate::scene::NoSlipMethod::Morris {
+        return err(
+            format!("{k}.no_slip"),
+            "`morris` needs the distance to a block's or container's faces; a polygon \
+                 or mesh wall takes no_slip = \"adami\"",
+        );
+    }
+    if !w.open.is_empty() {
+        return err(format!("{k}.open"), "only a container has open faces");
+    }
+    in_domain(&w.min, &w.max, k, domain)
 }
 
 /// A polygon wall's box from its vertices; `vertices` on any other wall is an error.
