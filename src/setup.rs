@@ -179,6 +179,7 @@ fn wall_blocks(s: &Scene) -> Vec<crate::scene::FluidBody> {
             scale: None,
             rotate: Vec::new(),
             translate: Vec::new(),
+            flip: None,
             sha256: None,
             mesh: None,
             velocity: Vec::new(),

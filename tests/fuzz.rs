@@ -23,6 +23,10 @@
 //!   sizes, deleted keys, the embedded scene, the run state) or as text, or a part file
 //!   damaged, then `run --restart` a bit beyond its end; the checkpoint files the restarts
 //!   read must be unchanged at the end;
+//! - `mesh` (issue 83): `check` and short runs of a 3D scene whose fluid body is an STL mesh:
+//!   the hostile files of `tests/mesh.rs` (cut, NaN, open, turned, inward, empty, a 10⁹
+//!   header, a lying header, self-crossing, a FIFO, /dev/zero, a directory) and byte, header
+//!   and token mutants of a good binary and ASCII box, with odd placement keys;
 //! - `jobscript`: hostile values in the fields of `hsph jobscript`; every script written
 //!   (exit 0) must pass `bash -n` and keep every `#SBATCH` line before the first command
 //!   (`tests/injection.rs` runs scripts with stand-ins; this is the property over random
@@ -62,9 +66,10 @@ enum Family {
     Set,
     Checkpoint,
     Jobscript,
+    Mesh,
 }
 
-const FAMILIES: [Family; 7] = [
+const FAMILIES: [Family; 8] = [
     Family::Scene,
     Family::Flags,
     Family::Layout,
@@ -72,6 +77,7 @@ const FAMILIES: [Family; 7] = [
     Family::Set,
     Family::Checkpoint,
     Family::Jobscript,
+    Family::Mesh,
 ];
 
 /// What is set up in a case's working directory before its command runs.
@@ -2275,6 +2281,166 @@ fn all_cases(seed: u64, fx: &Fixtures, dir: &Path) -> Vec<Case> {
     let mut rng = Rng(stream(5));
     for _ in 0..260 {
         cases.push(jobscript_case(&mut rng, fx));
+    }
+    cases.extend(mesh_cases(&mut Rng(stream(6)), dir));
+    cases
+}
+
+// ---------------------------------------------------------------------------------------------
+// Family `mesh` (issue 83)
+// ---------------------------------------------------------------------------------------------
+
+/// Placement keys a mesh body may carry, valid and odd.
+const MESH_KEYS: &[&str] = &[
+    "",
+    "scale = 0.001",
+    "scale = 1e-300",
+    "scale = 1e300",
+    "scale = nan",
+    "rotate = [0.0, 0.0, 90.0]",
+    "rotate = [1e300, 0.0, 0.0]",
+    "rotate = [33.0, 12.5, -7.0]",
+    "translate = [0.01, 0.0, 0.02]",
+    "translate = [inf, 0.0, 0.0]",
+    "flip = true",
+    "sha256 = \"deadbeef\"",
+];
+
+/// The mesh family's cases under `dir/meshes`: each hostile file of `tests/mesh.rs` through
+/// `check` and a run, then 150 mutants of a good binary or ASCII box (bytes flipped, cut,
+/// the header's count replaced, a triangle repeated, ASCII tokens replaced), each with a
+/// placement key from [`MESH_KEYS`]; a third of the mutants run 3 steps.
+fn mesh_cases(rng: &mut Rng, dir: &Path) -> Vec<Case> {
+    let md = dir.join("meshes");
+    fs::create_dir_all(md.join("folder.stl")).unwrap();
+    crate::mesh::write_bad_files(&md);
+    let binary = fs::read(md.join("box.stl")).unwrap();
+    let ascii = fs::read(crate::mesh::stl(
+        &md,
+        "ascii.stl",
+        &[
+            "box", "--min", "0.1", "0.1", "0", "--max", "0.4", "0.3", "0.2", "--ascii",
+        ],
+    ))
+    .unwrap();
+    let mut cases = Vec::new();
+    let mut case = |name: &str, extra: &str, run: bool, note: String| {
+        let k = cases.len();
+        let scene = md.join(format!("m{k}.toml"));
+        fs::write(
+            &scene,
+            crate::mesh::scene(&format!("shape = \"mesh\"\nfile = \"{name}\"\n{extra}")),
+        )
+        .unwrap();
+        let mut args = if run {
+            vec![s("run"), p(&scene), s("-q"), s("--force"), s("--out"), s("run")]
+        } else {
+            vec![s("check"), p(&scene)]
+        };
+        args.extend(["--max-memory", "2G"].map(String::from));
+        if run {
+            args.extend(["--set", "time.max_steps=3", "--threads", "1"].map(String::from));
+        }
+        cases.push(Case {
+            note: format!("{note}; {extra}"),
+            ..Case::new(Family::Mesh, args)
+        });
+    };
+    let hostile = [
+        "cut.stl",
+        "nan.stl",
+        "open.stl",
+        "turned.stl",
+        "empty.stl",
+        "inward.stl",
+        "huge.stl",
+        "lying.stl",
+        "crossing.stl",
+        "fifo.stl",
+        "zero.stl",
+        "folder.stl",
+        "none.stl",
+        "box.stl",
+    ];
+    for name in hostile {
+        case(name, "", false, format!("hostile {name}"));
+        case(name, "", true, format!("hostile {name}"));
+    }
+    for k in 0..150 {
+        let (base, text) = if rng.below(2) == 0 {
+            (&binary, false)
+        } else {
+            (&ascii, true)
+        };
+        let mut b = base.clone();
+        let what = match rng.below(6) {
+            5 if !text => {
+                // bytes the reader ignores: the header's text and a facet's normal
+                let i = if rng.below(2) == 0 {
+                    rng.below(80)
+                } else {
+                    84 + 50 * rng.below(12) + rng.below(12)
+                };
+                b[i] ^= 1 << rng.below(8);
+                format!("byte {i} (header or normal) flipped")
+            }
+            0 => {
+                let n = 1 + rng.below(8);
+                for _ in 0..n {
+                    let i = rng.below(b.len());
+                    b[i] ^= 1 << rng.below(8);
+                }
+                format!("{n} bits flipped")
+            }
+            1 => {
+                b.truncate(rng.below(b.len() + 1));
+                format!("cut to {} bytes", b.len())
+            }
+            2 if !text => {
+                let n = rng.next_u64() as u32;
+                b[80..84].copy_from_slice(&n.to_le_bytes());
+                format!("header counts {n}")
+            }
+            3 if !text => {
+                let t = 84 + 50 * rng.below(12);
+                let tri = b[t..t + 50].to_vec();
+                b.extend_from_slice(&tri);
+                let n = u32::from_le_bytes([b[80], b[81], b[82], b[83]]) + 1;
+                b[80..84].copy_from_slice(&n.to_le_bytes());
+                s("a triangle repeated")
+            }
+            _ => {
+                let t = String::from_utf8_lossy(&b).into_owned();
+                // the byte ranges of the words, so that one is replaced in place (lines kept)
+                let mut words = Vec::new();
+                let mut start = None;
+                for (at, c) in t.char_indices().chain([(t.len(), ' ')]) {
+                    match (c.is_whitespace(), start) {
+                        (false, None) => start = Some(at),
+                        (true, Some(a)) => {
+                            words.push(a..at);
+                            start = None;
+                        }
+                        _ => {}
+                    }
+                }
+                let w = words[rng.below(words.len())].clone();
+                let odd = [
+                    "nan", "inf", "-1e39", "1e309", "", "facet", "vertex", "endsolid", "0x1p3", "1e-320",
+                ];
+                let new = odd[rng.below(odd.len())];
+                b = format!("{}{new}{}", &t[..w.start], &t[w.end..]).into_bytes();
+                format!("word `{}` at byte {} replaced by `{new}`", &t[w.clone()], w.start)
+            }
+        };
+        let name = format!("mutant-{k}.stl");
+        fs::write(md.join(&name), &b).unwrap();
+        let extra = if rng.below(2) == 0 {
+            ""
+        } else {
+            MESH_KEYS[rng.below(MESH_KEYS.len())]
+        };
+        case(&name, extra, k % 3 == 0, format!("{name}: {what}"));
     }
     cases
 }

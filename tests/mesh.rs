@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// A 3D scene, domain [−0.05, 0.65]³ with a floor, and one fluid body `BODY` (its shape keys).
-fn scene(body: &str) -> String {
+pub(crate) fn scene(body: &str) -> String {
     format!(
         r#"name = "mesh"
 dimension = 3
@@ -56,7 +56,7 @@ format = "none"
 }
 
 /// Run `tools/stl_shapes.py ARGS --out DIR/NAME`; the file's path.
-fn stl(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
+pub(crate) fn stl(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
     let out = dir.join(name);
     let o = Command::new("python3")
         .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/tools/stl_shapes.py"))
@@ -317,9 +317,23 @@ fn the_wigley_hull_fills_four_ninths_of_l_b_t() {
     );
 }
 
+/// The binary STL of `files`' triangles in order (each a binary STL; the first one's header).
+fn joined(files: &[&[u8]]) -> Vec<u8> {
+    let mut out = files[0][..80].to_vec();
+    let n: usize = files.iter().map(|b| (b.len() - 84) / 50).sum();
+    out.extend_from_slice(&(n as u32).to_le_bytes());
+    for b in files {
+        out.extend_from_slice(&b[84..]);
+    }
+    out
+}
+
 /// A good box in DIR/box.stl and, beside it, the bad files of [`a_bad_mesh_is_an_input_error`]:
-/// cut short, a NaN, a missing triangle (3 open edges), a turned triangle, and no triangle.
-fn write_bad_files(dir: &Path) {
+/// cut short, a NaN, a missing triangle (3 open edges), a turned triangle, no triangle, every
+/// triangle turned (normals inward), a header counting 10⁹ triangles, a header counting one
+/// fewer than the file holds, a FIFO, a link to /dev/zero; and `crossing.stl`, the box and a
+/// second box through it.
+pub(crate) fn write_bad_files(dir: &Path) {
     let good = stl(
         dir,
         "box.stl",
@@ -337,16 +351,45 @@ fn write_bad_files(dir: &Path) {
     let (b, c) = (turned[t + 12..t + 24].to_vec(), turned[t + 24..t + 36].to_vec());
     turned[t + 12..t + 24].copy_from_slice(&c);
     turned[t + 24..t + 36].copy_from_slice(&b);
-    let files: [(&str, Vec<u8>); 5] = [
+    let mut inward = bytes.clone();
+    for k in 0..12 {
+        let t = 84 + 50 * k + 12;
+        let (b, c) = (inward[t + 12..t + 24].to_vec(), inward[t + 24..t + 36].to_vec());
+        inward[t + 12..t + 24].copy_from_slice(&c);
+        inward[t + 24..t + 36].copy_from_slice(&b);
+    }
+    let mut huge = bytes.clone();
+    huge[80..84].copy_from_slice(&1_000_000_000u32.to_le_bytes());
+    let mut lying = bytes.clone();
+    lying[80..84].copy_from_slice(&11u32.to_le_bytes());
+    let other = std::fs::read(stl(
+        dir,
+        "other.stl",
+        &[
+            "box", "--min", "0.2", "0.15", "0.05", "--max", "0.5", "0.25", "0.15",
+        ],
+    ))
+    .unwrap();
+    let files: [(&str, Vec<u8>); 9] = [
         ("cut.stl", bytes[..bytes.len() - 7].to_vec()),
         ("nan.stl", nan),
         ("open.stl", open),
         ("turned.stl", turned),
         ("empty.stl", b"solid x\nendsolid x\n".to_vec()),
+        ("inward.stl", inward),
+        ("huge.stl", huge),
+        ("lying.stl", lying),
+        ("crossing.stl", joined(&[&bytes, &other])),
     ];
     for (name, b) in &files {
         std::fs::write(dir.join(name), b).unwrap();
     }
+    let fifo = dir.join("fifo.stl");
+    let _ = std::fs::remove_file(&fifo);
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let zero = dir.join("zero.stl");
+    let _ = std::fs::remove_file(&zero);
+    std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
 }
 
 /// Each bad mesh or bad mesh key is refused by `hsph check` with exit status 2, the key, the
@@ -389,6 +432,36 @@ fn a_bad_mesh_is_an_input_error() {
             "not a regular file",
         ),
         (
+            "shape = \"mesh\"\nfile = \"fifo.stl\"".into(),
+            "fluid[0].file",
+            "not a regular file",
+        ),
+        (
+            "shape = \"mesh\"\nfile = \"zero.stl\"".into(),
+            "fluid[0].file",
+            "not a regular file",
+        ),
+        (
+            "shape = \"mesh\"\nfile = \"huge.stl\"".into(),
+            "fluid[0].file",
+            "header counts 1000000000 triangles",
+        ),
+        (
+            "shape = \"mesh\"\nfile = \"lying.stl\"".into(),
+            "fluid[0].file",
+            "header counts 11 triangles, 84 + 50·11 = 634 bytes, but the file has 684",
+        ),
+        (
+            "shape = \"mesh\"\nfile = \"inward.stl\"".into(),
+            "fluid[0].file",
+            "normals point inward (signed volume -1.2000e-2 m³",
+        ),
+        (
+            m("flip = true"),
+            "fluid[0].file",
+            "the file's own normals point outward already; remove `fluid[0].flip`",
+        ),
+        (
             "shape = \"mesh\"\nfile = \"none.stl\"".into(),
             "fluid[0].file",
             "relative to the scene file",
@@ -425,7 +498,13 @@ fn a_bad_mesh_is_an_input_error() {
             "fluid[0].scale",
             "belongs to `shape = \"mesh\"`",
         ),
+        (
+            "min = [0.1, 0.1, 0.0]\nmax = [0.4, 0.3, 0.2]\nflip = false".into(),
+            "fluid[0].flip",
+            "belongs to `shape = \"mesh\"`",
+        ),
     ];
+    assert!(cases.len() >= 20, "{} cases", cases.len());
     let path = dir.join("scene.toml");
     for (body, key, needle) in &cases {
         std::fs::write(&path, scene(body)).unwrap();
@@ -463,6 +542,38 @@ fn a_bad_mesh_is_an_input_error() {
         };
         assert!(err.contains(key) && err.contains(needle), "{err}");
     }
+    // the inward box with `flip = true` is the box
+    let sites_of = |file: &str, extra: &str| {
+        let s = load_in(&dir, &format!("shape = \"mesh\"\nfile = \"{file}\"\n{extra}"));
+        fluid(&s)
+    };
+    assert_eq!(sites_of("inward.stl", "flip = true"), sites_of("box.stl", ""));
+    // a box with a second one through it is built, with a warning naming a crossing pair
+    std::fs::write(&path, scene("shape = \"mesh\"\nfile = \"crossing.stl\"")).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
+        .args(["check", path.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let all = String::from_utf8_lossy(&o.stdout) + String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{all}");
+    let warning = all
+        .lines()
+        .find(|l| l.contains("cross each other"))
+        .unwrap_or_else(|| panic!("{all}"));
+    let pair: Vec<usize> = warning
+        .split("triangles ")
+        .nth(1)
+        .unwrap()
+        .split(" cross")
+        .next()
+        .unwrap()
+        .split(" and ")
+        .map(|t| t.parse().unwrap())
+        .collect();
+    assert!(
+        warning.contains("fluid[0].file") && pair[0] <= 12 && pair[1] > 12,
+        "{warning}"
+    );
 }
 
 /// Random bytes, random cuts of a good file and random triangle soups are refused as input

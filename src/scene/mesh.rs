@@ -29,6 +29,9 @@ pub struct Placement {
     pub rotate: [f64; 3],
     /// Translation (m), applied last.
     pub translate: [f64; 3],
+    /// Reverse each triangle's corner order, turning its normal round (`flip = true`, for a
+    /// file whose normals point inward).
+    pub flip: bool,
 }
 
 impl Placement {
@@ -340,6 +343,69 @@ impl Mesh {
         }
         None
     }
+}
+
+impl Mesh {
+    /// A pair of triangles (1-based, file order, the lower first) that cross each other, if
+    /// any: an edge of one passes through the other's interior, by exact orientations
+    /// (`robust::orient3d`). Triangles sharing a corner, and touching or coplanar pairs, are
+    /// not counted (so surfaces that cross only along edges lying in each other's faces go
+    /// unreported: a warning, not a proof). The pairs tried are those binned in one cell of the grid; cells are
+    /// searched in parallel but the first crossing cell in order wins, so the pair reported
+    /// is the same on every run and thread count.
+    pub fn self_crossing(&self) -> Option<(usize, usize)> {
+        use rayon::prelude::*;
+        let g = &self.grid;
+        (0..g.start.len() - 1).into_par_iter().find_map_first(|c| {
+            let here = &g.items[g.start[c] as usize..g.start[c + 1] as usize];
+            for (i, &a) in here.iter().enumerate() {
+                for &b in &here[i + 1..] {
+                    let (ta, tb) = (&self.tri[a as usize], &self.tri[b as usize]);
+                    let apart = (0..3).any(|d| {
+                        let (a, b) = (span(ta, d), span(tb, d));
+                        a.0 > b.1 || b.0 > a.1
+                    });
+                    if apart || ta.iter().any(|v| tb.contains(v)) {
+                        continue;
+                    }
+                    if pierces(ta, tb) || pierces(tb, ta) {
+                        return Some((a.min(b) as usize + 1, a.max(b) as usize + 1));
+                    }
+                }
+            }
+            None
+        })
+    }
+}
+
+/// The least and greatest coordinate of triangle `t` along axis `d` (m).
+fn span(t: &Tri, d: usize) -> (f64, f64) {
+    (
+        t[0][d].min(t[1][d]).min(t[2][d]),
+        t[0][d].max(t[1][d]).max(t[2][d]),
+    )
+}
+
+/// Whether an edge of triangle `e` passes through the interior of triangle `t`: its ends lie
+/// strictly on opposite sides of t's plane, and it passes strictly inside t's three edges.
+fn pierces(e: &Tri, t: &Tri) -> bool {
+    use robust::{orient3d, Coord3D};
+    let c = |v: &[f64; 3]| Coord3D {
+        x: v[0],
+        y: v[1],
+        z: v[2],
+    };
+    let side = |p: &[f64; 3]| orient3d(c(&t[0]), c(&t[1]), c(&t[2]), c(p));
+    (0..3).any(|k| {
+        let (p, q) = (&e[k], &e[(k + 1) % 3]);
+        // strictly opposite sides (a zero is a corner on the plane: touching, not crossing)
+        let (sp, sq) = (side(p), side(q));
+        if !(sp > 0.0 && sq < 0.0 || sp < 0.0 && sq > 0.0) {
+            return false;
+        }
+        let s = [0, 1, 2].map(|j| orient3d(c(p), c(q), c(&t[j]), c(&t[(j + 1) % 3])));
+        s.iter().all(|&x| x > 0.0) || s.iter().all(|&x| x < 0.0)
+    })
 }
 
 /// The directed edges of a triangle of corner ids `c`; none if two corners coincide.
@@ -799,6 +865,7 @@ pub fn read(path: &Path, key: &str, place: &Placement) -> Result<Mesh> {
                 n + 1
             )));
         }
+        let v = if place.flip { [v[0], v[2], v[1]] } else { v };
         tri.push(v.map(|v| place.apply(v)));
     }
     if tri.is_empty() {
@@ -906,6 +973,7 @@ mod tests {
             scale: 2.0,
             rotate: [90.0, 0.0, 180.0],
             translate: [1.0, 0.0, 0.0],
+            flip: false,
         };
         // x then z: (x, y, z) -> (x, -z, y) -> (-x, z, y), scaled by 2, moved by +1 in x
         assert_eq!(place.apply([0.25, 0.5, 0.125]), [0.5, 0.25, 1.0]);
@@ -913,6 +981,7 @@ mod tests {
             scale: 1.0,
             rotate: [0.0, 30.0, 0.0],
             translate: [0.0; 3],
+            flip: false,
         };
         let q = p.apply([1.0, 0.0, 0.0]);
         let s = 0.5f64;
@@ -1017,6 +1086,41 @@ mod tests {
     }
 
     #[test]
+    fn crossing_surfaces_are_found_and_touching_ones_are_not() {
+        let cube = |lo: [f64; 3], hi: [f64; 3]| cuboid(lo, hi);
+        let two = |a: Vec<Tri>, b: Vec<Tri>| mesh(a.into_iter().chain(b).collect());
+        assert_eq!(mesh(cube([0.0; 3], [1.0; 3])).self_crossing(), None);
+        assert_eq!(mesh(sphere([0.5; 3], 0.4, 40)).self_crossing(), None);
+        // apart, and sharing a face's plane (touching): no crossing
+        assert_eq!(
+            two(cube([0.0; 3], [1.0; 3]), cube([2.0; 3], [3.0; 3])).self_crossing(),
+            None
+        );
+        assert_eq!(
+            two(cube([0.0; 3], [1.0; 3]), cube([1.0, 0.2, 0.2], [2.0, 0.8, 0.8])).self_crossing(),
+            None
+        );
+        // overlapping: the first box's x = 1 face (triangles 11, 12) is pierced by the second's
+        // edges along x; a box through the middle of another crosses it too
+        let hit = two(cube([0.0; 3], [1.0; 3]), cube([0.5, 0.2, 0.2], [1.5, 0.8, 0.8])).self_crossing();
+        let (a, b) = hit.expect("overlapping boxes cross");
+        assert!(a <= 12 && b > 12, "{a} {b}");
+        assert!(
+            two(cube([0.0; 3], [1.0; 3]), cube([0.3, 0.3, -1.0], [0.6, 0.6, 2.0]))
+                .self_crossing()
+                .is_some()
+        );
+        // a sphere through a box's face, and the same sphere wholly inside it (no crossing);
+        // centred on the face, its meridian at φ = 90° would lie in the face's plane and meet
+        // it only along edges (touching), so it sits a little off
+        let b = cube([0.0; 3], [1.0; 3]);
+        assert!(two(b.clone(), sphere([1.05, 0.5, 0.5], 0.3, 12))
+            .self_crossing()
+            .is_some());
+        assert_eq!(two(b, sphere([0.5; 3], 0.3, 12)).self_crossing(), None);
+    }
+
+    #[test]
     fn holes_and_turned_faces_are_found_and_located() {
         let mut t = cuboid([0.0; 3], [1.0; 3]);
         t.remove(3);
@@ -1060,6 +1164,7 @@ mod tests {
             scale: 1.0,
             rotate: [0.0; 3],
             translate: [0.0; 3],
+            flip: false,
         };
         let try_bytes = |name: &str, b: &[u8]| {
             let p = dir.join(name);

@@ -24,6 +24,8 @@ pub struct MeshKeys<'a> {
     pub rotate: &'a [f64],
     /// `translate` (m).
     pub translate: &'a [f64],
+    /// `flip`.
+    pub flip: Option<bool>,
     /// `sha256`: set when loaded; given, it must match.
     pub sha256: &'a mut Option<String>,
     /// The mesh, once read.
@@ -55,6 +57,7 @@ pub(super) fn read_meshes(s: &mut Scene, scene_file: &Path) -> Result<()> {
             scale: w.scale,
             rotate: &w.rotate,
             translate: &w.translate,
+            flip: w.flip,
             sha256: &mut w.sha256,
             mesh: &mut w.mesh,
         };
@@ -80,6 +83,7 @@ fn load(k: &str, m: MeshKeys, dir: &Path) -> Result<()> {
         ("scale", m.scale.is_some()),
         ("rotate", !m.rotate.is_empty()),
         ("translate", !m.translate.is_empty()),
+        ("flip", m.flip.is_some()),
         ("sha256", m.sha256.is_some()),
     ];
     if !m.is_mesh {
@@ -120,6 +124,22 @@ fn load(k: &str, m: MeshKeys, dir: &Path) -> Result<()> {
     if let Some(defect) = read.topology() {
         return Err(file_error(&path, &key, None, defect.message()));
     }
+    let volume = read.signed_volume();
+    if volume < 0.0 {
+        let why = if place.flip {
+            format!(
+                "with `flip = true` its normals point inward (signed volume {volume:.4e} m³): the \
+                 file's own normals point outward already; remove `{k}.flip`"
+            )
+        } else {
+            format!(
+                "its normals point inward (signed volume {volume:.4e} m³, by the corners' order): \
+                 a closed mesh's normals point out of the body; set `flip = true` to turn them, or \
+                 re-export with outward normals"
+            )
+        };
+        return Err(file_error(&path, &key, None, why));
+    }
     let abs = std::fs::canonicalize(&path).unwrap_or(path);
     *m.file = Some(abs.to_string_lossy().into_owned());
     *m.sha256 = Some(read.sha256.clone());
@@ -153,6 +173,7 @@ fn placement(k: &str, m: &MeshKeys) -> Result<Placement> {
         scale,
         rotate: three("rotate", m.rotate, "[0.0, 0.0, 90.0] (degrees about x, y, z)")?,
         translate: three("translate", m.translate, "[0.5, 0.0, 0.1] (m)")?,
+        flip: m.flip.unwrap_or(false),
     })
 }
 
@@ -169,21 +190,23 @@ pub struct MeshInput {
     pub triangles: usize,
 }
 
-/// The meshes of the scene's bodies and walls, in table order.
-pub fn mesh_inputs(s: &Scene) -> Vec<MeshInput> {
+/// Every mesh of the scene's bodies and walls, in table order: (table, file, mesh).
+fn meshes(s: &Scene) -> impl Iterator<Item = (String, &Option<String>, &Arc<Mesh>)> {
     let bodies = (s.fluids.iter().enumerate())
         .map(|(i, f)| (format!("fluid[{i}]"), &f.file, &f.mesh))
         .chain((s.solids.iter().enumerate()).map(|(i, f)| (format!("solid[{i}]"), &f.file, &f.mesh)))
         .chain((s.walls.iter().enumerate()).map(|(i, w)| (format!("wall[{i}]"), &w.file, &w.mesh)));
-    bodies
-        .filter_map(|(key, file, mesh)| {
-            let m = mesh.as_ref()?;
-            Some(MeshInput {
-                key,
-                file: file.clone().unwrap_or_default(),
-                sha256: m.sha256.clone(),
-                triangles: m.triangles(),
-            })
+    bodies.filter_map(|(key, file, mesh)| Some((key, file, mesh.as_ref()?)))
+}
+
+/// The meshes of the scene's bodies and walls, in table order.
+pub fn mesh_inputs(s: &Scene) -> Vec<MeshInput> {
+    meshes(s)
+        .map(|(key, file, m)| MeshInput {
+            key,
+            file: file.clone().unwrap_or_default(),
+            sha256: m.sha256.clone(),
+            triangles: m.triangles(),
         })
         .collect()
 }
@@ -191,7 +214,23 @@ pub fn mesh_inputs(s: &Scene) -> Vec<MeshInput> {
 /// Bytes the scene's meshes and their indexes take (each counted once: bodies may not share
 /// a mesh, but a mesh read twice is held twice).
 pub fn mesh_bytes(s: &Scene) -> u64 {
-    let bodies = (s.fluids.iter().map(|f| &f.mesh)).chain(s.solids.iter().map(|f| &f.mesh));
-    let walls = s.walls.iter().map(|w| &w.mesh);
-    bodies.chain(walls).flatten().map(|m| m.bytes()).sum()
+    meshes(s).map(|(_, _, m)| m.bytes()).sum()
+}
+
+/// A warning per mesh whose surface crosses itself ([`Mesh::self_crossing`]), naming one pair
+/// of triangles: its inside is still judged by ray parity, so sites near the crossing may be
+/// claimed or left out.
+pub fn mesh_warnings(s: &Scene) -> Vec<String> {
+    meshes(s)
+        .filter_map(|(key, file, m)| {
+            let (a, b) = m.self_crossing()?;
+            Some(format!(
+                "{key}.file ({}): triangles {a} and {b} cross each other, so the surface \
+                 intersects itself; the inside is judged by ray parity and sites near the \
+                 crossing may be claimed or left out (repair the mesh, e.g. a boolean union of \
+                 its parts in the CAD tool)",
+                file.as_deref().unwrap_or("?")
+            ))
+        })
+        .collect()
 }

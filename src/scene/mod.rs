@@ -118,7 +118,8 @@ impl Scene {
 /// regions' (particles that list thousands of neighbours, fine particles under a level-h
 /// pressure jump, regions that refine nothing) and step counts that local time stepping
 /// cannot honour (an odd `checkpoint.every_steps` or `time.max_steps`) and pressure sensors
-/// that read the discretisation (a face narrower than dx, a corner within one support).
+/// that read the discretisation (a face narrower than dx, a corner within one support) and
+/// meshes whose surface crosses itself.
 pub fn warnings<const D: usize>(s: &Scene) -> Vec<String> {
     let mut out = lattice::scene_warnings::<D>(s);
     out.extend(refine::list_warnings(s));
@@ -126,6 +127,7 @@ pub fn warnings<const D: usize>(s: &Scene) -> Vec<String> {
     out.extend(refine::region_warnings::<D>(s));
     out.extend(validate::stepping_warnings(s));
     out.extend(probes::sensor_warnings(s));
+    out.extend(mesh_file::mesh_warnings(s));
     out
 }
 

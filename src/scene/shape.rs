@@ -176,6 +176,10 @@ macro_rules! shaped_table {
             /// A mesh's translation (m), applied last; default none.
             #[serde(default, skip_serializing_if = "Vec::is_empty")]
             pub translate: Vec<f64>,
+            /// A mesh whose normals point inward: reverse each triangle's corners (default
+            /// false; a closed mesh must have outward normals after it).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub flip: Option<bool>,
             /// SHA-256 of a mesh's file, set when the scene is loaded; a resolved scene's (a
             /// run directory's, a restart's) must match the file, which must not change.
             #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -211,6 +215,7 @@ macro_rules! shaped_table {
                     scale: self.scale,
                     rotate: &self.rotate,
                     translate: &self.translate,
+                    flip: self.flip,
                     sha256: &mut self.sha256,
                     mesh: &mut self.mesh,
                 }

@@ -275,6 +275,9 @@ pub struct WallBody {
     /// A mesh wall's translation (m), applied last.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub translate: Vec<f64>,
+    /// A mesh wall whose file's normals point inward: reverse each triangle's corners.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flip: Option<bool>,
     /// SHA-256 of a mesh wall's file, set when the scene is loaded; a resolved scene's must
     /// match the file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
