@@ -599,6 +599,27 @@ fn check_previews_the_built_particles_without_running() {
     for a in ["x", "y", "z"] {
         assert!(out3.join(format!("preview_{a}.png")).is_file(), "{a}");
     }
+    // each section cuts the most bodies: through the Wigley hull (box [0.9, 1.7] × [0.24,
+    // 0.36] × [0, 0.15] m), though the domain's middle misses it in x and z
+    let hull = dir.join("hull");
+    let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
+        .args(["check", "inputs/dam_break_wigley.toml", "--preview"])
+        .arg(&hull)
+        .current_dir(common::repo_path(""))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for (a, lo, hi) in [("x", 0.9, 1.7), ("y", 0.24, 0.36), ("z", 0.0, 0.15)] {
+        let svg = std::fs::read_to_string(hull.join(format!("preview_{a}.svg"))).unwrap();
+        let tag = format!("the section {a} = ");
+        let at: f64 = svg[svg.find(&tag).unwrap() + tag.len()..]
+            .split(' ')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!((lo..=hi).contains(&at), "{a} = {at}");
+    }
     // a file where the directory should be
     let file = dir.join("taken");
     std::fs::write(&file, "x").unwrap();

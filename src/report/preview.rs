@@ -3,8 +3,9 @@
 //! whole set as `particles.vtu` and `particles.nc` (kind, body, level, mass, density, pressure;
 //! the netCDF in the snapshots' CF point layout) and pictures of
 //! them coloured by body, drawn as `hsph report` draws. A 2D scene gives one picture; a 3D scene
-//! one per axis, each a section one spacing thick through the middle of the domain (a
-//! projection would hide a baffle behind a wall).
+//! one per axis, each a section one spacing thick (a projection would hide a baffle behind a
+//! wall): the lattice layer that cuts the most bodies, the one nearest the domain's middle
+//! among those, so that a hull beside a water column is cut even where the middle misses it.
 
 use super::charts::{both, font, register_font, Res, PALETTE};
 use crate::error::{Error, Result};
@@ -87,8 +88,36 @@ fn bodies<const D: usize>(scene: &Scene, p: &Particles<D>) -> (Vec<String>, Vec<
     (names, of)
 }
 
-/// One picture: every particle (2D), or those of the lattice layer nearest the domain's middle
-/// along `normal` (3D), on the other two axes in order, coloured by body.
+/// The coordinate (m) along axis `n` of the layer of lattice sites (lo + (i + ½) dx) that the
+/// most bodies (`body_of`, `bodies` of them) have particles in; among those, the one nearest
+/// the middle of [lo, hi].
+fn busiest_layer<const D: usize>(
+    p: &Particles<D>,
+    body_of: &[usize],
+    bodies: usize,
+    n: usize,
+    lo: f64,
+    hi: f64,
+    dx: f64,
+) -> f64 {
+    let layers = (((hi - lo) / dx).ceil() as usize).max(1);
+    let mut seen = vec![false; layers * bodies];
+    for i in 0..p.n_owned {
+        let l = (((p.x[i][n] - lo) / dx).floor().max(0.0) as usize).min(layers - 1);
+        seen[l * bodies + body_of[i]] = true;
+    }
+    let middle = ((0.5 * (hi - lo)) / dx - 0.5).round().max(0.0) as usize;
+    let best = (0..layers)
+        .max_by_key(|&l| {
+            let count = seen[l * bodies..(l + 1) * bodies].iter().filter(|&&b| b).count();
+            (count, std::cmp::Reverse(l.abs_diff(middle)), std::cmp::Reverse(l))
+        })
+        .unwrap_or(middle);
+    lo + (best as f64 + 0.5) * dx
+}
+
+/// One picture: every particle (2D), or those of the lattice layer of [`busiest_layer`] along
+/// `normal` (3D), on the other two axes in order, coloured by body.
 fn section<const D: usize>(
     dir: &Path,
     scene: &Scene,
@@ -105,11 +134,7 @@ fn section<const D: usize>(
             (others[0], others[1])
         }
     };
-    // the layer of lattice sites (domain.min + (i + ½) dx) nearest the middle
-    let at = normal.map(|n| {
-        let i = ((0.5 * (lo[n] + hi[n]) - lo[n]) / dx - 0.5).round().max(0.0);
-        (n, lo[n] + (i + 0.5) * dx)
-    });
+    let at = normal.map(|n| (n, busiest_layer(p, body_of, names.len(), n, lo[n], hi[n], dx)));
     let shown: Vec<usize> = (0..p.n_owned)
         .filter(|&i| at.is_none_or(|(n, c)| (p.x[i][n] - c).abs() < 0.5 * dx))
         .collect();
