@@ -180,6 +180,7 @@ fn wall_blocks(s: &Scene) -> Vec<crate::scene::FluidBody> {
             rotate: Vec::new(),
             translate: Vec::new(),
             flip: None,
+            slice: None,
             sha256: None,
             mesh: None,
             velocity: Vec::new(),

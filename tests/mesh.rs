@@ -328,6 +328,136 @@ fn joined(files: &[&[u8]]) -> Vec<u8> {
     out
 }
 
+/// [`scene`]'s text made 2D: its vectors lose their y component (the floor is then a plate
+/// under [−0.04, 0.64] in x).
+fn to_2d(text: &str) -> String {
+    text.replace("dimension = 3", "dimension = 2")
+        .replace("[-0.05, -0.05, -0.05]", "[-0.05, -0.05]")
+        .replace("[0.65, 0.65, 0.65]", "[0.65, 0.65]")
+        .replace("[0.0, 0.0, -9.81]", "[0.0, -9.81]")
+        .replace("[-0.04, -0.04, -0.04]", "[-0.04, -0.04]")
+        .replace("[0.64, 0.64, 0.0]", "[0.64, 0.0]")
+}
+
+/// A 2D scene cuts a 3D mesh by `slice = { axis, at }`, the other two axes in order: a box
+/// (faces on sites) cut across y builds the 2D block of its (x, z) section bit for bit,
+/// hydrostatic density included; a fine sphere cut through its centre across x builds the
+/// disc's sites up to half a spacing from the circle, counts within 1 %; and a plane beside
+/// the mesh, a slice in 3D, a bad axis and a slice on a block are refused by key.
+#[test]
+fn a_slice_of_a_mesh_builds_its_section_in_2d() {
+    let dir = temp_dir("mesh-slice");
+    let load2 = |body: &str, overrides: &[&str]| {
+        let path = dir.join("scene.toml");
+        std::fs::write(&path, to_2d(&scene(body))).unwrap();
+        let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+        load_scene(&path, &o)
+    };
+    let fluid2 = |s: &Scene| -> Vec<[u64; 4]> {
+        let p = build_particles::<2>(s).unwrap();
+        (0..p.n_owned)
+            .filter(|&i| p.kind[i] == hsph::particles::Kind::Fluid)
+            .map(|i| [p.x[i][0], p.x[i][1], p.rho[i], p.mass[i]].map(f64::to_bits))
+            .collect()
+    };
+    let dyadic = ["discretisation.dx=0.015625", "domain.min=[-0.0625, -0.0625]"];
+    let (lo, hi) = (
+        [13.0 / 128.0, 11.0 / 128.0, 1.0 / 128.0],
+        [51.0 / 128.0, 39.0 / 128.0, 27.0 / 128.0],
+    );
+    let b: Vec<String> = lo.iter().chain(&hi).map(|x| x.to_string()).collect();
+    stl(
+        &dir,
+        "box.stl",
+        &["box", "--min", &b[0], &b[1], &b[2], "--max", &b[3], &b[4], &b[5]],
+    );
+    let block = load2(
+        &format!("min = [{}, {}]\nmax = [{}, {}]", b[0], b[2], b[3], b[5]),
+        &dyadic,
+    )
+    .unwrap()
+    .0;
+    let want = fluid2(&block);
+    assert_eq!(want.len(), 19 * 13);
+    let cut = load2(
+        "shape = \"mesh\"\nfile = \"box.stl\"\nslice = { axis = 1, at = 0.2 }",
+        &dyadic,
+    )
+    .unwrap()
+    .0;
+    assert_eq!(cut.fluids[0].min, block.fluids[0].min);
+    assert_eq!(cut.fluids[0].max, block.fluids[0].max);
+    assert!(
+        fluid2(&cut) == want,
+        "{} against {}",
+        fluid2(&cut).len(),
+        want.len()
+    );
+    // the sphere's section against the disc
+    stl(
+        &dir,
+        "ball.stl",
+        &[
+            "sphere", "--centre", "0.3", "0.3", "0.3", "--radius", "0.143", "--bands", "200",
+        ],
+    );
+    let sites = |s: &Scene| -> std::collections::BTreeSet<[i64; 2]> {
+        fluid2(s)
+            .iter()
+            .map(|p| [0, 1].map(|a| ((f64::from_bits(p[a]) + 0.05) / 0.02 - 0.5).round() as i64))
+            .collect()
+    };
+    let disc = sites(
+        &load2("shape = \"sphere\"\ncentre = [0.3, 0.3]\nradius = 0.143", &[])
+            .unwrap()
+            .0,
+    );
+    let section = sites(
+        &load2(
+            "shape = \"mesh\"\nfile = \"ball.stl\"\nslice = { axis = 0, at = 0.3 }",
+            &[],
+        )
+        .unwrap()
+        .0,
+    );
+    let (n_disc, n_cut) = (disc.len() as f64, section.len() as f64);
+    assert!((n_cut / n_disc - 1.0).abs() < 0.01, "{n_cut} against {n_disc}");
+    for s in disc.symmetric_difference(&section) {
+        let x = s.map(|i| -0.05 + (i as f64 + 0.5) * 0.02);
+        let r = (x[0] - 0.3).hypot(x[1] - 0.3);
+        assert!((r - 0.143).abs() < 0.01, "site {x:?} at r = {r}");
+    }
+    // refusals
+    let m = "shape = \"mesh\"\nfile = \"box.stl\"\n";
+    for (body, key, needle) in [
+        (
+            format!("{m}slice = {{ axis = 1, at = 0.9 }}"),
+            "fluid[0].slice",
+            "misses the mesh",
+        ),
+        (
+            format!("{m}slice = {{ axis = 3, at = 0.1 }}"),
+            "fluid[0].slice",
+            "an axis of 0, 1 or 2",
+        ),
+        (
+            "min = [0.1, 0.0]\nmax = [0.3, 0.1]\nslice = { axis = 1, at = 0.2 }".into(),
+            "fluid[0].slice",
+            "belongs to `shape = \"mesh\"`",
+        ),
+    ] {
+        let e = load2(&body, &[]).expect_err(&body).to_string();
+        assert!(e.contains(key) && e.contains(needle), "{e}");
+    }
+    let path = dir.join("three.toml");
+    std::fs::write(&path, scene(&format!("{m}slice = {{ axis = 1, at = 0.2 }}"))).unwrap();
+    let e = load_scene(&path, &[]).expect_err("3D slice").to_string();
+    assert!(
+        e.contains("fluid[0].slice") && e.contains("this scene is 3D"),
+        "{e}"
+    );
+}
+
 /// A good box in DIR/box.stl and, beside it, the bad files of [`a_bad_mesh_is_an_input_error`]:
 /// cut short, a NaN, a missing triangle (3 open edges), a turned triangle, no triangle, every
 /// triangle turned (normals inward), a header counting 10⁹ triangles, a header counting one
@@ -521,19 +651,13 @@ fn a_bad_mesh_is_an_input_error() {
         assert!(!err.contains("panicked"), "{err}");
     }
     // a mesh in 2D, and a mesh refinement region
-    let two_d = scene("shape = \"mesh\"\nfile = \"box.stl\"")
-        .replace("dimension = 3", "dimension = 2")
-        .replace("[-0.05, -0.05, -0.05]", "[-0.05, -0.05]")
-        .replace("[0.65, 0.65, 0.65]", "[0.65, 0.65]")
-        .replace("[0.0, 0.0, -9.81]", "[0.0, -9.81]")
-        .replace("[-0.04, -0.04, -0.04]", "[-0.04, -0.04]")
-        .replace("[0.64, 0.64, 0.0]", "[0.64, 0.0]");
+    let two_d = to_2d(&scene("shape = \"mesh\"\nfile = \"box.stl\""));
     let region = format!(
         "{}\n[[refine]]\nshape = \"mesh\"\nfile = \"box.stl\"\nlevel = 1\n",
         scene("min = [0.1, 0.1, 0.0]\nmax = [0.4, 0.3, 0.2]")
     );
     for (text, key, needle) in [
-        (two_d, "fluid[0].shape", "a mesh needs a 3D scene"),
+        (two_d, "fluid[0].slice", "a mesh in a 2D scene is cut by a plane"),
         (region, "refine[0].shape", "cannot be a mesh yet"),
     ] {
         let err = match load_scene_str(&text, &dir.join("x.toml"), "x", &[]) {
@@ -849,4 +973,85 @@ fn a_mesh_wall_refuses_what_needs_a_box() {
         assert_eq!(o.status.code(), Some(2), "{key}: {err}");
         assert!(err.contains(&format!("key `{key}`")) && err.contains(needle), "{key}: {err}");
     }
+}
+
+/// In 2D, a box mesh wall cut across y (`slice`) is the block wall of its section: a surge
+/// from a water column runs over it to t = 0.3 s with the same `final.csv` as over the block
+/// (the wall sites, their shell and the bounce off its faces are the block's).
+#[test]
+fn a_slice_of_a_box_mesh_wall_is_the_block_wall_in_2d() {
+    let dir = temp_dir("mesh-slice-wall");
+    stl(
+        &dir,
+        "box.stl",
+        &[
+            "box", "--min", "0.5", "-0.5", "0", "--max", "0.75", "0.5", "0.125",
+        ],
+    );
+    let base = r#"name = "slice"
+dimension = 2
+[domain]
+min = [-0.1, -0.1]
+max = [1.1, 0.6]
+[discretisation]
+dx = 0.015625
+[[material]]
+name = "water"
+rho0 = 1000.0
+c0 = 30.0
+[physics]
+density_diffusion = "fourtakas"
+artificial_viscosity = 0.02
+body_force = [0.0, -9.81]
+[[fluid]]
+name = "column"
+material = "water"
+min = [0.0, 0.0]
+max = [0.25, 0.375]
+hydrostatic = true
+[[wall]]
+name = "tank"
+shape = "container"
+min = [0.0, 0.0]
+max = [1.0, 0.5]
+open = ["y+"]
+[[wall]]
+name = "obstacle"
+OBSTACLE
+[time]
+t_end = 0.3
+[output]
+interval = 1.0
+format = "none"
+"#;
+    let run = |name: &str, obstacle: &str| {
+        let path = dir.join(format!("{name}.toml"));
+        std::fs::write(&path, base.replace("OBSTACLE", obstacle)).unwrap();
+        let out = dir.join(name);
+        let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
+            .args([
+                "run",
+                path.to_str().unwrap(),
+                "-q",
+                "--force",
+                "--out",
+                out.to_str().unwrap(),
+            ])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read(out.join("final.csv")).unwrap()
+    };
+    let block = run(
+        "block",
+        "shape = \"block\"\nmin = [0.5, 0.0]\nmax = [0.75, 0.125]",
+    );
+    let mesh = run(
+        "mesh",
+        "shape = \"mesh\"\nfile = \"box.stl\"\nslice = { axis = 1, at = 0.0 }",
+    );
+    assert!(
+        block == mesh,
+        "the sliced mesh wall's run differs from the block wall's"
+    );
 }

@@ -427,7 +427,7 @@ fn mesh_box(f: super::shape::ShapeKeysMut, k: &str, d: usize) -> Result<()> {
     resolve_mesh_box(f.mesh, (f.min, f.max), k, d)
 }
 
-/// Set `min` and `max` of table `k` to the box of its placed mesh (a 3D scene only); a
+/// Set `min` and `max` of table `k` to the box of its placed mesh (in 2D, of its section); a
 /// resolved scene already holds that box, any other is an error.
 pub(super) fn resolve_mesh_box(
     mesh: Option<&super::mesh::Mesh>,
@@ -435,20 +435,16 @@ pub(super) fn resolve_mesh_box(
     k: &str,
     d: usize,
 ) -> Result<()> {
-    if d != 3 {
-        return err(
-            format!("{k}.shape"),
-            "a mesh needs a 3D scene; in 2D an outline is `shape = \"polygon\"`",
-        );
-    }
     let Some(m) = mesh else {
         return err(
             format!("{k}.file"),
             "a mesh needs `file = \"…\"`, a binary or ASCII STL file relative to the scene file; e.g. file = \"hull.stl\"",
         );
     };
+    let (lo, hi) = m.bounds();
+    debug_assert_eq!(lo.len(), d);
     set_box(
-        (m.lo.to_vec(), m.hi.to_vec()),
+        (lo, hi),
         (min, max),
         k,
         "of a mesh comes from its file and placement",

@@ -585,7 +585,12 @@ fn mesh_lines<const D: usize>(s: &Scene) -> Vec<String> {
     bodies
         .filter_map(|(key, f)| Some((key, f, f.mesh.as_ref()?)))
         .map(|(key, f, m)| {
-            let vol = m.signed_volume();
+            let vol = m.measure();
+            let (measure, unit) = if D == 2 {
+                ("section area", "m²")
+            } else {
+                ("volume", "m³")
+            };
             let (mut n, mut tested) = (0u64, 0u64);
             // the fill's own time, one thread (BENCHMARKS.md records it)
             let clock = std::time::Instant::now();
@@ -596,8 +601,8 @@ fn mesh_lines<const D: usize>(s: &Scene) -> Vec<String> {
             let fill = clock.elapsed().as_secs_f64();
             let built = n as f64 * lat.dx.powi(D as i32);
             format!(
-                "{key} `{}`: mesh of {} triangles ({} STL, SHA-256 {}…), box {:?} .. {:?} m, volume \
-                 {:.4e} m³ (normals {}), built {n} sites, volume {:+.2} %; {tested} sites tested in \
+                "{key} `{}`: mesh of {} triangles ({} STL, SHA-256 {}…), box {:?} .. {:?} m, {} \
+                 {:.4e} {} (normals {}), built {n} sites, {} {:+.2} %; {tested} sites tested in \
                  {fill:.2} s; the mesh takes {:.1} MiB per rank",
                 f.name,
                 m.triangles(),
@@ -605,8 +610,11 @@ fn mesh_lines<const D: usize>(s: &Scene) -> Vec<String> {
                 &m.sha256[..12.min(m.sha256.len())],
                 f.min,
                 f.max,
+                measure,
                 vol.abs(),
+                unit,
                 if vol > 0.0 { "outward" } else { "inward" },
+                measure,
                 100.0 * (built / vol.abs() - 1.0),
                 m.bytes() as f64 / (1u64 << 20) as f64
             )
@@ -635,9 +643,11 @@ fn polygon_lines<const D: usize>(s: &Scene) -> Vec<String> {
             w.name,
             match &w.mesh {
                 Some(m) => format!(
-                    "mesh of {} triangles, volume {:.4e} m³",
+                    "mesh of {} triangles, {} {:.4e} {}",
                     m.triangles(),
-                    m.signed_volume().abs()
+                    if D == 2 { "section area" } else { "volume" },
+                    m.measure().abs(),
+                    if D == 2 { "m²" } else { "m³" }
                 ),
                 None => format!(
                     "polygon of {} vertices, area {:.4e} m²",
@@ -935,7 +945,7 @@ fn sphere_warnings<const D: usize>(s: &Scene) -> Vec<String> {
         let pi = std::f64::consts::PI;
         let exact = match (f.shape, D) {
             (super::BodyShape::Polygon, _) => super::polygon::signed_area(&f.vertices).abs(),
-            (super::BodyShape::Mesh, _) => f.mesh.as_ref().map_or(0.0, |m| m.signed_volume().abs()),
+            (super::BodyShape::Mesh, _) => f.mesh.as_ref().map_or(0.0, |m| m.measure().abs()),
             (super::BodyShape::Cylinder, _) => pi * f.radius.powi(2) * f.length,
             (_, 2) => pi * f.radius.powi(2),
             _ => 4.0 / 3.0 * pi * f.radius.powi(3),
@@ -944,6 +954,7 @@ fn sphere_warnings<const D: usize>(s: &Scene) -> Vec<String> {
         if rel.abs() > 0.01 {
             let what = match f.shape {
                 super::BodyShape::Polygon => format!("a polygon of area {exact:.4e} m²"),
+                super::BodyShape::Mesh if D == 2 => format!("a mesh section of area {exact:.4e} m²"),
                 super::BodyShape::Mesh => format!("a mesh of volume {exact:.4e} m³"),
                 shape => format!(
                     "a {} of radius {} m, {:.1} spacings across",

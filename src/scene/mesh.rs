@@ -68,6 +68,28 @@ fn sin_cos_degrees(deg: f64) -> (f64, f64) {
 /// One triangle's corners (m).
 type Tri = [[f64; 3]; 3];
 
+/// A 2D scene's section of a 3D mesh (`slice = { axis, at }`): the plane x_axis = `at`, whose
+/// other two axes, in their order, are the scene's (a y-section gives 2D (x, z)).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Slice {
+    /// The axis cut across: 0, 1 or 2.
+    pub axis: usize,
+    /// Where along it (m, placed coordinates).
+    pub at: f64,
+}
+
+impl Slice {
+    /// The two in-plane axes, in order.
+    pub fn others(&self) -> [usize; 2] {
+        match self.axis {
+            0 => [1, 2],
+            1 => [0, 2],
+            _ => [0, 1],
+        }
+    }
+}
+
 /// A placed triangle mesh with its column index.
 pub struct Mesh {
     tri: Vec<Tri>,
@@ -85,6 +107,9 @@ pub struct Mesh {
     pub sha256: String,
     /// `binary` or `ASCII`.
     pub format: &'static str,
+    /// In a 2D scene, the plane cut and the section's segments in its two axes (m), each
+    /// directed so that the body lies on its left (an outline counter-clockwise).
+    section: Option<(Slice, Vec<[[f64; 2]; 2]>)>,
 }
 
 impl std::fmt::Debug for Mesh {
@@ -150,6 +175,7 @@ impl Mesh {
             outward: 1.0,
             sha256,
             format,
+            section: None,
         };
         m.outward = if m.signed_volume() < 0.0 { -1.0 } else { 1.0 };
         m
@@ -159,6 +185,7 @@ impl Mesh {
     /// of growing Chebyshev radius k round p's cell, until the nearest found is no farther
     /// than k cells (any triangle not yet seen has its nearest point in a cell beyond).
     pub fn distance(&self, p: &[f64]) -> f64 {
+        let p = &self.lift(p);
         let g = &self.grid;
         let c0 = [0, 1, 2].map(|a| g.cell(a, p[a]) as i64);
         let mut best = f64::INFINITY;
@@ -178,6 +205,7 @@ impl Mesh {
     /// ⌈r / cell⌉ + 1 of p's, stopping at the first such triangle (a site deep inside a large
     /// mesh costs a few cells, where [`Mesh::distance`] would search out to the surface).
     pub fn within(&self, p: &[f64], r: f64) -> bool {
+        let p = &self.lift(p);
         let g = &self.grid;
         let c0 = [0, 1, 2].map(|a| g.cell(a, p[a]) as i64);
         let reach = ((r / g.size).ceil() as i64 + 1).min(*g.n.iter().max().unwrap_or(&1) as i64);
@@ -201,6 +229,22 @@ impl Mesh {
     /// its inside: its plane x·n̂ = c, as (c, n̂) with n̂ the outward unit normal (a face normal
     /// to axis a has n̂ = ±e_a exactly, and c = ±its coordinate).
     pub fn crossing(&self, o: &[f64], n: &[f64]) -> Option<(f64, [f64; 3])> {
+        let (c, nrm) = self.crossing_3d(&self.lift(o), &self.lift(n))?;
+        let Some((cut, _)) = &self.section else {
+            return Some((c, nrm));
+        };
+        // in the section's plane: x_u n_u + x_v n_v = c − at n_w, normalised in 2D
+        let [u, v] = cut.others();
+        let len = nrm[u].hypot(nrm[v]);
+        if len == 0.0 {
+            return None;
+        }
+        let c2 = (c - cut.at * nrm[cut.axis]) / len;
+        Some((c2, [nrm[u] / len, nrm[v] / len, 0.0]))
+    }
+
+    /// [`Mesh::crossing`] in the mesh's own 3D coordinates.
+    fn crossing_3d(&self, o: &[f64; 3], n: &[f64; 3]) -> Option<(f64, [f64; 3])> {
         let d = [n[0] - o[0], n[1] - o[1], n[2] - o[2]];
         let mut first: Option<(f64, f64, [f64; 3])> = None;
         let lo = [0, 1, 2].map(|a| o[a].min(n[a]));
@@ -237,6 +281,93 @@ impl Mesh {
         first.map(|(_, c, nrm)| (c, nrm))
     }
 
+    /// The 3D point (m) of a scene position: itself in 3D, on the section's plane in 2D.
+    fn lift(&self, p: &[f64]) -> [f64; 3] {
+        match &self.section {
+            Some((cut, _)) if p.len() == 2 => {
+                let mut q = [cut.at; 3];
+                let [u, v] = cut.others();
+                (q[u], q[v]) = (p[0], p[1]);
+                q
+            }
+            _ => [p[0], p[1], p[2]],
+        }
+    }
+
+    /// The mesh cut by `cut` for a 2D scene: the section's segments, one per triangle that
+    /// the plane separates (a corner on the plane counts as above it, so the segments close
+    /// up), directed with the body on their left. `None` if the plane misses the mesh.
+    pub fn sliced(mut self, cut: Slice) -> Option<Self> {
+        let [u, v] = cut.others();
+        // e_u × e_v, the plane's normal that makes (u, v) counter-clockwise
+        let e = |k: usize| [0, 1, 2].map(|a| (a == k) as u8 as f64);
+        let w = cross(&e(u), &e(v));
+        let mut segs = Vec::new();
+        for t in &self.tri {
+            let h = t.map(|p| p[cut.axis] - cut.at);
+            let cuts: Vec<[f64; 3]> = (0..3)
+                .filter(|&i| (h[i] >= 0.0) != (h[(i + 1) % 3] >= 0.0))
+                .map(|i| {
+                    let (p, q) = (&t[i], &t[(i + 1) % 3]);
+                    let s = h[i] / (h[i] - h[(i + 1) % 3]);
+                    [0, 1, 2].map(|a| {
+                        if a == cut.axis {
+                            cut.at
+                        } else {
+                            p[a] + s * (q[a] - p[a])
+                        }
+                    })
+                })
+                .collect();
+            if cuts.len() != 2 {
+                continue;
+            }
+            let nrm = normal(t).map(|x| x * self.outward);
+            let d = [0, 1, 2].map(|a| cuts[1][a] - cuts[0][a]);
+            let (a, b) = if dot(&cross(&d, &w), &nrm) >= 0.0 {
+                (0, 1)
+            } else {
+                (1, 0)
+            };
+            segs.push([[cuts[a][u], cuts[a][v]], [cuts[b][u], cuts[b][v]]]);
+        }
+        if segs.is_empty() {
+            return None;
+        }
+        self.section = Some((cut, segs));
+        Some(self)
+    }
+
+    /// The box of the body in the scene's dimensions (m): the mesh's, or in 2D the section's.
+    pub fn bounds(&self) -> (Vec<f64>, Vec<f64>) {
+        match &self.section {
+            None => (self.lo.to_vec(), self.hi.to_vec()),
+            Some((_, segs)) => {
+                let mut lo = vec![f64::INFINITY; 2];
+                let mut hi = vec![f64::NEG_INFINITY; 2];
+                for p in segs.iter().flatten() {
+                    for a in 0..2 {
+                        lo[a] = lo[a].min(p[a]);
+                        hi[a] = hi[a].max(p[a]);
+                    }
+                }
+                (lo, hi)
+            }
+        }
+    }
+
+    /// The body's measure: the signed volume (m³), or in 2D the section's signed area (m²),
+    /// ½ Σ (u₁ v₂ − u₂ v₁) over its segments; positive when the normals point outward.
+    pub fn measure(&self) -> f64 {
+        match &self.section {
+            None => self.signed_volume(),
+            Some((_, segs)) => segs
+                .iter()
+                .map(|[a, b]| 0.5 * (a[0] * b[1] - b[0] * a[1]))
+                .fold(0.0, |s, x| s + x),
+        }
+    }
+
     /// Number of triangles.
     pub fn triangles(&self) -> usize {
         self.tri.len()
@@ -261,6 +392,7 @@ impl Mesh {
     /// True if the site `p` (m), moved by (ε, ε², ε³), lies inside the surface (crossing parity
     /// of the ray along +z; module doc).
     pub fn contains(&self, p: &[f64]) -> bool {
+        let p = &self.lift(p);
         if (0..3).any(|a| p[a] < self.lo[a] || p[a] >= self.hi[a]) {
             return false;
         }

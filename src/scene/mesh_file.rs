@@ -26,6 +26,8 @@ pub struct MeshKeys<'a> {
     pub translate: &'a [f64],
     /// `flip`.
     pub flip: Option<bool>,
+    /// `slice` (2D scenes).
+    pub slice: Option<mesh::Slice>,
     /// `sha256`: set when loaded; given, it must match.
     pub sha256: &'a mut Option<String>,
     /// The mesh, once read.
@@ -37,11 +39,12 @@ pub struct MeshKeys<'a> {
 /// (not supported yet), are input errors.
 pub(super) fn read_meshes(s: &mut Scene, scene_file: &Path) -> Result<()> {
     let dir = scene_file.parent().unwrap_or(Path::new(""));
+    let d = s.dimension;
     let bodies = (s.fluids.iter_mut().enumerate())
         .map(|(i, f)| (format!("fluid[{i}]"), f.mesh_keys_mut()))
         .chain((s.solids.iter_mut().enumerate()).map(|(i, f)| (format!("solid[{i}]"), f.mesh_keys_mut())));
     for (k, m) in bodies {
-        load(&k, m, dir)?;
+        load(&k, m, dir, d)?;
     }
     for (i, w) in s.walls.iter_mut().enumerate() {
         let shape = match w.shape {
@@ -58,10 +61,11 @@ pub(super) fn read_meshes(s: &mut Scene, scene_file: &Path) -> Result<()> {
             rotate: &w.rotate,
             translate: &w.translate,
             flip: w.flip,
+            slice: w.slice,
             sha256: &mut w.sha256,
             mesh: &mut w.mesh,
         };
-        load(&format!("wall[{i}]"), keys, dir)?;
+        load(&format!("wall[{i}]"), keys, dir, d)?;
     }
     for (i, r) in s.refine.iter_mut().enumerate() {
         let k = format!("refine[{i}]");
@@ -72,18 +76,20 @@ pub(super) fn read_meshes(s: &mut Scene, scene_file: &Path) -> Result<()> {
                  the mesh body, or name the body in `bodies`",
             ));
         }
-        load(&k, r.mesh_keys_mut(), dir)?;
+        load(&k, r.mesh_keys_mut(), dir, d)?;
     }
     Ok(())
 }
 
-/// Read, place and check the mesh of table `k`, or refuse a mesh's keys on another shape.
-fn load(k: &str, m: MeshKeys, dir: &Path) -> Result<()> {
+/// Read, place and check the mesh of table `k` (cut by its `slice` in a scene of dimension
+/// `d` = 2), or refuse a mesh's keys on another shape.
+fn load(k: &str, m: MeshKeys, dir: &Path, d: usize) -> Result<()> {
     let given = [
         ("scale", m.scale.is_some()),
         ("rotate", !m.rotate.is_empty()),
         ("translate", !m.translate.is_empty()),
         ("flip", m.flip.is_some()),
+        ("slice", m.slice.is_some()),
         ("sha256", m.sha256.is_some()),
     ];
     if !m.is_mesh {
@@ -96,6 +102,7 @@ fn load(k: &str, m: MeshKeys, dir: &Path) -> Result<()> {
         return Ok(());
     }
     let place = placement(k, &m)?;
+    let cut = section(k, m.slice, d)?;
     let key = format!("{k}.file");
     let Some(name) = m.file.clone() else {
         return Err(Error::input(
@@ -140,11 +147,58 @@ fn load(k: &str, m: MeshKeys, dir: &Path) -> Result<()> {
         };
         return Err(file_error(&path, &key, None, why));
     }
+    let read = match cut {
+        None => read,
+        Some(c) => {
+            let (lo, hi) = (read.lo[c.axis], read.hi[c.axis]);
+            read.sliced(c).ok_or_else(|| {
+                Error::input(
+                    format!("{k}.slice"),
+                    format!(
+                        "the plane at {} m along axis {} misses the mesh, which spans [{lo}, {hi}] m \
+                         along it; e.g. slice = {{ axis = {}, at = {} }}",
+                        c.at,
+                        c.axis,
+                        c.axis,
+                        0.5 * (lo + hi)
+                    ),
+                )
+            })?
+        }
+    };
     let abs = std::fs::canonicalize(&path).unwrap_or(path);
     *m.file = Some(abs.to_string_lossy().into_owned());
     *m.sha256 = Some(read.sha256.clone());
     *m.mesh = Some(Arc::new(read));
     Ok(())
+}
+
+/// The plane a 2D scene cuts mesh `k` at: `slice` is needed in 2D and refused in 3D; its
+/// axis is 0, 1 or 2 and its place finite.
+fn section(k: &str, slice: Option<mesh::Slice>, d: usize) -> Result<Option<mesh::Slice>> {
+    match (d, slice) {
+        (2, None) => Err(Error::input(
+            format!("{k}.slice"),
+            "a mesh in a 2D scene is cut by a plane: give `slice = { axis = 1, at = 0.0 }` (the \
+             axis across the plane, 0, 1 or 2, and where along it, m; the other two axes keep \
+             their order, so a y-section gives 2D (x, z)), or draw the outline as `shape = \
+             \"polygon\"`",
+        )),
+        (2, Some(c)) if c.axis > 2 || !c.at.is_finite() => Err(Error::input(
+            format!("{k}.slice"),
+            format!(
+                "needs an axis of 0, 1 or 2 and a finite place, got axis {} at {}; e.g. slice = \
+                 {{ axis = 1, at = 0.0 }}",
+                c.axis, c.at
+            ),
+        )),
+        (2, c) => Ok(c),
+        (_, Some(_)) => Err(Error::input(
+            format!("{k}.slice"),
+            "cuts a 2D section of a mesh; this scene is 3D, so remove it",
+        )),
+        (_, None) => Ok(None),
+    }
 }
 
 /// The placement keys of mesh `k`, checked: `scale` finite and positive, `rotate` and

@@ -180,6 +180,10 @@ macro_rules! shaped_table {
             /// false; a closed mesh must have outward normals after it).
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub flip: Option<bool>,
+            /// In a 2D scene, the plane `{ axis, at }` that cuts the 3D mesh; the section's
+            /// two axes keep their order (a y-section gives 2D (x, z)).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub slice: Option<$crate::scene::mesh::Slice>,
             /// SHA-256 of a mesh's file, set when the scene is loaded; a resolved scene's (a
             /// run directory's, a restart's) must match the file, which must not change.
             #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -216,6 +220,7 @@ macro_rules! shaped_table {
                     rotate: &self.rotate,
                     translate: &self.translate,
                     flip: self.flip,
+                    slice: self.slice,
                     sha256: &mut self.sha256,
                     mesh: &mut self.mesh,
                 }

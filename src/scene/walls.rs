@@ -278,6 +278,9 @@ pub struct WallBody {
     /// A mesh wall whose file's normals point inward: reverse each triangle's corners.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flip: Option<bool>,
+    /// In a 2D scene, the plane `{ axis, at }` that cuts the mesh wall (as for a fluid mesh).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slice: Option<crate::scene::mesh::Slice>,
     /// SHA-256 of a mesh wall's file, set when the scene is loaded; a resolved scene's must
     /// match the file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
