@@ -181,6 +181,8 @@ fn wall_blocks(s: &Scene) -> Vec<crate::scene::FluidBody> {
             translate: Vec::new(),
             flip: None,
             slice: None,
+            fill: None,
+            layers: None,
             sha256: None,
             mesh: None,
             velocity: Vec::new(),

@@ -1055,3 +1055,59 @@ format = "none"
         "the sliced mesh wall's run differs from the block wall's"
     );
 }
+
+/// `fill = "shell"` keeps the sites inside a closed mesh within `layers` × dx of its surface:
+/// a box mesh as a 2-row shell builds the block's sites less those of the block 2 dx inside
+/// it, and `check` says so; `layers` without the shell fill, a shell of 0 rows, and `fill` on
+/// a block are refused by key.
+#[test]
+fn a_shell_fill_keeps_the_rows_inside_the_surface() {
+    let dir = temp_dir("mesh-shell-fill");
+    stl(
+        &dir,
+        "box.stl",
+        &[
+            "box", "--min", "0.09", "0.09", "0.01", "--max", "0.39", "0.29", "0.21",
+        ],
+    );
+    let outer = sites(&dir, "min = [0.09, 0.09, 0.01]\nmax = [0.39, 0.29, 0.21]");
+    let inner = sites(&dir, "min = [0.13, 0.13, 0.05]\nmax = [0.35, 0.25, 0.17]");
+    let want: std::collections::BTreeSet<_> = outer.difference(&inner).copied().collect();
+    assert_eq!(outer.len(), 15 * 10 * 10);
+    assert_eq!(want.len(), 15 * 10 * 10 - 11 * 6 * 6);
+    let m = "shape = \"mesh\"\nfile = \"box.stl\"\n";
+    assert_eq!(sites(&dir, &format!("{m}fill = \"shell\"\nlayers = 2")), want);
+    assert_eq!(sites(&dir, &format!("{m}fill = \"inside\"")), outer);
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, scene(&format!("{m}fill = \"shell\"\nlayers = 2"))).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
+        .args(["check", path.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success() && out.contains(&format!("built {} sites, a shell 4.0000e-2 m deep", want.len())),
+        "{out}"
+    );
+    for (body, key, needle) in [
+        (
+            format!("{m}layers = 2"),
+            "fluid[0].layers",
+            "set fill = \"shell\"",
+        ),
+        (
+            format!("{m}fill = \"shell\"\nlayers = 0"),
+            "fluid[0].layers",
+            "1 to 1000 rows",
+        ),
+        (
+            "min = [0.1, 0.1, 0.0]\nmax = [0.4, 0.3, 0.2]\nfill = \"shell\"".into(),
+            "fluid[0].fill",
+            "belongs to `shape = \"mesh\"`",
+        ),
+    ] {
+        std::fs::write(&path, scene(&body)).unwrap();
+        let e = load_scene(&path, &[]).expect_err(&body).to_string();
+        assert!(e.contains(key) && e.contains(needle), "{e}");
+    }
+}

@@ -602,7 +602,7 @@ fn mesh_lines<const D: usize>(s: &Scene) -> Vec<String> {
             let built = n as f64 * lat.dx.powi(D as i32);
             format!(
                 "{key} `{}`: mesh of {} triangles ({} STL, SHA-256 {}…), box {:?} .. {:?} m, {} \
-                 {:.4e} {} (normals {}), built {n} sites, {} {:+.2} %; {tested} sites tested in \
+                 {:.4e} {} (normals {}), built {n} sites, {}; {tested} sites tested in \
                  {fill:.2} s; the mesh takes {:.1} MiB per rank",
                 f.name,
                 m.triangles(),
@@ -614,8 +614,11 @@ fn mesh_lines<const D: usize>(s: &Scene) -> Vec<String> {
                 vol.abs(),
                 unit,
                 if vol > 0.0 { "outward" } else { "inward" },
-                measure,
-                100.0 * (built / vol.abs() - 1.0),
+                match m.shell_depth() {
+                    // a shell fills part of the inside: nothing to compare its sites with
+                    Some(depth) => format!("a shell {depth:.4e} m deep"),
+                    None => format!("{measure} {:+.2} %", 100.0 * (built / vol.abs() - 1.0)),
+                },
                 m.bytes() as f64 / (1u64 << 20) as f64
             )
         })
@@ -937,7 +940,8 @@ fn sphere_warnings<const D: usize>(s: &Scene) -> Vec<String> {
     let dx = s.discretisation.dx;
     let mut out = Vec::new();
     for (i, f) in s.fluids.iter().enumerate() {
-        if f.shape == super::BodyShape::Block {
+        let shell = f.mesh.as_ref().is_some_and(|m| m.shell_depth().is_some());
+        if f.shape == super::BodyShape::Block || shell {
             continue;
         }
         let mut n = 0u64;

@@ -110,6 +110,20 @@ pub struct Mesh {
     /// In a 2D scene, the plane cut and the section's segments in its two axes (m), each
     /// directed so that the body lies on its left (an outline counter-clockwise).
     section: Option<(Slice, Vec<[[f64; 2]; 2]>)>,
+    /// A body filled as a shell (`fill = "shell"`): the depth (m) inside the surface its sites
+    /// lie within; `None` fills the whole inside.
+    shell: Option<f64>,
+}
+
+/// How a mesh body is filled (`fill`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Fill {
+    /// Every lattice site inside the closed surface.
+    Inside,
+    /// The sites inside within `layers` × dx of the surface (a hollow body: a shield, a tank's
+    /// skin), ids unchanged.
+    Shell,
 }
 
 impl std::fmt::Debug for Mesh {
@@ -176,6 +190,7 @@ impl Mesh {
             sha256,
             format,
             section: None,
+            shell: None,
         };
         m.outward = if m.signed_volume() < 0.0 { -1.0 } else { 1.0 };
         m
@@ -279,6 +294,23 @@ impl Mesh {
             }
         });
         first.map(|(_, c, nrm)| (c, nrm))
+    }
+
+    /// The mesh filled as a shell `depth` (m) deep inside its surface.
+    pub fn with_shell(mut self, depth: f64) -> Self {
+        self.shell = Some(depth);
+        self
+    }
+
+    /// The shell's depth (m), for a body filled as a shell.
+    pub fn shell_depth(&self) -> Option<f64> {
+        self.shell
+    }
+
+    /// True if a body of this mesh claims the site `p` (m): inside the surface
+    /// ([`Mesh::contains`]) and, for a shell, within its depth of the surface.
+    pub fn claims(&self, p: &[f64]) -> bool {
+        self.contains(p) && self.shell.is_none_or(|r| self.within(p, r))
     }
 
     /// The 3D point (m) of a scene position: itself in 3D, on the section's plane in 2D.

@@ -28,6 +28,10 @@ pub struct MeshKeys<'a> {
     pub flip: Option<bool>,
     /// `slice` (2D scenes).
     pub slice: Option<mesh::Slice>,
+    /// `fill` (bodies).
+    pub fill: Option<mesh::Fill>,
+    /// `layers` of a shell fill (bodies).
+    pub layers: Option<usize>,
     /// `sha256`: set when loaded; given, it must match.
     pub sha256: &'a mut Option<String>,
     /// The mesh, once read.
@@ -39,12 +43,12 @@ pub struct MeshKeys<'a> {
 /// (not supported yet), are input errors.
 pub(super) fn read_meshes(s: &mut Scene, scene_file: &Path) -> Result<()> {
     let dir = scene_file.parent().unwrap_or(Path::new(""));
-    let d = s.dimension;
+    let (d, dx) = (s.dimension, s.discretisation.dx);
     let bodies = (s.fluids.iter_mut().enumerate())
         .map(|(i, f)| (format!("fluid[{i}]"), f.mesh_keys_mut()))
         .chain((s.solids.iter_mut().enumerate()).map(|(i, f)| (format!("solid[{i}]"), f.mesh_keys_mut())));
     for (k, m) in bodies {
-        load(&k, m, dir, d)?;
+        load(&k, m, dir, (d, dx))?;
     }
     for (i, w) in s.walls.iter_mut().enumerate() {
         let shape = match w.shape {
@@ -62,10 +66,12 @@ pub(super) fn read_meshes(s: &mut Scene, scene_file: &Path) -> Result<()> {
             translate: &w.translate,
             flip: w.flip,
             slice: w.slice,
+            fill: None,
+            layers: None,
             sha256: &mut w.sha256,
             mesh: &mut w.mesh,
         };
-        load(&format!("wall[{i}]"), keys, dir, d)?;
+        load(&format!("wall[{i}]"), keys, dir, (d, dx))?;
     }
     for (i, r) in s.refine.iter_mut().enumerate() {
         let k = format!("refine[{i}]");
@@ -76,20 +82,23 @@ pub(super) fn read_meshes(s: &mut Scene, scene_file: &Path) -> Result<()> {
                  the mesh body, or name the body in `bodies`",
             ));
         }
-        load(&k, r.mesh_keys_mut(), dir, d)?;
+        load(&k, r.mesh_keys_mut(), dir, (d, dx))?;
     }
     Ok(())
 }
 
 /// Read, place and check the mesh of table `k` (cut by its `slice` in a scene of dimension
-/// `d` = 2), or refuse a mesh's keys on another shape.
-fn load(k: &str, m: MeshKeys, dir: &Path, d: usize) -> Result<()> {
+/// `d` = 2, filled as a shell of `layers` × `dx` if asked), or refuse a mesh's keys on
+/// another shape.
+fn load(k: &str, m: MeshKeys, dir: &Path, (d, dx): (usize, f64)) -> Result<()> {
     let given = [
         ("scale", m.scale.is_some()),
         ("rotate", !m.rotate.is_empty()),
         ("translate", !m.translate.is_empty()),
         ("flip", m.flip.is_some()),
         ("slice", m.slice.is_some()),
+        ("fill", m.fill.is_some()),
+        ("layers", m.layers.is_some()),
         ("sha256", m.sha256.is_some()),
     ];
     if !m.is_mesh {
@@ -103,6 +112,7 @@ fn load(k: &str, m: MeshKeys, dir: &Path, d: usize) -> Result<()> {
     }
     let place = placement(k, &m)?;
     let cut = section(k, m.slice, d)?;
+    let shell = shell_depth(k, m.fill, m.layers, dx)?;
     let key = format!("{k}.file");
     let Some(name) = m.file.clone() else {
         return Err(Error::input(
@@ -166,12 +176,42 @@ fn load(k: &str, m: MeshKeys, dir: &Path, d: usize) -> Result<()> {
             })?
         }
     };
+    let read = match shell {
+        Some(depth) => read.with_shell(depth),
+        None => read,
+    };
     let abs = std::fs::canonicalize(&path).unwrap_or(path);
     *m.file = Some(abs.to_string_lossy().into_owned());
     *m.sha256 = Some(read.sha256.clone());
     *m.mesh = Some(Arc::new(read));
     Ok(())
 }
+
+/// The depth (m) of a `fill = "shell"` body, `layers` (default 1, at most
+/// [`MAX_SHELL_LAYERS`]) × `dx`; `None` for an inside fill. `layers` without a shell fill is
+/// an error.
+fn shell_depth(k: &str, fill: Option<mesh::Fill>, layers: Option<usize>, dx: f64) -> Result<Option<f64>> {
+    match (fill, layers) {
+        (Some(mesh::Fill::Shell), n) => {
+            let n = n.unwrap_or(1);
+            if n == 0 || n > MAX_SHELL_LAYERS {
+                return Err(Error::input(
+                    format!("{k}.layers"),
+                    format!("a shell has 1 to {MAX_SHELL_LAYERS} rows, got {n}; e.g. layers = 3"),
+                ));
+            }
+            Ok(Some(n as f64 * dx))
+        }
+        (_, Some(_)) => Err(Error::input(
+            format!("{k}.layers"),
+            "counts the rows of a shell; set fill = \"shell\" too, or remove it for a filled body",
+        )),
+        _ => Ok(None),
+    }
+}
+
+/// Most rows a shell-filled mesh body may have (deeper is a filled body).
+pub const MAX_SHELL_LAYERS: usize = 1000;
 
 /// The plane a 2D scene cuts mesh `k` at: `slice` is needed in 2D and refused in 3D; its
 /// axis is 0, 1 or 2 and its place finite.

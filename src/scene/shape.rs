@@ -103,7 +103,7 @@ impl ShapeKeys<'_> {
                 r2 < self.radius * self.radius
             }
             BodyShape::Polygon => crate::scene::polygon::contains(self.vertices, x[0], x[1]),
-            BodyShape::Mesh => self.mesh.is_some_and(|m| m.contains(x)),
+            BodyShape::Mesh => self.mesh.is_some_and(|m| m.claims(x)),
         }
     }
 
@@ -184,6 +184,13 @@ macro_rules! shaped_table {
             /// two axes keep their order (a y-section gives 2D (x, z)).
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub slice: Option<$crate::scene::mesh::Slice>,
+            /// A mesh body's fill: `inside` (default, every site inside) or `shell` (the sites
+            /// inside within `layers` × dx of the surface).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub fill: Option<$crate::scene::mesh::Fill>,
+            /// The rows of a `fill = "shell"` mesh body (default 1).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub layers: Option<usize>,
             /// SHA-256 of a mesh's file, set when the scene is loaded; a resolved scene's (a
             /// run directory's, a restart's) must match the file, which must not change.
             #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -221,6 +228,8 @@ macro_rules! shaped_table {
                     translate: &self.translate,
                     flip: self.flip,
                     slice: self.slice,
+                    fill: self.fill,
+                    layers: self.layers,
                     sha256: &mut self.sha256,
                     mesh: &mut self.mesh,
                 }
