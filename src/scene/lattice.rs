@@ -968,9 +968,10 @@ fn sphere_warnings<const D: usize>(s: &Scene) -> Vec<String> {
                 ),
             };
             out.push(format!(
-                "fluid[{i}] `{}` ({what}) is built with a volume {:+.1} % off the true one; a \
-                 finer dx resolves it better",
+                "fluid[{i}] `{}` ({what}) is built with {} {:+.1} % off the true one; a finer dx \
+                 resolves it better",
                 f.name,
+                if D == 2 { "an area" } else { "a volume" },
                 100.0 * rel
             ));
         }
