@@ -129,7 +129,7 @@ fn a_sphere_holds_exactly_the_sites_inside_it() {
     assert_eq!(code, 0, "{err}");
     // 13.2 spacings across: the lattice disc (140 sites) is 2.3 % larger than the true one
     assert!(
-        err.contains("a sphere of radius 0.033 m") && err.contains("volume +2.3 %"),
+        err.contains("a sphere of radius 0.033 m") && err.contains("an area +2.3 %"),
         "{err}"
     );
     let t = std::fs::read_to_string(out.join("snapshots/snapshot_00000/rank_0000.vtu")).unwrap();
