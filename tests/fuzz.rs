@@ -2367,71 +2367,10 @@ fn mesh_cases(rng: &mut Rng, dir: &Path) -> Vec<Case> {
         case(name, "", true, format!("hostile {name}"));
     }
     for k in 0..150 {
-        let (base, text) = if rng.below(2) == 0 {
-            (&binary, false)
+        let (b, what) = if rng.below(2) == 0 {
+            mesh_mutant(rng, &binary, false)
         } else {
-            (&ascii, true)
-        };
-        let mut b = base.clone();
-        let what = match rng.below(6) {
-            5 if !text => {
-                // bytes the reader ignores: the header's text and a facet's normal
-                let i = if rng.below(2) == 0 {
-                    rng.below(80)
-                } else {
-                    84 + 50 * rng.below(12) + rng.below(12)
-                };
-                b[i] ^= 1 << rng.below(8);
-                format!("byte {i} (header or normal) flipped")
-            }
-            0 => {
-                let n = 1 + rng.below(8);
-                for _ in 0..n {
-                    let i = rng.below(b.len());
-                    b[i] ^= 1 << rng.below(8);
-                }
-                format!("{n} bits flipped")
-            }
-            1 => {
-                b.truncate(rng.below(b.len() + 1));
-                format!("cut to {} bytes", b.len())
-            }
-            2 if !text => {
-                let n = rng.next_u64() as u32;
-                b[80..84].copy_from_slice(&n.to_le_bytes());
-                format!("header counts {n}")
-            }
-            3 if !text => {
-                let t = 84 + 50 * rng.below(12);
-                let tri = b[t..t + 50].to_vec();
-                b.extend_from_slice(&tri);
-                let n = u32::from_le_bytes([b[80], b[81], b[82], b[83]]) + 1;
-                b[80..84].copy_from_slice(&n.to_le_bytes());
-                s("a triangle repeated")
-            }
-            _ => {
-                let t = String::from_utf8_lossy(&b).into_owned();
-                // the byte ranges of the words, so that one is replaced in place (lines kept)
-                let mut words = Vec::new();
-                let mut start = None;
-                for (at, c) in t.char_indices().chain([(t.len(), ' ')]) {
-                    match (c.is_whitespace(), start) {
-                        (false, None) => start = Some(at),
-                        (true, Some(a)) => {
-                            words.push(a..at);
-                            start = None;
-                        }
-                        _ => {}
-                    }
-                }
-                let w = words[rng.below(words.len())].clone();
-                let odd = [
-                    "nan", "inf", "-1e39", "1e309", "", "facet", "vertex", "endsolid", "0x1p3", "1e-320",
-                ];
-                let new = odd[rng.below(odd.len())];
-                b = format!("{}{new}{}", &t[..w.start], &t[w.end..]).into_bytes();
-                format!("word `{}` at byte {} replaced by `{new}`", &t[w.clone()], w.start)
-            }
+            mesh_mutant(rng, &ascii, true)
         };
         let name = format!("mutant-{k}.stl");
         fs::write(md.join(&name), &b).unwrap();
@@ -2443,6 +2382,74 @@ fn mesh_cases(rng: &mut Rng, dir: &Path) -> Vec<Case> {
         case(&name, extra, k % 3 == 0, format!("{name}: {what}"));
     }
     cases
+}
+
+/// A mutant of the good STL `base` (`text` for ASCII) and what was done to it: bytes the
+/// reader ignores flipped (binary), bits flipped anywhere, a cut, the header's count replaced
+/// or a triangle repeated (binary), or one word replaced in place.
+fn mesh_mutant(rng: &mut Rng, base: &[u8], text: bool) -> (Vec<u8>, String) {
+    let mut b = base.to_vec();
+    let what = match rng.below(6) {
+        5 if !text => {
+            // bytes the reader ignores: the header's text and a facet's normal
+            let i = if rng.below(2) == 0 {
+                rng.below(80)
+            } else {
+                84 + 50 * rng.below(12) + rng.below(12)
+            };
+            b[i] ^= 1 << rng.below(8);
+            format!("byte {i} (header or normal) flipped")
+        }
+        0 => {
+            let n = 1 + rng.below(8);
+            for _ in 0..n {
+                let i = rng.below(b.len());
+                b[i] ^= 1 << rng.below(8);
+            }
+            format!("{n} bits flipped")
+        }
+        1 => {
+            b.truncate(rng.below(b.len() + 1));
+            format!("cut to {} bytes", b.len())
+        }
+        2 if !text => {
+            let n = rng.next_u64() as u32;
+            b[80..84].copy_from_slice(&n.to_le_bytes());
+            format!("header counts {n}")
+        }
+        3 if !text => {
+            let t = 84 + 50 * rng.below(12);
+            let tri = b[t..t + 50].to_vec();
+            b.extend_from_slice(&tri);
+            let n = u32::from_le_bytes([b[80], b[81], b[82], b[83]]) + 1;
+            b[80..84].copy_from_slice(&n.to_le_bytes());
+            s("a triangle repeated")
+        }
+        _ => {
+            let t = String::from_utf8_lossy(&b).into_owned();
+            // the byte ranges of the words, so that one is replaced in place (lines kept)
+            let mut words = Vec::new();
+            let mut start = None;
+            for (at, c) in t.char_indices().chain([(t.len(), ' ')]) {
+                match (c.is_whitespace(), start) {
+                    (false, None) => start = Some(at),
+                    (true, Some(a)) => {
+                        words.push(a..at);
+                        start = None;
+                    }
+                    _ => {}
+                }
+            }
+            let w = words[rng.below(words.len())].clone();
+            let odd = [
+                "nan", "inf", "-1e39", "1e309", "", "facet", "vertex", "endsolid", "0x1p3", "1e-320",
+            ];
+            let new = odd[rng.below(odd.len())];
+            b = format!("{}{new}{}", &t[..w.start], &t[w.end..]).into_bytes();
+            format!("word `{}` at byte {} replaced by `{new}`", &t[w.clone()], w.start)
+        }
+    };
+    (b, what)
 }
 
 /// Print what the run did, per family and in all (exit codes, runs that ran, scripts checked,

@@ -342,8 +342,7 @@ fn to_2d(text: &str) -> String {
 /// A 2D scene cuts a 3D mesh by `slice = { axis, at }`, the other two axes in order: a box
 /// (faces on sites) cut across y builds the 2D block of its (x, z) section bit for bit,
 /// hydrostatic density included; a fine sphere cut through its centre across x builds the
-/// disc's sites up to half a spacing from the circle, counts within 1 %; and a plane beside
-/// the mesh, a slice in 3D, a bad axis and a slice on a block are refused by key.
+/// disc's sites up to half a spacing from the circle, counts within 1 %.
 #[test]
 fn a_slice_of_a_mesh_builds_its_section_in_2d() {
     let dir = temp_dir("mesh-slice");
@@ -427,7 +426,23 @@ fn a_slice_of_a_mesh_builds_its_section_in_2d() {
         let r = (x[0] - 0.3).hypot(x[1] - 0.3);
         assert!((r - 0.143).abs() < 0.01, "site {x:?} at r = {r}");
     }
-    // refusals
+}
+
+/// A plane beside the mesh, a bad axis, `slice` on a block, and `slice` in a 3D scene are
+/// refused by key.
+#[test]
+fn a_bad_slice_is_refused_by_key() {
+    let dir = temp_dir("mesh-slice-bad");
+    stl(
+        &dir,
+        "box.stl",
+        &["box", "--min", "0.1", "0.1", "0", "--max", "0.4", "0.3", "0.2"],
+    );
+    let load2 = |body: &str| {
+        let path = dir.join("scene.toml");
+        std::fs::write(&path, to_2d(&scene(body))).unwrap();
+        load_scene(&path, &[])
+    };
     let m = "shape = \"mesh\"\nfile = \"box.stl\"\n";
     for (body, key, needle) in [
         (
@@ -446,7 +461,7 @@ fn a_slice_of_a_mesh_builds_its_section_in_2d() {
             "belongs to `shape = \"mesh\"`",
         ),
     ] {
-        let e = load2(&body, &[]).expect_err(&body).to_string();
+        let e = load2(&body).expect_err(&body).to_string();
         assert!(e.contains(key) && e.contains(needle), "{e}");
     }
     let path = dir.join("three.toml");
@@ -529,8 +544,42 @@ fn a_bad_mesh_is_an_input_error() {
     let dir = temp_dir("mesh-bad");
     write_bad_files(&dir);
     std::fs::create_dir_all(dir.join("folder.stl")).unwrap();
+    let cases = bad_cases();
+    assert!(cases.len() >= 20, "{} cases", cases.len());
+    let path = dir.join("scene.toml");
+    for (body, key, needle) in &cases {
+        std::fs::write(&path, scene(body)).unwrap();
+        let (code, _, err) = common::hsph(&["check", path.to_str().unwrap()]);
+        assert_eq!(code, 2, "{body}: {err}");
+        assert!(
+            err.contains(&format!("key `{key}`")) && err.contains(needle),
+            "{body}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    // a mesh in 2D, and a mesh refinement region
+    let two_d = to_2d(&scene("shape = \"mesh\"\nfile = \"box.stl\""));
+    let region = format!(
+        "{}\n[[refine]]\nshape = \"mesh\"\nfile = \"box.stl\"\nlevel = 1\n",
+        scene("min = [0.1, 0.1, 0.0]\nmax = [0.4, 0.3, 0.2]")
+    );
+    for (text, key, needle) in [
+        (two_d, "fluid[0].slice", "a mesh in a 2D scene is cut by a plane"),
+        (region, "refine[0].shape", "cannot be a mesh yet"),
+    ] {
+        let err = match load_scene_str(&text, &dir.join("x.toml"), "x", &[]) {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("{key} accepted"),
+        };
+        assert!(err.contains(key) && err.contains(needle), "{err}");
+    }
+}
+
+/// The bodies of [`a_bad_mesh_is_an_input_error`]'s scenes, each with the key its refusal
+/// names and a phrase of the reason (the files are [`write_bad_files`]'s).
+fn bad_cases() -> Vec<(String, &'static str, &'static str)> {
     let m = |extra: &str| format!("shape = \"mesh\"\nfile = \"box.stl\"\n{extra}");
-    let cases: Vec<(String, &str, &str)> = vec![
+    vec![
         (
             "shape = \"mesh\"\nfile = \"cut.stl\"".into(),
             "fluid[0].file",
@@ -633,39 +682,16 @@ fn a_bad_mesh_is_an_input_error() {
             "fluid[0].flip",
             "belongs to `shape = \"mesh\"`",
         ),
-    ];
-    assert!(cases.len() >= 20, "{} cases", cases.len());
+    ]
+}
+
+/// An inward box with `flip = true` builds the box's particles, and a box with a second box
+/// through it is built with a warning naming a crossing pair, one triangle of each box.
+#[test]
+fn a_flipped_mesh_is_the_box_and_a_crossing_mesh_warns() {
+    let dir = temp_dir("mesh-flip-cross");
+    write_bad_files(&dir);
     let path = dir.join("scene.toml");
-    for (body, key, needle) in &cases {
-        std::fs::write(&path, scene(body)).unwrap();
-        let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
-            .args(["check", path.to_str().unwrap()])
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{body}: {err}");
-        assert!(
-            err.contains(&format!("key `{key}`")) && err.contains(needle),
-            "{body}: {err}"
-        );
-        assert!(!err.contains("panicked"), "{err}");
-    }
-    // a mesh in 2D, and a mesh refinement region
-    let two_d = to_2d(&scene("shape = \"mesh\"\nfile = \"box.stl\""));
-    let region = format!(
-        "{}\n[[refine]]\nshape = \"mesh\"\nfile = \"box.stl\"\nlevel = 1\n",
-        scene("min = [0.1, 0.1, 0.0]\nmax = [0.4, 0.3, 0.2]")
-    );
-    for (text, key, needle) in [
-        (two_d, "fluid[0].slice", "a mesh in a 2D scene is cut by a plane"),
-        (region, "refine[0].shape", "cannot be a mesh yet"),
-    ] {
-        let err = match load_scene_str(&text, &dir.join("x.toml"), "x", &[]) {
-            Err(e) => e.to_string(),
-            Ok(_) => panic!("{key} accepted"),
-        };
-        assert!(err.contains(key) && err.contains(needle), "{err}");
-    }
     // the inward box with `flip = true` is the box
     let sites_of = |file: &str, extra: &str| {
         let s = load_in(&dir, &format!("shape = \"mesh\"\nfile = \"{file}\"\n{extra}"));
@@ -674,12 +700,9 @@ fn a_bad_mesh_is_an_input_error() {
     assert_eq!(sites_of("inward.stl", "flip = true"), sites_of("box.stl", ""));
     // a box with a second one through it is built, with a warning naming a crossing pair
     std::fs::write(&path, scene("shape = \"mesh\"\nfile = \"crossing.stl\"")).unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
-        .args(["check", path.to_str().unwrap()])
-        .output()
-        .unwrap();
-    let all = String::from_utf8_lossy(&o.stdout) + String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(0), "{all}");
+    let (code, out, err) = common::hsph(&["check", path.to_str().unwrap()]);
+    let all = out + &err;
+    assert_eq!(code, 0, "{all}");
     let warning = all
         .lines()
         .find(|l| l.contains("cross each other"))
@@ -1028,18 +1051,15 @@ format = "none"
         let path = dir.join(format!("{name}.toml"));
         std::fs::write(&path, base.replace("OBSTACLE", obstacle)).unwrap();
         let out = dir.join(name);
-        let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
-            .args([
-                "run",
-                path.to_str().unwrap(),
-                "-q",
-                "--force",
-                "--out",
-                out.to_str().unwrap(),
-            ])
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let (code, _, err) = common::hsph(&[
+            "run",
+            path.to_str().unwrap(),
+            "-q",
+            "--force",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
         std::fs::read(out.join("final.csv")).unwrap()
     };
     let block = run(
@@ -1080,15 +1100,9 @@ fn a_shell_fill_keeps_the_rows_inside_the_surface() {
     assert_eq!(sites(&dir, &format!("{m}fill = \"inside\"")), outer);
     let path = dir.join("scene.toml");
     std::fs::write(&path, scene(&format!("{m}fill = \"shell\"\nlayers = 2"))).unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_hsph"))
-        .args(["check", path.to_str().unwrap()])
-        .output()
-        .unwrap();
-    let out = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        o.status.success() && out.contains(&format!("built {} sites, a shell 4.0000e-2 m deep", want.len())),
-        "{out}"
-    );
+    let (code, out, err) = common::hsph(&["check", path.to_str().unwrap()]);
+    let shell = format!("built {} sites, a shell 4.0000e-2 m deep", want.len());
+    assert!(code == 0 && out.contains(&shell), "{out}{err}");
     for (body, key, needle) in [
         (
             format!("{m}layers = 2"),
