@@ -75,6 +75,9 @@ pub const MAX_JOBS: usize = 256;
 /// Most cells across a validation case's length scale (`hsph validate --resolutions`).
 pub const MAX_RESOLUTION: u32 = 4096;
 
+/// Most memory per node `hsph jobscript` asks Slurm for (MiB): 64 TiB, above any node built.
+pub const MAX_NODE_MEMORY_MIB: u64 = 64 << 20;
+
 /// Longest Slurm name `hsph jobscript` writes (job name from the scene's `name`, `--partition`
 /// with its commas, `--account`); each is also held to letters, digits and `. _ + -`.
 pub const MAX_SLURM_NAME: usize = 128;

@@ -62,13 +62,20 @@ pub(super) fn rank_weights(scene: &Scene, src: &SceneSource, ranks: usize, flag:
 /// per rank, probe sizes), for the commands that plan a layout without running it (`plan`,
 /// `model`, `jobscript`); the memory of this machine is not the run's, so it is not checked.
 pub(super) fn layout_limits(scene: &Scene, src: &SceneSource, ranks: usize) -> Result<()> {
+    layout_estimate(scene, src, ranks).map(|_| ())
+}
+
+/// [`layout_limits`], giving the memory estimate of one rank per process (as under MPI).
+pub(super) fn layout_estimate(
+    scene: &Scene,
+    src: &SceneSource,
+    ranks: usize,
+) -> Result<crate::memory::Estimate> {
     let opts = RunOptions {
         max_memory: Some(f64::INFINITY),
         ..Default::default()
     };
-    driver::check_limits(scene, ranks, 1, &opts)
-        .map(|_| ())
-        .map_err(|e| locate(src, e))
+    driver::check_limits(scene, ranks, 1, &opts).map_err(|e| locate(src, e))
 }
 
 /// The estimate lines of `hsph check`.

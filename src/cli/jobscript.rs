@@ -37,6 +37,11 @@ pub struct JobArgs {
     /// How ranks are started.
     #[arg(long, value_enum, default_value_t = crate::jobscript::Launcher::Srun)]
     launcher: crate::jobscript::Launcher,
+    /// Memory per node Slurm's `--mem` asks for, e.g. 64G or 500M (k, M, G, T powers of 1000;
+    /// Ki, Mi, Gi, Ti of 1024). Default: each rank's peak as `hsph check` estimates it, with
+    /// 25 % headroom and 128 MB for the binary and MPI, times the ranks per node.
+    #[arg(long, value_parser = parse_mem, value_name = "SIZE")]
+    mem: Option<f64>,
     /// Run directory (default runs/<scene name>).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -60,6 +65,7 @@ pub(super) fn cmd_jobscript(a: JobArgs) -> Result<i32> {
         account,
         placement,
         launcher,
+        mem,
         out,
         script,
     } = a;
@@ -81,6 +87,25 @@ pub(super) fn cmd_jobscript(a: JobArgs) -> Result<i32> {
         Err(_) => "hsph".into(),
     };
     let time_s = time.round() as u64;
+    // the limits `run` will apply to this many ranks (after the flags, which name the limit
+    // themselves), and the memory of one rank: under MPI each rank is a process of its own
+    let ranks = nodes.saturating_mul(ranks_per_node);
+    let est = match crate::limits::ranks("--nodes × --ranks-per-node", ranks) {
+        Ok(()) => Some(layout_estimate(&sc, &src, ranks).map_err(|e| match e {
+            Error::Input { at, key, message } if key == "--ranks" => Error::Input {
+                at,
+                key: "--nodes × --ranks-per-node".into(),
+                message,
+            },
+            e => e,
+        })?),
+        // refused below, by the spec's own checks, naming its flags
+        Err(_) => None,
+    };
+    let need = est
+        .as_ref()
+        .map(|e| crate::jobscript::mem_per_node_mib(e.process, ranks_per_node));
+    let mib = |b: f64| (b / (1u64 << 20) as f64).ceil() as u64;
     let spec = crate::jobscript::JobSpec {
         scene: path_text("SCENE", &abs(&scene), SCENE_ADVICE)?,
         run: path_text("--out", &abs(&run), OUT_ADVICE)?,
@@ -97,18 +122,25 @@ pub(super) fn cmd_jobscript(a: JobArgs) -> Result<i32> {
             .to_possible_value()
             .map_or("rank-order".into(), |v| v.get_name().to_string()),
         launcher,
+        mem_mib: mem.map(mib).or(need).unwrap_or(0),
+        mem_estimate: if mem.is_some() {
+            None
+        } else {
+            est.as_ref().map(|e| e.process)
+        },
     };
     spec.validate()?;
-    // the limits `run` will apply to this many ranks (after the flags, which name the limit
-    // themselves)
-    layout_limits(&sc, &src, nodes * ranks_per_node).map_err(|e| match e {
-        Error::Input { at, key, message } if key == "--ranks" => Error::Input {
-            at,
-            key: "--nodes × --ranks-per-node".into(),
-            message,
-        },
-        e => e,
-    })?;
+    if let (Some(m), Some(need)) = (mem, need) {
+        if mib(m) < need {
+            eprintln!(
+                "hsph: warning: --mem {} MiB is below the {need} MiB per node the estimate asks for ({ranks_per_node} \
+                 rank(s) at about {} each, `hsph check SCENE --ranks {ranks}`); Slurm may stop the job \
+                 when a node runs out",
+                mib(m),
+                crate::memory::human(est.as_ref().map_or(0.0, |e| e.process)),
+            );
+        }
+    }
     rank_weights(
         &sc,
         &src,
@@ -128,4 +160,9 @@ pub(super) fn cmd_jobscript(a: JobArgs) -> Result<i32> {
         None => say(&text),
     }
     Ok(0)
+}
+
+/// `--mem`: a size as [`crate::memory::parse_size`] reads it (bytes).
+fn parse_mem(s: &str) -> std::result::Result<f64, String> {
+    crate::memory::parse_size(s).ok_or_else(|| format!("`{s}` is not a size; e.g. 64G, 500M or 16GiB"))
 }

@@ -14,7 +14,7 @@ mod plan;
 mod run;
 
 pub use check::check_report;
-use check::{cmd_check, layout_limits, rank_weights};
+use check::{cmd_check, layout_estimate, layout_limits, rank_weights};
 use jobscript::{cmd_jobscript, JobArgs};
 use loads::{cmd_loads, LoadsArgs};
 use plan::{cmd_model, cmd_plan, ModelArgs};
