@@ -62,7 +62,30 @@ VARIANTS = {
     "riemann_h2": ["discretisation.h_over_dx=2.0"],
     "riemann_h17": ["discretisation.h_over_dx=1.7"],
     "riemann_alpha_0": ["physics.artificial_viscosity=0.0"],
+    "riemann_refine_1": ['time.stepping="local"'],
+    "riemann_refine_1_t4": ['time.stepping="local"'],
+    "riemann_refine_2": ['time.stepping="local"'],
+    "riemann_refine_1_cfl_0.2": ['time.stepping="local"', "time.cfl=0.2"],
+    "riemann_refine_1_cfl_0.3": ['time.stepping="local"', "time.cfl=0.3"],
 }
+
+# Variants that refine the downstream corner (docs/pressure.md §2e): an adaptive region over
+# x in [1.46, 1.66] m, y < 0.2 m (S1-S4 and the run-up's root), at `level` (dx / 2^level, the
+# level's h), with local time steps; (level, transition in m or None for one support).
+REGIONS = {"riemann_refine_1": (1, None), "riemann_refine_1_t4": (1, 0.052), "riemann_refine_2": (2, None),
+           "riemann_refine_1_cfl_0.2": (1, None), "riemann_refine_1_cfl_0.3": (1, None)}
+
+
+def scene_with_region(level, transition, tmp):
+    """The shipped scene with the corner's refinement region appended, written into `tmp`."""
+    text = open("inputs/dam_break_lobovsky.toml").read()
+    text += (f'\n[[refine]]\nmin = [1.46, -0.05]\nmax = [1.66, 0.2]\nlevel = {level}\n'
+             'bodies = ["column", "tank"]\nsmoothing_length = "level"\nadapt = true\n')
+    if transition is not None:
+        text += f"transition = {transition}\n"
+    path = os.path.join(tmp, f"lobovsky_refine_{level}.toml")
+    open(path, "w").write(text)
+    return path
 
 
 def loads_of_experiment(hsph, column, lo, hi):
@@ -73,9 +96,9 @@ def loads_of_experiment(hsph, column, lo, hi):
     return json.loads(out)
 
 
-def run(hsph, dx, sets, out):
+def run(hsph, dx, sets, out, scene="inputs/dam_break_lobovsky.toml"):
     # a coarser lattice builds the container's layers further out: grow the domain to fit
-    cmd = [hsph, "run", "inputs/dam_break_lobovsky.toml", "--out", out, "--force", "-q",
+    cmd = [hsph, "run", scene, "--out", out, "--force", "-q",
            "--set", f"discretisation.dx={dx}", "--set", f"time.t_end={T_END}",
            "--set", "domain.min=[-0.05,-0.05]", "--set", "domain.max=[1.66,0.85]"]
     for name, (k, _) in SENSORS.items():
@@ -117,7 +140,8 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for n in names:
             out = os.path.join(tmp, n)
-            summary, failed = run(a.hsph, a.dx, VARIANTS[n], out)
+            scene = scene_with_region(*REGIONS[n], tmp) if n in REGIONS else "inputs/dam_break_lobovsky.toml"
+            summary, failed = run(a.hsph, a.dx, VARIANTS[n], out, scene)
             if summary is None:
                 print(f"| {n} | failed: {failed} |||||||")
                 continue
