@@ -110,6 +110,9 @@ pub struct Mesh {
     /// In a 2D scene, the plane cut and the section's segments in its two axes (m), each
     /// directed so that the body lies on its left (an outline counter-clockwise).
     section: Option<(Slice, Vec<[[f64; 2]; 2]>)>,
+    /// In a 2D scene, per triangle the index of its segment of the section (`u32::MAX` for a
+    /// triangle the plane does not cut), for in-plane distances; empty in 3D.
+    segment_of: Vec<u32>,
     /// A body filled as a shell (`fill = "shell"`): the depth (m) inside the surface its sites
     /// lie within; `None` fills the whole inside.
     shell: Option<f64>,
@@ -190,6 +193,7 @@ impl Mesh {
             sha256,
             format,
             section: None,
+            segment_of: Vec::new(),
             shell: None,
         };
         m.outward = if m.signed_volume() < 0.0 { -1.0 } else { 1.0 };
@@ -238,6 +242,54 @@ impl Mesh {
             }
         }
         false
+    }
+
+    /// The distance (m) from `p` to the nearest point of the surface, or `cap` (m, ≥ 0) if
+    /// that is farther: min(distance, cap), exact below `cap`. In 2D, `p` lies in the
+    /// section's plane and the distance is to the section's outline in that plane (faces
+    /// parallel to the plane do not count), as a polygon's. Only the grid's cells within
+    /// ⌈cap / cell⌉ + 1 of p's are searched, as by [`Mesh::within`], so a site deep inside a
+    /// large mesh costs a few cells where [`Mesh::distance`] would search out to the surface;
+    /// an infinite `cap` searches the whole grid and gives the distance itself.
+    pub fn distance_capped(&self, p: &[f64], cap: f64) -> f64 {
+        let q = &self.lift(p);
+        let g = &self.grid;
+        let c0 = [0, 1, 2].map(|a| g.cell(a, q[a]) as i64);
+        let cells = *g.n.iter().max().unwrap_or(&1) as i64;
+        let reach = match cap / g.size {
+            r if r < cells as f64 => r.ceil() as i64 + 1,
+            _ => cells,
+        };
+        let c = (c0[0] as usize * g.n[1] + c0[1] as usize) * g.n[2] + c0[2] as usize;
+        if (g.far[c] as i64) > reach {
+            return cap;
+        }
+        let section = (self.section.as_ref())
+            .filter(|_| p.len() == 2)
+            .map(|(_, segs)| segs);
+        let mut best = cap;
+        for k in 0..=reach {
+            g.shell(c0, k, |t| {
+                let d = match section {
+                    // a triangle's segment lies on it: no nearer than the triangle, so the
+                    // shells' bound holds for it too
+                    Some(segs) => match self.segment_of[t as usize] {
+                        u32::MAX => f64::INFINITY,
+                        i => {
+                            let [a, b] = &segs[i as usize];
+                            super::polygon::segment_distance(a, b, p[0], p[1])
+                        }
+                    },
+                    None => point_triangle(&self.tri[t as usize], q),
+                };
+                best = best.min(d);
+            });
+            // every triangle not yet seen lies in a cell k + 1 or more away: k cells or farther
+            if best <= k as f64 * g.size {
+                break;
+            }
+        }
+        best
     }
 
     /// The first triangle the path `o` → `n` (m) crosses from the outside of the surface to
@@ -335,7 +387,8 @@ impl Mesh {
         let e = |k: usize| [0, 1, 2].map(|a| (a == k) as u8 as f64);
         let w = cross(&e(u), &e(v));
         let mut segs = Vec::new();
-        for t in &self.tri {
+        let mut segment_of = vec![u32::MAX; self.tri.len()];
+        for (k, t) in self.tri.iter().enumerate() {
             let h = t.map(|p| p[cut.axis] - cut.at);
             let cuts: Vec<[f64; 3]> = (0..3)
                 .filter(|&i| (h[i] >= 0.0) != (h[(i + 1) % 3] >= 0.0))
@@ -361,12 +414,14 @@ impl Mesh {
             } else {
                 (1, 0)
             };
+            segment_of[k] = segs.len() as u32;
             segs.push([[cuts[a][u], cuts[a][v]], [cuts[b][u], cuts[b][v]]]);
         }
         if segs.is_empty() {
             return None;
         }
         self.section = Some((cut, segs));
+        self.segment_of = segment_of;
         Some(self)
     }
 
@@ -409,6 +464,7 @@ impl Mesh {
     pub fn bytes(&self) -> u64 {
         let index =
             self.cols.start.len() + self.cols.items.len() + self.grid.start.len() + self.grid.items.len();
+        let index = index + self.segment_of.len();
         (self.tri.len() * std::mem::size_of::<Tri>() + 4 * index + self.grid.far.len()) as u64
     }
 
@@ -1247,6 +1303,41 @@ mod tests {
             .collect();
         let (_, n) = mesh(inward).crossing(&[0.9, 0.5, 0.5], &[0.7, 0.5, 0.5]).unwrap();
         assert!(n[0] > 0.99);
+    }
+
+    /// The capped distance is min(distance, cap) to the bit, inside, outside and beyond the
+    /// grid, against a brute-force oracle over every triangle; in 2D over every segment of
+    /// the section, in its plane.
+    #[test]
+    fn capped_distances_are_the_brute_force_distance_or_the_cap() {
+        let m = mesh(sphere([0.5, 0.5, 0.5], 0.3, 24));
+        for p in sites(-0.5, 1.5, 0.125, 0.37) {
+            let brute = m
+                .tri
+                .iter()
+                .map(|t| point_triangle(t, &p))
+                .fold(f64::INFINITY, f64::min);
+            for cap in [0.0, 0.01, 0.05, 0.2, 1.0, f64::INFINITY] {
+                assert_eq!(m.distance_capped(&p, cap), brute.min(cap), "{p:?} {cap}");
+            }
+        }
+        let cut = Slice { axis: 0, at: 0.55 };
+        let m = mesh(sphere([0.5, 0.5, 0.5], 0.3, 24)).sliced(cut).unwrap();
+        let Some((_, segs)) = &m.section else {
+            panic!("no section")
+        };
+        for k in 0..400 {
+            let p = [
+                -0.5 + (k % 20) as f64 * 0.1 + 0.013,
+                -0.5 + (k / 20) as f64 * 0.1 + 0.007,
+            ];
+            let brute = (segs.iter())
+                .map(|[a, b]| crate::scene::polygon::segment_distance(a, b, p[0], p[1]))
+                .fold(f64::INFINITY, f64::min);
+            for cap in [0.01, 0.05, 0.2, f64::INFINITY] {
+                assert_eq!(m.distance_capped(&p, cap), brute.min(cap), "{p:?} {cap}");
+            }
+        }
     }
 
     #[test]

@@ -53,20 +53,24 @@ pub fn signed_area(v: &[Vec<f64>]) -> f64 {
 /// Distance (m) from (x, y) to the nearest point of the outline.
 pub fn distance(v: &[Vec<f64>], x: f64, y: f64) -> f64 {
     let n = v.len();
-    let mut best = f64::INFINITY;
-    for i in 0..n {
-        let (a, b) = (&v[i], &v[(i + 1) % n]);
-        let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
-        let len2 = ex * ex + ey * ey;
-        let t = if len2 > 0.0 {
-            (((x - a[0]) * ex + (y - a[1]) * ey) / len2).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let (dx, dy) = (x - a[0] - t * ex, y - a[1] - t * ey);
-        best = best.min(dx.hypot(dy));
-    }
-    best
+    (0..n)
+        .map(|i| segment_distance(&v[i], &v[(i + 1) % n], x, y))
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Distance (m) from (x, y) to the nearest point of the segment from `a` to `b` (m, each
+/// `[x, y]`). A segment along an axis gives the offset across it exactly (the nearest
+/// point's coordinate across is the segment's own), as a block's face distance.
+pub(crate) fn segment_distance(a: &[f64], b: &[f64], x: f64, y: f64) -> f64 {
+    let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
+    let len2 = ex * ex + ey * ey;
+    let t = if len2 > 0.0 {
+        (((x - a[0]) * ex + (y - a[1]) * ey) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let (dx, dy) = (x - a[0] - t * ex, y - a[1] - t * ey);
+    dx.hypot(dy)
 }
 
 /// The first stretch `(s0, s1)`, 0 ≤ s0 < s1 (m), of the ray (x, y) + s·u (s ≥ 0, u a unit
