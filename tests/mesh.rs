@@ -557,22 +557,155 @@ fn a_bad_mesh_is_an_input_error() {
         );
         assert!(!err.contains("panicked"), "{err}");
     }
-    // a mesh in 2D, and a mesh refinement region
+    // a mesh in 2D
     let two_d = to_2d(&scene("shape = \"mesh\"\nfile = \"box.stl\""));
+    let err = match load_scene_str(&two_d, &dir.join("x.toml"), "x", &[]) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("fluid[0].slice accepted"),
+    };
+    assert!(
+        err.contains("fluid[0].slice") && err.contains("a mesh in a 2D scene is cut by a plane"),
+        "{err}"
+    );
+    // a mesh refinement region, once refused ("cannot be a mesh yet"), loads with the box of
+    // its mesh (the file's 32-bit corners) and the mesh kept for its depths
     let region = format!(
         "{}\n[[refine]]\nshape = \"mesh\"\nfile = \"box.stl\"\nlevel = 1\n",
         scene("min = [0.1, 0.1, 0.0]\nmax = [0.4, 0.3, 0.2]")
     );
-    for (text, key, needle) in [
-        (two_d, "fluid[0].slice", "a mesh in a 2D scene is cut by a plane"),
-        (region, "refine[0].shape", "cannot be a mesh yet"),
+    let s = load_scene_str(&region, &dir.join("x.toml"), "x", &[]).unwrap().0;
+    let f32s = |v: [f32; 3]| v.map(f64::from).to_vec();
+    assert_eq!(s.refine[0].min, f32s([0.1, 0.1, 0.0]));
+    assert_eq!(s.refine[0].max, f32s([0.4, 0.3, 0.2]));
+    assert_eq!(s.refine[0].mesh.as_ref().map(|m| m.triangles()), Some(12));
+}
+
+/// A mesh refinement region refuses, by key with exit status 2, what only a body takes
+/// (`fill`, `layers`: a region holds every point inside its surface), a placement that takes
+/// it out of the domain (as a body's), and the placement keys on a region of another shape.
+#[test]
+fn a_mesh_region_refuses_a_fill_and_the_outside_by_key() {
+    let dir = temp_dir("mesh-region-bad");
+    stl(
+        &dir,
+        "box.stl",
+        &["box", "--min", "0.1", "0.1", "0", "--max", "0.4", "0.3", "0.2"],
+    );
+    let path = dir.join("scene.toml");
+    let region = |keys: &str| {
+        format!(
+            "{}\n[[refine]]\n{keys}\nlevel = 1\n",
+            scene("min = [0.1, 0.1, 0.0]\nmax = [0.4, 0.3, 0.2]")
+        )
+    };
+    let mesh = "shape = \"mesh\"\nfile = \"box.stl\"";
+    for (keys, key, needle) in [
+        (
+            format!("{mesh}\nfill = \"shell\""),
+            "refine[0].fill",
+            "refines every point inside it",
+        ),
+        (
+            format!("{mesh}\nlayers = 2"),
+            "refine[0].layers",
+            "refines every point inside it",
+        ),
+        (
+            format!("{mesh}\nfill = \"inside\""),
+            "refine[0].fill",
+            "belongs to a mesh body",
+        ),
+        (
+            format!("{mesh}\ntranslate = [0.5, 0.0, 0.0]"),
+            "refine[0].translate",
+            "on axis 0, outside the domain [-0.05, 0.65]",
+        ),
+        (
+            "min = [0.1, 0.1, 0.0]\nmax = [0.4, 0.3, 0.2]\nscale = 2.0".to_string(),
+            "refine[0].scale",
+            "belongs to `shape = \"mesh\"`; this body is a block",
+        ),
     ] {
-        let err = match load_scene_str(&text, &dir.join("x.toml"), "x", &[]) {
-            Err(e) => e.to_string(),
-            Ok(_) => panic!("{key} accepted"),
-        };
-        assert!(err.contains(key) && err.contains(needle), "{err}");
+        std::fs::write(&path, region(&keys)).unwrap();
+        let (code, _, err) = common::hsph(&["check", path.to_str().unwrap()]);
+        assert_eq!(code, 2, "{keys}: {err}");
+        assert!(
+            err.contains(&format!("key `{key}`")) && err.contains(needle),
+            "{keys}: {err}"
+        );
     }
+    // the region as written is accepted, and `check` reports its mesh
+    std::fs::write(&path, region(mesh)).unwrap();
+    let (code, out, err) = common::hsph(&["check", path.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("refine[0] (level 1): mesh of 12 triangles (binary STL"),
+        "{out}"
+    );
+}
+
+/// A refinement region given as a box mesh cut across y (`slice`) is the block region of its
+/// section: the drifting periodic water of `tests/data/drift_split_2d.toml` through an
+/// adaptive level-1 region with the level's h (its ramp over the transition band is the
+/// region's depth; splitting on entry needs a depth of the particle's spacing, merging on exit
+/// a clearance of it) runs to t = 0.1 s with the same `final.csv` bits as through the block,
+/// particles having split and merged; and to the same bits on 3 ranks.
+#[test]
+fn a_box_mesh_region_runs_the_block_region_bit_for_bit() {
+    let dir = temp_dir("mesh-region-run");
+    // corners exact in the file's 32-bit floats; 1 m across the cut plane
+    stl(
+        &dir,
+        "region.stl",
+        &[
+            "box", "--min", "0.1875", "-0.5", "0.0625", "--max", "0.3125", "0.5", "0.15625",
+        ],
+    );
+    let text = std::fs::read_to_string(common::repo_path("tests/data/drift_split_2d.toml")).unwrap();
+    let shipped = "min = [0.2, 0.05]\nmax = [0.3, 0.15]\nlevel = 1\nadapt = true";
+    assert!(text.contains(shipped));
+    let with = |region: &str| {
+        text.replace(
+            shipped,
+            &format!("{region}\nlevel = 1\nadapt = true\nsmoothing_length = \"level\""),
+        )
+    };
+    let run = |name: &str, region: &str, ranks: &str| {
+        let path = dir.join(format!("{name}.toml"));
+        std::fs::write(&path, with(region)).unwrap();
+        let out = dir.join(format!("{name}-{ranks}"));
+        let (code, _, err) = common::hsph(&[
+            "run",
+            path.to_str().unwrap(),
+            "-q",
+            "--force",
+            "--threads",
+            "1",
+            "--ranks",
+            ranks,
+            "--set",
+            "time.t_end=0.1",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        (std::fs::read(out.join("final.csv")).unwrap(), summary)
+    };
+    let (block, _) = run("block", "min = [0.1875, 0.0625]\nmax = [0.3125, 0.15625]", "1");
+    let meshed = "shape = \"mesh\"\nfile = \"region.stl\"\nslice = { axis = 1, at = 0.0 }";
+    let (mesh, summary) = run("mesh", meshed, "1");
+    for what in ["splits", "merges"] {
+        assert!(summary[what].as_u64().unwrap() > 0, "no {what}: {summary}");
+    }
+    assert_eq!(summary["inputs"]["meshes"][0]["key"], "refine[0]");
+    assert!(
+        block == mesh,
+        "the mesh region's run differs from the block region's"
+    );
+    let (three, _) = run("mesh", meshed, "3");
+    assert!(three == mesh, "the mesh region's run differs on 3 ranks");
 }
 
 /// The bodies of [`a_bad_mesh_is_an_input_error`]'s scenes, each with the key its refusal

@@ -571,7 +571,37 @@ pub fn extent_lines<const D: usize>(s: &Scene) -> Vec<String> {
         .collect();
     lines.extend(polygon_lines::<D>(s));
     lines.extend(mesh_lines::<D>(s));
+    lines.extend(region_mesh_lines::<D>(s));
     lines
+}
+
+/// `hsph check`'s line for each mesh refinement region: its file's triangles, format and hash,
+/// the placed box, the volume (in 2D the section's area) and the sites of the scene's lattice
+/// it holds (the coarse sites it refines, of whichever body), and the memory the mesh and its
+/// index take on every rank.
+fn region_mesh_lines<const D: usize>(s: &Scene) -> Vec<String> {
+    let lat = Lattice::<D>::new(s);
+    (s.refine.iter().enumerate())
+        .filter_map(|(i, r)| Some((i, r, r.mesh.as_ref()?)))
+        .map(|(i, r, m)| {
+            let mut n = 0u64;
+            lat.for_each_in(&r.min, &r.max, |_, _, x| n += r.contains(x.as_slice()) as u64);
+            format!(
+                "refine[{i}] (level {}): mesh of {} triangles ({} STL, SHA-256 {}…), box {:?} .. {:?} m, \
+                 {} {:.4e} {}, holds {n} sites of the scene's lattice; the mesh takes {:.1} MiB per rank",
+                r.level,
+                m.triangles(),
+                m.format,
+                &m.sha256[..12.min(m.sha256.len())],
+                r.min,
+                r.max,
+                if D == 2 { "section area" } else { "volume" },
+                m.measure().abs(),
+                if D == 2 { "m²" } else { "m³" },
+                m.bytes() as f64 / (1u64 << 20) as f64
+            )
+        })
+        .collect()
 }
 
 /// `hsph check`'s line for each mesh body: its file's triangles, format and hash, the placed

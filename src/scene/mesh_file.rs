@@ -1,10 +1,11 @@
-//! Mesh files (`shape = "mesh"` with `file = "…"` on a `[[fluid]]` or `[[solid]]`): read when
+//! Mesh files (`shape = "mesh"` with `file = "…"` on a `[[fluid]]`, `[[solid]]`, `[[wall]]` or
+//! `[[refine]]`): read when
 //! the scene is loaded, placed, checked for closure, and kept beside the table. The table's
 //! `file` becomes the absolute path and `sha256` the file's hash, so a resolved scene (a run
 //! directory's, a restart's) finds the same file and refuses it if it has changed.
 
 use super::mesh::{self, Mesh, Placement};
-use super::{BodyShape, Scene};
+use super::Scene;
 use crate::error::{Error, Result};
 use crate::limits::file_error;
 use std::path::Path;
@@ -38,9 +39,11 @@ pub struct MeshKeys<'a> {
     pub mesh: &'a mut Option<Arc<Mesh>>,
 }
 
-/// Read the mesh of every fluid, solid and wall body of shape `mesh`, the path taken relative to the
-/// directory of `scene_file`. Placement keys on another shape, and meshes on refinement regions
-/// (not supported yet), are input errors.
+/// Read the mesh of every fluid, solid and wall body and every refinement region of shape
+/// `mesh`, the path taken relative to the directory of `scene_file`. Placement keys on another
+/// shape are input errors, and so are `fill` and `layers` on a region (a region holds every
+/// point inside its surface; it has no shell). A region's box (`min`, `max`) is then set from
+/// its mesh's bounds by the region checks, as a body's ([`super::checks::sphere_box`]).
 pub(super) fn read_meshes(s: &mut Scene, scene_file: &Path) -> Result<()> {
     let dir = scene_file.parent().unwrap_or(Path::new(""));
     let (d, dx) = (s.dimension, s.discretisation.dx);
@@ -75,11 +78,14 @@ pub(super) fn read_meshes(s: &mut Scene, scene_file: &Path) -> Result<()> {
     }
     for (i, r) in s.refine.iter_mut().enumerate() {
         let k = format!("refine[{i}]");
-        if r.shape == BodyShape::Mesh {
+        let fill = [("fill", r.fill.is_some()), ("layers", r.layers.is_some())];
+        if let Some((key, _)) = fill.iter().find(|(_, given)| *given) {
             return Err(Error::input(
-                format!("{k}.shape"),
-                "a refinement region cannot be a mesh yet; give a block, sphere or cylinder around \
-                 the mesh body, or name the body in `bodies`",
+                format!("{k}.{key}"),
+                format!(
+                    "belongs to a mesh body (a shell of rows inside its surface); a refinement \
+                     region refines every point inside it, so remove `{key}`"
+                ),
             ));
         }
         load(&k, r.mesh_keys_mut(), dir, (d, dx))?;
@@ -284,16 +290,18 @@ pub struct MeshInput {
     pub triangles: usize,
 }
 
-/// Every mesh of the scene's bodies and walls, in table order: (table, file, mesh).
+/// Every mesh of the scene's bodies, walls and refinement regions, in table order: (table,
+/// file, mesh).
 fn meshes(s: &Scene) -> impl Iterator<Item = (String, &Option<String>, &Arc<Mesh>)> {
     let bodies = (s.fluids.iter().enumerate())
         .map(|(i, f)| (format!("fluid[{i}]"), &f.file, &f.mesh))
         .chain((s.solids.iter().enumerate()).map(|(i, f)| (format!("solid[{i}]"), &f.file, &f.mesh)))
-        .chain((s.walls.iter().enumerate()).map(|(i, w)| (format!("wall[{i}]"), &w.file, &w.mesh)));
+        .chain((s.walls.iter().enumerate()).map(|(i, w)| (format!("wall[{i}]"), &w.file, &w.mesh)))
+        .chain((s.refine.iter().enumerate()).map(|(i, r)| (format!("refine[{i}]"), &r.file, &r.mesh)));
     bodies.filter_map(|(key, file, mesh)| Some((key, file, mesh.as_ref()?)))
 }
 
-/// The meshes of the scene's bodies and walls, in table order.
+/// The meshes of the scene's bodies, walls and refinement regions, in table order.
 pub fn mesh_inputs(s: &Scene) -> Vec<MeshInput> {
     meshes(s)
         .map(|(key, file, m)| MeshInput {

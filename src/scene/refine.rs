@@ -181,7 +181,15 @@ impl Refine {
 
     /// Distance (m) from `x` inside the region to its boundary (≤ 0 outside); a block's faces
     /// that are no interface ([`Refine::open_face`]) are not counted.
-    pub fn depth(&self, x: &[f64], b: &Bounds) -> f64 {
+    ///
+    /// Exact below `cap` (m, ≥ 0); at or beyond it the value is some depth ≥ `cap`: a mesh
+    /// region's is min(depth, cap) (outside, −min(distance, cap)), searched only within `cap`
+    /// of `x` ([`Mesh::distance_capped`](super::mesh::Mesh::distance_capped)), so a site deep
+    /// inside a large mesh costs a few cells. Every caller compares the depth with a band of at
+    /// most `cap` (a split's own spacing, the transition; `f64::INFINITY` for the depth
+    /// itself), so its comparison is exact. Every face of a mesh counts, even one on the
+    /// domain's bound (as every edge of a polygon).
+    pub fn depth(&self, x: &[f64], b: &Bounds, cap: f64) -> f64 {
         let d = x.len();
         let face = |a: usize| {
             let lo = if self.open_face(a, false, b) {
@@ -198,8 +206,13 @@ impl Refine {
         };
         let to_box = (0..d).map(face).fold(f64::INFINITY, f64::min);
         match self.shape {
-            // a mesh region is refused when the scene is loaded (`mesh_file`): its box stands in
-            BodyShape::Block | BodyShape::Mesh => to_box,
+            BodyShape::Block => to_box,
+            BodyShape::Mesh => match self.mesh.as_deref() {
+                Some(m) if m.contains(x) => m.distance_capped(x, cap),
+                Some(m) => -m.distance_capped(x, cap),
+                // the loader reads every mesh region's file: unreachable after load
+                None => to_box,
+            },
             BodyShape::Sphere => {
                 let r2: f64 = (0..d).map(|a| (x[a] - self.centre[a]).powi(2)).sum();
                 self.radius - r2.sqrt()
@@ -225,7 +238,12 @@ impl Refine {
     /// Distance (m) from `x` outside the region to it (0 inside); on a periodic axis the
     /// nearest image counts. A block's faces that are no interface ([`Refine::open_face`]) are
     /// not counted, as in [`Refine::depth`]: the region runs on past them.
-    pub fn clearance(&self, x: &[f64], b: &Bounds) -> f64 {
+    ///
+    /// Exact below `cap` (m, ≥ 0), some distance ≥ `cap` beyond it (a mesh region's is
+    /// min(distance, cap), searched only within `cap` of `x`), as [`Refine::depth`]: callers
+    /// compare it with a band of at most `cap`. A mesh's surface, like a polygon's outline, is
+    /// not wrapped round a periodic axis: its distance is to the surface as placed.
+    pub fn clearance(&self, x: &[f64], b: &Bounds, cap: f64) -> f64 {
         let d = x.len();
         // the offset from `c` along axis a, to the nearest image on a periodic axis
         let off = |a: usize, c: f64| {
@@ -236,7 +254,15 @@ impl Refine {
             }
         };
         let pos = |v: f64| v.max(0.0);
+        if let (BodyShape::Mesh, Some(m)) = (self.shape, self.mesh.as_deref()) {
+            // a mesh's surface is not wrapped round a periodic axis
+            return match m.contains(x) {
+                true => 0.0,
+                false => m.distance_capped(x, cap),
+            };
+        }
         match self.shape {
+            // a mesh region without its mesh (unreachable after load) is its box
             BodyShape::Block | BodyShape::Mesh => (0..d)
                 .map(|a| {
                     let c = 0.5 * (self.min[a] + self.max[a]);
@@ -286,7 +312,7 @@ impl Refine {
 
     /// Smoothing length (m) of a particle of this region's level at `x`: `h_fine` at a depth
     /// of at least the transition band, rising linearly to `h_scene` at the boundary (the
-    /// region's faces that are interfaces, [`Refine::depth`]).
+    /// region's faces that are interfaces, [`Refine::depth`], capped at the band).
     pub fn smoothing_length(&self, x: &[f64], b: &Bounds, h_scene: f64, h_fine: f64) -> f64 {
         if self.smoothing_length == RegionH::Scene {
             return h_scene;
@@ -295,7 +321,7 @@ impl Refine {
         if band <= 0.0 {
             return h_fine;
         }
-        let t = (1.0 - self.depth(x, b) / band).clamp(0.0, 1.0);
+        let t = (1.0 - self.depth(x, b, band) / band).clamp(0.0, 1.0);
         h_fine + (h_scene - h_fine) * t
     }
 }
@@ -396,7 +422,9 @@ pub fn region_warnings<const D: usize>(s: &Scene) -> Vec<String> {
             BodyShape::Block => (0..D).map(|a| 0.5 * (r.min[a] + r.max[a])).collect(),
             _ => r.centre.clone(),
         };
-        let deepest = deepest::<D>(r, &centre, &lat, &bounds);
+        // both warnings below compare the depth with dx or the band: exact below the larger
+        let cap = dx.max(r.band());
+        let deepest = deepest::<D>(r, &centre, &lat, &bounds, cap);
         if r.adapt && deepest < dx {
             out.push(format!(
                 "refine[{k}] adapts, but no point of it lies deeper than {deepest:.4e} m inside its \
@@ -623,15 +651,20 @@ pub fn validate_refine(s: &mut Scene) -> Result<()> {
     check_overlaps(s)
 }
 
-/// How deep (m) the deepest point of region `r` lies: at `centre` for a block, sphere or
-/// cylinder; for a polygon, where no point is known to be the deepest, its deepest site of
-/// the scene's lattice `lat`.
-fn deepest<const D: usize>(r: &Refine, centre: &[f64], lat: &Lattice<D>, bounds: &Bounds) -> f64 {
-    if r.shape != BodyShape::Polygon {
-        return r.depth(centre, bounds);
+/// How deep (m) the deepest point of region `r` lies, exact below `cap` (m; [`Refine::depth`]):
+/// at `centre` for a block, sphere or cylinder; for a polygon or mesh, where no point is known
+/// to be the deepest, its deepest site of the scene's lattice `lat` (once a site reaches `cap`
+/// the rest are not measured).
+fn deepest<const D: usize>(r: &Refine, centre: &[f64], lat: &Lattice<D>, bounds: &Bounds, cap: f64) -> f64 {
+    if !matches!(r.shape, BodyShape::Polygon | BodyShape::Mesh) {
+        return r.depth(centre, bounds, cap);
     }
     let mut m = f64::NEG_INFINITY;
-    lat.for_each_in(&r.min, &r.max, |_, _, x| m = m.max(r.depth(x.as_slice(), bounds)));
+    lat.for_each_in(&r.min, &r.max, |_, _, x| {
+        if m < cap {
+            m = m.max(r.depth(x.as_slice(), bounds, cap));
+        }
+    });
     m
 }
 
@@ -853,7 +886,7 @@ mod tests {
                         dx.min(1.0 - dx).hypot(x[1] - y[1])
                     })
                     .fold(f64::INFINITY, f64::min);
-                let got = r.clearance(&x, &b);
+                let got = r.clearance(&x, &b, f64::INFINITY);
                 let inside_x = r.contains(&x);
                 assert_eq!(got == 0.0, inside_x, "{x:?}: {got}");
                 if !inside_x {
@@ -879,15 +912,164 @@ mod tests {
         };
         let edge = region("min = [0.3, 0.05]\nmax = [0.4, 0.15]\nlevel = 1");
         // 5 cm past the face at x = 0.4, wrapped to x = 0.05
-        assert!((edge.clearance(&[0.05, 0.1], &periodic) - 0.05).abs() < 1e-12);
-        assert!((edge.clearance(&[0.05, 0.1], &bounded) - 0.25).abs() < 1e-12);
-        assert!((edge.depth(&[0.39, 0.1], &periodic) - 0.01).abs() < 1e-12);
-        assert!((edge.depth(&[0.39, 0.1], &bounded) - 0.05).abs() < 1e-12);
+        assert!((edge.clearance(&[0.05, 0.1], &periodic, f64::INFINITY) - 0.05).abs() < 1e-12);
+        assert!((edge.clearance(&[0.05, 0.1], &bounded, f64::INFINITY) - 0.25).abs() < 1e-12);
+        assert!((edge.depth(&[0.39, 0.1], &periodic, f64::INFINITY) - 0.01).abs() < 1e-12);
+        assert!((edge.depth(&[0.39, 0.1], &bounded, f64::INFINITY) - 0.05).abs() < 1e-12);
         // a band along the whole periodic channel: interfaces only across it
         let band = region("min = [0.0, 0.0]\nmax = [0.4, 0.05]\nlevel = 1");
-        assert!((band.depth(&[0.001, 0.01], &periodic) - 0.04).abs() < 1e-12);
-        assert_eq!(band.clearance(&[0.2, 0.04], &periodic), 0.0);
-        assert!((band.clearance(&[0.399, 0.08], &periodic) - 0.03).abs() < 1e-12);
+        assert!((band.depth(&[0.001, 0.01], &periodic, f64::INFINITY) - 0.04).abs() < 1e-12);
+        assert_eq!(band.clearance(&[0.2, 0.04], &periodic, f64::INFINITY), 0.0);
+        assert!((band.clearance(&[0.399, 0.08], &periodic, f64::INFINITY) - 0.03).abs() < 1e-12);
+    }
+
+    /// A region of `mesh`, its box the mesh's (as the loader sets it).
+    fn mesh_region(mesh: crate::scene::mesh::Mesh) -> Refine {
+        let mut r = region("shape = \"mesh\"\nlevel = 1");
+        (r.min, r.max) = mesh.bounds();
+        r.mesh = Some(std::sync::Arc::new(mesh));
+        r
+    }
+
+    /// Points of [0, 1]^d at odd multiples of 1/64 (on no face of the boxes below, which lie
+    /// on multiples of 1/8), and points on each plane of `faces` and 10⁻⁹ m to either side.
+    fn samples(d: usize, faces: &[f64]) -> Vec<Vec<f64>> {
+        let n: usize = 32;
+        let c = |i: usize| (2 * i + 1) as f64 / 64.0;
+        let mut out: Vec<Vec<f64>> = (0..n.pow(d as u32))
+            .map(|k| (0..d).map(|a| c(k / n.pow(a as u32) % n)).collect())
+            .collect();
+        for (a, f) in (0..d).flat_map(|a| faces.iter().map(move |&f| (a, f))) {
+            for off in [-1e-9, 0.0, 1e-9] {
+                let mut x = vec![0.40625; d];
+                x[a] = f + off;
+                out.push(x);
+            }
+        }
+        out
+    }
+
+    /// A box given as a closed mesh measures what the block region does: in 3D, and in 2D as
+    /// the section of a box only 2 cm thick across the plane (the faces parallel to the plane
+    /// do not count: the depth at the section's middle is 0.125 m, not 0.01 m), on a grid of
+    /// points and on each face's plane and 1 nm to either side of it: the same membership, the
+    /// same depth inside to the bit (the distance across a face is the block's subtraction) and
+    /// the clearance outside to 1e-15 m (a corner's is a sum of squares in another order);
+    /// with a cap c, min(value, c) exactly, beyond the cap the cap itself, and outside a depth
+    /// of −min(clearance, c).
+    #[test]
+    fn a_box_mesh_region_measures_the_block_region_depths() {
+        use crate::scene::mesh::{shapes::cuboid, Mesh, Slice};
+        let (lo, hi) = ([0.25, 0.125, 0.375], [0.75, 0.5, 0.625]);
+        let faces = [0.125, 0.25, 0.375, 0.5, 0.625, 0.75];
+        let mesh = |lo, hi| Mesh::new(cuboid(lo, hi), String::new(), "binary");
+        let (min3, max3) = ([0.0; 3], [1.0; 3]);
+        let three = (
+            region("min = [0.25, 0.125, 0.375]\nmax = [0.75, 0.5, 0.625]\nlevel = 1"),
+            mesh_region(mesh(lo, hi)),
+            Bounds {
+                min: &min3,
+                max: &max3,
+                period: [None; 3],
+            },
+        );
+        // (x, z) of the 3D box, y ∈ [−0.01, 0.01] cut at y = 0
+        let cut = Slice { axis: 1, at: 0.0 };
+        let thin = mesh([0.25, -0.01, 0.375], [0.75, 0.01, 0.625])
+            .sliced(cut)
+            .unwrap();
+        let (min2, max2) = ([0.0; 2], [1.0; 2]);
+        let two = (
+            region("min = [0.25, 0.375]\nmax = [0.75, 0.625]\nlevel = 1"),
+            mesh_region(thin),
+            Bounds {
+                min: &min2,
+                max: &max2,
+                period: [None; 3],
+            },
+        );
+        assert_eq!(
+            (two.1.min.clone(), two.1.max.clone()),
+            (vec![0.25, 0.375], vec![0.75, 0.625])
+        );
+        let middle = [0.5, 0.5];
+        assert_eq!(two.1.depth(&middle, &two.2, f64::INFINITY), 0.125);
+        let (mut inside, mut outside) = (0, 0);
+        for (d, (block, meshed, b)) in [(3, &three), (2, &two)] {
+            for x in samples(d, &faces) {
+                let x = x.as_slice();
+                assert_eq!(meshed.contains(x), block.contains(x), "{x:?}");
+                let (depth, clear) = (
+                    block.depth(x, b, f64::INFINITY),
+                    block.clearance(x, b, f64::INFINITY),
+                );
+                if block.contains(x) {
+                    inside += 1;
+                    assert_eq!(meshed.depth(x, b, f64::INFINITY), depth, "{x:?}");
+                    assert_eq!(meshed.clearance(x, b, 0.01), 0.0, "{x:?}");
+                    for cap in [0.01, 0.05] {
+                        assert_eq!(meshed.depth(x, b, cap), depth.min(cap), "{x:?} cap {cap}");
+                    }
+                } else {
+                    outside += 1;
+                    let got = meshed.clearance(x, b, f64::INFINITY);
+                    assert!((got - clear).abs() <= 1e-15, "{x:?}: {got} against {clear}");
+                    for cap in [0.01, 0.05] {
+                        let (c, dep) = (meshed.clearance(x, b, cap), meshed.depth(x, b, cap));
+                        match clear < cap - 1e-15 {
+                            true => assert!((c - clear).abs() <= 1e-15 && dep == -c, "{x:?} cap {cap}"),
+                            false => assert!(c >= cap - 1e-15 && dep == -c, "{x:?} cap {cap}"),
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            inside > 1000 && outside > 10000,
+            "{inside} inside, {outside} outside"
+        );
+        // deep inside, past the cap: the cap itself, not the depth
+        let (centre3, centre2) = ([0.5, 0.3125, 0.5], [0.5, 0.5]);
+        assert_eq!(three.1.depth(&centre3, &three.2, 0.02), 0.02);
+        assert_eq!(three.1.depth(&centre3, &three.2, f64::INFINITY), 0.125);
+        assert_eq!(two.1.depth(&centre2, &two.2, 0.02), 0.02);
+        assert_eq!(three.1.clearance(&[0.0625; 3], &three.2, 0.03), 0.03);
+    }
+
+    /// A sphere of 24 bands as a mesh region measures the sphere region's depth and clearance
+    /// to within the facets' sagitta, r(1 − cos(π/24)) = 2.6 mm, and with a cap of 5 cm the
+    /// same value clamped to ±5 cm, to the bit.
+    #[test]
+    fn a_sphere_mesh_region_measures_the_sphere_to_its_facets() {
+        use crate::scene::mesh::{shapes::sphere, Mesh};
+        let (min, max) = ([0.0; 3], [1.0; 3]);
+        let b = Bounds {
+            min: &min,
+            max: &max,
+            period: [None; 3],
+        };
+        let meshed = mesh_region(Mesh::new(sphere([0.5; 3], 0.3, 24), String::new(), "binary"));
+        let mut ball = region("shape = \"sphere\"\ncentre = [0.5, 0.5, 0.5]\nradius = 0.3\nlevel = 1");
+        (ball.min, ball.max) = (vec![0.2; 3], vec![0.8; 3]);
+        let sagitta = 0.3 * (1.0 - (std::f64::consts::PI / 24.0).cos());
+        let mut worst = 0.0f64;
+        for x in samples(3, &[]) {
+            let x = x.as_slice();
+            let (depth, clear) = (
+                ball.depth(x, &b, f64::INFINITY),
+                ball.clearance(x, &b, f64::INFINITY),
+            );
+            let got = match meshed.contains(x) {
+                true => meshed.depth(x, &b, f64::INFINITY),
+                false => -meshed.clearance(x, &b, f64::INFINITY),
+            };
+            let want = if depth > 0.0 { depth } else { -clear };
+            worst = worst.max((got - want).abs());
+            // with a cap: the value, or the cap (outside, its negative)
+            assert_eq!(meshed.depth(x, &b, 0.05), got.clamp(-0.05, 0.05), "{x:?}");
+        }
+        assert!(worst <= sagitta, "{worst} against the sagitta {sagitta}");
+        assert!(worst > 0.1 * sagitta, "{worst}: the facets show");
     }
 
     /// A region that keeps the scene's h at a level where each particle lists thousands of

@@ -39,7 +39,7 @@ impl<const D: usize> Simulation<D> {
         let dom = crate::scene::refine::Bounds::of(&self.scene);
         let band = self.scene.discretisation.dx / f64::from(1u32 << l);
         let inside = |r: &&&Refine| {
-            r.level > u32::from(l) && r.applies_to(name) && r.contains(x) && r.depth(x, &dom) >= band
+            r.level > u32::from(l) && r.applies_to(name) && r.contains(x) && r.depth(x, &dom, band) >= band
         };
         regions.iter().any(|r| inside(&r)).then_some(l + 1)
     }

@@ -94,7 +94,7 @@ impl<const D: usize> Simulation<D> {
                 .refine
                 .iter()
                 .filter(|r| r.level >= u32::from(l) && r.applies_to(name))
-                .all(|r| r.clearance(x, &dom) >= side);
+                .all(|r| r.clearance(x, &dom, side) >= side);
             if clear {
                 let mut cell = [0i64; 3];
                 for a in 0..D {
