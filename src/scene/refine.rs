@@ -21,8 +21,9 @@ pub const MAX_LEVEL: u32 = 3;
 pub const LEVELS: &str = "1, 2 or 3 (particles of spacing dx/2, dx/4 or dx/8)";
 
 super::shape::shaped_table! {
-/// One refinement region: the shape keys of a body (`block`, `sphere` or `cylinder`), its
-/// level and the bodies it refines.
+/// One refinement region: the shape keys of a body (`block`, `sphere`, `cylinder`, `polygon`
+/// or `mesh`, a mesh without a body's `fill` and `layers`), its level and the bodies it
+/// refines.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Refine {
