@@ -222,8 +222,14 @@ impl Mesh {
 
     /// True if some point of the surface lies closer than `r` (m) to `p`: the cells within
     /// ⌈r / cell⌉ + 1 of p's, stopping at the first such triangle (a site deep inside a large
-    /// mesh costs a few cells, where [`Mesh::distance`] would search out to the surface).
+    /// mesh costs a few cells, where [`Mesh::distance`] would search out to the surface). For a
+    /// 2D point of a sliced mesh, the surface is the section's outline in its plane
+    /// ([`Mesh::distance_capped`]): a face parallel to the plane, near it but not on it, does
+    /// not thicken a shell.
     pub fn within(&self, p: &[f64], r: f64) -> bool {
+        if p.len() == 2 && self.section.is_some() {
+            return self.distance_capped(p, r) < r;
+        }
         let p = &self.lift(p);
         let g = &self.grid;
         let c0 = [0, 1, 2].map(|a| g.cell(a, p[a]) as i64);
@@ -1336,7 +1342,31 @@ mod tests {
                 .fold(f64::INFINITY, f64::min);
             for cap in [0.01, 0.05, 0.2, f64::INFINITY] {
                 assert_eq!(m.distance_capped(&p, cap), brute.min(cap), "{p:?} {cap}");
+                assert_eq!(m.within(&p, cap), brute < cap, "{p:?} {cap}");
             }
+        }
+    }
+
+    /// A shell of a box 2 cm thick across the slice plane claims, in the section, only the
+    /// sites within its depth of the section's outline: the faces parallel to the plane, 1 cm
+    /// from every site, do not count (a 3D distance would claim the whole section).
+    #[test]
+    fn a_thin_sliced_shell_claims_only_the_outline_s_band() {
+        let cut = Slice { axis: 1, at: 0.0 };
+        let m = mesh(cuboid([0.25, -0.01, 0.25], [0.75, 0.01, 0.75]))
+            .sliced(cut)
+            .unwrap()
+            .with_shell(0.05);
+        for k in 0..400 {
+            let p = [
+                0.2 + (k % 20) as f64 * 0.03 + 0.001,
+                0.2 + (k / 20) as f64 * 0.03 + 0.002,
+            ];
+            let inside = (0.25..0.75).contains(&p[0]) && (0.25..0.75).contains(&p[1]);
+            let to_edge = [p[0] - 0.25, 0.75 - p[0], p[1] - 0.25, 0.75 - p[1]]
+                .into_iter()
+                .fold(f64::INFINITY, f64::min);
+            assert_eq!(m.claims(&p), inside && to_edge < 0.05, "{p:?}");
         }
     }
 
