@@ -71,8 +71,9 @@ pub struct JobSpec {
 /// allocator.
 pub const MEM_HEADROOM: f64 = 1.25;
 
-/// Bytes a rank needs besides its particles: the binary's mapped pages, the MPI library and
-/// its shared-memory and network buffers (Open MPI: 30–100 MB a process).
+/// Bytes a rank needs beyond the estimate of its process (which counts the binary's pages,
+/// [`crate::memory::PROCESS_BASE`]): the MPI library and its shared-memory and network
+/// buffers (Open MPI: 30–100 MB a process).
 pub const MEM_PER_RANK_BASE: f64 = 128e6;
 
 /// Memory per node (MiB, rounded up) for `ranks_per_node` ranks that each peak at about
@@ -315,7 +316,7 @@ impl JobSpec {
         s += &match self.mem_estimate {
             Some(b) => format!(
                 "# Memory per node: {} ranks x ({:.1} MB, hsph check's estimate of a rank's peak, x {MEM_HEADROOM} \
-                 + {:.0} MB for the binary and MPI).\n",
+                 + {:.0} MB for MPI).\n",
                 self.ranks_per_node,
                 b / 1e6,
                 MEM_PER_RANK_BASE / 1e6

@@ -12,7 +12,9 @@
 //! - **running**: the owned particles and their ghosts (a fraction of the owned ones), the
 //!   cell list and the neighbour lists (4 B per neighbour);
 //! - **meshes** (`shape = "mesh"`): each placed mesh and its indexes, held once per process
-//!   (the ranks of one process share the scene) from the load to the end.
+//!   (the ranks of one process share the scene) from the load to the end;
+//! - **the process itself** ([`PROCESS_BASE`]): the binary's resident pages, the runtime and
+//!   the thread pool, whatever the scene.
 //!
 //! Ranks of the local back end share one process, so their estimates add up; under MPI each
 //! process holds one rank. Limits apply per process.
@@ -28,6 +30,11 @@ fn neighbours<const D: usize>(scene: &Scene) -> f64 {
     scene.discretisation.lattice_neighbours(D) * crate::scene::lattice::list_weight::<D>(scene)
 }
 
+/// Bytes a process holds whatever its scene: the binary's resident pages, the allocator's and
+/// the thread pool's (the smallest shipped scenes, 1 336–1 802 particles, peak at 13.0–14.6 MB
+/// on one rank; `tools/memory_estimate.py`, docs/performance_model.md).
+pub const PROCESS_BASE: f64 = 12e6;
+
 /// A memory estimate (bytes).
 #[derive(Debug, Clone, Copy)]
 pub struct Estimate {
@@ -40,7 +47,7 @@ pub struct Estimate {
     /// Ranks sharing this process.
     pub ranks_in_process: usize,
     /// Peak bytes of the process: every rank of it at its set-up peak at once, plus its running
-    /// state (the allocator keeps much of the set-up's memory mapped).
+    /// state (the allocator keeps much of the set-up's memory mapped), plus [`PROCESS_BASE`].
     pub process: f64,
 }
 
@@ -66,11 +73,18 @@ pub fn estimate<const D: usize>(
     let verlet = scene.performance.neighbours == crate::scene::NeighbourMode::Verlet;
     let reach = if verlet { 1.0 + scene.performance.skin } else { 1.0 };
     let listed = neighbours::<D>(scene) * reach.powi(D as i32);
+    // ghosts: none on one rank without periodic axes or mirror walls; else the layers of a
+    // support (with the lists' skin) round a cube of the owned particles, every face counted
+    let images = scene.domain.periodic.iter().any(|&p| p)
+        || (scene.walls.iter()).any(|w| w.method == crate::scene::WallMethod::Mirror);
+    let layers = (scene.discretisation.support() * reach / scene.discretisation.dx).ceil();
     let per_rank = |owned: f64| {
         let setup = owned * ((store + 4.0 + 8.0) * growth + store) + counts;
-        // owned + ghosts (ghost layers of a block: generously half the owned count at small
-        // blocks)
-        let ghosts = owned.min(n) * 0.5 + 1000.0;
+        let side = owned.powf(1.0 / D as f64);
+        let ghosts = match p > 1.0 || images {
+            true => ((side + 2.0 * layers).powi(D as i32) - owned).min(owned.min(n)) + 1000.0,
+            false => 0.0,
+        };
         let run = owned * store
             + ghosts * Particles::<D>::bytes_per_ghost_carried(dropped) as f64
             + (owned + ghosts) * 8.0
@@ -89,7 +103,7 @@ pub fn estimate<const D: usize>(
         rank_setup,
         rank_run,
         ranks_in_process: ranks_in_process.max(1),
-        process: k * (setup + run) + meshes,
+        process: k * (setup + run) + meshes + PROCESS_BASE,
     }
 }
 

@@ -39,7 +39,7 @@ pub struct JobArgs {
     launcher: crate::jobscript::Launcher,
     /// Memory per node Slurm's `--mem` asks for, e.g. 64G or 500M (k, M, G, T powers of 1000;
     /// Ki, Mi, Gi, Ti of 1024). Default: each rank's peak as `hsph check` estimates it, with
-    /// 25 % headroom and 128 MB for the binary and MPI, times the ranks per node.
+    /// 25 % headroom and 128 MB for MPI, times the ranks per node.
     #[arg(long, value_parser = parse_mem, value_name = "SIZE")]
     mem: Option<f64>,
     /// Run directory (default runs/<scene name>).
