@@ -75,8 +75,8 @@ pub fn estimate<const D: usize>(
     let listed = neighbours::<D>(scene) * reach.powi(D as i32);
     // ghosts: none on one rank without periodic axes or mirror walls; else the layers of a
     // support (with the lists' skin) round a cube of the owned particles, every face counted
-    let images = scene.domain.periodic.iter().any(|&p| p)
-        || (scene.walls.iter()).any(|w| w.method == crate::scene::WallMethod::Mirror);
+    let images =
+        scene.domain.periodic.iter().any(|&p| p) || (scene.walls.iter()).any(|w| w.method.makes_images());
     let layers = (scene.discretisation.support() * reach / scene.discretisation.dx).ceil();
     let per_rank = |owned: f64| {
         let setup = owned * ((store + 4.0 + 8.0) * growth + store) + counts;

@@ -364,13 +364,14 @@ fn try_case(c: &Case, launcher: &str) {
     let _ = std::fs::remove_dir_all(&f.dir);
 }
 
-/// `hsph jobscript` for case `c`: 2 nodes of 3 ranks of 4 threads, 1 h 30 min.
+/// `hsph jobscript` for case `c`: 2 nodes of 3 ranks of 4 threads, 1 h 30 min, 4 GB a node.
 fn jobscript_command(c: &Case, launcher: &str, f: &Paths) -> Command {
     let mut cmd = Command::new(&f.bin);
     cmd.arg("jobscript")
         .arg(&f.scene)
         .args(["--nodes", "2", "--ranks-per-node", "3", "--threads-per-rank", "4"])
         .args(["--time", "01:30:00", "--launcher", launcher])
+        .args(["--mem", "4G"])
         .arg("--out")
         .arg(&f.run)
         .arg("--script")
@@ -392,6 +393,7 @@ fn expected_directives(c: &Case) -> Vec<String> {
         "#SBATCH --nodes=2",
         "#SBATCH --ntasks-per-node=3",
         "#SBATCH --cpus-per-task=4",
+        "#SBATCH --mem=3815M", // 4e9 B = 3814.7 MiB, rounded up
         "#SBATCH --time=01:30:00",
     ]);
     if let Some(p) = &c.partition {
