@@ -79,7 +79,11 @@ pub const MEM_PER_RANK_BASE: f64 = 128e6;
 /// Memory per node (MiB, rounded up) for `ranks_per_node` ranks that each peak at about
 /// `rank_peak` bytes: (rank_peak × [`MEM_HEADROOM`] + [`MEM_PER_RANK_BASE`]) × ranks_per_node.
 pub fn mem_per_node_mib(rank_peak: f64, ranks_per_node: usize) -> u64 {
-    let bytes = (rank_peak.max(0.0) * MEM_HEADROOM + MEM_PER_RANK_BASE) * ranks_per_node as f64;
+    mib((rank_peak.max(0.0) * MEM_HEADROOM + MEM_PER_RANK_BASE) * ranks_per_node as f64)
+}
+
+/// `bytes` in whole MiB, rounded up (Slurm's `--mem` unit `M`).
+pub fn mib(bytes: f64) -> u64 {
     (bytes / (1u64 << 20) as f64).ceil() as u64
 }
 

@@ -53,7 +53,7 @@ pub struct JobArgs {
 
 /// `hsph jobscript`: the sbatch script for a scene, to a file or standard output.
 pub(super) fn cmd_jobscript(a: JobArgs) -> Result<i32> {
-    use crate::jobscript::{path_text, HSPH_ADVICE, OUT_ADVICE, SCENE_ADVICE};
+    use crate::jobscript::{mib, path_text, HSPH_ADVICE, OUT_ADVICE, SCENE_ADVICE};
     let JobArgs {
         scene,
         nodes,
@@ -87,25 +87,9 @@ pub(super) fn cmd_jobscript(a: JobArgs) -> Result<i32> {
         Err(_) => "hsph".into(),
     };
     let time_s = time.round() as u64;
-    // the limits `run` will apply to this many ranks (after the flags, which name the limit
-    // themselves), and the memory of one rank: under MPI each rank is a process of its own
     let ranks = nodes.saturating_mul(ranks_per_node);
-    let est = match crate::limits::ranks("--nodes × --ranks-per-node", ranks) {
-        Ok(()) => Some(layout_estimate(&sc, &src, ranks).map_err(|e| match e {
-            Error::Input { at, key, message } if key == "--ranks" => Error::Input {
-                at,
-                key: "--nodes × --ranks-per-node".into(),
-                message,
-            },
-            e => e,
-        })?),
-        // refused below, by the spec's own checks, naming its flags
-        Err(_) => None,
-    };
-    let need = est
-        .as_ref()
-        .map(|e| crate::jobscript::mem_per_node_mib(e.process, ranks_per_node));
-    let mib = |b: f64| (b / (1u64 << 20) as f64).ceil() as u64;
+    let peak = rank_peak(&sc, &src, ranks)?;
+    let need = peak.map(|b| crate::jobscript::mem_per_node_mib(b, ranks_per_node));
     let spec = crate::jobscript::JobSpec {
         scene: path_text("SCENE", &abs(&scene), SCENE_ADVICE)?,
         run: path_text("--out", &abs(&run), OUT_ADVICE)?,
@@ -123,21 +107,17 @@ pub(super) fn cmd_jobscript(a: JobArgs) -> Result<i32> {
             .map_or("rank-order".into(), |v| v.get_name().to_string()),
         launcher,
         mem_mib: mem.map(mib).or(need).unwrap_or(0),
-        mem_estimate: if mem.is_some() {
-            None
-        } else {
-            est.as_ref().map(|e| e.process)
-        },
+        mem_estimate: if mem.is_some() { None } else { peak },
     };
     spec.validate()?;
-    if let (Some(m), Some(need)) = (mem, need) {
+    if let (Some(m), Some(need), Some(b)) = (mem, need, peak) {
         if mib(m) < need {
             eprintln!(
                 "hsph: warning: --mem {} MiB is below the {need} MiB per node the estimate asks for ({ranks_per_node} \
                  rank(s) at about {} each, `hsph check SCENE --ranks {ranks}`); Slurm may stop the job \
                  when a node runs out",
                 mib(m),
-                crate::memory::human(est.as_ref().map_or(0.0, |e| e.process)),
+                crate::memory::human(b),
             );
         }
     }
@@ -160,6 +140,24 @@ pub(super) fn cmd_jobscript(a: JobArgs) -> Result<i32> {
         None => say(&text),
     }
     Ok(0)
+}
+
+/// The limits `run` will apply to `ranks` ranks, and the estimated peak (bytes) of one rank's
+/// process: under MPI each rank is a process of its own. `None` when the rank count is beyond
+/// its bound, which the job spec's own check then refuses, naming its flags.
+fn rank_peak(sc: &Scene, src: &SceneSource, ranks: usize) -> Result<Option<f64>> {
+    if crate::limits::ranks("--nodes × --ranks-per-node", ranks).is_err() {
+        return Ok(None);
+    }
+    let est = layout_estimate(sc, src, ranks).map_err(|e| match e {
+        Error::Input { at, key, message } if key == "--ranks" => Error::Input {
+            at,
+            key: "--nodes × --ranks-per-node".into(),
+            message,
+        },
+        e => e,
+    })?;
+    Ok(Some(est.process))
 }
 
 /// `--mem`: a size as [`crate::memory::parse_size`] reads it (bytes).
