@@ -67,23 +67,33 @@ VARIANTS = {
     "riemann_refine_2": ['time.stepping="local"'],
     "riemann_refine_1_cfl_0.2": ['time.stepping="local"', "time.cfl=0.2"],
     "riemann_refine_1_cfl_0.3": ['time.stepping="local"', "time.cfl=0.3"],
+    "riemann_refine_1_wide": ['time.stepping="local"'],
+    "riemann_refine_2_wide": ['time.stepping="local"'],
+    "riemann_refine_1_global": [],
 }
 
 # Variants that refine the downstream corner (docs/pressure.md §2e): an adaptive region over
 # x in [1.46, 1.66] m, y < 0.2 m (S1-S4 and the run-up's root), at `level` (dx / 2^level, the
 # level's h), with local time steps; (level, transition in m or None for one support).
-REGIONS = {"riemann_refine_1": (1, None), "riemann_refine_1_t4": (1, 0.052), "riemann_refine_2": (2, None),
-           "riemann_refine_1_cfl_0.2": (1, None), "riemann_refine_1_cfl_0.3": (1, None)}
+# name: (level, transition in m or None, region's upstream x in m, region's top y in m)
+CORNER = (1.46, 0.2)
+WIDE = (1.06, 0.45)
+REGIONS = {"riemann_refine_1": (1, None, *CORNER), "riemann_refine_1_t4": (1, 0.052, *CORNER),
+           "riemann_refine_2": (2, None, *CORNER),
+           "riemann_refine_1_cfl_0.2": (1, None, *CORNER), "riemann_refine_1_cfl_0.3": (1, None, *CORNER),
+           "riemann_refine_1_wide": (1, None, *WIDE),
+           "riemann_refine_1_global": (1, None, *CORNER), "riemann_refine_2_wide": (2, None, *WIDE)}
 
 
-def scene_with_region(level, transition, tmp):
-    """The shipped scene with the corner's refinement region appended, written into `tmp`."""
+def scene_with_region(level, transition, x0, y1, tmp):
+    """The shipped scene with a refinement region over the downstream corner, x >= x0 and y < y1
+    (m), appended and written into `tmp`."""
     text = open("inputs/dam_break_lobovsky.toml").read()
-    text += (f'\n[[refine]]\nmin = [1.46, -0.05]\nmax = [1.66, 0.2]\nlevel = {level}\n'
+    text += (f'\n[[refine]]\nmin = [{x0}, -0.05]\nmax = [1.66, {y1}]\nlevel = {level}\n'
              'bodies = ["column", "tank"]\nsmoothing_length = "level"\nadapt = true\n')
     if transition is not None:
         text += f"transition = {transition}\n"
-    path = os.path.join(tmp, f"lobovsky_refine_{level}.toml")
+    path = os.path.join(tmp, f"lobovsky_refine_{level}_{x0}_{y1}.toml")
     open(path, "w").write(text)
     return path
 
