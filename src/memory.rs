@@ -10,7 +10,8 @@
 //!   for a moment; placement adds a P × P table of halo volumes;
 //! - **halo and migration counts**: a P × P table of u64 all-reduced (two copies) per rank;
 //! - **running**: the owned particles and their ghosts (a fraction of the owned ones), the
-//!   cell list and the neighbour lists (4 B per neighbour);
+//!   cell list and the neighbour lists (4 B per neighbour, kept by fluid and solid particles,
+//!   each pair once in pair mode, none with `neighbours = "cells"`);
 //! - **meshes** (`shape = "mesh"`): each placed mesh and its indexes, held once per process
 //!   (the ranks of one process share the scene) from the load to the end;
 //! - **the process itself** ([`PROCESS_BASE`]): the binary's resident pages, the runtime and
@@ -20,6 +21,7 @@
 //! process holds one rank. Limits apply per process.
 
 use crate::particles::Particles;
+use crate::physics::solid::dynamics::SolidScratch;
 use crate::scene::Scene;
 
 /// Neighbours per particle in the estimate: the lattice's
@@ -30,10 +32,42 @@ fn neighbours<const D: usize>(scene: &Scene) -> f64 {
     scene.discretisation.lattice_neighbours(D) * crate::scene::lattice::list_weight::<D>(scene)
 }
 
+/// The shares of the scene's particles whose key starts with each of `prefixes` (`fluid`,
+/// `solid`, `wall`), from the lattice's counts.
+fn shares<const D: usize, const K: usize>(scene: &Scene, prefixes: [&str; K]) -> [f64; K] {
+    let sites = crate::scene::lattice::body_sites::<D>(scene);
+    let all = sites.iter().map(|b| b.sites).sum::<u64>().max(1) as f64;
+    prefixes.map(|pre| {
+        let of: u64 = (sites.iter())
+            .filter(|b| b.key.starts_with(pre))
+            .map(|b| b.sites)
+            .sum();
+        of as f64 / all
+    })
+}
+
+/// The share of the scene's particles that keep neighbour lists of their own: its fluid and
+/// solid particles (walls keep none, or only their fluid neighbours). On the shipped scenes the
+/// stored entries are 0.90–1.12 of these particles times the lattice's neighbours (pair mode:
+/// half).
+fn listing_share<const D: usize>(scene: &Scene) -> f64 {
+    let [walls] = shares::<D, 1>(scene, ["wall"]);
+    1.0 - walls
+}
+
+/// Bytes per rank of the cell grid, which spans the whole domain on every rank (with the
+/// stencil's margin): a start, a fill cursor and a fluid count (u32 each) and a flag per cell.
+fn grid_bytes<const D: usize>(scene: &Scene, edge: f64) -> f64 {
+    let lo = crate::Vector::<D>::from_fn(|a, _| scene.domain.min[a]);
+    let hi = crate::Vector::<D>::from_fn(|a, _| scene.domain.max[a]);
+    crate::cells::CellGrid::<D>::with_reach(&lo, &hi, edge, edge).len() as f64 * 13.0
+}
+
 /// Bytes a process holds whatever its scene: the binary's resident pages, the allocator's and
-/// the thread pool's (the smallest shipped scenes, 1 336–1 802 particles, peak at 13.0–14.6 MB
-/// on one rank; `tools/memory_estimate.py`, docs/performance_model.md).
-pub const PROCESS_BASE: f64 = 12e6;
+/// the thread pool's (the smallest shipped scenes, 1 336–1 802 particles, peak at 12.8–14.5 MB
+/// on one rank, of which their heap is under 1 MB; the Lobovsky dam break's heap is 2.7 MB of
+/// 16.3; `tools/memory_estimate.py`, docs/performance_model.md).
+pub const PROCESS_BASE: f64 = 13e6;
 
 /// A memory estimate (bytes).
 #[derive(Debug, Clone, Copy)]
@@ -46,8 +80,9 @@ pub struct Estimate {
     pub rank_run: f64,
     /// Ranks sharing this process.
     pub ranks_in_process: usize,
-    /// Peak bytes of the process: every rank of it at its set-up peak at once, plus its running
-    /// state (the allocator keeps much of the set-up's memory mapped), plus [`PROCESS_BASE`].
+    /// Peak bytes of the process: every rank of it at the larger of its set-up peak and its
+    /// running state (the running state reuses what the set-up freed: the measured peak is the
+    /// set-up's on the large shipped scenes), plus the meshes and [`PROCESS_BASE`].
     pub process: f64,
 }
 
@@ -63,8 +98,6 @@ pub fn estimate<const D: usize>(
     let p = ranks.max(1) as f64;
     let dropped = crate::setup::dropped_fields(scene);
     let store = Particles::<D>::bytes_per_particle_carried(dropped) as f64;
-    // vectors grown by doubling hold up to twice their length
-    let growth = 2.0;
     let counts = 2.0 * 8.0 * p * p;
     // a block holds up to (1 + 2η)^D of the mean count (decomp docs): 1.05 in 3D, or, balanced
     // on pairs, up to the count cap `balance.max_count`
@@ -72,21 +105,37 @@ pub fn estimate<const D: usize>(
     // Verlet lists reach support·(1 + skin): (1 + skin)^D the neighbours
     let verlet = scene.performance.neighbours == crate::scene::NeighbourMode::Verlet;
     let reach = if verlet { 1.0 + scene.performance.skin } else { 1.0 };
-    let listed = neighbours::<D>(scene) * reach.powi(D as i32);
+    // list entries per particle: fluid and solid particles list their neighbours (pair mode:
+    // each pair once); walls list none or only their fluid neighbours, a small share
+    let pairs = scene.performance.interactions == crate::scene::Interactions::Pairs;
+    let listed = match scene.performance.neighbours {
+        crate::scene::NeighbourMode::Cells => 0.0,
+        _ => {
+            neighbours::<D>(scene) * reach.powi(D as i32) * listing_share::<D>(scene)
+                / if pairs { 2.0 } else { 1.0 }
+        }
+    };
     // ghosts: none on one rank without periodic axes or mirror walls; else the layers of a
     // support (with the lists' skin) round a cube of the owned particles, every face counted
     let images =
         scene.domain.periodic.iter().any(|&p| p) || (scene.walls.iter()).any(|w| w.method.makes_images());
+    let [solids] = shares::<D, 1>(scene, ["solid"]);
+    let grid = grid_bytes::<D>(scene, scene.discretisation.support() * reach);
     let layers = (scene.discretisation.support() * reach / scene.discretisation.dx).ceil();
     let per_rank = |owned: f64| {
-        let setup = owned * ((store + 4.0 + 8.0) * growth + store) + counts;
+        // the store, a label and a sort index per particle, and the sorted copy (pages a
+        // vector reserves but never writes are not resident)
+        let setup = owned * (2.0 * store + 4.0 + 8.0) + counts;
         let side = owned.powf(1.0 / D as f64);
         let ghosts = match p > 1.0 || images {
             true => ((side + 2.0 * layers).powi(D as i32) - owned).min(owned.min(n)) + 1000.0,
             false => 0.0,
         };
+        // the ghosts, and their records in the halo's send and receive buffers
         let run = owned * store
-            + ghosts * Particles::<D>::bytes_per_ghost_carried(dropped) as f64
+            + 2.0 * ghosts * Particles::<D>::bytes_per_ghost_carried(dropped) as f64
+            + (owned + ghosts) * solids * SolidScratch::<D>::BYTES_PER_PARTICLE as f64
+            + grid
             + (owned + ghosts) * 8.0
             + owned * listed * 4.0
             + counts;
@@ -103,7 +152,7 @@ pub fn estimate<const D: usize>(
         rank_setup,
         rank_run,
         ranks_in_process: ranks_in_process.max(1),
-        process: k * (setup + run) + meshes + PROCESS_BASE,
+        process: k * setup.max(run) + meshes + PROCESS_BASE,
     }
 }
 
@@ -218,7 +267,8 @@ mod tests {
     use super::*;
 
     /// Verlet lists add the skin's neighbours to the list term: (1 + skin)^D − 1 of it, here
-    /// in 3D at skin 0.3 (owned · listed · 4 B, one rank).
+    /// in 3D at skin 0.3 (owned · listed · 4 B, one rank), less the cells their wider reach
+    /// saves.
     #[test]
     fn verlet_lists_count_the_skins_neighbours() {
         let text = std::fs::read_to_string(concat!(
@@ -234,7 +284,13 @@ mod tests {
         scene.performance.skin = 0.3;
         let verlet = estimate::<3>(&scene, n, 1, 1).rank_run;
         let owned = n as f64 * 1.05;
-        let term = owned * neighbours::<3>(&scene) * 4.0 * (1.3f64.powi(3) - 1.0);
+        let share = listing_share::<3>(&scene);
+        assert!(share > 0.0 && share < 1.0, "fluid and repulsive walls: {share}");
+        let support = scene.discretisation.support();
+        // the cells grow with the lists' reach: fewer of them
+        let cells = grid_bytes::<3>(&scene, 1.3 * support) - grid_bytes::<3>(&scene, support);
+        assert!(cells < 0.0, "{cells}");
+        let term = owned * neighbours::<3>(&scene) * share * 4.0 * (1.3f64.powi(3) - 1.0) + cells;
         assert!(
             ((verlet - lists) / term - 1.0).abs() < 1e-12,
             "{verlet} {lists} {term}"

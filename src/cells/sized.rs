@@ -311,6 +311,7 @@ fn scan_slots<const D: usize>(
 ) {
     // branch-free append: write every candidate, advance on a hit
     let w = list.len();
+    super::grow_list(list, w + (e - b));
     list.resize(w + (e - b), 0);
     let out = &mut list[w..];
     let mut m = 0usize;

@@ -39,7 +39,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         // final.csv gathered on rank 0 up to `output.gather_limit` particles, else per rank
         let gathered = self.n_total <= self.scene.output.gather_limit;
         if gathered {
-            // one rank lends its table to the final view instead of copying it
+            // free the step's memory; one rank lends its table to the final view
             self.sim.settle_for_gather();
         }
         let final_view = final_state(&self.sim, self.comm, self.dir, gathered)?;

@@ -57,6 +57,13 @@ pub struct SolidScratch<const D: usize> {
     c: Vec<f64>,
 }
 
+impl<const D: usize> SolidScratch<D> {
+    /// Bytes this scratch holds per solid particle once sized (B; the memory estimate): three
+    /// tensors and three scalars.
+    pub const BYTES_PER_PARTICLE: usize =
+        3 * std::mem::size_of::<Tensor<D>>() + 3 * std::mem::size_of::<f64>();
+}
+
 /// The artificial-viscosity constants of a pass.
 #[derive(Clone, Copy)]
 struct Viscosity {
