@@ -203,6 +203,18 @@ pub struct CellList {
 }
 
 impl CellList {
+    /// Bytes the cell list holds, by capacity (its per-cell starts span the whole grid).
+    pub fn bytes_held(&self) -> usize {
+        held(&self.start)
+            + held(&self.order)
+            + held(&self.cell)
+            + held(&self.slot)
+            + held(&self.sub)
+            + held(&self.fill)
+    }
+}
+
+impl CellList {
     /// A cell list whose cells are cut into sub-cells about twice `smallest_reach` (m) wide,
     /// the smallest κh/2 of a scene of several sizes (at most [`sized::MAX_SPLIT`] per axis;
     /// none when that is one): each cell lists its particles by sub-cell, then by key, so a
@@ -484,6 +496,11 @@ impl Neighbours for NeighbourList {
     fn work_before(&self, i: usize) -> usize {
         self.entries_before(i)
     }
+}
+
+/// Bytes a vector holds by its capacity.
+pub(crate) fn held<T>(v: &Vec<T>) -> usize {
+    v.capacity() * std::mem::size_of::<T>()
 }
 
 /// Make room for `need` entries in a list chunk, growing its capacity by an eighth rather
@@ -848,6 +865,21 @@ impl NeighbourList {
             return self.before.last().copied().unwrap_or(0);
         }
         self.before[i / CHUNK] + self.offset[i] as usize
+    }
+
+    /// Bytes the lists, their cell-order copies and the half lists hold, by capacity.
+    pub fn bytes_held(&self) -> usize {
+        let chunks: usize = self.chunks.iter().map(held).sum();
+        chunks
+            + held(&self.chunks)
+            + held(&self.offset)
+            + held(&self.before)
+            + held(&self.xs)
+            + held(&self.fluid)
+            + held(&self.fluid_start)
+            + held(&self.wants)
+            + held(&self.reach)
+            + self.half.bytes_held()
     }
 
     /// Owned particles the lists were built for.

@@ -69,6 +69,22 @@ fn grid_bytes<const D: usize>(scene: &Scene, edge: f64) -> f64 {
 /// 16.3; `tools/memory_estimate.py`, docs/performance_model.md).
 pub const PROCESS_BASE: f64 = 13e6;
 
+/// One running rank's memory by part (bytes), as `summary.json`'s `memory_parts_bytes`
+/// measures them (which counts the ghosts in the table and the halo's buffers nowhere).
+#[derive(Debug, Clone, Copy)]
+pub struct Parts {
+    /// The owned particles' rows of the particle table.
+    pub table: f64,
+    /// The ghosts' rows, and their records in the halo's send and receive buffers.
+    pub ghosts: f64,
+    /// The neighbour lists (none with `neighbours = "cells"`).
+    pub lists: f64,
+    /// The cell list: a slot per particle and the grid's cells over the whole domain.
+    pub cells: f64,
+    /// The solids' per-particle scratch.
+    pub scratch: f64,
+}
+
 /// A memory estimate (bytes).
 #[derive(Debug, Clone, Copy)]
 pub struct Estimate {
@@ -78,6 +94,10 @@ pub struct Estimate {
     pub rank_setup: f64,
     /// Bytes of one rank while running.
     pub rank_run: f64,
+    /// What one rank holds while running, by part.
+    pub parts: Parts,
+    /// Particles one rank owns at most.
+    pub rank_owned: f64,
     /// Ranks sharing this process.
     pub ranks_in_process: usize,
     /// Peak bytes of the process: every rank of it at the larger of its set-up peak and its
@@ -131,24 +151,28 @@ pub fn estimate<const D: usize>(
             true => ((side + 2.0 * layers).powi(D as i32) - owned).min(owned.min(n)) + 1000.0,
             false => 0.0,
         };
-        // the ghosts, and their records in the halo's send and receive buffers
-        let run = owned * store
-            + 2.0 * ghosts * Particles::<D>::bytes_per_ghost_carried(dropped) as f64
-            + (owned + ghosts) * solids * SolidScratch::<D>::BYTES_PER_PARTICLE as f64
-            + grid
-            + (owned + ghosts) * 8.0
-            + owned * listed * 4.0
-            + counts;
-        (setup, run)
+        let parts = Parts {
+            table: owned * store,
+            // the ghosts, and their records in the halo's send and receive buffers
+            ghosts: 2.0 * ghosts * Particles::<D>::bytes_per_ghost_carried(dropped) as f64,
+            lists: owned * listed * 4.0,
+            cells: grid + (owned + ghosts) * 8.0,
+            scratch: (owned + ghosts) * solids * SolidScratch::<D>::BYTES_PER_PARTICLE as f64,
+        };
+        let run = parts.table + parts.ghosts + parts.lists + parts.cells + parts.scratch + counts;
+        (setup, run, parts)
     };
     let meshes = crate::scene::mesh_file::mesh_bytes(scene) as f64;
-    let (rank_setup, rank_run) = per_rank((n / p * cap).min(n * 1.05));
+    let owned = (n / p * cap).min(n * 1.05);
+    let (rank_setup, rank_run, parts) = per_rank(owned);
     let (rank_setup, rank_run) = (rank_setup + meshes, rank_run + meshes);
     // the ranks of one process own at most every particle between them
     let k = ranks_in_process.max(1) as f64;
-    let (setup, run) = per_rank((n / p * cap * k).min(n * 1.05) / k);
+    let (setup, run, _) = per_rank((n / p * cap * k).min(n * 1.05) / k);
     Estimate {
         particles,
+        parts,
+        rank_owned: owned,
         rank_setup,
         rank_run,
         ranks_in_process: ranks_in_process.max(1),

@@ -239,3 +239,81 @@ fn the_memory_asked_per_node_covers_a_rank_s_measured_peak() {
         "--mem {mem} B is more than 2.5 × the peak {peak} B + 128 MB"
     );
 }
+
+/// The parts `hsph check` estimates for a running rank (B per owned particle) against the
+/// parts the run's structures held (`summary.json`'s `memory_parts_bytes_per_particle`, by the
+/// capacities of their vectors: the same figures on any machine). The 3D dam break (fluid and
+/// repulsive walls, gather lists), one rank: the table within 10 % (it is sized exactly), the
+/// lists within 40 % (walls list nothing, pairs near walls and the free surface are fewer);
+/// with `neighbours = "cells"` no lists are estimated, and the run keeps only their cell-order
+/// copies, under a fifth of the lists' bytes.
+#[test]
+fn the_estimated_parts_match_what_the_run_holds() {
+    let scene = common::repo_path("inputs/dam_break_3d.toml");
+    let scene = scene.to_str().unwrap();
+    let figure = |line: &str, name: &str| -> f64 {
+        let at = line
+            .find(&format!("{name} "))
+            .unwrap_or_else(|| panic!("{name} in {line}"));
+        let rest = &line[at + name.len() + 1..];
+        rest.split([',', ';']).next().unwrap().trim().parse().unwrap()
+    };
+    let mut lists = Vec::new();
+    for mode in ["lists", "cells"] {
+        let set = format!("performance.neighbours=\"{mode}\"");
+        let (code, out, err) = common::hsph(&["check", scene, "--set", &set]);
+        assert_eq!(code, 0, "{err}");
+        let line = out
+            .lines()
+            .find(|l| l.contains("in B per owned particle"))
+            .expect(&out);
+        let est = (figure(line, "table"), figure(line, "lists"));
+        let dir = common::temp_dir(&format!("parts_{mode}"));
+        let d = dir.to_str().unwrap();
+        let (code, _, err) = common::hsph(&[
+            "run",
+            scene,
+            "--out",
+            d,
+            "--force",
+            "-q",
+            "--threads",
+            "1",
+            "--set",
+            &set,
+            "--set",
+            "time.max_steps=5",
+            "--set",
+            "output.format=\"none\"",
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+        let per = &summary["memory_parts_bytes_per_particle"];
+        let (table, listed) = (per["table"].as_f64().unwrap(), per["lists"].as_f64().unwrap());
+        eprintln!(
+            "{mode}: table {table} B (estimate {}), lists {listed} B (estimate {})",
+            est.0, est.1
+        );
+        assert!(
+            (table / est.0 - 1.0).abs() < 0.10,
+            "table {table} against {}",
+            est.0
+        );
+        match mode {
+            "lists" => assert!(
+                (listed / est.1 - 1.0).abs() < 0.40,
+                "lists {listed} against {}",
+                est.1
+            ),
+            _ => assert_eq!(est.1, 0.0, "no lists in cells mode"),
+        }
+        lists.push(listed);
+    }
+    assert!(
+        lists[1] < 0.2 * lists[0],
+        "cells mode keeps {} B of the lists' {}",
+        lists[1],
+        lists[0]
+    );
+}

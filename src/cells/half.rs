@@ -55,6 +55,18 @@ pub struct HalfPairs {
 }
 
 impl HalfPairs {
+    /// Bytes the half lists hold, by capacity.
+    pub(super) fn bytes_held(&self) -> usize {
+        use super::held;
+        let chunks: usize = self.chunks.iter().map(held).sum();
+        chunks
+            + held(&self.chunks)
+            + held(&self.offset)
+            + held(&self.flags)
+            + held(&self.rows)
+            + held(&self.entry)
+    }
+
     /// Build the half lists over the cell list (`nl` holds the cell-order positions of this
     /// build); in lean mode only the flags and rows.
     pub(super) fn build<const D: usize>(

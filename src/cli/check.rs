@@ -89,13 +89,24 @@ pub(super) fn estimate_report(
     let avail = limit.map_or("unknown".to_string(), |(b, what)| {
         format!("{} ({what})", human(b))
     });
+    let b = &est.parts;
+    let per = |x: f64| x / est.rank_owned.max(1.0);
     format!(
         "estimate    {} particles; {ranks} rank(s) in one process need about {} (set-up peak {} per rank, \
-         {} per rank running); available {avail}\n",
+         {} per rank running); available {avail}\n\
+         {:12}a rank running, in B per owned particle: table {:.0}, ghosts and halo buffers {:.0}, lists {:.0}, \
+         cells {:.0}, solids' scratch {:.0}; the process itself {}\n",
         est.particles,
         human(est.process),
         human(est.rank_setup),
-        human(est.rank_run)
+        human(est.rank_run),
+        "",
+        per(b.table),
+        per(b.ghosts),
+        per(b.lists),
+        per(b.cells),
+        per(b.scratch),
+        human(crate::memory::PROCESS_BASE)
     )
 }
 

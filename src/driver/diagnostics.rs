@@ -31,8 +31,10 @@ pub(super) struct Reduced {
     pub(super) most_owned: u64,
     pub(super) migrated: u64,
     /// Per rank: most particles held at once, most ghosts held at once, the process's peak
-    /// RSS (bytes; 0 where unknown; local ranks share one process). Empty unless asked for.
-    pub(super) high_water: Vec<[u64; 3]>,
+    /// RSS (bytes; 0 where unknown; local ranks share one process), then the bytes its table,
+    /// lists, cells and scratch hold at the end ([`Simulation::memory_parts`]). Empty unless
+    /// asked for.
+    pub(super) high_water: Vec<[u64; 7]>,
 }
 
 impl Reduced {
@@ -81,10 +83,15 @@ pub(super) fn reduce<const D: usize>(
         sim.balance.migrated,
     ];
     let high = high_water.map(|setup_peak| {
+        let [table, lists, cells, scratch] = sim.memory_parts();
         [
             sim.balance.particle_high_water,
             sim.balance.ghost_high_water,
             crate::memory::peak_rss().max(setup_peak).unwrap_or(0),
+            table,
+            lists,
+            cells,
+            scratch,
         ]
     });
     for c in counts.iter().chain(high.iter().flatten()) {

@@ -328,6 +328,17 @@ impl<'a, const D: usize> RankRun<'a, D> {
     fn add_memory(&self, summary: &mut serde_json::Value, r: &Reduced) {
         let high = |k: usize| r.high_water.iter().map(|h| h[k]).collect::<Vec<_>>();
         let now = crate::memory::peak_rss();
+        // what the run's structures hold at its end, summed over ranks, and per particle:
+        // the capacities of their vectors, which keep their largest size through the run
+        let names = ["table", "lists", "cells", "scratch"];
+        let sum = |k: usize| high(k).iter().sum::<u64>();
+        let n = r.particles.max(1) as f64;
+        let parts: serde_json::Map<_, _> = (names.iter().enumerate())
+            .map(|(k, name)| (name.to_string(), json!(sum(3 + k))))
+            .collect();
+        let per: serde_json::Map<_, _> = (names.iter().enumerate())
+            .map(|(k, name)| (name.to_string(), json!((sum(3 + k) as f64 / n).round())))
+            .collect();
         merge_into(
             summary,
             json!({
@@ -337,6 +348,8 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 "peak_rss_bytes": now.max(self.setup_peak),
                 "setup_peak_rss_bytes": self.setup_peak,
                 "step_peak_rss_bytes": if self.peak_reset { self.loop_peak } else { None },
+                "memory_parts_bytes": parts,
+                "memory_parts_bytes_per_particle": per,
             }),
         );
     }

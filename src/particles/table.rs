@@ -140,6 +140,20 @@ macro_rules! particle_table {
         }
 
         impl<const D: usize> Particles<D> {
+            /// Bytes the store's columns hold, by their capacities (`summary.json`'s memory
+            /// parts).
+            pub fn bytes_held(&self) -> usize {
+                let mut b = 0;
+                $(
+                    $(#[cfg($cfg)])?
+                    {
+                        b += self.$name.capacity() * std::mem::size_of::<$ty>();
+                    }
+                )*
+                $( b += self.$oname.capacity() * std::mem::size_of::<$oty>(); )*
+                b
+            }
+
             /// Drop every ghost, keeping owned particles.
             pub fn truncate_ghosts(&mut self) {
                 let n = self.n_owned;

@@ -48,6 +48,12 @@ pub struct PairScratch<const D: usize> {
 }
 
 impl<const D: usize> PairScratch<D> {
+    /// Bytes these accumulators hold, by capacity.
+    pub fn bytes_held(&self) -> usize {
+        use crate::cells::held;
+        held(&self.flat) + held(&self.vol) + held(&self.p_rho2)
+    }
+
     /// Bytes held (for the memory report).
     pub fn bytes(&self) -> usize {
         (self.flat.capacity() + self.vol.capacity() + self.p_rho2.capacity()) * 8

@@ -132,6 +132,9 @@ pub struct Simulation<const D: usize> {
     skin: skin::Skin<D>,
     /// Step of the last reordering of the owned particles into cell order.
     reordered_at: Option<u64>,
+    /// The largest bytes each part held before the step's buffers were freed
+    /// ([`Simulation::memory_parts`]).
+    parts_high: [u64; 4],
     /// Scratch of the solid passes (empty without solids).
     solid: crate::physics::solid::dynamics::SolidScratch<D>,
     /// Accumulators of the pair-mode passes (empty in gather mode).
@@ -380,6 +383,7 @@ impl<const D: usize> Simulation<D> {
             near: Vec::new(),
             skin,
             reordered_at: None,
+            parts_high: [0; 4],
             solid: Default::default(),
             pair_scratch: Default::default(),
             removed: Vec::new(),

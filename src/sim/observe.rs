@@ -184,6 +184,21 @@ impl<const D: usize> Simulation<D> {
         self.gather_where(comm, &|_, _| true, Fields::ALL)
     }
 
+    /// The most bytes this rank has held by part, by the capacities of its vectors, now or
+    /// before the step's buffers were last freed: the particle table (owned and ghosts), the
+    /// neighbour lists (with their cell-order copies and the half lists), the cells (the
+    /// per-cell arrays span the whole domain) and the passes' scratch.
+    pub fn memory_parts(&self) -> [u64; 4] {
+        use crate::cells::held;
+        let now = [
+            self.p.bytes_held(),
+            self.nl.bytes_held(),
+            self.cells.bytes_held() + held(&self.interior) + held(&self.near),
+            self.solid.bytes_held() + self.pair_scratch.bytes_held(),
+        ];
+        std::array::from_fn(|k| (now[k] as u64).max(self.parts_high[k]))
+    }
+
     /// At the end of a run: free the step's working memory (ghosts, neighbour lists, cells
     /// and the passes' scratch) before the final state is gathered on rank 0, whose copy of
     /// every particle was a multi-rank run's memory peak (3 local ranks of the 3D DualSPHysics
@@ -192,10 +207,8 @@ impl<const D: usize> Simulation<D> {
     /// copying it. No step may follow.
     pub fn settle_for_gather(&mut self) {
         self.p.truncate_ghosts();
-        self.nl = Default::default();
-        self.cells = Default::default();
+        self.free_step_buffers();
         self.solid = Default::default();
-        self.pair_scratch = Default::default();
         self.interior = Vec::new();
         self.near = Vec::new();
         if self.ranks != 1 {

@@ -103,6 +103,7 @@ impl<const D: usize> Simulation<D> {
     /// their next build; the pair accumulators and scratch, which every pass sizes again, go in
     /// either case. Changes no bit.
     pub fn release_step_buffers(&mut self) {
+        self.parts_high = self.memory_parts();
         if !self.next_check_reads_lists() && !self.nl.is_verlet() {
             self.free_step_buffers();
         } else {
@@ -113,6 +114,7 @@ impl<const D: usize> Simulation<D> {
     /// Free the neighbour lists, cell list and pair accumulators (see
     /// [`Simulation::release_step_buffers`]).
     pub(super) fn free_step_buffers(&mut self) {
+        self.parts_high = self.memory_parts();
         self.nl.release();
         self.cells.release();
         self.pair_scratch = Default::default();

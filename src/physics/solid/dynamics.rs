@@ -62,6 +62,12 @@ impl<const D: usize> SolidScratch<D> {
     /// tensors and three scalars.
     pub const BYTES_PER_PARTICLE: usize =
         3 * std::mem::size_of::<Tensor<D>>() + 3 * std::mem::size_of::<f64>();
+
+    /// Bytes this scratch holds, by capacity.
+    pub fn bytes_held(&self) -> usize {
+        use crate::cells::held;
+        held(&self.ds) + held(&self.de) + held(&self.rate) + held(&self.sig) + held(&self.rs) + held(&self.c)
+    }
 }
 
 /// The artificial-viscosity constants of a pass.
