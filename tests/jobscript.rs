@@ -317,3 +317,61 @@ fn the_estimated_parts_match_what_the_run_holds() {
         lists[0]
     );
 }
+
+/// `--max-memory` below the estimate refuses the scene before anything is allocated (exit 2,
+/// no output written), and the refusal names a layout that fits, which does: the 3D bench dam
+/// break (gather lists) at 0.8 × its estimate is refused; at 0.9 × the message offers the
+/// list-free mode, under which `check` accepts the same limit.
+#[test]
+fn a_memory_limit_below_the_estimate_refuses_and_names_what_fits() {
+    let scene = common::repo_path("inputs/dam_break_3d_bench.toml");
+    let scene = scene.to_str().unwrap();
+    let (code, out, err) = common::hsph(&["check", scene]);
+    assert_eq!(code, 0, "{err}");
+    let at = out.find("need about ").expect(&out) + "need about ".len();
+    let mut words = out[at..].split_whitespace();
+    let (x, unit) = (words.next().unwrap(), words.next().unwrap());
+    let est = x.parse::<f64>().unwrap()
+        * match unit {
+            "MB" => 1e6,
+            "GB" => 1e9,
+            u => panic!("{u}"),
+        };
+    let dir = common::temp_dir("max_memory_fits");
+    let run_dir = dir.join("run");
+    for (share, offers_lean) in [(0.8, false), (0.9, true)] {
+        let limit = format!("{:.0}", share * est);
+        let (code, _, err) = common::hsph(&[
+            "run",
+            scene,
+            "--max-memory",
+            &limit,
+            "-q",
+            "--out",
+            run_dir.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 2, "{err}");
+        assert!(
+            err.contains("--max-memory") && err.contains("per process"),
+            "{err}"
+        );
+        assert!(!run_dir.exists(), "nothing is written before the refusal");
+        assert!(err.contains("under MPI on "), "a process count that fits: {err}");
+        assert_eq!(
+            err.contains("performance.neighbours=\"cells\""),
+            offers_lean,
+            "{err}"
+        );
+        if offers_lean {
+            let (code, _, err) = common::hsph(&[
+                "check",
+                scene,
+                "--max-memory",
+                &limit,
+                "--set",
+                "performance.neighbours=\"cells\"",
+            ]);
+            assert_eq!(code, 0, "the offered mode fits: {err}");
+        }
+    }
+}

@@ -92,16 +92,67 @@ pub fn check_limits(
                 key,
                 format!(
                     "this run needs about {} per process ({n} particles, {ranks_in_process} rank(s) in this \
-                     process at about {} each during the set-up), more than the {} of {what}; use a coarser \
+                     process at about {} each at its peak), more than the {} of {what}; {}use a coarser \
                      dx, fewer ranks per process (MPI spreads them over processes), or --max-memory to override{cap}",
                     human(est.process),
                     human(est.rank_setup.max(est.rank_run)),
-                    human(avail)
+                    human(avail),
+                    what_fits(scene, peak, (ranks, ranks_in_process), avail)
                 ),
             ));
         }
     }
     Ok(est)
+}
+
+/// The layouts that would fit in `avail` bytes per process, as the start of a sentence
+/// ("it fits …; "), or empty: the list-free mode (`neighbours = "cells"`) on the same layout,
+/// and the fewest MPI processes of one rank each (up to [`crate::limits::MAX_RANKS`]).
+fn what_fits(scene: &Scene, peak: u64, (ranks, in_process): (usize, usize), avail: f64) -> String {
+    use crate::memory::human;
+    let process = |s: &Scene, ranks: usize, k: usize| {
+        crate::with_dim!(s.dimension, D => Ok(crate::memory::estimate::<D>(s, peak, ranks, k).process))
+            .unwrap_or(f64::INFINITY)
+    };
+    let mut fits = Vec::new();
+    if scene.performance.neighbours != crate::scene::NeighbourMode::Cells {
+        let mut lean = scene.clone();
+        lean.performance.neighbours = crate::scene::NeighbourMode::Cells;
+        let b = process(&lean, ranks, in_process);
+        if b <= avail {
+            fits.push(format!(
+                "with --set 'performance.neighbours=\"cells\"' (no stored lists, about {} per process)",
+                human(b)
+            ));
+        }
+    }
+    // one rank per process: the estimate falls with the ranks, so the first that fits is found
+    // by doubling and then halving the interval
+    let per = |p: usize| process(scene, p, 1);
+    let max = crate::limits::MAX_RANKS.min((peak / MIN_PARTICLES_PER_RANK as u64).max(1) as usize);
+    let mut hi = ranks.max(1);
+    while hi < max && per(hi) > avail {
+        hi = (2 * hi).min(max);
+    }
+    if per(hi) <= avail {
+        let mut lo = hi / 2;
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if per(mid) <= avail {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        fits.push(format!(
+            "under MPI on {hi} processes of one rank each (mpirun -np {hi}; about {} each)",
+            human(per(hi))
+        ));
+    }
+    match fits.is_empty() {
+        true => String::new(),
+        false => format!("it fits {}; or ", fits.join(", or ")),
+    }
 }
 
 /// Every probe's sample count within [`crate::limits::MAX_PROBE_POINTS`] (a line probe holds
