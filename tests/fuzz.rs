@@ -1937,7 +1937,7 @@ fn prepare(prep: &Prep, cwd: &Path) {
 fn jobscript_case(rng: &mut Rng, fx: &Fixtures) -> Case {
     // up to two fields of each case get an odd value (hostile, edge or nonsense), the others
     // a valid one, so that both refusals and written scripts are common
-    let odd_fields: Vec<usize> = (0..rng.below(3)).map(|_| rng.below(12)).collect();
+    let odd_fields: Vec<usize> = (0..rng.below(3)).map(|_| rng.below(13)).collect();
     let odd = |k: usize| odd_fields.contains(&k);
     let scene = jobscript_scene(rng, fx, odd(0));
     let mut a = vec![s("jobscript"), scene];
@@ -1967,10 +1967,11 @@ fn jobscript_scene(rng: &mut Rng, fx: &Fixtures, odd: bool) -> String {
     }
 }
 
-/// The flags with a valid and an odd value each (`odd(k)` for flag k); the required ones (k ≤
-/// 3) are present unless left out as the odd case, the others a third of the time.
+/// The flags with a valid and an odd value each (`odd(k)` for flag k; `--mem` is 12, after
+/// the fields of the other helpers); the required ones (k ≤ 3) are present unless left out as
+/// the odd case, the others a third of the time.
 fn jobscript_flags(a: &mut Vec<String>, rng: &mut Rng, odd: &dyn Fn(usize) -> bool) {
-    let pairs: [(usize, &str, &[&str], &[&str]); 8] = [
+    let pairs: [(usize, &str, &[&str], &[&str]); 9] = [
         (1, "--nodes", &["1", "2", "4"], COUNTS),
         (2, "--ranks-per-node", &["1", "2", "24"], COUNTS),
         (
@@ -2003,6 +2004,12 @@ fn jobscript_flags(a: &mut Vec<String>, rng: &mut Rng, odd: &dyn Fn(usize) -> bo
             "--partition",
             &["compute", "compute,debug", "gpu_a100", "a.b+c"],
             &[],
+        ),
+        (
+            12,
+            "--mem",
+            &["4G", "512M", "2.5GB", "1000000000", "64GiB"],
+            &["0", "x", "-1G", "1e300", "100P", "65TiB", "", "4G\nid", "nan"],
         ),
     ];
     for (k, f, good, bad) in pairs {
