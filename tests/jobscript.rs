@@ -221,8 +221,7 @@ fn the_memory_asked_per_node_covers_a_rank_s_measured_peak() {
         "output.format=\"none\"",
     ]);
     assert_eq!(code, 0, "{err}");
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let summary = common::summary(&out);
     let n = summary["particles"].as_u64().unwrap();
     let peak = summary["peak_rss_bytes"]
         .as_f64()
@@ -287,8 +286,7 @@ fn the_estimated_parts_match_what_the_run_holds() {
             "output.format=\"none\"",
         ]);
         assert_eq!(code, 0, "{err}");
-        let summary: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+        let summary = common::summary(&dir);
         let per = &summary["memory_parts_bytes_per_particle"];
         let (table, listed) = (per["table"].as_f64().unwrap(), per["lists"].as_f64().unwrap());
         eprintln!(

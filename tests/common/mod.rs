@@ -77,6 +77,11 @@ pub fn repo_path(rel: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(rel)
 }
 
+/// A run directory's `summary.json`, parsed.
+pub fn summary(run: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap()
+}
+
 /// Run the `hsph` binary from the crate root: exit status (−1 when killed), stdout, stderr.
 ///
 /// The suite runs two tests at a time on CI's two cores, so a run of a small scene over many
