@@ -198,19 +198,12 @@ pub struct CellList {
     /// Sub-cell of each particle within its cell (row-major, last axis fastest; empty without
     /// sub-cells).
     sub: Vec<u8>,
-    /// Scratch of the counting sort: the next free place of each cell.
-    fill: Vec<u32>,
 }
 
 impl CellList {
     /// Bytes the cell list holds, by capacity (its per-cell starts span the whole grid).
     pub fn bytes_held(&self) -> usize {
-        held(&self.start)
-            + held(&self.order)
-            + held(&self.cell)
-            + held(&self.slot)
-            + held(&self.sub)
-            + held(&self.fill)
+        held(&self.start) + held(&self.order) + held(&self.cell) + held(&self.slot) + held(&self.sub)
     }
 }
 
@@ -285,13 +278,16 @@ impl CellList {
         for c in 0..nc {
             self.start[c + 1] += self.start[c];
         }
+        // each cell's start serves as its fill cursor and ends at the next cell's start;
+        // shifting them back by one cell restores the starts (no cursor array per cell)
         self.order.resize(n, 0);
-        self.fill.clone_from(&self.start);
         for (i, &c) in self.cell.iter().enumerate() {
-            let f = &mut self.fill[c as usize];
+            let f = &mut self.start[c as usize];
             self.order[*f as usize] = i as u32;
             *f += 1;
         }
+        self.start.copy_within(0..nc, 1);
+        self.start[0] = 0;
         // ascending key (by sub-cell first, if cut) within each cell: the cells' runs of
         // `order`, found by comparing neighbours' cells (no list of slices is allocated)
         let (keys, sub, cell) = (&p.key, &self.sub, &self.cell);
@@ -383,9 +379,11 @@ pub struct NeighbourList {
     xs: Vec<f64>,
     /// 1 for a fluid particle, in cell order like `xs`.
     fluid: Vec<u8>,
-    /// Fluid particles in cells before cell c (one entry per cell plus one): the fluid in a run
-    /// of cells without looking at it.
-    fluid_start: Vec<u32>,
+    /// Fluid particles in the slots before slot k (one entry per slot plus one): the fluid in
+    /// a run of cells, `fluid_before[start[c1]] − fluid_before[start[c0]]`, without looking at
+    /// it. Per slot rather than per cell, so that a domain mostly empty (a debris cloud's)
+    /// costs nothing per empty cell.
+    fluid_before: Vec<u32>,
     /// Lean mode (`[performance] neighbours = "cells"`): no lists are stored; a pass scans
     /// the stencil cells of each particle as it goes ([`CellScan`]), in the same order.
     lean: bool,
@@ -569,7 +567,7 @@ fn list_particle<const D: usize>(
     p: &Particles<D>,
     i: usize,
     want: Wants,
-    (xs, fluid, fluid_start, reach): (&[f64], &[u8], &[u32], &[f64]),
+    (xs, fluid, fluid_before, reach): (&[f64], &[u8], &[u32], &[f64]),
     r2max: f64,
 ) {
     let sized = !reach.is_empty();
@@ -582,11 +580,11 @@ fn list_particle<const D: usize>(
         let Some((c0, c1)) = grid.stencil_run(&c, row) else {
             continue;
         };
-        if want == Wants::Fluid && fluid_start[c1] == fluid_start[c0] {
-            continue;
-        }
         let s = cells.start[c0] as usize;
         let e = cells.start[c1] as usize;
+        if want == Wants::Fluid && fluid_before[e] == fluid_before[s] {
+            continue;
+        }
         let (ord, xr, fr) = (&cells.order[s..e], &xs[s * D..e * D], &fluid[s..e]);
         let r = match sized {
             true => (reach[cells.slot[i] as usize], &reach[s..e]),
@@ -636,10 +634,10 @@ impl NeighbourList {
             self.build_half(any_half, grid, cells, p);
             return;
         }
-        let (xs, fluid, fluid_start, reach) = (
+        let (xs, fluid, fluid_before, reach) = (
             &self.xs[..],
             &self.fluid[..],
-            &self.fluid_start[..],
+            &self.fluid_before[..],
             &self.reach[..],
         );
         if reach.is_empty() || self.no_sub_cells {
@@ -692,7 +690,7 @@ impl NeighbourList {
                         p,
                         i,
                         want,
-                        (xs, fluid, fluid_start, reach),
+                        (xs, fluid, fluid_before, reach),
                         r2max,
                     );
                 }
@@ -709,7 +707,7 @@ impl NeighbourList {
         self.build_half(any_half, grid, cells, p);
     }
 
-    /// Positions and fluid flags in cell order, and the fluid before each cell.
+    /// Positions and fluid flags in cell order, and the fluid before each slot.
     fn copy_cell_order<const D: usize>(&mut self, cells: &CellList, p: &Particles<D>) {
         // positions and fluid flags in cell order
         self.xs.resize(cells.order.len() * D, 0.0);
@@ -730,15 +728,13 @@ impl NeighbourList {
             self.reach
                 .extend(cells.order.iter().map(|&j| k * p.h[j as usize]));
         }
-        let nc = cells.start.len() - 1;
-        self.fluid_start.clear();
-        self.fluid_start.reserve(nc + 1);
-        self.fluid_start.push(0);
+        self.fluid_before.clear();
+        self.fluid_before.reserve(self.fluid.len() + 1);
+        self.fluid_before.push(0);
         let mut acc = 0u32;
-        for c in 0..nc {
-            let (s, e) = (cells.start[c] as usize, cells.start[c + 1] as usize);
-            acc += self.fluid[s..e].iter().map(|&f| f as u32).sum::<u32>();
-            self.fluid_start.push(acc);
+        for &f in &self.fluid {
+            acc += u32::from(f);
+            self.fluid_before.push(acc);
         }
     }
 
@@ -876,7 +872,7 @@ impl NeighbourList {
             + held(&self.before)
             + held(&self.xs)
             + held(&self.fluid)
-            + held(&self.fluid_start)
+            + held(&self.fluid_before)
             + held(&self.wants)
             + held(&self.reach)
             + self.half.bytes_held()
@@ -966,12 +962,15 @@ impl<const D: usize> ScanIter<'_, D> {
             let Some((c0, c1)) = self.scan.grid.stencil_run(&self.c, row) else {
                 continue;
             };
-            let fs = &self.scan.nl.fluid_start;
-            if self.mode == FLUID && fs[c1] == fs[c0] {
+            let (k, e) = (
+                self.scan.cells.start[c0] as usize,
+                self.scan.cells.start[c1] as usize,
+            );
+            let fb = &self.scan.nl.fluid_before;
+            if self.mode == FLUID && fb[e] == fb[k] {
                 continue;
             }
-            self.k = self.scan.cells.start[c0] as usize;
-            self.e = self.scan.cells.start[c1] as usize;
+            (self.k, self.e) = (k, e);
             return true;
         }
         false

@@ -56,11 +56,11 @@ fn listing_share<const D: usize>(scene: &Scene) -> f64 {
 }
 
 /// Bytes per rank of the cell grid, which spans the whole domain on every rank (with the
-/// stencil's margin): a start, a fill cursor and a fluid count (u32 each) and a flag per cell.
+/// stencil's margin): a start (u32) and an interior flag per cell.
 fn grid_bytes<const D: usize>(scene: &Scene, edge: f64) -> f64 {
     let lo = crate::Vector::<D>::from_fn(|a, _| scene.domain.min[a]);
     let hi = crate::Vector::<D>::from_fn(|a, _| scene.domain.max[a]);
-    crate::cells::CellGrid::<D>::with_reach(&lo, &hi, edge, edge).len() as f64 * 13.0
+    crate::cells::CellGrid::<D>::with_reach(&lo, &hi, edge, edge).len() as f64 * 5.0
 }
 
 /// Bytes a process holds whatever its scene: the binary's resident pages, the allocator's and

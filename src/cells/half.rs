@@ -45,11 +45,6 @@ pub struct HalfPairs {
     flags: Vec<u8>,
     /// First slot of each row of cells (axis-0 and axis-1 coordinates), one per row plus one.
     rows: Vec<usize>,
-    /// Accumulator entry of each slot, one per slot plus one: the fluid slots before it.
-    /// Only fluid slots receive in the pair passes, so [`HalfView::run`]'s accumulators hold
-    /// one entry per fluid slot (half the slots or fewer in a walled tank); the count rises
-    /// with the slot, so the blocks' disjoint slot ranges stay disjoint entry ranges.
-    entry: Vec<u32>,
     /// Partners listed in all.
     pairs: usize,
 }
@@ -59,12 +54,7 @@ impl HalfPairs {
     pub(super) fn bytes_held(&self) -> usize {
         use super::held;
         let chunks: usize = self.chunks.iter().map(held).sum();
-        chunks
-            + held(&self.chunks)
-            + held(&self.offset)
-            + held(&self.flags)
-            + held(&self.rows)
-            + held(&self.entry)
+        chunks + held(&self.chunks) + held(&self.offset) + held(&self.flags) + held(&self.rows)
     }
 
     /// Build the half lists over the cell list (`nl` holds the cell-order positions of this
@@ -93,13 +83,6 @@ impl HalfPairs {
                     *f = eligible | fluid | owned;
                 }
             });
-        self.entry.clear();
-        self.entry.push(0);
-        let mut fluid = 0u32;
-        for &f in &self.flags {
-            fluid += u32::from(f & FLUID != 0);
-            self.entry.push(fluid);
-        }
         let row = grid.dims[2..].iter().product::<usize>();
         self.rows.clear();
         self.rows
@@ -157,7 +140,6 @@ impl HalfPairs {
             + self.offset.capacity() * 4
             + self.flags.capacity()
             + self.rows.capacity() * 8
-            + self.entry.capacity() * 4
     }
 
     /// Partners of home slot `k` (stored lists).
@@ -310,7 +292,10 @@ pub struct Window<'w, A> {
     b_base: usize,
     b: &'w mut [A],
     stride: usize,
-    /// Entry of each slot ([`HalfPairs`]'s `entry`).
+    /// Entry of each slot, one per slot plus one: the fluid slots before it. Only fluid slots
+    /// receive in the pair passes, so [`HalfView::run`]'s accumulators hold one entry per
+    /// fluid slot (half the slots or fewer in a walled tank); the count rises with the slot,
+    /// so the blocks' disjoint slot ranges stay disjoint entry ranges.
     entry: &'w [u32],
 }
 
@@ -382,7 +367,7 @@ impl<'a, const D: usize> HalfView<'a, D> {
     /// Accumulator entry of fluid particle `i` (where [`HalfView::run`] left its sums).
     #[inline(always)]
     pub fn entry(&self, i: usize) -> usize {
-        self.half.entry[self.slot(i)] as usize
+        self.nl.fluid_before[self.slot(i)] as usize
     }
 
     /// The stored partner slots of home slot `k`, ascending; `None` in lean mode (use
@@ -425,7 +410,8 @@ impl<'a, const D: usize> HalfView<'a, D> {
     /// not fluid pairs with fluid only (most wall particles lie far from the water).
     #[inline]
     fn no_partner_in(&self, fa: u8, c0: usize, c1: usize) -> bool {
-        fa & FLUID == 0 && self.nl.fluid_start[c1] == self.nl.fluid_start[c0]
+        let (st, fb) = (&self.cells.start, &self.nl.fluid_before);
+        fa & FLUID == 0 && fb[st[c1] as usize] == fb[st[c0] as usize]
     }
 
     /// True if slot `t` (position `xb`, flags `fb`) is a partner of a home with flags `fa`,
@@ -483,7 +469,7 @@ impl<'a, const D: usize> HalfView<'a, D> {
         zero: A,
         home: impl Fn(usize, &mut Window<'_, A>) + Sync,
     ) {
-        let entry = &self.half.entry[..];
+        let entry = &self.nl.fluid_before[..];
         acc.clear();
         acc.resize(entry[self.half.slots] as usize * stride, zero);
         // the entries of a range of slots
