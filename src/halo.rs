@@ -334,6 +334,7 @@ impl<const D: usize> HaloPlan<D> {
             },
         );
         let msgs = comm.exchange(sends, &self.sources(), TAG_GHOSTS)?;
+        p.grow_for(self.inc.iter().map(|(_, n)| n).sum());
         for ((_, n), m) in self.inc.iter().zip(&msgs) {
             read_records::<D>(m, *n, dropped, "halo", |r| p.push_ghost(&r))?;
         }

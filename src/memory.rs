@@ -63,6 +63,61 @@ fn grid_bytes<const D: usize>(scene: &Scene, edge: f64) -> f64 {
     crate::cells::CellGrid::<D>::with_reach(&lo, &hi, edge, edge).len() as f64 * 5.0
 }
 
+/// Per axis: the faces of the busiest rank's block that receive ghosts, and the most
+/// particles per metre along the axis (1/m) a face may cut.
+///
+/// - **Faces:** two for a block in the middle of the factorisation `Nx·Ny(·Nz) = ranks` the
+///   decomposition chooses for the bodies' extents, one at an end of two blocks, none for a
+///   single block; two on a periodic axis or with mirror walls, whose images are ghosts too.
+/// - **Particles per metre:** each body's sites spread evenly over its box along the axis,
+///   summed where the boxes overlap, at the densest place. A face's ghosts are a slab
+///   `layers · dx` deep of that density: a cut through the water column of a dam break
+///   holds the column's cross-section, whatever the share of the tank the block spans.
+fn ghost_faces<const D: usize>(scene: &Scene, ranks: usize) -> [(f64, f64); D] {
+    let sites = crate::scene::lattice::body_sites::<D>(scene);
+    let box_of = |key: &str| -> Option<(&[f64], &[f64])> {
+        let (kind, rest) = key.split_once('[')?;
+        let i: usize = rest.trim_end_matches(']').parse().ok()?;
+        match kind {
+            "fluid" => scene.fluids.get(i).map(|b| (&b.min[..], &b.max[..])),
+            "solid" => scene.solids.get(i).map(|b| (&b.min[..], &b.max[..])),
+            "wall" => scene.walls.get(i).map(|w| (&w.min[..], &w.max[..])),
+            _ => None,
+        }
+    };
+    let bodies: Vec<(&[f64], &[f64], f64)> = (sites.iter())
+        .filter_map(|b| box_of(&b.key).map(|(lo, hi)| (lo, hi, b.sites as f64)))
+        .collect();
+    let extent: [f64; D] = std::array::from_fn(|a| {
+        let lo = bodies.iter().map(|b| b.0[a]).fold(f64::INFINITY, f64::min);
+        let hi = bodies.iter().map(|b| b.1[a]).fold(f64::NEG_INFINITY, f64::max);
+        match hi > lo {
+            true => hi - lo,
+            false => scene.domain.max[a] - scene.domain.min[a],
+        }
+    });
+    let blocks = crate::decomp::factorise(ranks, &extent);
+    let mirror = scene.walls.iter().any(|w| w.method.makes_images());
+    let dx = scene.discretisation.dx;
+    std::array::from_fn(|a| {
+        let faces = match blocks[a] {
+            _ if scene.domain.periodic[a] || mirror => 2.0,
+            1 => 0.0,
+            2 => 1.0,
+            _ => 2.0,
+        };
+        // the density just past each box's lower face is the densest the profile gets
+        let density = |at: f64| -> f64 {
+            (bodies.iter())
+                .filter(|b| b.0[a] <= at && at < b.1[a].max(b.0[a] + dx))
+                .map(|b| b.2 / (b.1[a] - b.0[a]).max(dx))
+                .sum()
+        };
+        let densest = bodies.iter().map(|b| density(b.0[a])).fold(0.0, f64::max);
+        (faces, densest)
+    })
+}
+
 /// Bytes a process holds whatever its scene: the binary's resident pages, the allocator's and
 /// the thread pool's (the smallest shipped scenes, 1 336–1 802 particles, peak at 12.8–14.5 MB
 /// on one rank, of which their heap is under 1 MB; the Lobovsky dam break's heap is 2.7 MB of
@@ -135,29 +190,42 @@ pub fn estimate<const D: usize>(
                 / if pairs { 2.0 } else { 1.0 }
         }
     };
-    // ghosts: none on one rank without periodic axes or mirror walls; else the layers of a
-    // support (with the lists' skin) round a cube of the owned particles, every face counted
-    let images =
-        scene.domain.periodic.iter().any(|&p| p) || (scene.walls.iter()).any(|w| w.method.makes_images());
-    let [solids] = shares::<D, 1>(scene, ["solid"]);
+    // ghosts: the layers of a support (with the lists' skin) on the faces of a rank's block
+    // that have a neighbour or images ([`ghost_faces`])
+    let faces = ghost_faces::<D>(scene, ranks.max(1));
+    let [solids, fluid] = shares::<D, 2>(scene, ["solid", "fluid"]);
+    // a stored entry: a u32 slot, or in pair mode about 2 B (the half lists are delta-encoded,
+    // with their offsets: 26 MB for the 12.9 M pairs of the 3D DualSPHysics dam break)
+    let entry_bytes = if pairs { 2.0 } else { 4.0 };
+    // every slot (owned or ghost): the cell-order copy of its position, a fluid flag, the
+    // fluid before it, and a list offset and flags
+    let slot_bytes = 8.0 * D as f64 + 10.0;
+    // pair mode: V_j and p_j/ρ_j² per slot, and per fluid slot the largest pass's
+    // accumulators (the gradient's matrix and vector, D² + D values)
+    let pair_scratch = match pairs {
+        true => 16.0 + fluid * 8.0 * (D * D + D) as f64,
+        false => 0.0,
+    };
     let grid = grid_bytes::<D>(scene, scene.discretisation.support() * reach);
     let layers = (scene.discretisation.support() * reach / scene.discretisation.dx).ceil();
     let per_rank = |owned: f64| {
         // the store, a label and a sort index per particle, and the sorted copy (pages a
         // vector reserves but never writes are not resident)
         let setup = owned * (2.0 * store + 4.0 + 8.0) + counts;
-        let side = owned.powf(1.0 / D as f64);
-        let ghosts = match p > 1.0 || images {
-            true => ((side + 2.0 * layers).powi(D as i32) - owned).min(owned.min(n)) + 1000.0,
+        let layer =
+            |(faces, density): (f64, f64)| faces * (layers * scene.discretisation.dx * density).min(owned);
+        let ghosts = match faces.iter().any(|f| f.0 > 0.0) {
+            true => faces.iter().copied().map(layer).sum::<f64>().min(owned.min(n)) + 1000.0,
             false => 0.0,
         };
         let parts = Parts {
             table: owned * store,
             // the ghosts, and their records in the halo's send and receive buffers
             ghosts: 2.0 * ghosts * Particles::<D>::bytes_per_ghost_carried(dropped) as f64,
-            lists: owned * listed * 4.0,
+            lists: owned * listed * entry_bytes + (owned + ghosts) * slot_bytes,
             cells: grid + (owned + ghosts) * 8.0,
-            scratch: (owned + ghosts) * solids * SolidScratch::<D>::BYTES_PER_PARTICLE as f64,
+            scratch: (owned + ghosts)
+                * (solids * SolidScratch::<D>::BYTES_PER_PARTICLE as f64 + pair_scratch),
         };
         let run = parts.table + parts.ghosts + parts.lists + parts.cells + parts.scratch + counts;
         (setup, run, parts)

@@ -244,8 +244,8 @@ fn the_memory_asked_per_node_covers_a_rank_s_measured_peak() {
 /// capacities of their vectors: the same figures on any machine). The 3D dam break (fluid and
 /// repulsive walls, gather lists), one rank: the table within 10 % (it is sized exactly), the
 /// lists within 40 % (walls list nothing, pairs near walls and the free surface are fewer);
-/// with `neighbours = "cells"` no lists are estimated, and the run keeps only their cell-order
-/// copies, under a fifth of the lists' bytes.
+/// with `neighbours = "cells"` no entries are estimated, only the cell-order copies every slot
+/// has (8·D + 10 B), and the run keeps only those, under a fifth of the lists' bytes.
 #[test]
 fn the_estimated_parts_match_what_the_run_holds() {
     let scene = common::repo_path("inputs/dam_break_3d.toml");
@@ -298,13 +298,13 @@ fn the_estimated_parts_match_what_the_run_holds() {
             "table {table} against {}",
             est.0
         );
-        match mode {
-            "lists" => assert!(
-                (listed / est.1 - 1.0).abs() < 0.40,
-                "lists {listed} against {}",
-                est.1
-            ),
-            _ => assert_eq!(est.1, 0.0, "no lists in cells mode"),
+        assert!(
+            (listed / est.1 - 1.0).abs() < 0.40,
+            "lists {listed} against {}",
+            est.1
+        );
+        if mode == "cells" {
+            assert!(est.1 <= 34.0, "only the slots' copies in cells mode: {}", est.1);
         }
         lists.push(listed);
     }
@@ -318,27 +318,36 @@ fn the_estimated_parts_match_what_the_run_holds() {
 
 /// `--max-memory` below the estimate refuses the scene before anything is allocated (exit 2,
 /// no output written), and the refusal names a layout that fits, which does: the 3D bench dam
-/// break (gather lists) at 0.8 × its estimate is refused; at 0.9 × the message offers the
-/// list-free mode, under which `check` accepts the same limit.
+/// break (gather lists) just below the list-free mode's estimate is refused without offering
+/// that mode; midway between the two estimates the message offers it, and `check` accepts
+/// the same limit under it.
 #[test]
 fn a_memory_limit_below_the_estimate_refuses_and_names_what_fits() {
     let scene = common::repo_path("inputs/dam_break_3d_bench.toml");
     let scene = scene.to_str().unwrap();
-    let (code, out, err) = common::hsph(&["check", scene]);
-    assert_eq!(code, 0, "{err}");
-    let at = out.find("need about ").expect(&out) + "need about ".len();
-    let mut words = out[at..].split_whitespace();
-    let (x, unit) = (words.next().unwrap(), words.next().unwrap());
-    let est = x.parse::<f64>().unwrap()
-        * match unit {
-            "MB" => 1e6,
-            "GB" => 1e9,
-            u => panic!("{u}"),
-        };
+    let estimate = |sets: &[&str]| -> f64 {
+        let (code, out, err) = common::hsph(&[&["check", scene], sets].concat());
+        assert_eq!(code, 0, "{err}");
+        let at = out.find("need about ").expect(&out) + "need about ".len();
+        let mut words = out[at..].split_whitespace();
+        let (x, unit) = (words.next().unwrap(), words.next().unwrap());
+        x.parse::<f64>().unwrap()
+            * match unit {
+                "MB" => 1e6,
+                "GB" => 1e9,
+                u => panic!("{u}"),
+            }
+    };
+    let est = estimate(&[]);
+    let lean = estimate(&["--set", "performance.neighbours=\"cells\""]);
+    assert!(
+        lean < 0.9 * est,
+        "the list-free mode is smaller: {lean} against {est}"
+    );
     let dir = common::temp_dir("max_memory_fits");
     let run_dir = dir.join("run");
-    for (share, offers_lean) in [(0.8, false), (0.9, true)] {
-        let limit = format!("{:.0}", share * est);
+    for (limit, offers_lean) in [(0.97 * lean, false), (0.5 * (lean + est), true)] {
+        let limit = format!("{limit:.0}");
         let (code, _, err) = common::hsph(&[
             "run",
             scene,

@@ -227,6 +227,29 @@ macro_rules! particle_table {
                 }
             }
 
+            /// Room for `n` more particles in every column this store keeps, a column that
+            /// lacks it growing to an eighth more than it needs rather than doubling: the
+            /// ghosts a halo appends would otherwise double every column of a table whose
+            /// owned rows fill it (3 ranks of the 3D DualSPHysics dam break: 1.8 × the owned
+            /// rows' bytes).
+            pub fn grow_for(&mut self, n: usize) {
+                fn grow<T>(v: &mut Vec<T>, n: usize) {
+                    let need = v.len() + n;
+                    if v.capacity() < need {
+                        v.reserve_exact(need + need / 8 - v.len());
+                    }
+                }
+                $(
+                    $(#[cfg($cfg)])?
+                    if !self.dropped.has(Fields::$flag) {
+                        grow(&mut self.$name, n);
+                    }
+                )*
+                if !self.view_only {
+                    $( grow(&mut self.$oname, n); )*
+                }
+            }
+
             /// Write the `fields` of particle `i` seen through `im` (a ghost refresh record).
             #[inline]
             pub fn put_fields(&self, i: usize, fields: Fields, im: &impl Imager<D>, s: &mut impl Sink) {
