@@ -4,7 +4,9 @@
 //! Cells are anchored to the global domain origin, with edge ≥ the kernel support radius
 //! (each axis holds a whole number of cells, so periodic images land on cell boundaries), plus
 //! one margin cell on each side for ghosts. A pair interacts when `r < support` (strict); the
-//! brute-force oracle [`brute_force`] uses the same convention.
+//! brute-force oracle [`brute_force`] uses the same convention. A rank bins its particles in
+//! the window of that grid they occupy ([`CellGrid::window`]): the same cells, so the same
+//! order, at the cost of its occupied box rather than the whole domain.
 //!
 //! **Order.** Particle i visits the 3ᴰ cells around its own in a fixed order of relative
 //! offsets, and within a cell its neighbours in ascending sort key (`id`, image code; by
@@ -22,14 +24,17 @@ mod verlet;
 pub use half::{HalfPairs, HalfView, Stored, Window};
 pub use verlet::{Kept, Near};
 
-/// The global cell grid.
+/// The global cell grid, or a window of it ([`CellGrid::window`]): the same cells, fewer of
+/// them.
 #[derive(Debug, Clone)]
 pub struct CellGrid<const D: usize> {
     /// Corner of the first margin cell next to the domain (domain min − one edge) (m); a
     /// deeper margin ([`CellGrid::with_reach`]) adds `extra` cells before it.
     pub origin: Vector<D>,
-    /// Margin cells beyond the first on each side (0 for [`CellGrid::new`]).
-    extra: [usize; D],
+    /// Index of that first margin cell along each axis: the margin cells beyond the first
+    /// (0 for [`CellGrid::new`]), less the cells a window leaves out before its own first
+    /// (negative when the window starts past it).
+    extra: [isize; D],
     /// Cell edge per axis (m), ≥ the support radius.
     pub edge: Vector<D>,
     inv_edge: Vector<D>,
@@ -51,13 +56,14 @@ impl<const D: usize> CellGrid<D> {
     pub fn with_reach(min: &Vector<D>, max: &Vector<D>, support: f64, reach: f64) -> Self {
         let mut dims = [0usize; D];
         let mut edge = Vector::zeros();
-        let mut extra = [0usize; D];
+        let mut extra = [0isize; D];
         for a in 0..D {
             let len = max[a] - min[a];
             let n = ((len / support).floor() as usize).max(1);
             edge[a] = len / n as f64;
-            extra[a] = ((reach / edge[a]).ceil() as usize).max(1) - 1;
-            dims[a] = n + 2 + 2 * extra[a];
+            let deeper = ((reach / edge[a]).ceil() as usize).max(1) - 1;
+            extra[a] = deeper as isize;
+            dims[a] = n + 2 + 2 * deeper;
         }
         CellGrid {
             origin: min - edge,
@@ -68,9 +74,58 @@ impl<const D: usize> CellGrid<D> {
         }
     }
 
-    /// Margin cells beyond the first on each side of axis `a` ([`CellGrid::with_reach`]).
-    pub fn extra_margin(&self, a: usize) -> usize {
+    /// Index along axis `a` of the first margin cell next to the domain: the margin cells
+    /// beyond the first on each side ([`CellGrid::with_reach`]), less a window's offset
+    /// ([`CellGrid::window`]). Counting planes from it gives every grid and window the same
+    /// parities.
+    pub fn extra_margin(&self, a: usize) -> isize {
         self.extra[a]
+    }
+
+    /// The window of this grid that holds the particles at `x`: the cells from the lowest
+    /// to the highest occupied along each axis. Its cells are this grid's, with the same
+    /// bounds and the same order ([`CellGrid::coords`] puts a point in the same cell, and
+    /// a stencil visits the same occupied cells in the same order), but a domain mostly
+    /// empty (a debris cloud's) costs only its occupied box. Points outside the grid are
+    /// left out (binning them fails as it would on the whole grid); with none inside, the
+    /// window is the grid's first cell.
+    pub fn window(&self, x: &[Vector<D>]) -> CellGrid<D> {
+        let none = ([usize::MAX; D], [0usize; D]);
+        let (lo, hi) = x
+            .par_iter()
+            .fold(
+                || none,
+                |(mut lo, mut hi), x| {
+                    if let Some(c) = self.coords(x) {
+                        for a in 0..D {
+                            lo[a] = lo[a].min(c[a]);
+                            hi[a] = hi[a].max(c[a]);
+                        }
+                    }
+                    (lo, hi)
+                },
+            )
+            .reduce(
+                || none,
+                |(l0, h0), (l1, h1)| {
+                    (
+                        std::array::from_fn(|a| l0[a].min(l1[a])),
+                        std::array::from_fn(|a| h0[a].max(h1[a])),
+                    )
+                },
+            );
+        let (lo, hi) = if lo[0] == usize::MAX {
+            ([0; D], [0; D])
+        } else {
+            (lo, hi)
+        };
+        CellGrid {
+            origin: self.origin,
+            extra: std::array::from_fn(|a| self.extra[a] - lo[a] as isize),
+            edge: self.edge,
+            inv_edge: self.inv_edge,
+            dims: std::array::from_fn(|a| hi[a] - lo[a] + 1),
+        }
     }
 
     /// Total number of cells.

@@ -55,12 +55,37 @@ fn listing_share<const D: usize>(scene: &Scene) -> f64 {
     1.0 - walls
 }
 
-/// Bytes per rank of the cell grid, which spans the whole domain on every rank (with the
-/// stencil's margin): a start (u32) and an interior flag per cell.
+/// Bytes per rank of the cell grid: a start (u32) and an interior flag per cell of the window
+/// the particles occupy ([`crate::cells::CellGrid::window`]), taken as the bodies' box grown by
+/// an edge (a wall's layers lie outside its box) within the domain. A debris cloud's window
+/// grows as it spreads, up to the whole domain.
 fn grid_bytes<const D: usize>(scene: &Scene, edge: f64) -> f64 {
-    let lo = crate::Vector::<D>::from_fn(|a, _| scene.domain.min[a]);
-    let hi = crate::Vector::<D>::from_fn(|a, _| scene.domain.max[a]);
+    let (lo, hi) = bodies_box::<D>(scene);
+    let lo = crate::Vector::<D>::from_fn(|a, _| (lo[a] - edge).max(scene.domain.min[a]));
+    let hi = crate::Vector::<D>::from_fn(|a, _| (hi[a] + edge).min(scene.domain.max[a]));
     crate::cells::CellGrid::<D>::with_reach(&lo, &hi, edge, edge).len() as f64 * 5.0
+}
+
+/// The box of the scene's bodies (fluid, solid and wall boxes), or the domain without any.
+fn bodies_box<const D: usize>(scene: &Scene) -> ([f64; D], [f64; D]) {
+    let (mut lo, mut hi) = ([f64::INFINITY; D], [f64::NEG_INFINITY; D]);
+    let boxes = (scene.fluids.iter().map(|b| (&b.min, &b.max)))
+        .chain(scene.solids.iter().map(|b| (&b.min, &b.max)))
+        .chain(scene.walls.iter().map(|w| (&w.min, &w.max)));
+    for (min, max) in boxes {
+        for a in 0..D {
+            lo[a] = lo[a].min(min[a]);
+            hi[a] = hi[a].max(max[a]);
+        }
+    }
+    if (0..D).all(|a| hi[a] > lo[a]) {
+        (lo, hi)
+    } else {
+        (
+            std::array::from_fn(|a| scene.domain.min[a]),
+            std::array::from_fn(|a| scene.domain.max[a]),
+        )
+    }
 }
 
 /// Per axis: the faces of the busiest rank's block that receive ghosts, and the most
@@ -88,14 +113,8 @@ fn ghost_faces<const D: usize>(scene: &Scene, ranks: usize) -> [(f64, f64); D] {
     let bodies: Vec<(&[f64], &[f64], f64)> = (sites.iter())
         .filter_map(|b| box_of(&b.key).map(|(lo, hi)| (lo, hi, b.sites as f64)))
         .collect();
-    let extent: [f64; D] = std::array::from_fn(|a| {
-        let lo = bodies.iter().map(|b| b.0[a]).fold(f64::INFINITY, f64::min);
-        let hi = bodies.iter().map(|b| b.1[a]).fold(f64::NEG_INFINITY, f64::max);
-        match hi > lo {
-            true => hi - lo,
-            false => scene.domain.max[a] - scene.domain.min[a],
-        }
-    });
+    let (lo, hi) = bodies_box::<D>(scene);
+    let extent: [f64; D] = std::array::from_fn(|a| hi[a] - lo[a]);
     let blocks = crate::decomp::factorise(ranks, &extent);
     let mirror = scene.walls.iter().any(|w| w.method.makes_images());
     let dx = scene.discretisation.dx;

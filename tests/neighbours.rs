@@ -591,3 +591,68 @@ fn lists_of_several_sizes_keep_each_pair_within_its_own_support() {
     check::<2>(35);
     check::<3>(36);
 }
+
+/// A cell list binned in the window of the grid its particles occupy
+/// ([`CellGrid::window`]) gives every particle the same neighbours in the same order as one
+/// binned on the whole grid, with far fewer cells: jittered particles in a corner of a large
+/// domain (a debris cloud's), with walls, 2D and 3D.
+#[test]
+fn a_window_of_the_grid_lists_the_same_neighbours_in_the_same_order() {
+    fn case<const D: usize>(rng: &mut Rng) {
+        let (dx, support) = (0.1, 0.25);
+        let min = Vector::<D>::from_element(-5.0);
+        let max = Vector::<D>::from_element(5.0);
+        let n: usize = if D == 2 { 20 } else { 8 };
+        let count = n.pow(D as u32);
+        let xs: Vec<Vector<D>> = (0..count)
+            .map(|k| {
+                let mut x = Vector::<D>::zeros();
+                let mut r = k;
+                for a in 0..D {
+                    x[a] = 1.03 + (r % n) as f64 * dx + rng.range(-0.3 * dx, 0.3 * dx);
+                    r /= n;
+                }
+                x
+            })
+            .collect();
+        let b = build(&xs, min, max, [false; D], support, 1.03 + 2.0 * dx);
+        let grid = CellGrid::new(&min, &max, support);
+        let window = grid.window(&b.p.x);
+        assert!(
+            window.len() * 20 < grid.len(),
+            "{D}D: the window holds {} of {} cells",
+            window.len(),
+            grid.len()
+        );
+        let kind = &b.p.kind;
+        let wants = |i: usize| {
+            if kind[i].is_wall() {
+                Wants::Fluid
+            } else {
+                Wants::All
+            }
+        };
+        let lists = |g: &CellGrid<D>| {
+            let mut cells = CellList::default();
+            cells.build(g, &b.p).unwrap();
+            let mut nl = NeighbourList::default();
+            nl.build(g, &cells, &b.p, support, wants);
+            (0..b.p.n_owned).map(|i| nl.of(i).to_vec()).collect::<Vec<_>>()
+        };
+        let (whole, win) = (lists(&grid), lists(&window));
+        assert!(
+            whole.iter().map(Vec::len).sum::<usize>() > count,
+            "{D}D: pairs listed"
+        );
+        assert_eq!(whole, win, "{D}D: the window's lists and order");
+        // every particle is in the window's cell that holds its position, whose bounds are
+        // the whole grid's cell's
+        for x in &b.p.x {
+            let (cw, cg) = (window.coords(x).unwrap(), grid.coords(x).unwrap());
+            assert_eq!(window.cell_lo(&cw), grid.cell_lo(&cg), "{D}D: cell of {x:?}");
+        }
+    }
+    let mut rng = Rng(0x3d_0017);
+    case::<2>(&mut rng);
+    case::<3>(&mut rng);
+}

@@ -478,22 +478,24 @@ impl<'a, const D: usize> HalfView<'a, D> {
         // first slot of row (x, y); y = ny is the next plane's first row
         let row = |x: usize, y: usize| self.half.rows[x * ny + y];
         // planes and blocks are counted from the first margin cell, so a deeper margin
-        // (`CellGrid::with_reach`) runs every pair in the same phase: the same bits
-        let [ex, ey] = [0, 1].map(|a| self.grid.extra_margin(a));
-        // blocks b = first..last cover rows ey + b·B … ey + (b+1)·B − 1, clipped to the grid
-        let first = -(ey.div_ceil(BLOCK) as i64);
-        let last = ((ny - 1 - ey) / BLOCK) as i64;
+        // (`CellGrid::with_reach`) or a window (`CellGrid::window`, which may start past that
+        // cell: ey < 0) runs every pair in the same phase: the same bits
+        let [ex, ey] = [0, 1].map(|a| self.grid.extra_margin(a) as i64);
+        // blocks b = first..last cover rows ey + b·B … ey + (b+1)·B − 1, clipped to the grid:
+        // the blocks of rows 0 and ny − 1
+        let first = (-ey).div_euclid(BLOCK as i64);
+        let last = (ny as i64 - 1 - ey).div_euclid(BLOCK as i64);
         let mut spans = Vec::new();
         for phase in 0..4 {
             let (px, py) = (phase & 1, phase >> 1);
             let mut windows = Vec::new();
             let mut rest: &mut [A] = acc;
             let mut at = 0usize;
-            for x in (0..nx).filter(|x| (x + ex) % 2 == px) {
+            for x in (0..nx).filter(|&x| (x as i64 + ex).rem_euclid(2) as usize == px) {
                 // (homes, rows written in plane x, rows written in plane x + 1)
                 spans.clear();
                 for b in (first..=last).filter(|b| b.rem_euclid(2) as usize == py) {
-                    let start = ey as i64 + b * BLOCK as i64;
+                    let start = ey + b * BLOCK as i64;
                     let y0 = start.max(0) as usize;
                     let y1 = ((start + BLOCK as i64) as usize).min(ny);
                     let homes = row(x, y0)..row(x, y1);

@@ -62,9 +62,12 @@ pub struct Simulation<const D: usize> {
     pub p: Particles<D>,
     /// Periodic box and mirror planes.
     pub space: ImageSpace<D>,
-    /// Cell grid.
+    /// Cell grid over the whole domain (with the ghosts' margins).
     pub grid: CellGrid<D>,
-    /// Particles binned by cell.
+    /// The window of `grid` the particles occupied when they were last binned: the grid
+    /// `cells` is built on, and the one every use of `cells` takes.
+    pub window: CellGrid<D>,
+    /// Particles binned by cell (of `window`).
     pub cells: CellList,
     /// Neighbour lists of owned particles.
     pub nl: NeighbourList,
@@ -361,6 +364,7 @@ impl<const D: usize> Simulation<D> {
             model,
             p,
             space,
+            window: grid.clone(),
             grid,
             cells,
             nl,

@@ -360,10 +360,10 @@ impl<const D: usize> Simulation<D> {
             self.timers.add_pass(Timer::Integrate, pass, t0);
             return;
         }
-        let half = self.nl.half(&self.grid, &self.cells);
+        let half = self.nl.half(&self.window, &self.cells);
         let half = half.as_ref().filter(|_| self.pair_mode);
         if self.nl.is_lean() {
-            let nb = self.nl.scan(&self.grid, &self.cells);
+            let nb = self.nl.scan(&self.window, &self.cells);
             run_over(pass, &mut c, &nb, part, half);
         } else if self.nl.is_verlet() {
             let nb = self.nl.kept::<D>(&self.cells);
@@ -528,7 +528,7 @@ impl<const D: usize> Simulation<D> {
         if self.overlap && !self.halo.is_empty() {
             let n = self.p.n_owned;
             self.cells
-                .mark_interior(&self.grid, n, &mut self.near, &mut self.interior);
+                .mark_interior(&self.window, n, &mut self.near, &mut self.interior);
         } else {
             self.interior.clear();
         }
@@ -540,7 +540,7 @@ impl<const D: usize> Simulation<D> {
             .coarse_h()
             .filter(|_| self.substep == Substep::Mid && !self.nl.is_verlet());
         let h = &self.p.h;
-        self.nl.build(&self.grid, &self.cells, &self.p, support, |i| {
+        self.nl.build(&self.window, &self.cells, &self.p, support, |i| {
             let k = kind[i];
             if !k.is_smoothed() || super::multirate::is_coarse(k, h, skip, i) {
                 Wants::Nothing
@@ -565,9 +565,10 @@ impl<const D: usize> Simulation<D> {
         Ok(())
     }
 
-    /// Bin owned particles and ghosts into cells.
+    /// Bin owned particles and ghosts into the cells of the grid's window they occupy.
     fn bin(&mut self) -> Result<()> {
-        if let Err(i) = self.cells.build(&self.grid, &self.p) {
+        self.window = self.grid.window(&self.p.x);
+        if let Err(i) = self.cells.build(&self.window, &self.p) {
             let what = if i < self.p.n_owned {
                 "left the cell grid"
             } else {
@@ -817,7 +818,7 @@ mod tests {
             for _ in 0..40 {
                 sim.advance(&comm).unwrap();
             }
-            let half = sim.nl.half(&sim.grid, &sim.cells);
+            let half = sim.nl.half(&sim.window, &sim.cells);
             let half = half.as_ref().filter(|_| sim.pair_mode);
             assert_eq!(half.is_some(), mode == "pairs");
             let run = |passes: &[Pass]| {
