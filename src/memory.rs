@@ -22,20 +22,20 @@
 
 use crate::particles::Particles;
 use crate::physics::solid::dynamics::SolidScratch;
+use crate::scene::lattice::BodySites;
 use crate::scene::Scene;
 
 /// Neighbours per particle in the estimate: the lattice's
 /// ([`crate::scene::Discretisation::lattice_neighbours`]) times the mean list length of the
 /// scene's particles ([`crate::scene::lattice::list_weight`]: a refined particle with the
 /// scene's h lists 2^(ℓD) times as many).
-fn neighbours<const D: usize>(scene: &Scene) -> f64 {
-    scene.discretisation.lattice_neighbours(D) * crate::scene::lattice::list_weight::<D>(scene)
+fn neighbours<const D: usize>(scene: &Scene, sites: &[BodySites]) -> f64 {
+    scene.discretisation.lattice_neighbours(D) * crate::scene::lattice::list_weight(sites)
 }
 
 /// The shares of the scene's particles whose key starts with each of `prefixes` (`fluid`,
-/// `solid`, `wall`), from the lattice's counts.
-fn shares<const D: usize, const K: usize>(scene: &Scene, prefixes: [&str; K]) -> [f64; K] {
-    let sites = crate::scene::lattice::body_sites::<D>(scene);
+/// `solid`, `wall`), from the lattice's counts (`sites`).
+fn shares<const K: usize>(sites: &[BodySites], prefixes: [&str; K]) -> [f64; K] {
     let all = sites.iter().map(|b| b.sites).sum::<u64>().max(1) as f64;
     prefixes.map(|pre| {
         let of: u64 = (sites.iter())
@@ -50,8 +50,8 @@ fn shares<const D: usize, const K: usize>(scene: &Scene, prefixes: [&str; K]) ->
 /// solid particles (walls keep none, or only their fluid neighbours). On the shipped scenes the
 /// stored entries are 0.90–1.12 of these particles times the lattice's neighbours (pair mode:
 /// half).
-fn listing_share<const D: usize>(scene: &Scene) -> f64 {
-    let [walls] = shares::<D, 1>(scene, ["wall"]);
+fn listing_share(sites: &[BodySites]) -> f64 {
+    let [walls] = shares(sites, ["wall"]);
     1.0 - walls
 }
 
@@ -59,23 +59,21 @@ fn listing_share<const D: usize>(scene: &Scene) -> f64 {
 /// the particles occupy ([`crate::cells::CellGrid::window`]), taken as the bodies' box grown by
 /// an edge (a wall's layers lie outside its box) within the domain. A debris cloud's window
 /// grows as it spreads, up to the whole domain.
-fn grid_bytes<const D: usize>(scene: &Scene, edge: f64) -> f64 {
-    let (lo, hi) = bodies_box::<D>(scene);
+fn grid_bytes<const D: usize>(scene: &Scene, sites: &[BodySites], edge: f64) -> f64 {
+    let (lo, hi) = bodies_box::<D>(scene, sites);
     let lo = crate::Vector::<D>::from_fn(|a, _| (lo[a] - edge).max(scene.domain.min[a]));
     let hi = crate::Vector::<D>::from_fn(|a, _| (hi[a] + edge).min(scene.domain.max[a]));
     crate::cells::CellGrid::<D>::with_reach(&lo, &hi, edge, edge).len() as f64 * 5.0
 }
 
-/// The box of the scene's bodies (fluid, solid and wall boxes), or the domain without any.
-fn bodies_box<const D: usize>(scene: &Scene) -> ([f64; D], [f64; D]) {
+/// The box of the bodies that have particles (`sites`: fluid, solid and wall boxes), or the
+/// domain without any.
+fn bodies_box<const D: usize>(scene: &Scene, sites: &[BodySites]) -> ([f64; D], [f64; D]) {
     let (mut lo, mut hi) = ([f64::INFINITY; D], [f64::NEG_INFINITY; D]);
-    let boxes = (scene.fluids.iter().map(|b| (&b.min, &b.max)))
-        .chain(scene.solids.iter().map(|b| (&b.min, &b.max)))
-        .chain(scene.walls.iter().map(|w| (&w.min, &w.max)));
-    for (min, max) in boxes {
+    for b in sites {
         for a in 0..D {
-            lo[a] = lo[a].min(min[a]);
-            hi[a] = hi[a].max(max[a]);
+            lo[a] = lo[a].min(b.min[a]);
+            hi[a] = hi[a].max(b.max[a]);
         }
     }
     if (0..D).all(|a| hi[a] > lo[a]) {
@@ -98,22 +96,11 @@ fn bodies_box<const D: usize>(scene: &Scene) -> ([f64; D], [f64; D]) {
 ///   summed where the boxes overlap, at the densest place. A face's ghosts are a slab
 ///   `layers · dx` deep of that density: a cut through the water column of a dam break
 ///   holds the column's cross-section, whatever the share of the tank the block spans.
-fn ghost_faces<const D: usize>(scene: &Scene, ranks: usize) -> [(f64, f64); D] {
-    let sites = crate::scene::lattice::body_sites::<D>(scene);
-    let box_of = |key: &str| -> Option<(&[f64], &[f64])> {
-        let (kind, rest) = key.split_once('[')?;
-        let i: usize = rest.trim_end_matches(']').parse().ok()?;
-        match kind {
-            "fluid" => scene.fluids.get(i).map(|b| (&b.min[..], &b.max[..])),
-            "solid" => scene.solids.get(i).map(|b| (&b.min[..], &b.max[..])),
-            "wall" => scene.walls.get(i).map(|w| (&w.min[..], &w.max[..])),
-            _ => None,
-        }
-    };
+fn ghost_faces<const D: usize>(scene: &Scene, sites: &[BodySites], ranks: usize) -> [(f64, f64); D] {
     let bodies: Vec<(&[f64], &[f64], f64)> = (sites.iter())
-        .filter_map(|b| box_of(&b.key).map(|(lo, hi)| (lo, hi, b.sites as f64)))
+        .map(|b| (&b.min[..], &b.max[..], b.sites as f64))
         .collect();
-    let (lo, hi) = bodies_box::<D>(scene);
+    let (lo, hi) = bodies_box::<D>(scene, sites);
     let extent: [f64; D] = std::array::from_fn(|a| hi[a] - lo[a]);
     let blocks = crate::decomp::factorise(ranks, &extent);
     let mirror = scene.walls.iter().any(|w| w.method.makes_images());
@@ -191,6 +178,8 @@ pub fn estimate<const D: usize>(
     let n = particles as f64;
     let p = ranks.max(1) as f64;
     let dropped = crate::setup::dropped_fields(scene);
+    // the lattice's counts per body, walked once (a lattice pass for polygon and mesh bodies)
+    let sites = crate::scene::lattice::body_sites::<D>(scene);
     let store = Particles::<D>::bytes_per_particle_carried(dropped) as f64;
     let counts = 2.0 * 8.0 * p * p;
     // a block holds up to (1 + 2η)^D of the mean count (decomp docs): 1.05 in 3D, or, balanced
@@ -205,14 +194,14 @@ pub fn estimate<const D: usize>(
     let listed = match scene.performance.neighbours {
         crate::scene::NeighbourMode::Cells => 0.0,
         _ => {
-            neighbours::<D>(scene) * reach.powi(D as i32) * listing_share::<D>(scene)
+            neighbours::<D>(scene, &sites) * reach.powi(D as i32) * listing_share(&sites)
                 / if pairs { 2.0 } else { 1.0 }
         }
     };
     // ghosts: the layers of a support (with the lists' skin) on the faces of a rank's block
     // that have a neighbour or images ([`ghost_faces`])
-    let faces = ghost_faces::<D>(scene, ranks.max(1));
-    let [solids, fluid] = shares::<D, 2>(scene, ["solid", "fluid"]);
+    let faces = ghost_faces::<D>(scene, &sites, ranks.max(1));
+    let [solids, fluid] = shares(&sites, ["solid", "fluid"]);
     // a stored entry: a u32 slot, or in pair mode about 2 B (the half lists are delta-encoded,
     // with their offsets: 26 MB for the 12.9 M pairs of the 3D DualSPHysics dam break)
     let entry_bytes = if pairs { 2.0 } else { 4.0 };
@@ -225,7 +214,7 @@ pub fn estimate<const D: usize>(
         true => 16.0 + fluid * 8.0 * (D * D + D) as f64,
         false => 0.0,
     };
-    let grid = grid_bytes::<D>(scene, scene.discretisation.support() * reach);
+    let grid = grid_bytes::<D>(scene, &sites, scene.discretisation.support() * reach);
     let layers = (scene.discretisation.support() * reach / scene.discretisation.dx).ceil();
     let per_rank = |owned: f64| {
         // the store, a label and a sort index per particle, and the sorted copy (pages a
@@ -395,13 +384,14 @@ mod tests {
         scene.performance.skin = 0.3;
         let verlet = estimate::<3>(&scene, n, 1, 1).rank_run;
         let owned = n as f64 * 1.05;
-        let share = listing_share::<3>(&scene);
+        let sites = crate::scene::lattice::body_sites::<3>(&scene);
+        let share = listing_share(&sites);
         assert!(share > 0.0 && share < 1.0, "fluid and repulsive walls: {share}");
         let support = scene.discretisation.support();
         // the cells grow with the lists' reach: fewer of them
-        let cells = grid_bytes::<3>(&scene, 1.3 * support) - grid_bytes::<3>(&scene, support);
+        let cells = grid_bytes::<3>(&scene, &sites, 1.3 * support) - grid_bytes::<3>(&scene, &sites, support);
         assert!(cells < 0.0, "{cells}");
-        let term = owned * neighbours::<3>(&scene) * share * 4.0 * (1.3f64.powi(3) - 1.0) + cells;
+        let term = owned * neighbours::<3>(&scene, &sites) * share * 4.0 * (1.3f64.powi(3) - 1.0) + cells;
         assert!(
             ((verlet - lists) / term - 1.0).abs() < 1e-12,
             "{verlet} {lists} {term}"

@@ -948,7 +948,8 @@ fn the_check_counts_the_particles_and_lists_that_the_set_up_builds() {
         // the set-up's lists (both directions) against the estimate's per particle
         let listed = sim.nl.entries() as f64 / built as f64;
         let full = if sim.pair_mode { 2.0 * listed } else { listed };
-        let estimate = s.discretisation.lattice_neighbours(2) * hsph::scene::lattice::list_weight::<2>(&s);
+        let estimate = s.discretisation.lattice_neighbours(2)
+            * hsph::scene::lattice::list_weight(&hsph::scene::lattice::body_sites::<2>(&s));
         assert!(
             estimate >= 0.95 * full && estimate <= 2.0 * full,
             "{sets:?}: estimate {estimate:.1}, built {full:.1}"

@@ -134,14 +134,6 @@ impl HalfPairs {
         self.pairs == 0
     }
 
-    /// Bytes held by the lists.
-    pub fn bytes(&self) -> usize {
-        self.chunks.iter().map(|c| c.capacity()).sum::<usize>()
-            + self.offset.capacity() * 4
-            + self.flags.capacity()
-            + self.rows.capacity() * 8
-    }
-
     /// Partners of home slot `k` (stored lists).
     #[inline]
     pub(super) fn stored(&self, k: usize) -> Stored<'_> {

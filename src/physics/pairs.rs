@@ -54,11 +54,6 @@ impl<const D: usize> PairScratch<D> {
         held(&self.flat) + held(&self.vol) + held(&self.p_rho2)
     }
 
-    /// Bytes held (for the memory report).
-    pub fn bytes(&self) -> usize {
-        (self.flat.capacity() + self.vol.capacity() + self.p_rho2.capacity()) * 8
-    }
-
     /// A per-particle buffer for the gather passes (the pair passes' volumes; the two modes
     /// never share a pass).
     pub fn buffer(&mut self) -> &mut Vec<f64> {

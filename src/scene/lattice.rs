@@ -158,6 +158,10 @@ pub struct BodySites {
     pub smallest: f64,
     /// A container with every face open (no walls at any dx).
     pub all_open: bool,
+    /// The body's box as the scene gives it (m; a container's inner box), D values each.
+    pub min: Vec<f64>,
+    /// Its upper corner (m).
+    pub max: Vec<f64>,
 }
 
 /// The sites of every body that has particles (fluids, solids, then dummy and repulsive walls;
@@ -217,6 +221,8 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
             builds,
             smallest: smallest(&f.min, &f.max),
             all_open: false,
+            min: f.min.clone(),
+            max: f.max.clone(),
         });
     }
     for (i, w) in s.walls.iter().enumerate() {
@@ -253,6 +259,8 @@ pub fn body_sites<const D: usize>(s: &Scene) -> Vec<BodySites> {
             builds: n > 0,
             smallest: smallest(&w.min, &w.max),
             all_open: w.shape == WallShape::Container && (0..D).all(|a| open(a, false) && open(a, true)),
+            min: w.min.clone(),
+            max: w.max.clone(),
         });
     }
     out
@@ -391,9 +399,9 @@ fn refined<const D: usize>(
 }
 
 /// The mean neighbour-list length of the scene's particles in units of a coarse particle's
-/// (1 without refinement): what the memory estimate multiplies the lattice's neighbours by.
-pub fn list_weight<const D: usize>(s: &Scene) -> f64 {
-    let b = body_sites::<D>(s);
+/// (1 without refinement), from the bodies' counts ([`body_sites`]): what the memory
+/// estimate multiplies the lattice's neighbours by.
+pub fn list_weight(b: &[BodySites]) -> f64 {
     let n: u64 = b.iter().map(|b| b.sites).sum();
     let extra: f64 = b.iter().map(|b| b.list_extra).sum();
     if n == 0 {
