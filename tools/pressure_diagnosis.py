@@ -70,6 +70,7 @@ VARIANTS = {
     "riemann_refine_1_wide": ['time.stepping="local"'],
     "riemann_refine_2_wide": ['time.stepping="local"'],
     "riemann_refine_1_global": [],
+    "riemann_refine_2_global": [],
 }
 
 # Variants that refine the downstream corner (docs/pressure.md §2e): an adaptive region over
@@ -82,7 +83,11 @@ REGIONS = {"riemann_refine_1": (1, None, *CORNER), "riemann_refine_1_t4": (1, 0.
            "riemann_refine_2": (2, None, *CORNER),
            "riemann_refine_1_cfl_0.2": (1, None, *CORNER), "riemann_refine_1_cfl_0.3": (1, None, *CORNER),
            "riemann_refine_1_wide": (1, None, *WIDE),
-           "riemann_refine_1_global": (1, None, *CORNER), "riemann_refine_2_wide": (2, None, *WIDE)}
+           "riemann_refine_1_global": (1, None, *CORNER), "riemann_refine_2_wide": (2, None, *WIDE),
+           "riemann_refine_2_global": (2, None, *CORNER)}
+
+
+THREADS = []  # ["--threads", "N"] with --threads
 
 
 def scene_with_region(level, transition, x0, y1, tmp):
@@ -108,7 +113,7 @@ def loads_of_experiment(hsph, column, lo, hi):
 
 def run(hsph, dx, sets, out, scene="inputs/dam_break_lobovsky.toml"):
     # a coarser lattice builds the container's layers further out: grow the domain to fit
-    cmd = [hsph, "run", scene, "--out", out, "--force", "-q",
+    cmd = [hsph, "run", scene, "--out", out, "--force", "-q", *THREADS,
            "--set", f"discretisation.dx={dx}", "--set", f"time.t_end={T_END}",
            "--set", "domain.min=[-0.05,-0.05]", "--set", "domain.max=[1.66,0.85]"]
     for name, (k, _) in SENSORS.items():
@@ -133,6 +138,9 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--hsph", default="target/release/hsph")
     ap.add_argument("--dx", type=float, default=0.01)
+    ap.add_argument("--keep", metavar="DIR", help="keep each variant's run in DIR/<variant> (default: a temporary "
+                    "directory, removed at the end)")
+    ap.add_argument("--threads", type=int, help="passed to hsph run")
     ap.add_argument("variants", nargs="*", help=f"default: all of {', '.join(VARIANTS)}")
     a = ap.parse_args()
     names = a.variants or list(VARIANTS)
@@ -148,8 +156,10 @@ def main():
         print(f"| experiment | {s} | {e['raw_max'] / PS:.2f} | {e['filtered_max'] / PS:.2f} | | "
               f"{e['impulse'] or float('nan'):.1f} | | | |")
     with tempfile.TemporaryDirectory() as tmp:
+        if a.threads:
+            THREADS[:] = ["--threads", str(a.threads)]
         for n in names:
-            out = os.path.join(tmp, n)
+            out = os.path.join(a.keep or tmp, n)
             scene = scene_with_region(*REGIONS[n], tmp) if n in REGIONS else "inputs/dam_break_lobovsky.toml"
             summary, failed = run(a.hsph, a.dx, VARIANTS[n], out, scene)
             if summary is None:
