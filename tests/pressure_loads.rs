@@ -52,6 +52,68 @@ fn summary_loads_are_the_probe_files_loads_and_hsph_loads_gives_the_same() {
     assert_eq!(cli, serde_json::to_value(want).unwrap());
 }
 
+/// A windowed pressure probe (the 2D dam break's: 2 ms window, a row every 0.5 ms) also writes
+/// its every-step samples to `probes/<name>.raw.csv`; `summary.json`'s loads come from that
+/// series, and every windowed row is the trapezoid mean of the raw samples over its window.
+#[test]
+fn a_windowed_probe_keeps_its_every_step_series_and_the_loads_read_it() {
+    let dir = temp_dir("pressure-loads-raw");
+    let out = dir.join("run");
+    let o = hsph_out(&run_args("inputs/dam_break_2d.toml", &out, &["time.t_end=0.3"]));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let got = &summary["pressure_loads"]["p_right_wall"];
+    assert_eq!(got["series"], "probes/p_right_wall.raw.csv");
+    assert_eq!(got["trailing_window_s"], 0.0);
+    let read = |f: &str| hsph::probes::loads::read_csv(&out.join(f), ("t", "p"), (1.0, 1.0)).unwrap();
+    let (t, p) = read("probes/p_right_wall.raw.csv");
+    assert_eq!(t.len() as u64, summary["steps"].as_u64().unwrap() + 1);
+    let want = hsph::probes::loads::loads(&t, &p, 0.002, None).unwrap();
+    assert_eq!(got["loads"], serde_json::to_value(want).unwrap());
+    // the rows: each the mean over the samples of [t − 2 ms, t] and the one just before
+    let (rt, rp) = read("probes/p_right_wall.csv");
+    assert!(
+        rt.len() > 100 && rt.len() * 2 < t.len(),
+        "{} rows, {} samples",
+        rt.len(),
+        t.len()
+    );
+    let mut checked = 0;
+    for (&tr, &pr) in rt.iter().zip(&rp) {
+        let end = t.iter().position(|&x| x == tr).expect("a row at a sample's time");
+        let mut start = 0;
+        while start + 1 < end && t[start + 1] <= tr - 0.002 {
+            start += 1;
+        }
+        let w = &t[start..=end];
+        let mean = if w.len() < 2 {
+            p[end]
+        } else {
+            let area: f64 = (start..end)
+                .map(|k| 0.5 * (p[k] + p[k + 1]) * (t[k + 1] - t[k]))
+                .sum();
+            area / (t[end] - t[start])
+        };
+        assert!(
+            (mean - pr).abs() <= 1e-9 * pr.abs().max(1.0),
+            "t = {tr}: row {pr}, samples' mean {mean}"
+        );
+        checked += usize::from(pr > 0.0);
+    }
+    assert!(
+        checked > 10,
+        "the water reached the sensor in {checked} rows only"
+    );
+    // a mean is never above the largest sample
+    let row_max = rp.iter().copied().fold(f64::MIN, f64::max);
+    assert!(
+        want.raw_max >= row_max && want.raw_max > 0.0,
+        "{} {row_max}",
+        want.raw_max
+    );
+}
+
 #[test]
 fn bad_series_and_flags_for_hsph_loads_are_exit_2_naming_them() {
     let dir = temp_dir("pressure-loads-bad");

@@ -15,6 +15,7 @@ const SAME: &[&str] = &[
     "final.csv",
     "probes/front.csv",
     "probes/p_right_wall.csv",
+    "probes/p_right_wall.raw.csv",
     "probes/tank.csv",
     "snapshots/series.pvd",
 ];

@@ -140,10 +140,11 @@ impl<'a, const D: usize> RankRun<'a, D> {
         }
     }
 
-    /// The loads of every pressure probe (`crate::probes::loads`), read back from its file on
-    /// rank 0 (the whole history, across restarts), with how its rows were sampled: raw and
-    /// box-filtered maxima (Pa) and, with `impulse_span`, the first impact's impulse (Pa·s).
-    /// A file that cannot be read gives null.
+    /// The loads of every pressure probe (`crate::probes::loads`), read back on rank 0 from its
+    /// every-step series (`crate::probes::loads_file`; the whole history, across restarts),
+    /// with the file and how it was sampled: raw and box-filtered maxima (Pa) and, with
+    /// `impulse_span`, the first impact's impulse (Pa·s). A file that cannot be read gives
+    /// null.
     fn loads_summary(&self) -> serde_json::Value {
         let mut out = serde_json::Map::new();
         // against the experiment, where the scene's reference names one (measured once, by
@@ -153,17 +154,28 @@ impl<'a, const D: usize> RankRun<'a, D> {
             let Some((filter, span)) = probe.load_rules() else {
                 continue;
             };
-            let path = self.dir.join("probes").join(format!("{}.csv", probe.name()));
+            let (path, raw) = crate::probes::loads_file(&self.dir.join("probes"), probe);
             let read = crate::probes::loads::read_csv(&path, ("t", "p"), (1.0, 1.0));
+            // the raw series is every step's sample; the rows read as they were written
+            let (window, interval) = match raw {
+                true => (0.0, Some(0.0)),
+                false => (probe.window(), probe.interval()),
+            };
+            let file = path
+                .strip_prefix(self.dir)
+                .unwrap_or(&path)
+                .to_string_lossy()
+                .into_owned();
             let value = match read
                 .ok()
                 .and_then(|(t, p)| crate::probes::loads::loads(&t, &p, filter, span))
             {
                 Some(l) => json!({
                     "loads": l,
+                    "series": file,
                     // a trailing window already averaged the rows the filter reads
-                    "trailing_window_s": probe.window(),
-                    "interval_s": probe.interval(),
+                    "trailing_window_s": window,
+                    "interval_s": interval,
                 }),
                 None => serde_json::Value::Null,
             };

@@ -48,9 +48,9 @@ pub fn is_top_file(name: &str) -> bool {
 pub fn is_folder_file(folder: &str, sub: Option<&str>, name: &str, probes: &[String]) -> bool {
     let name = untemp(name);
     match (folder, sub) {
-        ("probes", None) => probes
-            .iter()
-            .any(|p| name == format!("{p}.csv") || name == format!("{p}.nc")),
+        ("probes", None) => probes.iter().any(|p| {
+            name == format!("{p}.csv") || name == format!("{p}.raw.csv") || name == format!("{p}.nc")
+        }),
         ("snapshots", None) => {
             name == "series.pvd" || name == "series.json" || numbered(name, "snapshot_", 5, ".pvtu")
         }

@@ -11,6 +11,10 @@
 //!
 //! A probe with an averaging `window` samples every step and writes, at its rows, the mean of
 //! its samples over the last `window` seconds (trapezoid rule in time).
+//!
+//! A pressure probe whose rows are not its every-step samples (a window, or an interval) also
+//! samples every step and writes them to `probes/<name>.raw.csv` ([`Probe::raw_series`]): the
+//! loads of `summary.json` are read from that series ([`loads_file`]).
 
 mod bins;
 pub mod disorder;
@@ -94,6 +98,10 @@ pub struct ProbeSet<const D: usize> {
     walls: Vec<u16>,
     /// Rank 0 only: one file per probe.
     files: Vec<BufWriter<File>>,
+    /// Rank 0 only, one per probe: the every-step series of a [`Probe::raw_series`] probe
+    /// (`None` for the others, and on a restart from a checkpoint written before raw series
+    /// existed, whose run has no such file to continue).
+    raw: Vec<Option<BufWriter<File>>>,
     dir: PathBuf,
 }
 
@@ -122,12 +130,18 @@ impl<const D: usize> ProbeSet<D> {
             })
             .collect();
         let mut files = Vec::new();
+        let mut raw = Vec::new();
         let pd = dir.map(|d| d.join("probes")).unwrap_or_default();
         if let (Some(_), false) = (dir, probes.is_empty()) {
             std::fs::create_dir_all(&pd).map_err(|e| Error::io(&pd, e))?;
             for pr in &probes {
                 let head = pr.header(D);
                 files.push(series(&pd.join(format!("{}.csv", pr.name())), &head, append)?);
+                let path = raw_path(&pd, pr.name());
+                raw.push(match pr.raw_series() && (!append || path.is_file()) {
+                    true => Some(series(&path, &head, append)?),
+                    false => None,
+                });
             }
         }
         Ok(ProbeSet {
@@ -136,6 +150,7 @@ impl<const D: usize> ProbeSet<D> {
             clocks,
             walls,
             files,
+            raw,
             dir: pd,
         })
     }
@@ -220,6 +235,10 @@ impl<const D: usize> ProbeSet<D> {
     /// its row if it is `due`.
     fn sample_into(&mut self, k: usize, view: &View<D>, t: f64, due: bool, output_only: bool) -> Result<()> {
         let mut values = sample(view, &self.probes[k], self.walls[k]);
+        if let (false, Some(Some(f))) = (output_only, self.raw.get_mut(k)) {
+            let row: Vec<String> = values.iter().map(|v| format!("{v}")).collect();
+            writeln!(f, "{t},{}", row.join(",")).map_err(|e| Error::io(&self.dir, e))?;
+        }
         let window = self.probes[k].window();
         if window > 0.0 {
             if !output_only {
@@ -255,15 +274,16 @@ impl<const D: usize> ProbeSet<D> {
 
     /// The probe files (relative to the run directory), for a checkpoint's series lengths.
     pub fn files(&self) -> Vec<String> {
-        self.probes
-            .iter()
-            .map(|p| format!("probes/{}.csv", p.name()))
-            .collect()
+        let rows = self.probes.iter().map(|p| format!("probes/{}.csv", p.name()));
+        let raw = (self.probes.iter().zip(&self.raw))
+            .filter(|(_, f)| f.is_some())
+            .map(|(p, _)| format!("probes/{}.raw.csv", p.name()));
+        rows.chain(raw).collect()
     }
 
     /// Flush every probe file (rank 0; a no-op elsewhere).
     pub fn flush(&mut self) -> Result<()> {
-        for f in &mut self.files {
+        for f in self.files.iter_mut().chain(self.raw.iter_mut().flatten()) {
             f.flush().map_err(|e| Error::io(&self.dir, e))?;
         }
         Ok(())
@@ -357,9 +377,26 @@ fn clock_is_due(c: &Clock, t: f64, (output, output_only): (bool, bool)) -> bool 
 }
 
 /// Whether a probe samples the particles now: its row is `due`, or it averages over a window
-/// (sampled once per step: not again on the `output_only` call).
+/// or keeps a raw series (sampled once per step: not again on the `output_only` call).
 fn samples(due: bool, probe: &Probe, output_only: bool) -> bool {
-    due || (!output_only && probe.window() > 0.0)
+    due || (!output_only && (probe.window() > 0.0 || probe.raw_series()))
+}
+
+/// `probes/<name>.raw.csv` in the probe directory `dir` ([`Probe::raw_series`]).
+fn raw_path(dir: &Path, name: &str) -> PathBuf {
+    dir.join(format!("{name}.raw.csv"))
+}
+
+/// The file in the probe directory `dir` that a pressure probe's loads are read from: its
+/// every-step series `<name>.raw.csv` where the run wrote one, else its rows `<name>.csv`
+/// (sampled every step with no window, or from a run before raw series), and whether it is
+/// the raw one.
+pub fn loads_file(dir: &Path, probe: &Probe) -> (PathBuf, bool) {
+    let raw = raw_path(dir, probe.name());
+    match probe.raw_series() && raw.is_file() {
+        true => (raw, true),
+        false => (dir.join(format!("{}.csv", probe.name())), false),
+    }
 }
 
 /// Whether a clock writes a row at time `t` (s); advances an interval clock past `t`.

@@ -125,8 +125,9 @@ pub struct Comparison {
     pub impulse_error: Option<f64>,
 }
 
-/// Each sensor of `names` compared: the run's probe file in `dir` (`<name>.csv`, columns t and
-/// p) against the experiment. A sensor whose file cannot be read or whose window holds no
+/// Each sensor of `names` compared: the run's probe series in `dir` (`<name>.raw.csv` where
+/// the run wrote one, else `<name>.csv`: `crate::probes::loads_file`; columns t and p) against
+/// the experiment. A sensor whose file cannot be read or whose window holds no
 /// samples is left out.
 pub fn compare(
     scene: &Scene,
@@ -141,18 +142,15 @@ pub fn compare(
         let Some(sensor) = ex.sensors.iter().find(|s| s.name == name) else {
             continue;
         };
-        let Some((filter, span)) = scene
-            .probes
-            .iter()
-            .find(|p| p.name() == name)
-            .and_then(|p| p.load_rules())
-        else {
+        let Some(probe) = scene.probes.iter().find(|p| p.name() == name) else {
+            continue;
+        };
+        let Some((filter, span)) = probe.load_rules() else {
             continue;
         };
         let window = (sensor.window.0 * ts, sensor.window.1 * ts);
-        let Ok((t, p)) =
-            crate::probes::loads::read_csv(&dir.join(format!("{name}.csv")), ("t", "p"), (1.0, 1.0))
-        else {
+        let (file, _) = crate::probes::loads_file(dir, probe);
+        let Ok((t, p)) = crate::probes::loads::read_csv(&file, ("t", "p"), (1.0, 1.0)) else {
             continue;
         };
         let run_points: Vec<(f64, f64)> = t.into_iter().zip(p).collect();

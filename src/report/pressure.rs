@@ -35,11 +35,11 @@ fn panels(run: &Path, summary: &serde_json::Value) -> Option<Vec<Panel>> {
         let (Some(tr), Some(filter)) = (trace(e, name), entry["loads"]["filter_s"].as_f64()) else {
             continue;
         };
-        let Ok((t, p)) = read_csv(
-            &run.join("probes").join(format!("{name}.csv")),
-            ("t", "p"),
-            (1.0, 1.0),
-        ) else {
+        // the series the summary's loads were read from (a run before raw series: the rows)
+        let file = entry["series"]
+            .as_str()
+            .map_or_else(|| format!("probes/{name}.csv"), str::to_string);
+        let Ok((t, p)) = read_csv(&run.join(file), ("t", "p"), (1.0, 1.0)) else {
             continue;
         };
         let (ts, ps) = ((tr.depth / 9.81).sqrt(), 1000.0 * 9.81 * tr.depth);

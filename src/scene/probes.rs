@@ -232,6 +232,15 @@ impl Probe {
         }
     }
 
+    /// True for a pressure probe whose rows are not its every-step samples (it averages over a
+    /// trailing `window`, or writes rows less often than every step): its samples of every
+    /// step then go to `probes/<name>.raw.csv` as well, and `summary.json`'s loads are read
+    /// from them (`crate::probes::loads_file`), so the raw maximum, the box filter and the
+    /// impulse never see the trailing window or a row interval.
+    pub fn raw_series(&self) -> bool {
+        matches!(self, Probe::Pressure { window, interval, .. } if *window > 0.0 || *interval != Some(0.0))
+    }
+
     /// A pressure probe's point (m; the centre of its face); `None` for every other kind.
     pub fn sensor_point(&self) -> Option<&[f64]> {
         match self {
