@@ -53,22 +53,36 @@ pub struct SolidScratch<const D: usize> {
     sig: Vec<Tensor<D>>,
     /// Artificial stress R_j of every particle (same units as `sig`).
     rs: Vec<Tensor<D>>,
+    /// R_j ≠ 0 (a tensile principal stress) for every particle: a pair of two particles
+    /// without one skips the artificial-stress term, whose (R_i + R_j) f_ijⁿ is then exactly
+    /// zero (most particles of an impact are in compression most of the time).
+    tensile: Vec<bool>,
     /// Bulk sound speed c_j of every particle (m/s).
     c: Vec<f64>,
 }
 
 impl<const D: usize> SolidScratch<D> {
     /// Bytes this scratch holds per solid particle once sized (B; the memory estimate): three
-    /// tensors and three scalars.
+    /// tensors, three scalars and a flag.
     pub const BYTES_PER_PARTICLE: usize =
-        3 * std::mem::size_of::<Tensor<D>>() + 3 * std::mem::size_of::<f64>();
+        3 * std::mem::size_of::<Tensor<D>>() + 3 * std::mem::size_of::<f64>() + 1;
 
     /// Bytes this scratch holds, by capacity.
     pub fn bytes_held(&self) -> usize {
         use crate::cells::held;
-        held(&self.ds) + held(&self.de) + held(&self.rate) + held(&self.sig) + held(&self.rs) + held(&self.c)
+        held(&self.ds)
+            + held(&self.de)
+            + held(&self.rate)
+            + held(&self.sig)
+            + held(&self.rs)
+            + held(&self.c)
+            + held(&self.tensile)
     }
 }
+
+/// The artificial stress R_j of every particle and whether it is non-zero
+/// ([`SolidScratch`]'s `rs` and `tensile`).
+type Artificial<'a, const D: usize> = (&'a [Tensor<D>], &'a [bool]);
 
 /// The artificial-viscosity constants of a pass.
 #[derive(Clone, Copy)]
@@ -188,7 +202,7 @@ pub fn rates<const D: usize, N: Neighbours>(
     let mut drho = std::mem::take(&mut p.drho);
     {
         let p = &*p;
-        let (c, rs) = (&scratch.c, &scratch.rs[..]);
+        let (c, rs) = (&scratch.c, (&scratch.rs[..], &scratch.tensile[..]));
         let visc = Viscosity::of(model);
         let half_dt = 0.5 * dt;
         crate::with_pair_kernel!(model.varying(), model.kernel, D, kern => {
@@ -215,7 +229,7 @@ fn rates_of<const D: usize, N: Neighbours, K: PairKernel>(
     nl: &N,
     model: &Model<D>,
     kern: K,
-    (c, rs): (&[f64], &[Tensor<D>]),
+    (c, (rs, tensile)): (&[f64], Artificial<'_, D>),
     visc: &Viscosity,
     half_dt: f64,
     i: usize,
@@ -249,7 +263,7 @@ fn rates_of<const D: usize, N: Neighbours, K: PairKernel>(
         grad += (vij * mj) * gw.transpose();
         let pi = visc.pi(&k, vij.dot(&mid), r2, c[i], c[j], rhoi, p.rho[j]);
         visc_work += mj * pi * vij.dot(&gw);
-        if stress_art {
+        if stress_art && (tensile[i] || tensile[j]) {
             let f = k.w(r2.sqrt()) / model.pair_w_dp(p, i, j, &k, w_dp);
             let f2 = f * f;
             stress_work += mj * (f2 * f2) * vij.dot(&((rs[i] + rs[j]) * gw));
@@ -359,7 +373,7 @@ pub fn momentum<const D: usize, N: Neighbours>(
     {
         let p = &*p;
         let visc = Viscosity::of(model);
-        let (sig, rs, c) = (&scratch.sig, &scratch.rs, &scratch.c);
+        let (sig, rs, c) = (&scratch.sig, (&scratch.rs[..], &scratch.tensile[..]), &scratch.c);
         crate::with_pair_kernel!(model.varying(), model.kernel, D, kern => {
             acc[..n].par_iter_mut().enumerate().for_each(|(i, a)| {
                 if p.kind[i].is_solid() && nl.visits(i) {
@@ -382,13 +396,15 @@ fn stress_terms<const D: usize>(
     let eps = model.artificial_stress;
     scratch.sig.resize(p.len(), Tensor::zeros());
     scratch.rs.resize(p.len(), Tensor::zeros());
+    scratch.tensile.resize(p.len(), false);
     scratch
         .sig
         .par_iter_mut()
-        .zip(scratch.rs.par_iter_mut())
+        .zip(scratch.rs.par_iter_mut().zip(scratch.tensile.par_iter_mut()))
         .enumerate()
-        .for_each(|(j, (sig, rs))| {
+        .for_each(|(j, (sig, (rs, tensile)))| {
             if !p.kind[j].is_solid() {
+                *tensile = false;
                 return;
             }
             let rho2 = p.rho[j] * p.rho[j];
@@ -402,6 +418,7 @@ fn stress_terms<const D: usize>(
             } else {
                 Tensor::zeros()
             };
+            *tensile = *rs != Tensor::<D>::zeros();
         });
 }
 
@@ -414,7 +431,7 @@ fn momentum_of<const D: usize, N: Neighbours, K: PairKernel>(
     model: &Model<D>,
     kern: K,
     visc: &Viscosity,
-    (sig, rs, c): (&[Tensor<D>], &[Tensor<D>], &[f64]),
+    (sig, (rs, tensile), c): (&[Tensor<D>], Artificial<'_, D>, &[f64]),
     w_dp: f64,
     i: usize,
 ) -> Vector<D> {
@@ -437,7 +454,7 @@ fn momentum_of<const D: usize, N: Neighbours, K: PairKernel>(
         // corrected stress terms (the duals of the corrected velocity gradient), plain
         // viscosity and artificial stress
         let mut t = sig_bi + sig[j] - Tensor::<D>::identity() * pi;
-        if stress_art {
+        if stress_art && (tensile[i] || tensile[j]) {
             let f = k.w(r) / model.pair_w_dp(p, i, j, &k, w_dp);
             let f2 = f * f;
             t += (rs[i] + rs[j]) * (f2 * f2);
