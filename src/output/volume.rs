@@ -77,7 +77,9 @@ pub fn estimate(
         .map(|p| {
             let columns = probe_columns(p, dim) as f64;
             let interval = p.interval().unwrap_or(output_interval);
-            rows(interval, t_end, steps) * columns * CSV_VALUE
+            // a windowed or spaced pressure probe's every-step series (t and p)
+            let raw = if p.raw_series() { steps * 2.0 } else { 0.0 };
+            (rows(interval, t_end, steps) * columns + raw) * CSV_VALUE
         })
         // from +0 (an empty f64 sum is −0, printed "-0.0 B")
         .fold(0.0, |a, b| a + b);
