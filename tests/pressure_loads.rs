@@ -222,3 +222,73 @@ fn a_wall_pressure_reference_names_sensors_of_its_experiment() {
         &["reference.sensors", "at least one"],
     );
 }
+
+/// A pressure sensor with `body` rides on its moving wall: a paddle pushes into still water at
+/// 5 cm/s for 2 s (10 cm, more than the 8 cm support), and the sensor on its face reads the
+/// hydrostatic pressure at its depth under the raised level (ρ g (0.4/0.7 − 0.15) m, within
+/// 10 %), while the same sensor left where it started is inside the paddle, with no water in
+/// reach, and reads 0. A `body` that does not move, or names no wall, is an input error.
+#[test]
+fn a_sensor_on_a_moving_wall_moves_with_it() {
+    let dir = temp_dir("moving-sensor");
+    let text = std::fs::read_to_string(common::repo_path("inputs/hydrostatic_2d.toml"))
+        .unwrap()
+        .replace(
+            "min = [0.0, 0.0]\nmax = [1.0, 0.5]",
+            "min = [0.2, 0.0]\nmax = [1.0, 0.5]",
+        )
+        .replace(
+            "[reference]\nkind = \"hydrostatic\"\nsurface = 0.5\nbottom = 0.0\n",
+            "",
+        )
+        + "\n[[wall]]\nname = \"paddle\"\nshape = \"block\"\nmin = [0.12, 0.0]\nmax = [0.2, 0.7]\n\
+           method = \"dummy\"\nmotion = { law = \"constant_velocity\", velocity = [0.05, 0.0] }\n\
+           [[probe]]\nname = \"riding\"\nkind = \"pressure\"\npoint = [0.2, 0.15]\nbody = \"paddle\"\n\
+           interval = 0.01\n\
+           [[probe]]\nname = \"left\"\nkind = \"pressure\"\npoint = [0.2, 0.15]\ninterval = 0.01\n";
+    assert!(
+        text.contains("min = [0.2, 0.0]"),
+        "the fluid block moved off the paddle"
+    );
+    let scene = dir.join("paddle.toml");
+    std::fs::write(&scene, &text).unwrap();
+    let out = dir.join("run");
+    let o = hsph_out(&run_args(scene.to_str().unwrap(), &out, &["time.t_end=2.0"]));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let read = |name: &str| {
+        hsph::probes::loads::read_csv(&out.join(format!("probes/{name}.csv")), ("t", "p"), (1.0, 1.0))
+            .unwrap()
+    };
+    let (t, riding) = read("riding");
+    let (_, left) = read("left");
+    let last = |p: &[f64]| -> f64 {
+        let tail: Vec<f64> = t
+            .iter()
+            .zip(p)
+            .filter(|(t, _)| **t >= 1.8)
+            .map(|(_, p)| *p)
+            .collect();
+        tail.iter().sum::<f64>() / tail.len() as f64
+    };
+    let want = 1000.0 * 9.81 * (0.4 / 0.7 - 0.15);
+    assert!(
+        (last(&riding) / want - 1.0).abs() < 0.1,
+        "riding {} Pa, hydrostatic {want} Pa",
+        last(&riding)
+    );
+    assert_eq!(last(&left), 0.0, "the fixed sensor is 10 cm inside the paddle");
+    // at the start both read the same water
+    assert_eq!(riding[0], left[0]);
+    // a body that does not move, and one that is not a wall
+    for (body, needles) in [
+        ("tank", &["probe[1].body", "`tank` has no motion"][..]),
+        (
+            "pier",
+            &["probe[1].body", "no [[wall]] is named `pier`", "tank, paddle"][..],
+        ),
+    ] {
+        let bad = text.replace("body = \"paddle\"", &format!("body = \"{body}\""));
+        std::fs::write(&scene, bad).unwrap();
+        assert_input_error(&hsph_out(&["check", scene.to_str().unwrap()]), needles);
+    }
+}

@@ -71,6 +71,7 @@ VARIANTS = {
     "riemann_refine_2_wide": ['time.stepping="local"'],
     "riemann_refine_1_global": [],
     "riemann_refine_2_global": [],
+    "riemann_density_refine_2": ['time.stepping="local"', 'physics.pressure_gradient="symmetric"'],
 }
 
 # Variants that refine the downstream corner (docs/pressure.md §2e): an adaptive region over
@@ -84,7 +85,8 @@ REGIONS = {"riemann_refine_1": (1, None, *CORNER), "riemann_refine_1_t4": (1, 0.
            "riemann_refine_1_cfl_0.2": (1, None, *CORNER), "riemann_refine_1_cfl_0.3": (1, None, *CORNER),
            "riemann_refine_1_wide": (1, None, *WIDE),
            "riemann_refine_1_global": (1, None, *CORNER), "riemann_refine_2_wide": (2, None, *WIDE),
-           "riemann_refine_2_global": (2, None, *CORNER)}
+           "riemann_refine_2_global": (2, None, *CORNER),
+           "riemann_density_refine_2": (2, None, *CORNER)}
 
 
 THREADS = []  # ["--threads", "N"] with --threads

@@ -96,6 +96,8 @@ pub struct ProbeSet<const D: usize> {
     windows: Vec<Window>,
     /// Wall body index of each force probe (0 for the others).
     walls: Vec<u16>,
+    /// The motion of the wall each pressure sensor rides on ([`Probe::rides_on`]).
+    movers: Vec<Option<crate::boundary::motion::WallKinematics>>,
     /// Rank 0 only: one file per probe.
     files: Vec<BufWriter<File>>,
     /// Rank 0 only, one per probe: the every-step series of a [`Probe::raw_series`] probe
@@ -129,6 +131,13 @@ impl<const D: usize> ProbeSet<D> {
                     .unwrap_or(0) as u16
             })
             .collect();
+        let kinematics = crate::boundary::motion::WallKinematics::of(scene);
+        let movers = (probes.iter())
+            .map(|p| {
+                let b = p.rides_on()?;
+                kinematics.iter().find(|w| scene.walls[w.body].name == b).cloned()
+            })
+            .collect();
         let mut files = Vec::new();
         let mut raw = Vec::new();
         let pd = dir.map(|d| d.join("probes")).unwrap_or_default();
@@ -149,6 +158,7 @@ impl<const D: usize> ProbeSet<D> {
             probes,
             clocks,
             walls,
+            movers,
             files,
             raw,
             dir: pd,
@@ -234,7 +244,7 @@ impl<const D: usize> ProbeSet<D> {
     /// Sample probe `k` from `view` at time `t` (s), fold the sample into its window, and write
     /// its row if it is `due`.
     fn sample_into(&mut self, k: usize, view: &View<D>, t: f64, due: bool, output_only: bool) -> Result<()> {
-        let mut values = sample(view, &self.probes[k], self.walls[k]);
+        let mut values = sample(view, &self.placed(k, t), self.walls[k]);
         if let (false, Some(Some(f))) = (output_only, self.raw.get_mut(k)) {
             let row: Vec<String> = values.iter().map(|v| format!("{v}")).collect();
             writeln!(f, "{t},{}", row.join(",")).map_err(|e| Error::io(&self.dir, e))?;
@@ -289,6 +299,15 @@ impl<const D: usize> ProbeSet<D> {
         Ok(())
     }
 
+    /// Probe `k` where it is at time `t` (s): a sensor on a moving wall displaced with it
+    /// (rigidly: the laws translate), every other probe as the scene gives it.
+    fn placed(&self, k: usize, t: f64) -> std::borrow::Cow<'_, Probe> {
+        match &self.movers[k] {
+            Some(m) => std::borrow::Cow::Owned(self.probes[k].moved(m.at::<D>(t).0.as_slice())),
+            None => std::borrow::Cow::Borrowed(&self.probes[k]),
+        }
+    }
+
     /// The region probe `k` reads now. A force probe's box is its wall's current extent
     /// (all-reduced: walls may move) grown by the interaction reach.
     fn region(&self, k: usize, sim: &Simulation<D>, comm: &dyn Comm) -> Result<Region<D>> {
@@ -305,7 +324,7 @@ impl<const D: usize> ProbeSet<D> {
             max: hi.add_scalar(grow),
             ..everywhere
         };
-        Ok(match sensors::reach::<D>(&self.probes[k]) {
+        Ok(match sensors::reach::<D>(&self.placed(k, sim.t)) {
             Reach::Box { lo, hi, margin } => around(lo, hi, reach + margin),
             Reach::Column(at) => {
                 let mut r = around(at, at, reach);

@@ -40,6 +40,10 @@ pub enum Probe {
         /// without it).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         impulse_span: Option<f64>,
+        /// A moving wall (`[[wall]]` with a `motion`) the sensor rides on: its face moves with
+        /// the wall's displacement (a slamming body's transducers); none for a fixed sensor.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        body: Option<String>,
     },
     /// Kernel-interpolated velocity at `points` points from `from` to `to`.
     VelocityLine {
@@ -241,6 +245,24 @@ impl Probe {
         matches!(self, Probe::Pressure { window, interval, .. } if *window > 0.0 || *interval != Some(0.0))
     }
 
+    /// The moving wall a pressure probe rides on (its key `body`), if any.
+    pub fn rides_on(&self) -> Option<&str> {
+        match self {
+            Probe::Pressure { body, .. } => body.as_deref(),
+            _ => None,
+        }
+    }
+
+    /// This probe with its point moved by `shift` (m): a pressure sensor carried by its wall
+    /// ([`Probe::rides_on`]); every other probe unchanged.
+    pub fn moved(&self, shift: &[f64]) -> Probe {
+        let mut p = self.clone();
+        if let Probe::Pressure { point, .. } = &mut p {
+            point.iter_mut().zip(shift).for_each(|(x, s)| *x += s);
+        }
+        p
+    }
+
     /// A pressure probe's point (m; the centre of its face); `None` for every other kind.
     pub fn sensor_point(&self) -> Option<&[f64]> {
         match self {
@@ -368,9 +390,13 @@ fn validate_probe_kind(
             normal,
             filter,
             impulse_span,
+            body,
             ..
         } => {
             check_pressure(k, (point, *diameter, normal), d, domain)?;
+            if let Some(b) = body {
+                check_rider(k, b, t)?;
+            }
             check_load_rules(k, *filter, *impulse_span)
         }
         Probe::Gauge { point, .. } => {
@@ -558,6 +584,29 @@ fn check_hole(k: &str, plate: &str, projectile: &str, t: &ProbeTargets) -> Resul
 
 /// A force probe: its body is a wall with particles (not a mirror), its moment point a
 /// vector of the dimension.
+/// A pressure sensor's `body`: a wall of the scene that moves (it has a `motion`).
+fn check_rider(k: &str, body: &str, t: &ProbeTargets) -> Result<()> {
+    let Some(w) = t.walls.get(body) else {
+        return err(
+            format!("{k}.body"),
+            format!(
+                "no [[wall]] is named `{body}`; the walls are {}",
+                t.wall_names.shown()
+            ),
+        );
+    };
+    if w.motion.is_none() {
+        return err(
+            format!("{k}.body"),
+            format!(
+                "wall `{body}` has no motion, so a sensor on it stays where it is: leave `body` out, \
+                 or give the wall a motion, e.g. motion = {{ law = \"constant_velocity\", velocity = [0.0, -1.0] }}"
+            ),
+        );
+    }
+    Ok(())
+}
+
 fn check_force(k: &str, body: &str, about: &mut Option<Vec<f64>>, d: usize, t: &ProbeTargets) -> Result<()> {
     let Some(w) = t.walls.get(body) else {
         return err(
@@ -648,6 +697,7 @@ pub(crate) fn one_of_each(d: usize) -> Vec<Probe> {
             interval: None,
             filter: None,
             impulse_span: None,
+            body: None,
         },
         Probe::VelocityLine {
             name: "v".into(),
