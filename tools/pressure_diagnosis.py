@@ -72,6 +72,7 @@ VARIANTS = {
     "riemann_refine_1_global": [],
     "riemann_refine_2_global": [],
     "riemann_density_refine_2": ['time.stepping="local"', 'physics.pressure_gradient="symmetric"'],
+    "riemann_fine_wall_2": [],
 }
 
 # Variants that refine the downstream corner (docs/pressure.md §2e): an adaptive region over
@@ -86,18 +87,24 @@ REGIONS = {"riemann_refine_1": (1, None, *CORNER), "riemann_refine_1_t4": (1, 0.
            "riemann_refine_1_wide": (1, None, *WIDE),
            "riemann_refine_1_global": (1, None, *CORNER), "riemann_refine_2_wide": (2, None, *WIDE),
            "riemann_refine_2_global": (2, None, *CORNER),
-           "riemann_density_refine_2": (2, None, *CORNER)}
+           "riemann_density_refine_2": (2, None, *CORNER),
+           "riemann_fine_wall_2": (2, None, *CORNER)}
+# Variants whose region refines the tank's walls alone, statically (the fluid stays at dx)
+WALL_ONLY = {"riemann_fine_wall_2"}
 
 
 THREADS = []  # ["--threads", "N"] with --threads
 
 
-def scene_with_region(level, transition, x0, y1, tmp):
+def scene_with_region(level, transition, x0, y1, tmp, walls_only=False):
     """The shipped scene with a refinement region over the downstream corner, x >= x0 and y < y1
-    (m), appended and written into `tmp`."""
+    (m), appended and written into `tmp`; adaptive over the column and the tank, or with
+    `walls_only` a static refinement of the tank's walls alone."""
     text = open("inputs/dam_break_lobovsky.toml").read()
+    bodies = '["tank"]' if walls_only else '["column", "tank"]'
+    adapt = "false" if walls_only else "true"
     text += (f'\n[[refine]]\nmin = [{x0}, -0.05]\nmax = [1.66, {y1}]\nlevel = {level}\n'
-             'bodies = ["column", "tank"]\nsmoothing_length = "level"\nadapt = true\n')
+             f'bodies = {bodies}\nsmoothing_length = "level"\nadapt = {adapt}\n')
     if transition is not None:
         text += f"transition = {transition}\n"
     path = os.path.join(tmp, f"lobovsky_refine_{level}_{x0}_{y1}.toml")
@@ -162,7 +169,8 @@ def main():
             THREADS[:] = ["--threads", str(a.threads)]
         for n in names:
             out = os.path.join(a.keep or tmp, n)
-            scene = scene_with_region(*REGIONS[n], tmp) if n in REGIONS else "inputs/dam_break_lobovsky.toml"
+            scene = (scene_with_region(*REGIONS[n], tmp, walls_only=n in WALL_ONLY) if n in REGIONS
+                     else "inputs/dam_break_lobovsky.toml")
             summary, failed = run(a.hsph, a.dx, VARIANTS[n], out, scene)
             if summary is None:
                 print(f"| {n} | failed: {failed} |||||||")
