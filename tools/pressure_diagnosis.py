@@ -73,6 +73,9 @@ VARIANTS = {
     "riemann_refine_2_global": [],
     "riemann_density_refine_2": ['time.stepping="local"', 'physics.pressure_gradient="symmetric"'],
     "riemann_fine_wall_2": [],
+    "riemann_fine_wall_1": [],
+    "riemann_fine_wall_2_scene_h": [],
+    "riemann_refine_2_wall_scene_h": ['time.stepping="local"'],
 }
 
 # Variants that refine the downstream corner (docs/pressure.md §2e): an adaptive region over
@@ -88,26 +91,37 @@ REGIONS = {"riemann_refine_1": (1, None, *CORNER), "riemann_refine_1_t4": (1, 0.
            "riemann_refine_1_global": (1, None, *CORNER), "riemann_refine_2_wide": (2, None, *WIDE),
            "riemann_refine_2_global": (2, None, *CORNER),
            "riemann_density_refine_2": (2, None, *CORNER),
-           "riemann_fine_wall_2": (2, None, *CORNER)}
+           "riemann_fine_wall_2": (2, None, *CORNER), "riemann_fine_wall_1": (1, None, *CORNER),
+           "riemann_fine_wall_2_scene_h": (2, None, *CORNER),
+           "riemann_refine_2_wall_scene_h": (2, None, *CORNER)}
+# Variants whose fluid region adapts at the level's h while a second, static region refines the
+# tank's walls at the same level with the scene's h
+SPLIT_WALL = {"riemann_refine_2_wall_scene_h"}
 # Variants whose region refines the tank's walls alone, statically (the fluid stays at dx)
-WALL_ONLY = {"riemann_fine_wall_2"}
+WALL_ONLY = {"riemann_fine_wall_2", "riemann_fine_wall_1", "riemann_fine_wall_2_scene_h"}
+# Variants whose refined particles keep the scene's h (smoothing_length = "scene")
+SCENE_H = {"riemann_fine_wall_2_scene_h"}
 
 
 THREADS = []  # ["--threads", "N"] with --threads
 
 
-def scene_with_region(level, transition, x0, y1, tmp, walls_only=False):
+def scene_with_region(level, transition, x0, y1, tmp, walls_only=False, scene_h=False, split_wall=False):
     """The shipped scene with a refinement region over the downstream corner, x >= x0 and y < y1
     (m), appended and written into `tmp`; adaptive over the column and the tank, or with
     `walls_only` a static refinement of the tank's walls alone."""
     text = open("inputs/dam_break_lobovsky.toml").read()
     bodies = '["tank"]' if walls_only else '["column", "tank"]'
     adapt = "false" if walls_only else "true"
+    if split_wall:
+        bodies = '["column"]'
+        text += (f'\n[[refine]]\nmin = [{x0}, -0.05]\nmax = [1.66, {y1}]\nlevel = {level}\n'
+                 'bodies = ["tank"]\nsmoothing_length = "scene"\nadapt = false\n')
     text += (f'\n[[refine]]\nmin = [{x0}, -0.05]\nmax = [1.66, {y1}]\nlevel = {level}\n'
-             f'bodies = {bodies}\nsmoothing_length = "level"\nadapt = {adapt}\n')
+             f'bodies = {bodies}\nsmoothing_length = "{"scene" if scene_h else "level"}"\nadapt = {adapt}\n')
     if transition is not None:
         text += f"transition = {transition}\n"
-    path = os.path.join(tmp, f"lobovsky_refine_{level}_{x0}_{y1}.toml")
+    path = os.path.join(tmp, f"lobovsky_refine_{level}_{x0}_{y1}_{bodies.count(',')}_{scene_h}_{split_wall}.toml")
     open(path, "w").write(text)
     return path
 
@@ -169,7 +183,9 @@ def main():
             THREADS[:] = ["--threads", str(a.threads)]
         for n in names:
             out = os.path.join(a.keep or tmp, n)
-            scene = (scene_with_region(*REGIONS[n], tmp, walls_only=n in WALL_ONLY) if n in REGIONS
+            scene = (scene_with_region(*REGIONS[n], tmp, walls_only=n in WALL_ONLY, scene_h=n in SCENE_H,
+                                       split_wall=n in SPLIT_WALL)
+                     if n in REGIONS
                      else "inputs/dam_break_lobovsky.toml")
             summary, failed = run(a.hsph, a.dx, VARIANTS[n], out, scene)
             if summary is None:
