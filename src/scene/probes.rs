@@ -582,20 +582,22 @@ fn check_hole(k: &str, plate: &str, projectile: &str, t: &ProbeTargets) -> Resul
     Ok(())
 }
 
-/// A force probe: its body is a wall with particles (not a mirror), its moment point a
-/// vector of the dimension.
-/// A pressure sensor's `body`: a wall of the scene that moves (it has a `motion`).
-fn check_rider(k: &str, body: &str, t: &ProbeTargets) -> Result<()> {
-    let Some(w) = t.walls.get(body) else {
-        return err(
+/// The wall a probe's `{k}.body` names, or an input error listing the walls.
+fn named_wall<'t>(k: &str, body: &str, t: &ProbeTargets<'t>) -> Result<&'t WallBody> {
+    t.walls.get(body).copied().ok_or_else(|| {
+        crate::error::Error::input(
             format!("{k}.body"),
             format!(
                 "no [[wall]] is named `{body}`; the walls are {}",
                 t.wall_names.shown()
             ),
-        );
-    };
-    if w.motion.is_none() {
+        )
+    })
+}
+
+/// A pressure sensor's `body`: a wall of the scene that moves (it has a `motion`).
+fn check_rider(k: &str, body: &str, t: &ProbeTargets) -> Result<()> {
+    if named_wall(k, body, t)?.motion.is_none() {
         return err(
             format!("{k}.body"),
             format!(
@@ -607,16 +609,10 @@ fn check_rider(k: &str, body: &str, t: &ProbeTargets) -> Result<()> {
     Ok(())
 }
 
+/// A force probe: its body is a wall with particles (not a mirror), its moment point a
+/// vector of the dimension.
 fn check_force(k: &str, body: &str, about: &mut Option<Vec<f64>>, d: usize, t: &ProbeTargets) -> Result<()> {
-    let Some(w) = t.walls.get(body) else {
-        return err(
-            format!("{k}.body"),
-            format!(
-                "no [[wall]] is named `{body}`; the walls are {}",
-                t.wall_names.shown()
-            ),
-        );
-    };
+    let w = named_wall(k, body, t)?;
     if w.method.makes_images() {
         return err(
             format!("{k}.body"),
