@@ -447,10 +447,13 @@ pub struct NeighbourList {
     /// Support radius squared (m²) of the last build.
     r2max: f64,
     /// Particles of several smoothing lengths: half the kernel support per unit h (κ/2), 0 in
-    /// a scene of one h. A pair of several sizes is listed only within its own support,
-    /// |x_ij| < κ (h_i + h_j)/2 (the support of its mean-h kernel), so a fine particle's list
-    /// does not hold the coarse support's candidates (docs/refinement.md §1).
+    /// a scene of one h (κ with the larger h of a pair). A pair of several sizes is listed only
+    /// within its own support ([`pair_reach`]): |x_ij| < r_i + r_j = κ (h_i + h_j)/2 for the
+    /// mean h, |x_ij| < max(r_i, r_j) = κ max(h_i, h_j) for the larger, so a fine particle's
+    /// list does not hold the coarse support's candidates (docs/refinement.md §1).
     reach_per_h: f64,
+    /// True if a pair's reach is the larger of its two reaches (`with_sizes`), not their sum.
+    reach_larger: bool,
     /// κ h_i / 2 of every particle in cell order (like `xs`; empty in a scene of one h).
     reach: Vec<f64>,
     /// Sub-cells of the occupied cells (particles of several sizes, stored lists): a fine
@@ -580,7 +583,7 @@ fn scan_row<const D: usize, const MODE: u8, const SIZED: bool>(
     ord: &[u32],
     xr: &[f64],
     fr: &[u8],
-    (ri, rr): (f64, &[f64]),
+    (ri, rr, larger): (f64, &[f64], bool),
 ) {
     // branch-free append: write every candidate, advance on a hit
     let w = list.len();
@@ -596,7 +599,7 @@ fn scan_row<const D: usize, const MODE: u8, const SIZED: bool>(
         }
         let ju = j as usize;
         let near = if SIZED {
-            let s = ri + rr[k];
+            let s = pair_reach(ri, rr[k], larger);
             d2 < s * s
         } else {
             d2 < r2max
@@ -611,6 +614,17 @@ fn scan_row<const D: usize, const MODE: u8, const SIZED: bool>(
     list.truncate(w + m);
 }
 
+/// The reach (m) within which a pair of particles of reaches `ri`, `rj` (m) is listed: their
+/// sum, or with `larger` the larger of the two.
+#[inline(always)]
+pub(crate) fn pair_reach(ri: f64, rj: f64, larger: bool) -> f64 {
+    if larger {
+        ri.max(rj)
+    } else {
+        ri + rj
+    }
+}
+
 /// Append particle i's neighbours (`want`: all, or fluid only) to `list`, scanning its
 /// stencil rows; `view` is the build's cell-order copy (positions, fluid flags, fluid counts
 /// per cell, κh per particle when h varies).
@@ -622,7 +636,7 @@ fn list_particle<const D: usize>(
     p: &Particles<D>,
     i: usize,
     want: Wants,
-    (xs, fluid, fluid_before, reach): (&[f64], &[u8], &[u32], &[f64]),
+    (xs, fluid, fluid_before, reach, larger): (&[f64], &[u8], &[u32], &[f64], bool),
     r2max: f64,
 ) {
     let sized = !reach.is_empty();
@@ -642,8 +656,8 @@ fn list_particle<const D: usize>(
         }
         let (ord, xr, fr) = (&cells.order[s..e], &xs[s * D..e * D], &fluid[s..e]);
         let r = match sized {
-            true => (reach[cells.slot[i] as usize], &reach[s..e]),
-            false => (0.0, reach),
+            true => (reach[cells.slot[i] as usize], &reach[s..e], larger),
+            false => (0.0, reach, larger),
         };
         match (want, sized) {
             (Wants::All, false) => scan_row::<D, ALL, false>(list, &xa, i, r2max, ord, xr, fr, r),
@@ -689,16 +703,22 @@ impl NeighbourList {
             self.build_half(any_half, grid, cells, p);
             return;
         }
-        let (xs, fluid, fluid_before, reach) = (
+        let (xs, fluid, fluid_before, reach, larger) = (
             &self.xs[..],
             &self.fluid[..],
             &self.fluid_before[..],
             &self.reach[..],
+            self.reach_larger,
         );
         if reach.is_empty() || self.no_sub_cells {
             self.sub = Default::default();
         } else {
-            let copy = sized::Copy { xs, fluid, reach };
+            let copy = sized::Copy {
+                xs,
+                fluid,
+                reach,
+                larger,
+            };
             self.sub.build(grid, cells, &copy);
         }
         let sub = &self.sub;
@@ -733,7 +753,12 @@ impl NeighbourList {
                         xa.copy_from_slice(&xs[k * D..k * D + D]);
                         let c = grid.coords_of(cells.cell[i] as usize);
                         let w = list.len();
-                        let copy = sized::Copy { xs, fluid, reach };
+                        let copy = sized::Copy {
+                            xs,
+                            fluid,
+                            reach,
+                            larger,
+                        };
                         sub.list(list, &copy, grid, &c, k, &xa, reach[k], want == Wants::Fluid);
                         list[w..].iter_mut().for_each(|s| *s = cells.order[*s as usize]);
                         continue;
@@ -745,7 +770,7 @@ impl NeighbourList {
                         p,
                         i,
                         want,
-                        (xs, fluid, fluid_before, reach),
+                        (xs, fluid, fluid_before, reach, larger),
                         r2max,
                     );
                 }
@@ -842,6 +867,7 @@ impl NeighbourList {
             lean: self.lean,
             within2: self.within2,
             reach_per_h: self.reach_per_h,
+            reach_larger: self.reach_larger,
             no_sub_cells: self.no_sub_cells,
             ..Default::default()
         };
@@ -857,9 +883,12 @@ impl NeighbourList {
     }
 
     /// Lists for particles of several smoothing lengths (`Particles::h`): a pair is kept
-    /// within its own support κ (h_i + h_j)/2; `half_support_per_h` = κ/2.
-    pub fn with_sizes(mut self, half_support_per_h: f64) -> Self {
-        self.reach_per_h = half_support_per_h;
+    /// within [`pair_reach`] of r_i = `reach_per_h` h_i and r_j, the sum (`larger` false) or
+    /// the larger: κ/2 and the sum for the support κ (h_i + h_j)/2 of the mean h, κ and the
+    /// larger for κ max(h_i, h_j) ([`crate::kernel::sizes::PairH`]).
+    pub fn with_sizes(mut self, reach_per_h: f64, larger: bool) -> Self {
+        self.reach_per_h = reach_per_h;
+        self.reach_larger = larger;
         self
     }
 
@@ -1052,7 +1081,10 @@ impl<const D: usize> Iterator for ScanIter<'_, D> {
                 let j = order[k];
                 let ju = j as usize;
                 let near = match nl.reach.get(k) {
-                    Some(r) => d2 < (self.ri + r) * (self.ri + r),
+                    Some(&r) => {
+                        let s = pair_reach(self.ri, r, nl.reach_larger);
+                        d2 < s * s
+                    }
                     None => d2 < nl.r2max,
                 };
                 let keep = match self.mode {

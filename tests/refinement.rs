@@ -247,13 +247,25 @@ fn dam(h: &str) -> Scene {
     load_scene_str(&text, &path, "dam_break_2d", &sets).unwrap().0
 }
 
+/// A refined dam break gives the same bits on any layout, with stored lists, the list-free scan
+/// and pair mode, for the scene's h, the level's h and the level's h with pairs of the larger h
+/// (`pair_h = "max"`, whose lists keep a pair within κ max(h_i, h_j); its bits differ from the
+/// mean h's, so the key is read).
 #[test]
 fn a_refined_run_gives_the_same_bits_on_any_layout() {
-    for h in ["level", "scene"] {
-        let s = dam(h);
+    let mut finals = Vec::new();
+    for (h, larger) in [("level", false), ("scene", false), ("level", true)] {
+        let mut s = dam(h);
+        let h = if larger {
+            s.discretisation.pair_h = hsph::kernel::sizes::PairH::Max;
+            "level-max"
+        } else {
+            h
+        };
         let base = common::run_layout(&s, 1, 1, &format!("refined-{h}-1"));
         let read = |d: &Path, f: &str| std::fs::read(d.join(f)).unwrap();
         let fin = read(&base, "final.csv");
+        finals.push(fin.clone());
         // columns id,kind,body,level: a fluid and a wall particle of level 1
         let text = String::from_utf8_lossy(&fin);
         for kind in ["0", "1"] {
@@ -296,6 +308,7 @@ fn a_refined_run_gives_the_same_bits_on_any_layout() {
             );
         }
     }
+    assert!(finals[0] != finals[2], "pair_h = \"max\" gave the mean h's bits");
 }
 
 /// The same fact in 3D, without walls or gravity: the periodic box with a sphere of the level's
@@ -696,6 +709,37 @@ fn the_level_h_warning_names_the_region_under_hydrostatic_pressure() {
         "{tank:?}"
     );
     assert!(warn("inputs/poiseuille_2d_refined.toml", &[]).is_empty());
+}
+
+/// `hsph check` warns of walls refined with their level's h and no fluid with them (the
+/// Lobovsky tank's walls refined alone read the run-up's load 14–19 % low, docs/pressure.md
+/// §2e), and not when the walls keep the scene's h, the fluid is refined with them, or pairs
+/// take the larger h.
+#[test]
+fn the_wall_h_warning_names_walls_refined_finer_than_the_fluid() {
+    let path = common::repo_path("inputs/dam_break_lobovsky.toml");
+    let base = std::fs::read_to_string(&path).unwrap();
+    let warn = |bodies: &str, h: &str, sets: &[&str]| {
+        let text = format!(
+            "{base}\n[[refine]]\nmin = [1.46, -0.05]\nmax = [1.66, 0.2]\nlevel = 2\nbodies = {bodies}\n\
+             smoothing_length = \"{h}\"\n"
+        );
+        let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+        let s = load_scene_str(&text, &path, "scene", &sets).unwrap().0;
+        hsph::scene::refine::wall_h_warnings(&s)
+    };
+    let w = warn("[\"tank\"]", "level", &[]);
+    assert!(
+        w.len() == 1 && w[0].starts_with("refine[0] gives wall `tank` its level's h"),
+        "{w:?}"
+    );
+    assert!(
+        w[0].contains("pair_h = \"max\"") && w[0].contains("14-19 % low"),
+        "{w:?}"
+    );
+    assert!(warn("[\"tank\"]", "scene", &[]).is_empty());
+    assert!(warn("[\"column\", \"tank\"]", "level", &[]).is_empty());
+    assert!(warn("[\"tank\"]", "level", &["discretisation.pair_h=\"max\""]).is_empty());
 }
 
 /// Poiseuille start-up with refined bands along both plates (`inputs/poiseuille_2d_refined.toml`,

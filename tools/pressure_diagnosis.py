@@ -77,6 +77,10 @@ VARIANTS = {
     "riemann_fine_wall_2_scene_h": [],
     "riemann_refine_2_wall_scene_h": ['time.stepping="local"'],
     "riemann_refine_2_scene_h": [],
+    "riemann_fine_wall_2_max": ['discretisation.pair_h="max"'],
+    "riemann_refine_2_max": ['time.stepping="local"', 'discretisation.pair_h="max"'],
+    "riemann_refine_2_global_max": ['discretisation.pair_h="max"'],
+    "difference_refine_2_global": ['physics.pressure_gradient="difference"'],
 }
 
 # Variants that refine the downstream corner (docs/pressure.md §2e): an adaptive region over
@@ -95,12 +99,15 @@ REGIONS = {"riemann_refine_1": (1, None, *CORNER), "riemann_refine_1_t4": (1, 0.
            "riemann_fine_wall_2": (2, None, *CORNER), "riemann_fine_wall_1": (1, None, *CORNER),
            "riemann_fine_wall_2_scene_h": (2, None, *CORNER),
            "riemann_refine_2_wall_scene_h": (2, None, *CORNER),
-           "riemann_refine_2_scene_h": (2, None, *CORNER)}
+           "riemann_refine_2_scene_h": (2, None, *CORNER),
+           "riemann_fine_wall_2_max": (2, None, *CORNER), "riemann_refine_2_max": (2, None, *CORNER),
+           "riemann_refine_2_global_max": (2, None, *CORNER),
+           "difference_refine_2_global": (2, None, *CORNER)}
 # Variants whose fluid region adapts at the level's h while a second, static region refines the
 # tank's walls at the same level with the scene's h
 SPLIT_WALL = {"riemann_refine_2_wall_scene_h"}
 # Variants whose region refines the tank's walls alone, statically (the fluid stays at dx)
-WALL_ONLY = {"riemann_fine_wall_2", "riemann_fine_wall_1", "riemann_fine_wall_2_scene_h"}
+WALL_ONLY = {"riemann_fine_wall_2", "riemann_fine_wall_1", "riemann_fine_wall_2_scene_h", "riemann_fine_wall_2_max"}
 # Variants whose refined particles keep the scene's h (smoothing_length = "scene")
 SCENE_H = {"riemann_fine_wall_2_scene_h", "riemann_refine_2_scene_h"}
 

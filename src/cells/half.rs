@@ -418,7 +418,10 @@ impl<'a, const D: usize> HalfView<'a, D> {
         }
         let both = fa | fb;
         let near = match self.nl.reach.get(t) {
-            Some(r) => d2 < (ra + r) * (ra + r),
+            Some(&r) => {
+                let s = super::pair_reach(ra, r, self.nl.reach_larger);
+                d2 < s * s
+            }
             None => d2 < self.nl.r2max,
         };
         near & (fb & ELIGIBLE != 0) & (both & FLUID != 0) & (both & OWNED != 0)

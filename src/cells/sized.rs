@@ -63,6 +63,8 @@ pub(super) struct Copy<'a> {
     pub xs: &'a [f64],
     pub fluid: &'a [u8],
     pub reach: &'a [f64],
+    /// A pair's reach is the larger of its two (`NeighbourList::with_sizes`), not their sum.
+    pub larger: bool,
 }
 
 impl SubCells {
@@ -323,7 +325,7 @@ fn scan_slots<const D: usize>(
             d2 += d * d;
         }
         let k = q as u32;
-        let sum = ri + copy.reach[q];
+        let sum = super::pair_reach(ri, copy.reach[q], copy.larger);
         let keep = (d2 < sum * sum) & (k as usize != ki) & (!fluid_only | (copy.fluid[q] != 0));
         out[m] = k;
         m += keep as usize;

@@ -159,7 +159,7 @@ fn normalisation(kind: KernelKind, h: f64, dim: usize) -> f64 {
 /// (1/r) dW/dr (m⁻ᴰ⁻²) of [`BATCH`] pairs of one kernel family, each of its own smoothing
 /// length `h[n]` (m), at squared separations `r2[n]` (m²), into `out`: for each, to the bit what
 /// `Kernel::new(kind, h[n], dim).dw_dr_over_r(r2[n].sqrt())` gives (the same operations in
-/// the same order). The pairs of two sizes (`sizes::MeanH`) made a kernel per pair, two
+/// the same order). The pairs of two sizes (`sizes::VariedH`) made a kernel per pair, two
 /// divisions each, one pair at a time: in the adaptive solitary wave with a 0.96 m band, where
 /// most pairs mix two h, that was 18 % of the run (docs/benchmark-log.md, "The kernels of pairs of
 /// two sizes side by side"). Here the lanes are computed side by side for Wendland C2, whose

@@ -116,7 +116,7 @@ impl Scene {
 /// Every set-up warning of a scene: the lattice's (settings outside their tested range,
 /// uncoupled bodies that touch, bodies built off their scene size) and the refinement
 /// regions' (particles that list thousands of neighbours, fine particles under a level-h
-/// pressure jump, regions that refine nothing) and step counts that local time stepping
+/// pressure jump, walls of a smaller h than the fluid beside them, regions that refine nothing) and step counts that local time stepping
 /// cannot honour (an odd `checkpoint.every_steps` or `time.max_steps`) and pressure sensors
 /// that read the discretisation (a face narrower than dx, a corner within one support) and
 /// meshes whose surface crosses itself.
@@ -124,6 +124,7 @@ pub fn warnings<const D: usize>(s: &Scene) -> Vec<String> {
     let mut out = lattice::scene_warnings::<D>(s);
     out.extend(refine::list_warnings(s));
     out.extend(refine::level_h_warnings(s));
+    out.extend(refine::wall_h_warnings(s));
     out.extend(refine::region_warnings::<D>(s));
     out.extend(validate::stepping_warnings(s));
     out.extend(probes::sensor_warnings(s));
@@ -458,6 +459,12 @@ pub struct Discretisation {
     /// regions, where the lattices of two sizes leave it non-zero.
     #[serde(default)]
     pub relax: u32,
+    /// The smoothing length of a pair of particles of two sizes (`[[refine]]` regions with
+    /// their level's h): `mean` (the default, (h_i + h_j)/2) or `max` (the larger, which keeps
+    /// a coarse particle's support whole beside finer ones: walls finer than the fluid then
+    /// hold it back as at one size, docs/pressure.md §2e). Read only where h varies.
+    #[serde(default, skip_serializing_if = "crate::kernel::sizes::PairH::is_mean")]
+    pub pair_h: crate::kernel::sizes::PairH,
 }
 
 impl Discretisation {

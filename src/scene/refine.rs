@@ -355,6 +355,33 @@ pub fn list_warnings(s: &Scene) -> Vec<String> {
         .collect()
 }
 
+/// Warnings for regions that give dummy walls their level's h and no fluid its own: a fluid
+/// particle beside them keeps the scene's h, and a pair of the mean h (the default
+/// `discretisation.pair_h`) sees the wall over a support shrunk toward the wall's h, so the wall
+/// holds the fluid back less (docs/pressure.md §2e: the run-up's load 14–19 % low beside the
+/// Lobovsky tank's walls refined to level 2, half that at level 1).
+pub fn wall_h_warnings(s: &Scene) -> Vec<String> {
+    if !s.discretisation.pair_h.is_mean() {
+        return Vec::new();
+    }
+    (s.refine.iter().enumerate())
+        .filter(|(_, r)| r.smoothing_length == RegionH::Level && r.level > 0)
+        .filter(|(_, r)| !s.fluids.iter().any(|f| r.applies_to(&f.name)))
+        .filter_map(|(k, r)| {
+            let wall = s.walls.iter().find(|w| r.applies_to(&w.name))?;
+            Some(format!(
+                "refine[{k}] gives wall `{}` its level's h (smoothing_length = \"level\") and no fluid \
+                 its own: the fluid beside it keeps a larger h, and a pair of the mean h sees the wall \
+                 over a support shrunk toward the wall's, so the wall holds the fluid back less (the \
+                 run-up's load at the Lobovsky tank's walls refined to level 2 read 14-19 % low, \
+                 docs/pressure.md §2e); give the walls the scene's h (smoothing_length = \"scene\", \
+                 which read as unrefined at a tenth of the time) or set discretisation.pair_h = \"max\"",
+                wall.name
+            ))
+        })
+        .collect()
+}
+
 /// Transition width, in kernel supports, that kept the adaptive solitary wave's still level
 /// (docs/validation.md §7); [`level_h_warnings`] advises it to narrower bands.
 const STILL_BAND_SUPPORTS: f64 = 4.0;
@@ -523,8 +550,10 @@ pub fn finest_h(s: &Scene) -> u32 {
 /// The particle sizes of a scene with refinement regions (`None` without).
 pub fn sizes(s: &Scene) -> Option<crate::kernel::sizes::Sizes> {
     let d = &s.discretisation;
-    (!s.refine.is_empty())
-        .then(|| crate::kernel::sizes::Sizes::new(d.kernel, d.dx, d.h_over_dx, finest_h(s) as u16))
+    (!s.refine.is_empty()).then(|| {
+        crate::kernel::sizes::Sizes::new(d.kernel, d.dx, d.h_over_dx, finest_h(s) as u16)
+            .with_pair_h(d.pair_h)
+    })
 }
 
 /// The sizes the initial split weighs sites with under `balance.load = "pairs"` (a site's

@@ -341,12 +341,15 @@ impl<const D: usize> Simulation<D> {
         // of stored lists through sub-cells about as wide as the smallest pair support; the
         // lean scan keeps the sub-cell order of the cells (not their tables), so that its
         // pairs come in the stored lists' order and give their bits
-        let half_support_per_h = 0.5 * model.kernel.support / model.kernel.h;
+        let support_per_h = model.kernel.support / model.kernel.h;
         let (nl, cells) = match model.sizes.as_ref().filter(|z| z.varies_h) {
-            Some(z) => (
-                nl.with_sizes(half_support_per_h),
-                CellList::with_sub_cells(&grid, half_support_per_h * z.smallest_h()),
-            ),
+            Some(z) => {
+                let reach_per_h = z.pair_h.reach_per_support() * support_per_h;
+                (
+                    nl.with_sizes(reach_per_h, z.pair_h == crate::kernel::sizes::PairH::Max),
+                    CellList::with_sub_cells(&grid, reach_per_h * z.smallest_h()),
+                )
+            }
             None => (nl, CellList::default()),
         };
         let build_fields = crate::physics::passes::build_fields(&schedule(&model));
