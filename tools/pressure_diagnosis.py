@@ -135,6 +135,19 @@ def scene_with_region(level, transition, x0, y1, tmp, walls_only=False, scene_h=
     return path
 
 
+def with_surge_probes(scene, tmp, name):
+    """`scene` with gauges and velocity lines (every 2.5 ms) at x = 1.40, 1.50, 1.58 m, the
+    surge's depth and speed before and inside the corner region, written into `tmp`."""
+    text = open(scene).read()
+    for k, x in enumerate((1.40, 1.50, 1.58)):
+        text += (f'\n[[probe]]\nname = "G{k}"\nkind = "gauge"\npoint = [{x}, 0.0]\ninterval = 0.0025\n'
+                 f'\n[[probe]]\nname = "U{k}"\nkind = "velocity_line"\nfrom = [{x}, 0.0025]\n'
+                 f'to = [{x}, 0.0475]\npoints = 10\ninterval = 0.0025\n')
+    path = os.path.join(tmp, f"surge_{name}.toml")
+    open(path, "w").write(text)
+    return path
+
+
 def loads_of_experiment(hsph, column, lo, hi):
     out = subprocess.run([hsph, "loads", EXPERIMENT, "--time", "tstar", "--column", column,
                           "--time-scale", repr(TS), "--scale", repr(PS), "--impulse-span", repr(SPAN),
@@ -173,6 +186,9 @@ def main():
     ap.add_argument("--keep", metavar="DIR", help="keep each variant's run in DIR/<variant> (default: a temporary "
                     "directory, removed at the end)")
     ap.add_argument("--threads", type=int, help="passed to hsph run")
+    ap.add_argument("--surge-probes", action="store_true", help="add gauges and velocity lines where the "
+                    "surge enters the corner region (x = 1.40, 1.50, 1.58 m): its depth and speed in "
+                    "probes/G*.csv and probes/U*.csv")
     ap.add_argument("variants", nargs="*", help=f"default: all of {', '.join(VARIANTS)}")
     a = ap.parse_args()
     names = a.variants or list(VARIANTS)
@@ -196,6 +212,8 @@ def main():
                                        split_wall=n in SPLIT_WALL)
                      if n in REGIONS
                      else "inputs/dam_break_lobovsky.toml")
+            if a.surge_probes:
+                scene = with_surge_probes(scene, tmp, n)
             summary, failed = run(a.hsph, a.dx, VARIANTS[n], out, scene)
             if summary is None:
                 print(f"| {n} | failed: {failed} |||||||")
