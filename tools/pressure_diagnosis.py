@@ -81,6 +81,7 @@ VARIANTS = {
     "riemann_refine_2_max": ['time.stepping="local"', 'discretisation.pair_h="max"'],
     "riemann_refine_2_global_max": ['discretisation.pair_h="max"'],
     "difference_refine_2_global": ['physics.pressure_gradient="difference"'],
+    "riemann_refine_2_tall_global": [],
 }
 
 # Variants that refine the downstream corner (docs/pressure.md §2e): an adaptive region over
@@ -89,6 +90,7 @@ VARIANTS = {
 # name: (level, transition in m or None, region's upstream x in m, region's top y in m)
 CORNER = (1.46, 0.2)
 WIDE = (1.06, 0.45)
+TALL = (1.46, 0.8)   # the corner region, its top face above the run-up
 REGIONS = {"riemann_refine_1": (1, None, *CORNER), "riemann_refine_1_t4": (1, 0.052, *CORNER),
            "riemann_refine_2": (2, None, *CORNER),
            "riemann_refine_1_cfl_0.2": (1, None, *CORNER), "riemann_refine_1_cfl_0.3": (1, None, *CORNER),
@@ -102,7 +104,8 @@ REGIONS = {"riemann_refine_1": (1, None, *CORNER), "riemann_refine_1_t4": (1, 0.
            "riemann_refine_2_scene_h": (2, None, *CORNER),
            "riemann_fine_wall_2_max": (2, None, *CORNER), "riemann_refine_2_max": (2, None, *CORNER),
            "riemann_refine_2_global_max": (2, None, *CORNER),
-           "difference_refine_2_global": (2, None, *CORNER)}
+           "difference_refine_2_global": (2, None, *CORNER),
+           "riemann_refine_2_tall_global": (2, None, *TALL)}
 # Variants whose fluid region adapts at the level's h while a second, static region refines the
 # tank's walls at the same level with the scene's h
 SPLIT_WALL = {"riemann_refine_2_wall_scene_h"}
