@@ -82,6 +82,7 @@ VARIANTS = {
     "riemann_refine_2_global_max": ['discretisation.pair_h="max"'],
     "difference_refine_2_global": ['physics.pressure_gradient="difference"'],
     "riemann_refine_2_tall_global": [],
+    "riemann_refine_2_global_h2": ["discretisation.h_over_dx=2.0"],
 }
 
 # Variants that refine the downstream corner (docs/pressure.md §2e): an adaptive region over
@@ -105,7 +106,8 @@ REGIONS = {"riemann_refine_1": (1, None, *CORNER), "riemann_refine_1_t4": (1, 0.
            "riemann_fine_wall_2_max": (2, None, *CORNER), "riemann_refine_2_max": (2, None, *CORNER),
            "riemann_refine_2_global_max": (2, None, *CORNER),
            "difference_refine_2_global": (2, None, *CORNER),
-           "riemann_refine_2_tall_global": (2, None, *TALL)}
+           "riemann_refine_2_tall_global": (2, None, *TALL),
+           "riemann_refine_2_global_h2": (2, None, *CORNER)}
 # Variants whose fluid region adapts at the level's h while a second, static region refines the
 # tank's walls at the same level with the scene's h
 SPLIT_WALL = {"riemann_refine_2_wall_scene_h"}
