@@ -625,6 +625,26 @@ pub(crate) fn pair_reach(ri: f64, rj: f64, larger: bool) -> f64 {
     }
 }
 
+/// Append particle i's neighbours (fluid ones only with `fluid_only`) through the sub-cells
+/// `sub` of `cells`, as particle indices (`copy`: the build's cell-order copy).
+fn list_by_sub_cells<const D: usize>(
+    list: &mut Vec<u32>,
+    sub: &sized::SubCells,
+    copy: &sized::Copy,
+    grid: &CellGrid<D>,
+    cells: &CellList,
+    i: usize,
+    fluid_only: bool,
+) {
+    let k = cells.slot[i] as usize;
+    let mut xa = [0.0f64; D];
+    xa.copy_from_slice(&copy.xs[k * D..k * D + D]);
+    let c = grid.coords_of(cells.cell[i] as usize);
+    let w = list.len();
+    sub.list(list, copy, grid, &c, k, &xa, copy.reach[k], fluid_only);
+    list[w..].iter_mut().for_each(|s| *s = cells.order[*s as usize]);
+}
+
 /// Append particle i's neighbours (`want`: all, or fluid only) to `list`, scanning its
 /// stencil rows; `view` is the build's cell-order copy (positions, fluid flags, fluid counts
 /// per cell, κh per particle when h varies).
@@ -710,15 +730,15 @@ impl NeighbourList {
             &self.reach[..],
             self.reach_larger,
         );
+        let copy = sized::Copy {
+            xs,
+            fluid,
+            reach,
+            larger,
+        };
         if reach.is_empty() || self.no_sub_cells {
             self.sub = Default::default();
         } else {
-            let copy = sized::Copy {
-                xs,
-                fluid,
-                reach,
-                larger,
-            };
             self.sub.build(grid, cells, &copy);
         }
         let sub = &self.sub;
@@ -748,19 +768,7 @@ impl NeighbourList {
                     // a particle of the largest reach reaches the whole stencil: the row scan
                     // lists the same neighbours with less overhead per cell
                     if sub.split() > 0 && reach[cells.slot[i] as usize] < sub.largest_reach() {
-                        let k = cells.slot[i] as usize;
-                        let mut xa = [0.0f64; D];
-                        xa.copy_from_slice(&xs[k * D..k * D + D]);
-                        let c = grid.coords_of(cells.cell[i] as usize);
-                        let w = list.len();
-                        let copy = sized::Copy {
-                            xs,
-                            fluid,
-                            reach,
-                            larger,
-                        };
-                        sub.list(list, &copy, grid, &c, k, &xa, reach[k], want == Wants::Fluid);
-                        list[w..].iter_mut().for_each(|s| *s = cells.order[*s as usize]);
+                        list_by_sub_cells(list, sub, &copy, grid, cells, i, want == Wants::Fluid);
                         continue;
                     }
                     list_particle(

@@ -487,6 +487,44 @@ smoothing_length = "level"
     assert!(!sim.halo.is_empty(), "the scene must make ghosts");
 }
 
+/// Pair mode's half lists of particles of several sizes `walls` (walls list fluid, fluid lists
+/// halves) equal the brute-force oracle's pairs within each pair's support `within(h_i, h_j)`,
+/// each under its lower slot, ascending, wall–wall pairs left out.
+fn check_half_lists<const D: usize>(
+    nl: &mut NeighbourList,
+    grid: &CellGrid<D>,
+    cells: &CellList,
+    walls: &Particles<D>,
+    support: f64,
+    within: &dyn Fn(f64, f64) -> f64,
+) {
+    let half = |i: usize| {
+        if walls.kind[i].is_fluid() {
+            Wants::Half
+        } else {
+            Wants::Fluid
+        }
+    };
+    nl.build(grid, cells, walls, support, half);
+    let ha = nl.half(grid, cells).unwrap();
+    let order = ha.order();
+    let mut listed = 0;
+    for k in 0..ha.slots() {
+        let i = order[k] as usize;
+        let expect: Vec<u32> = (k as u32 + 1..order.len() as u32)
+            .filter(|&t| {
+                let j = order[t as usize] as usize;
+                let fluid = walls.kind[i].is_fluid() || walls.kind[j].is_fluid();
+                fluid && (walls.x[i] - walls.x[j]).norm() < within(walls.h[i], walls.h[j])
+            })
+            .collect();
+        let got: Vec<u32> = ha.stored(k).unwrap().collect();
+        assert_eq!(got, expect, "{D}D: half list of slot {k}");
+        listed += expect.len();
+    }
+    assert!(listed > 0, "{D}D: half lists built");
+}
+
 /// Particles of several smoothing lengths (issue 35): with `with_sizes(κ/2, false)` a pair is
 /// listed only within its own support κ (h_i + h_j)/2, the support of its mean-h kernel, and
 /// with `with_sizes(κ, true)` within κ max(h_i, h_j), that of the larger h's
@@ -552,34 +590,7 @@ fn lists_of_several_sizes_keep_each_pair_within_its_own_support() {
             }
         }
         assert!(fluid_only > 0, "{D}D: some wall neighbour was left out");
-        // pair mode's half lists of particles of several sizes (walls list fluid, fluid lists
-        // halves): the pairs of the oracle within each pair's own support, each under its
-        // lower slot, ascending, wall–wall pairs left out
-        let half = |i: usize| {
-            if walls.kind[i].is_fluid() {
-                Wants::Half
-            } else {
-                Wants::Fluid
-            }
-        };
-        a.build(&grid, &cells, &walls, support, half);
-        let ha = a.half(&grid, &cells).unwrap();
-        let order = ha.order();
-        let mut listed = 0;
-        for k in 0..ha.slots() {
-            let i = order[k] as usize;
-            let expect: Vec<u32> = (k as u32 + 1..order.len() as u32)
-                .filter(|&t| {
-                    let j = order[t as usize] as usize;
-                    let fluid = walls.kind[i].is_fluid() || walls.kind[j].is_fluid();
-                    fluid && (p.x[i] - p.x[j]).norm() < within(p.h[i], p.h[j])
-                })
-                .collect();
-            let got: Vec<u32> = ha.stored(k).unwrap().collect();
-            assert_eq!(got, expect, "{D}D: half list of slot {k}");
-            listed += expect.len();
-        }
-        assert!(listed > 0, "{D}D: half lists built");
+        check_half_lists(&mut a, &grid, &cells, &walls, support, &within);
         let mut pairs = 0;
         for i in 0..n {
             let expect: Vec<u32> = (0..n as u32)

@@ -28,9 +28,9 @@
 //! Terms that scale with a length (artificial viscosity α h_ij c0, δ-SPH δ h_ij c0, shifting's
 //! β(2h)²) use the pair's or the particle's h; the artificial stress's reference W_ij(Δp_ij)
 //! the mean spacing of the pair. The cell grid stays that of the largest support; the
-//! neighbour lists keep a pair only within a reach r_i + r_j that covers its own support
-//! (`crate::cells::NeighbourList::with_sizes`, [`PairH::reach_per_support`]), beyond which its
-//! kernel is zero.
+//! neighbour lists keep a pair only within its own support, r_i + r_j (mean) or max(r_i, r_j)
+//! (larger) of per-particle reaches (`crate::cells::NeighbourList::with_sizes`,
+//! [`PairH::reach_per_support`]), beyond which its kernel is zero.
 
 use super::{Kernel, KernelKind, BATCH};
 use serde::{Deserialize, Serialize};
