@@ -206,12 +206,14 @@ pub fn estimate<const D: usize>(
     // with their offsets: 26 MB for the 12.9 M pairs of the 3D DualSPHysics dam break)
     let entry_bytes = if pairs { 2.0 } else { 4.0 };
     // every slot (owned or ghost): the cell-order copy of its position, a fluid flag, the
-    // fluid before it, and a list offset and flags
-    let slot_bytes = 8.0 * D as f64 + 10.0;
-    // pair mode: V_j and p_j/ρ_j² per slot, and per fluid slot the largest pass's
-    // accumulators (the gradient's matrix and vector, D² + D values)
+    // fluid before it, and a list offset and flags; with solids in pair mode the receiving
+    // slots before it too
+    let slot_bytes = 8.0 * D as f64 + 10.0 + if pairs && solids > 0.0 { 4.0 } else { 0.0 };
+    // pair mode: V_j and p_j/ρ_j² per slot, and per receiving slot the largest pass's
+    // accumulators (fluid: the gradient's matrix and vector, D² + D values; solid: the rates'
+    // velocity gradient and two works, D² + 2)
     let pair_scratch = match pairs {
-        true => 16.0 + fluid * 8.0 * (D * D + D) as f64,
+        true => 16.0 + fluid * 8.0 * (D * D + D) as f64 + solids * 8.0 * (D * D + 2) as f64,
         false => 0.0,
     };
     let grid = grid_bytes::<D>(scene, &sites, scene.discretisation.support() * reach);

@@ -4,8 +4,10 @@
 //! order of [`CellList::order`] (cells linear with axis 0 slowest, ascending key within a
 //! cell). Slot order is a global order — a function of positions and ids only — so two
 //! particles compare the same way on every rank that holds both. Each pair is listed once,
-//! under the particle of the lower slot (its **home**), when the pair is within the support,
-//! neither is a solid, at least one is fluid and at least one is owned.
+//! under the particle of the lower slot (its **home**), when the pair is within the support and
+//! at least one of the two is owned, and either both are solids (solids interact with solids
+//! only) or neither is and at least one is fluid (walls interact with fluid only). A fluid or
+//! solid slot **receives**: it has an accumulator entry ([`HalfView::entry`]).
 //!
 //! **Schedule.** Cells are linear as (x, y, rest), so a row of cells (fixed x and y) and
 //! any run of rows of one plane are contiguous slot ranges. A home in row (X, Y) lists
@@ -27,9 +29,11 @@ use std::ops::Range;
 const BLOCK: usize = 4;
 
 /// Flag bits of a slot.
-const ELIGIBLE: u8 = 1;
+const SOLID: u8 = 1;
 const FLUID: u8 = 2;
 const OWNED: u8 = 4;
+/// The slots that receive a share of their pairs: fluid and solid.
+const RECEIVES: u8 = FLUID | SOLID;
 
 /// The canonical half lists (stored) or what a list-free scan needs (lean mode).
 #[derive(Debug, Clone, Default)]
@@ -41,8 +45,12 @@ pub struct HalfPairs {
     offset: Vec<u32>,
     /// Slots listed (owned + ghosts), 0 when not built.
     slots: usize,
-    /// Flag bits per slot ([`ELIGIBLE`], [`FLUID`], [`OWNED`]).
+    /// Flag bits per slot ([`SOLID`], [`FLUID`], [`OWNED`]).
     flags: Vec<u8>,
+    /// Receiving slots before slot k (one entry per slot plus one), the accumulator entries,
+    /// when the particles hold a solid; empty otherwise (the fluid counts of the
+    /// [`NeighbourList`] are then the entries).
+    entry_before: Vec<u32>,
     /// First slot of each row of cells (axis-0 and axis-1 coordinates), one per row plus one.
     rows: Vec<usize>,
     /// Partners listed in all.
@@ -54,7 +62,12 @@ impl HalfPairs {
     pub(super) fn bytes_held(&self) -> usize {
         use super::held;
         let chunks: usize = self.chunks.iter().map(held).sum();
-        chunks + held(&self.chunks) + held(&self.offset) + held(&self.flags) + held(&self.rows)
+        chunks
+            + held(&self.chunks)
+            + held(&self.offset)
+            + held(&self.flags)
+            + held(&self.rows)
+            + held(&self.entry_before)
     }
 
     /// Build the half lists over the cell list (`nl` holds the cell-order positions of this
@@ -77,12 +90,22 @@ impl HalfPairs {
             .for_each(|(fl, ord)| {
                 for (f, &j) in fl.iter_mut().zip(ord) {
                     let (j, k) = (j as usize, p.kind[j as usize]);
-                    let eligible = if k.is_solid() { 0 } else { ELIGIBLE };
+                    let solid = if k.is_solid() { SOLID } else { 0 };
                     let fluid = if k.is_fluid() { FLUID } else { 0 };
                     let owned = if j < n { OWNED } else { 0 };
-                    *f = eligible | fluid | owned;
+                    *f = solid | fluid | owned;
                 }
             });
+        self.entry_before.clear();
+        if self.flags.iter().any(|f| f & SOLID != 0) {
+            self.entry_before.reserve(slots + 1);
+            self.entry_before.push(0);
+            let mut acc = 0u32;
+            for f in &self.flags {
+                acc += u32::from(f & RECEIVES != 0);
+                self.entry_before.push(acc);
+            }
+        }
         let row = grid.dims[2..].iter().product::<usize>();
         self.rows.clear();
         self.rows
@@ -275,19 +298,19 @@ pub struct HalfView<'a, const D: usize> {
     pub(super) cells: &'a CellList,
 }
 
-/// The accumulator entries one block of homes may write: entries `a_base ..` (the fluid slots
+/// The accumulator entries one block of homes may write: entries `a_base ..` (the receiving slots
 /// of its rows of plane X and the row above) and `b_base ..` (those of the rows of plane X + 1
-/// beside them), `stride` values each. Only fluid slots have an entry.
+/// beside them), `stride` values each. Only receiving (fluid and solid) slots have an entry.
 pub struct Window<'w, A> {
     a_base: usize,
     a: &'w mut [A],
     b_base: usize,
     b: &'w mut [A],
     stride: usize,
-    /// Entry of each slot, one per slot plus one: the fluid slots before it. Only fluid slots
-    /// receive in the pair passes, so [`HalfView::run`]'s accumulators hold one entry per
-    /// fluid slot (half the slots or fewer in a walled tank); the count rises with the slot,
-    /// so the blocks' disjoint slot ranges stay disjoint entry ranges.
+    /// Entry of each slot, one per slot plus one: the receiving slots before it. Only fluid
+    /// and solid slots receive in the pair passes, so [`HalfView::run`]'s accumulators hold
+    /// one entry per such slot (half the slots or fewer in a walled tank); the count rises
+    /// with the slot, so the blocks' disjoint slot ranges stay disjoint entry ranges.
     entry: &'w [u32],
 }
 
@@ -301,14 +324,14 @@ fn take<'s, A>(rest: &mut &'s mut [A], at: &mut usize, r: &Range<usize>, stride:
 }
 
 impl<A> Window<'_, A> {
-    /// Entry of fluid slot `s` (a slot that is not fluid has none).
+    /// Entry of receiving slot `s` (a wall slot has none).
     #[inline(always)]
     fn entry_of(&self, s: usize) -> usize {
-        debug_assert!(self.entry[s + 1] > self.entry[s], "slot {s} is not fluid");
+        debug_assert!(self.entry[s + 1] > self.entry[s], "slot {s} receives nothing");
         self.entry[s] as usize
     }
 
-    /// The value of fluid slot `s` of a one-value-per-entry accumulator.
+    /// The value of receiving slot `s` of a one-value-per-entry accumulator.
     #[inline(always)]
     pub fn one(&mut self, s: usize) -> &mut A {
         debug_assert_eq!(self.stride, 1);
@@ -320,7 +343,7 @@ impl<A> Window<'_, A> {
         }
     }
 
-    /// The `stride` values of fluid slot `s`.
+    /// The `stride` values of receiving slot `s`.
     #[inline(always)]
     pub fn at(&mut self, s: usize) -> &mut [A] {
         let (st, e) = (self.stride, self.entry_of(s));
@@ -356,10 +379,27 @@ impl<'a, const D: usize> HalfView<'a, D> {
         self.half.slots
     }
 
-    /// Accumulator entry of fluid particle `i` (where [`HalfView::run`] left its sums).
+    /// Accumulator entry of fluid or solid particle `i` (where [`HalfView::run`] left its
+    /// sums).
     #[inline(always)]
     pub fn entry(&self, i: usize) -> usize {
-        self.nl.fluid_before[self.slot(i)] as usize
+        self.entries()[self.slot(i)] as usize
+    }
+
+    /// Receiving slots before each slot: the entries of [`HalfView::run`]'s accumulator.
+    #[inline(always)]
+    fn entries(&self) -> &'a [u32] {
+        if self.half.entry_before.is_empty() {
+            &self.nl.fluid_before
+        } else {
+            &self.half.entry_before
+        }
+    }
+
+    /// True if slot `s` holds a solid particle (its pairs are with solids only).
+    #[inline(always)]
+    pub fn solid(&self, s: usize) -> bool {
+        self.half.flags[s] & SOLID != 0
     }
 
     /// The stored partner slots of home slot `k`, ascending; `None` in lean mode (use
@@ -387,28 +427,27 @@ impl<'a, const D: usize> HalfView<'a, D> {
             i: 0,
             n: 0,
         };
-        if it.fa & ELIGIBLE != 0 {
-            let xs = &self.nl.xs;
-            it.xa.copy_from_slice(&xs[k * D..k * D + D]);
-            it.c = self
-                .grid
-                .coords_of(self.cells.cell[self.cells.order[k] as usize] as usize);
-            it.rows = 3usize.pow(D as u32 - 1);
-        }
+        // every slot may be a home: a fluid or solid one, or a wall with fluid partners
+        let xs = &self.nl.xs;
+        it.xa.copy_from_slice(&xs[k * D..k * D + D]);
+        it.c = self
+            .grid
+            .coords_of(self.cells.cell[self.cells.order[k] as usize] as usize);
+        it.rows = 3usize.pow(D as u32 - 1);
         it
     }
 
-    /// True if cells `c0 .. c1` can hold no partner of a home with flags `fa`: a home that is
-    /// not fluid pairs with fluid only (most wall particles lie far from the water).
+    /// True if cells `c0 .. c1` can hold no partner of a home with flags `fa`: a wall home
+    /// pairs with fluid only (most wall particles lie far from the water).
     #[inline]
     fn no_partner_in(&self, fa: u8, c0: usize, c1: usize) -> bool {
         let (st, fb) = (&self.cells.start, &self.nl.fluid_before);
-        fa & FLUID == 0 && fb[st[c1] as usize] == fb[st[c0] as usize]
+        fa & RECEIVES == 0 && fb[st[c1] as usize] == fb[st[c0] as usize]
     }
 
     /// True if slot `t` (position `xb`, flags `fb`) is a partner of a home with flags `fa`,
-    /// reach `ra` and position `xa`: within the support, eligible, one of the two fluid and
-    /// one owned (the rule of the module docs). No branch on the outcome.
+    /// reach `ra` and position `xa`: within the support, both solid or neither, one of the two
+    /// receiving and one owned (the rule of the module docs). No branch on the outcome.
     #[inline(always)]
     fn keeps(&self, fa: u8, ra: f64, xa: &[f64; D], t: usize, xb: &[f64], fb: u8) -> bool {
         let mut d2 = 0.0;
@@ -424,7 +463,7 @@ impl<'a, const D: usize> HalfView<'a, D> {
             }
             None => d2 < self.nl.r2max,
         };
-        near & (fb & ELIGIBLE != 0) & (both & FLUID != 0) & (both & OWNED != 0)
+        near & ((fa ^ fb) & SOLID == 0) & (both & RECEIVES != 0) & (both & OWNED != 0)
     }
 
     /// Append home slot `k`'s partners to `list`, delta-encoded ([`encode_run`]), and return
@@ -455,8 +494,8 @@ impl<'a, const D: usize> HalfView<'a, D> {
     }
 
     /// Run `home(k, window)` for every slot k, in four phases (module docs); `acc` is reset
-    /// to `stride` values of `zero` per fluid slot first ([`HalfView::entry`] finds them). A
-    /// home may write the values of its own slot and of its partners', fluid slots only.
+    /// to `stride` values of `zero` per receiving slot first ([`HalfView::entry`] finds them).
+    /// A home may write the values of its own slot and of its partners', receiving slots only.
     pub fn run<A: Copy + Send + Sync>(
         &self,
         acc: &mut Vec<A>,
@@ -464,7 +503,7 @@ impl<'a, const D: usize> HalfView<'a, D> {
         zero: A,
         home: impl Fn(usize, &mut Window<'_, A>) + Sync,
     ) {
-        let entry = &self.nl.fluid_before[..];
+        let entry = self.entries();
         acc.clear();
         acc.resize(entry[self.half.slots] as usize * stride, zero);
         // the entries of a range of slots

@@ -1,7 +1,8 @@
 //! Pair mode (`[performance] interactions = "pairs"`, `--interactions pairs`): the fluid pair
 //! passes — Antuono's renormalised density gradient, continuity and momentum — visit each
 //! pair once, over the canonical half lists of [`crate::cells::HalfPairs`], and give both
-//! particles their share (only fluid particles receive any).
+//! particles their share (only fluid particles receive any; the solids' pairs are
+//! [`crate::physics::solid::pairs`]'s).
 //!
 //! The equations are those of [`super::fluid`] and [`super::delta`]; each contribution is
 //! computed with the same operations as there, so that pair and gather mode differ only in
@@ -54,6 +55,12 @@ impl<const D: usize> PairScratch<D> {
         held(&self.flat) + held(&self.vol) + held(&self.p_rho2)
     }
 
+    /// The pair passes' accumulators (the solids' pair passes share them:
+    /// [`crate::physics::solid::pairs`]).
+    pub(super) fn flat(&mut self) -> &mut Vec<f64> {
+        &mut self.flat
+    }
+
     /// A per-particle buffer for the gather passes (the pair passes' volumes; the two modes
     /// never share a pass).
     pub fn buffer(&mut self) -> &mut Vec<f64> {
@@ -72,7 +79,7 @@ impl<const D: usize> PairScratch<D> {
 
 /// One pair pass's work at a home slot: its pairs with the partners `partners` (slots,
 /// ascending), written into the window.
-trait Home<A>: Sync {
+pub(super) trait Home<A>: Sync {
     fn home<I: Iterator<Item = u32>>(&self, k: usize, w: &mut Window<'_, A>, partners: I);
 }
 
@@ -81,16 +88,25 @@ trait Home<A>: Sync {
 /// support now: every pair kernel here is a multiple of W′(r) (the `f` of each kernel), which
 /// is exactly 0 there, so such a pair adds exact zeros and no filter is needed (a filter per
 /// partner made the passes 25 % slower, docs/benchmark-log.md, "Verlet lists").
-fn run_homes<const D: usize, A: Copy + Send + Sync>(
+///
+/// A solid home's partners are solids: the solid passes (`solids`,
+/// [`crate::physics::solid::pairs`]) visit those homes only, the fluid passes the others.
+pub(super) fn run_homes<const D: usize, A: Copy + Send + Sync>(
     half: &HalfView<'_, D>,
     acc: &mut Vec<A>,
     stride: usize,
     zero: A,
+    solids: bool,
     pass: &impl Home<A>,
 ) {
-    half.run(acc, stride, zero, |k, w| match half.stored(k) {
-        Some(list) => pass.home(k, w, list),
-        None => pass.home(k, w, half.scan(k)),
+    half.run(acc, stride, zero, |k, w| {
+        if half.solid(k) != solids {
+            return;
+        }
+        match half.stored(k) {
+            Some(list) => pass.home(k, w, list),
+            None => pass.home(k, w, half.scan(k)),
+        }
     });
 }
 
@@ -113,7 +129,7 @@ pub fn continuity<const D: usize>(
             vol: &s.vol,
             half_dt: 0.5 * dt,
         };
-        run_homes(half, &mut s.flat, 1, 0.0, &pass);
+        run_homes(half, &mut s.flat, 1, 0.0, false, &pass);
     });
     let n = p.n_owned;
     let (acc, kind) = (&s.flat, &p.kind);
@@ -267,7 +283,7 @@ fn momentum_pass<const D: usize, const G: bool>(
             p_rho2: &s.p_rho2,
             vol: &s.vol,
         };
-        run_homes(half, &mut s.flat, stride, 0.0, &pass);
+        run_homes(half, &mut s.flat, stride, 0.0, false, &pass);
     });
     let n = p.n_owned;
     let (acc, kind, g) = (&s.flat, &p.kind, model.g);
@@ -457,7 +473,7 @@ pub fn renormalised_gradient<const D: usize>(
             half,
             vol: &s.vol,
         };
-        run_homes(half, &mut s.flat, stride, 0.0, &pass);
+        run_homes(half, &mut s.flat, stride, 0.0, false, &pass);
     });
     gradients_from(p, half, &s.flat, stride, 0);
 }
@@ -604,7 +620,7 @@ pub fn lattice_moment<const D: usize>(
             half,
             vol: &s.vol,
         };
-        run_homes(half, &mut s.flat, 1, 0.0, &pass);
+        run_homes(half, &mut s.flat, 1, 0.0, false, &pass);
     });
     let n = p.n_owned;
     let (acc, kind) = (&s.flat, &p.kind);

@@ -533,7 +533,9 @@ impl<const D: usize> Simulation<D> {
             self.interior.clear();
         }
         let kind = &self.p.kind;
-        let fluid_lists = if self.pair_mode { Wants::Half } else { Wants::All };
+        // fluid and solid particles: half lists in pair mode (every pass they run has a pair
+        // kernel there, `passes::check_pair_mode`)
+        let own_lists = if self.pair_mode { Wants::Half } else { Wants::All };
         // a cycle's first substep computes no coarse particle: stored lists skip them (Verlet
         // lists serve later substeps too)
         let skip = self
@@ -546,10 +548,8 @@ impl<const D: usize> Simulation<D> {
                 Wants::Nothing
             } else if k.is_wall() {
                 Wants::Fluid
-            } else if k.is_fluid() {
-                fluid_lists
             } else {
-                Wants::All
+                own_lists
             }
         });
         self.timers.add(Timer::Neighbours, t0);

@@ -248,7 +248,7 @@ pub fn check_pair_mode<const D: usize>(model: &Model<D>, pair_mode: bool) -> cra
         "performance.interactions",
         format!(
             "interactions = \"pairs\" runs the passes that have a pair kernel, and this scene runs the \
-             pass `{}` (solid bodies' passes, physics.shifting and discretisation.relax gather over \
+             pass `{}` (physics.shifting and discretisation.relax gather over \
              full neighbour lists); use interactions = \"gather\"",
             pass.name()
         ),

@@ -2,9 +2,9 @@
 //! (`docs/solids.md`, `crate::physics::solid::dynamics::momentum`).
 
 use super::{geometry, Ctx, Row};
-use crate::cells::Neighbours;
+use crate::cells::{HalfView, Neighbours};
 use crate::particles::Fields;
-use crate::physics::solid::dynamics;
+use crate::physics::solid::{dynamics, pairs};
 use crate::physics::Model;
 
 /// The solid momentum equation.
@@ -13,6 +13,7 @@ pub struct SolidMomentum;
 impl Row for SolidMomentum {
     const NAME: &'static str = "solid_momentum";
     const NEIGHBOURS: bool = true;
+    const PAIR: bool = true;
 
     fn reads() -> Fields {
         geometry()
@@ -35,5 +36,9 @@ impl Row for SolidMomentum {
 
     fn gather<const D: usize, N: Neighbours>(c: &mut Ctx<'_, D>, nb: &N) {
         dynamics::momentum(c.p, nb, c.model, c.solid);
+    }
+
+    fn pair<const D: usize>(c: &mut Ctx<'_, D>, h: &HalfView<'_, D>) {
+        pairs::momentum(c.p, h, c.model, c.solid, c.pair);
     }
 }

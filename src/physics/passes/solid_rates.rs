@@ -2,9 +2,9 @@
 //! `crate::physics::solid::dynamics::rates`).
 
 use super::{geometry, Ctx, Row};
-use crate::cells::Neighbours;
+use crate::cells::{HalfView, Neighbours};
 use crate::particles::Fields;
-use crate::physics::solid::dynamics;
+use crate::physics::solid::{dynamics, pairs};
 use crate::physics::Model;
 
 /// The solid's rates.
@@ -13,6 +13,7 @@ pub struct SolidRates;
 impl Row for SolidRates {
     const NAME: &'static str = "solid_rates";
     const NEIGHBOURS: bool = true;
+    const PAIR: bool = true;
 
     /// The sound speed of the viscosity comes from (ρ, e); σ of neighbours for the artificial
     /// stress's work.
@@ -36,5 +37,9 @@ impl Row for SolidRates {
 
     fn gather<const D: usize, N: Neighbours>(c: &mut Ctx<'_, D>, nb: &N) {
         dynamics::rates(c.p, nb, c.model, c.dt, c.solid);
+    }
+
+    fn pair<const D: usize>(c: &mut Ctx<'_, D>, h: &HalfView<'_, D>) {
+        pairs::rates(c.p, h, c.model, c.dt, c.solid, c.pair);
     }
 }

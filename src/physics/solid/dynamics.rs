@@ -50,15 +50,15 @@ pub struct SolidScratch<const D: usize> {
     /// rate.
     pub rate: Vec<f64>,
     /// σ_j B_j/ρ_j² of every particle (the corrected stress term of the momentum equation).
-    sig: Vec<Tensor<D>>,
+    pub(super) sig: Vec<Tensor<D>>,
     /// Artificial stress R_j of every particle (same units as `sig`).
-    rs: Vec<Tensor<D>>,
+    pub(super) rs: Vec<Tensor<D>>,
     /// R_j ≠ 0 (a tensile principal stress) for every particle: a pair of two particles
     /// without one skips the artificial-stress term, whose (R_i + R_j) f_ijⁿ is then exactly
     /// zero (most particles of an impact are in compression most of the time).
-    tensile: Vec<bool>,
+    pub(super) tensile: Vec<bool>,
     /// Bulk sound speed c_j of every particle (m/s).
-    c: Vec<f64>,
+    pub(super) c: Vec<f64>,
 }
 
 impl<const D: usize> SolidScratch<D> {
@@ -82,11 +82,11 @@ impl<const D: usize> SolidScratch<D> {
 
 /// The artificial stress R_j of every particle and whether it is non-zero
 /// ([`SolidScratch`]'s `rs` and `tensile`).
-type Artificial<'a, const D: usize> = (&'a [Tensor<D>], &'a [bool]);
+pub(super) type Artificial<'a, const D: usize> = (&'a [Tensor<D>], &'a [bool]);
 
 /// The artificial-viscosity constants of a pass.
 #[derive(Clone, Copy)]
-struct Viscosity {
+pub(super) struct Viscosity {
     alpha: f64,
     beta: f64,
     h: f64,
@@ -96,7 +96,7 @@ struct Viscosity {
 }
 
 impl Viscosity {
-    fn of<const D: usize>(model: &Model<D>) -> Self {
+    pub(super) fn of<const D: usize>(model: &Model<D>) -> Self {
         let h = model.kernel.h;
         Viscosity {
             alpha: model.alpha,
@@ -111,7 +111,7 @@ impl Viscosity {
     /// kernel (its h is the pair's mean where particles have several sizes).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn pi(&self, k: &Kernel, vx: f64, r2: f64, ci: f64, cj: f64, rhoi: f64, rhoj: f64) -> f64 {
+    pub(super) fn pi(&self, k: &Kernel, vx: f64, r2: f64, ci: f64, cj: f64, rhoi: f64, rhoj: f64) -> f64 {
         if vx >= 0.0 {
             return 0.0;
         }
@@ -133,7 +133,7 @@ fn symmetric<const D: usize>(t: &Tensor<D>) -> Tensor<D> {
 }
 
 /// Bulk sound speed of every solid particle (owned and ghost) into `scratch.c`.
-fn sound_speeds<const D: usize>(p: &Particles<D>, model: &Model<D>, c: &mut Vec<f64>) {
+pub(super) fn sound_speeds<const D: usize>(p: &Particles<D>, model: &Model<D>, c: &mut Vec<f64>) {
     c.resize(p.len(), 0.0);
     c.par_iter_mut().enumerate().for_each(|(j, c)| {
         *c = match model.materials[p.mat[j] as usize].solid() {
@@ -167,18 +167,23 @@ pub fn correction<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, m
                     let f = kern.of(&p.h, i, j).dw_dr_over_r(xij.norm());
                     m += (xij * xij.transpose()) * (p.mass[j] * f);
                 }
-                m *= -1.0 / p.rho[i];
-                // a well-conditioned M only: sparse neighbourhoods (a correction of more than 10×)
-                // keep the plain gradient
-                // symmetric to the last bit: ghosts receive the upper triangle only
-                b.0 = match m.try_inverse() {
-                    Some(inv) if inv.amax() <= 10.0 => symmetric(&inv),
-                    _ => Tensor::identity(),
-                };
+                b.0 = inverse_moment(m, p.rho[i]);
             })
         });
     }
     p.correction = out;
+}
+
+/// B = M⁻¹ from the sum Σ_j m_j x_ij ⊗ ∇_i W_ij (`sum`) and ρ_i (kg/m³): M = −sum/ρ_i; the
+/// identity where M is singular or ill-conditioned.
+pub(super) fn inverse_moment<const D: usize>(sum: Tensor<D>, rho: f64) -> Tensor<D> {
+    let m = sum * (-1.0 / rho);
+    // a well-conditioned M only: sparse neighbourhoods (a correction of more than 10×) keep the
+    // plain gradient; symmetric to the last bit: ghosts receive the upper triangle only
+    match m.try_inverse() {
+        Some(inv) if inv.amax() <= 10.0 => symmetric(&inv),
+        _ => Tensor::identity(),
+    }
 }
 
 /// Rates pass: dρ/dt into `p.drho`, dS/dt, de/dt and the equivalent strain rate into
@@ -212,7 +217,8 @@ pub fn rates<const D: usize, N: Neighbours>(
                 .zip(scratch.de.par_iter_mut().zip(scratch.rate.par_iter_mut()))
                 .enumerate()
                 .for_each(|(i, ((dr, ds), (de, rate)))| {
-                    if nl.visits(i) {
+                    // a fluid particle keeps the continuity pass's dρ/dt (a scene may hold both)
+                    if nl.visits(i) && p.kind[i].is_solid() {
                         (*dr, *ds, *de, *rate) = rates_of(p, nl, model, kern, (c, rs), &visc, half_dt, i);
                     }
                 })
@@ -234,15 +240,7 @@ fn rates_of<const D: usize, N: Neighbours, K: PairKernel>(
     half_dt: f64,
     i: usize,
 ) -> (f64, Tensor<D>, f64, f64) {
-    let zero = (0.0, Tensor::zeros(), 0.0, 0.0);
-    if !p.kind[i].is_solid() {
-        return zero;
-    }
-    let Some(solid) = model.materials[p.mat[i] as usize].solid() else {
-        return zero;
-    };
     let (xi, vi, rhoi) = (p.x[i], p.v[i], p.rho[i]);
-    let bi = p.correction[i].0;
     let mut grad = Tensor::<D>::zeros(); // Σ m_j v_ij ⊗ ∇W
     let mut visc_work = 0.0; // Σ m_j Π_ij v_ij·∇W
     let mut stress_work = 0.0; // Σ m_j v_ij·(R_i + R_j) f_ijⁿ ∇W
@@ -269,7 +267,26 @@ fn rates_of<const D: usize, N: Neighbours, K: PairKernel>(
             stress_work += mj * (f2 * f2) * vij.dot(&((rs[i] + rs[j]) * gw));
         }
     }
-    let l = grad * bi * (-1.0 / rhoi);
+    rates_from(p, model, i, grad, visc_work, stress_work)
+}
+
+/// (S1)–(S4) for owned particle `i` from its sums Σ_j m_j v_ij ⊗ ∇_i W_ij (`grad`), Σ_j m_j
+/// Π_ij v_ij·∇_i W_ij (`visc_work`) and Σ_j m_j v_ij·(R_i + R_j) f_ijⁿ ∇_i W_ij
+/// (`stress_work`): (dρ/dt, dS/dt, de/dt, equivalent strain rate); zero for a particle of a
+/// material without a solid's law.
+pub(super) fn rates_from<const D: usize>(
+    p: &Particles<D>,
+    model: &Model<D>,
+    i: usize,
+    grad: Tensor<D>,
+    visc_work: f64,
+    stress_work: f64,
+) -> (f64, Tensor<D>, f64, f64) {
+    let Some(solid) = model.materials[p.mat[i] as usize].solid() else {
+        return (0.0, Tensor::zeros(), 0.0, 0.0);
+    };
+    let rhoi = p.rho[i];
+    let l = grad * p.correction[i].0 * (-1.0 / rhoi);
     let div = -rhoi * l.trace();
     let (eps, _) = rate_and_spin(&l);
     let s = p.stress[i].0;
@@ -387,7 +404,7 @@ pub fn momentum<const D: usize, N: Neighbours>(
 
 /// σ_j B_j/ρ_j² (with `with_sig`) and the artificial stress R_j of every solid particle (owned
 /// and ghost), once per particle rather than per pair.
-fn stress_terms<const D: usize>(
+pub(super) fn stress_terms<const D: usize>(
     p: &Particles<D>,
     model: &Model<D>,
     scratch: &mut SolidScratch<D>,

@@ -4,7 +4,8 @@
 //! artificial viscosity and artificial stress, energy equation) and the scene keys come next;
 //! a fluid scene pays nothing for any of it.
 //!
-//! - [`dynamics`]: the solid passes. The constitutive pieces (Mie–Grüneisen, Johnson–Cook,
+//! - [`dynamics`]: the solid passes; [`pairs`]: the same in pair mode. The constitutive pieces (Mie–Grüneisen, Johnson–Cook,
 //!   radial return, failure) and the material library are in `crate::material`.
 
 pub mod dynamics;
+pub mod pairs;
