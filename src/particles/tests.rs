@@ -202,9 +202,11 @@ fn record_layout_and_byte_counts_follow_the_table() {
     );
     assert_eq!(Particles::<2>::field_words(Fields::GRAD_RHO), 2);
     // shared: 8 + 8 + 1 + 2 + 2 + 4·8·D + 4·8 (+ 8 tag); owned-only: 8 + 8·D; solids add two
-    // D×D tensors, two f64 and a u16; refinement a u16 level and an f64 h
+    // symmetric tensors of 2·D values (the D(D+1)/2 distinct ones in 3D, 6 instead of 9; 4 in
+    // 2D), two f64 and a u16; refinement a u16 level and an f64 h
     let shared = |d: usize| 8 + 8 + 1 + 2 + 2 + 4 * 8 * d + 4 * 8 + 8;
-    let solid = |d: usize| 2 * 8 * d * d + 2 * 8 + 2;
+    let solid = |d: usize| 2 * 8 * 2 * d + 2 * 8 + 2;
+    assert_eq!(solid(3), 2 * 8 * 6 + 2 * 8 + 2);
     let sizes = 2 + 8;
     let one_size = Fields::LEVEL.or(Fields::H);
     assert_eq!(
@@ -245,4 +247,22 @@ fn a_record_round_trips_bit_for_bit() {
     // a corrupt kind code is an error, not a panic
     buf[16] = 9;
     assert!(Record::<3>::get(&mut Reader::new(&buf)).is_err());
+}
+
+/// A symmetric tensor holds its D(D+1)/2 distinct components (6 words in 3D, not 9), gives
+/// back the whole tensor to the bit, and its columns list them in the output's order (xx, xy,
+/// xz, yy, yz, zz).
+#[test]
+fn a_symmetric_tensor_keeps_its_distinct_components_only() {
+    assert_eq!(std::mem::size_of::<Sym<3>>(), 6 * 8);
+    assert_eq!(std::mem::size_of::<Sym<2>>(), 4 * 8);
+    let t = crate::Tensor::<3>::from_fn(|r, c| 0.1 + (10 * r.min(c) + r.max(c)) as f64);
+    let s = Sym::<3>::from_upper(&t);
+    assert_eq!(s.tensor(), t);
+    let col = [s];
+    let col = Column::Tensor(&col[..]);
+    let values: Vec<f64> = (0..6).map(|k| col.value(0, k)).collect();
+    assert_eq!(values, [0.1, 1.1, 2.1, 11.1, 12.1, 22.1]);
+    let t2 = crate::Tensor::<2>::new(1.0, -2.0, -2.0, 3.0);
+    assert_eq!(Sym::<2>::from_upper(&t2).tensor(), t2);
 }

@@ -58,14 +58,63 @@ pub enum Column<'a, const D: usize> {
     Tensor(&'a [Sym<D>]),
 }
 
-/// A symmetric D×D tensor as a particle field (a stress, Pa): stored whole, sent and written as
-/// its upper triangle. A newtype so that its rules (wire, images) differ from a vector's.
+/// A symmetric D×D tensor as a particle field (a stress, Pa): its D(D+1)/2 distinct components
+/// only (6 in 3D where a `Tensor` holds 9), stored, sent and written as its upper triangle. Its
+/// own type so that its rules (wire, images) differ from a vector's.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Sym<const D: usize>(pub Tensor<D>);
+pub struct Sym<const D: usize> {
+    /// T_aa.
+    diag: [f64; D],
+    /// The components above the diagonal row by row (xy[, xz, yz]): D(D−1)/2 of them, which is
+    /// at most D for D ≤ 3; the rest stay 0.
+    off: [f64; D],
+}
 
 impl<const D: usize> Default for Sym<D> {
     fn default() -> Self {
-        Sym(Tensor::zeros())
+        Sym {
+            diag: [0.0; D],
+            off: [0.0; D],
+        }
+    }
+}
+
+impl<const D: usize> Sym<D> {
+    /// Place of T_rc, r < c, in `off`.
+    #[inline(always)]
+    const fn off_index(r: usize, c: usize) -> usize {
+        r * D - r * (r + 1) / 2 + (c - r - 1)
+    }
+
+    /// The tensor of `t`'s upper triangle (T_rc for r ≤ c): `t` itself when it is symmetric to
+    /// the last bit, as every stored stress and correction is.
+    #[inline]
+    pub fn from_upper(t: &Tensor<D>) -> Self {
+        const { assert!(D <= 3, "a symmetric tensor of more than three dimensions") };
+        let mut s = Sym::default();
+        for r in 0..D {
+            s.diag[r] = t[(r, r)];
+            for c in r + 1..D {
+                s.off[Self::off_index(r, c)] = t[(r, c)];
+            }
+        }
+        s
+    }
+
+    /// Component (r, c) (either order).
+    #[inline(always)]
+    pub fn get(&self, r: usize, c: usize) -> f64 {
+        match r.cmp(&c) {
+            std::cmp::Ordering::Equal => self.diag[r],
+            std::cmp::Ordering::Less => self.off[Self::off_index(r, c)],
+            std::cmp::Ordering::Greater => self.off[Self::off_index(c, r)],
+        }
+    }
+
+    /// The whole D×D tensor.
+    #[inline]
+    pub fn tensor(&self) -> Tensor<D> {
+        Tensor::<D>::from_fn(|r, c| self.get(r, c))
     }
 }
 
@@ -149,7 +198,7 @@ impl<const D: usize> Column<'_, D> {
             Column::Vector(v) => v[i][a],
             Column::Tensor(t) => {
                 let (r, c) = tensor_component::<D>(a);
-                t[i].0[(r, c)]
+                t[i].get(r, c)
             }
         }
     }
@@ -293,33 +342,32 @@ impl<const D: usize> FieldValue<D> for Vector<D> {
 
 impl<const D: usize> FieldValue<D> for Sym<D> {
     fn zero() -> Self {
-        Sym(Tensor::zeros())
+        Sym::default()
     }
     /// The upper triangle only.
     #[inline]
     fn put(&self, s: &mut impl Sink) {
         for r in 0..D {
             for c in r..D {
-                s.word(self.0[(r, c)].to_bits());
+                s.word(self.get(r, c).to_bits());
             }
         }
     }
     #[inline]
     fn get(r: &mut Reader) -> Result<Self> {
-        let mut t = Tensor::<D>::zeros();
+        let mut t = Sym::default();
         for a in 0..D {
-            for b in a..D {
-                let v = f64::from_bits(r.word()?);
-                t[(a, b)] = v;
-                t[(b, a)] = v;
+            t.diag[a] = f64::from_bits(r.word()?);
+            for b in a + 1..D {
+                t.off[Self::off_index(a, b)] = f64::from_bits(r.word()?);
             }
         }
-        Ok(Sym(t))
+        Ok(t)
     }
     #[inline]
     fn imaged(&self, rule: ImageRule, im: &impl Imager<D>) -> Self {
         match rule {
-            ImageRule::Tensor => Sym(im.tensor(&self.0)),
+            ImageRule::Tensor => Sym::from_upper(&im.tensor(&self.tensor())),
             _ => *self,
         }
     }

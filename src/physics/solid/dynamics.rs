@@ -32,7 +32,7 @@ use crate::cells::Neighbours;
 use crate::kernel::sizes::PairKernel;
 use crate::kernel::Kernel;
 use crate::material::strength::{jaumann_rate, radial_return, rate_and_spin, temperature};
-use crate::particles::Particles;
+use crate::particles::{Particles, Sym};
 use crate::physics::Model;
 use crate::{Tensor, Vector};
 use rayon::prelude::*;
@@ -167,7 +167,7 @@ pub fn correction<const D: usize, N: Neighbours>(p: &mut Particles<D>, nl: &N, m
                     let f = kern.of(&p.h, i, j).dw_dr_over_r(xij.norm());
                     m += (xij * xij.transpose()) * (p.mass[j] * f);
                 }
-                b.0 = inverse_moment(m, p.rho[i]);
+                *b = Sym::from_upper(&inverse_moment(m, p.rho[i]));
             })
         });
     }
@@ -286,10 +286,10 @@ pub(super) fn rates_from<const D: usize>(
         return (0.0, Tensor::zeros(), 0.0, 0.0);
     };
     let rhoi = p.rho[i];
-    let l = grad * p.correction[i].0 * (-1.0 / rhoi);
+    let l = grad * p.correction[i].tensor() * (-1.0 / rhoi);
     let div = -rhoi * l.trace();
     let (eps, _) = rate_and_spin(&l);
-    let s = p.stress[i].0;
+    let s = p.stress[i].tensor();
     let failed = p.failed[i] != 0;
     let ds = if failed {
         Tensor::zeros()
@@ -336,6 +336,7 @@ pub fn update<const D: usize>(p: &mut Particles<D>, model: &Model<D>, dt: f64, s
             let Some(solid) = model.materials[mat[i] as usize].solid() else {
                 return;
             };
+            let mut st = s.tensor();
             if dt > 0.0 {
                 // d ln ρ/dt = −tr L integrated exactly over the step: the same to first order
                 // as ρ += dt dρ/dt, and positive however fast a fragment expands (an explicit
@@ -352,25 +353,28 @@ pub fn update<const D: usize>(p: &mut Particles<D>, model: &Model<D>, dt: f64, s
                 *e += dt * scratch.de[i];
                 // the Jaumann rate is symmetric only up to rounding: keep S symmetric to the
                 // last bit, as ghosts receive its upper triangle
-                s.0 = symmetric(&(s.0 + scratch.ds[i] * dt));
+                st = symmetric(&(st + scratch.ds[i] * dt));
             }
             if *failed != 0 {
-                s.0 = Tensor::zeros();
+                st = Tensor::zeros();
             } else if let Some(jc) = &solid.strength {
                 let t = temperature(*e, solid.specific_heat, solid.t_room);
                 let y = jc.flow_stress(*eps_p, scratch.rate.get(i).copied().unwrap_or(0.0), t);
-                *eps_p += radial_return(&mut s.0, y, solid.shear);
+                *eps_p += radial_return(&mut st, y, solid.shear);
             }
             *pr = solid.eos.pressure(*rho, *e);
             if let Some(f) = &solid.failure {
                 if *failed == 0 && f.fails(*eps_p, *pr) {
                     *failed = 1;
-                    s.0 = Tensor::zeros();
+                    st = Tensor::zeros();
                 }
             }
             if *failed != 0 {
                 *pr = pr.max(0.0);
             }
+            // exactly symmetric (the sum above is made so, the return scales it): its upper
+            // triangle is the whole
+            *s = Sym::from_upper(&st);
         });
     p.stress = out;
 }
@@ -425,10 +429,10 @@ pub(super) fn stress_terms<const D: usize>(
                 return;
             }
             let rho2 = p.rho[j] * p.rho[j];
-            let sigma = p.stress[j].0 - Tensor::<D>::identity() * p.p[j];
+            let sigma = p.stress[j].tensor() - Tensor::<D>::identity() * p.p[j];
             if with_sig {
                 // σ_j B_j/ρ_j² once per particle, not a matrix product per pair
-                *sig = (sigma / rho2) * p.correction[j].0;
+                *sig = (sigma / rho2) * p.correction[j].tensor();
             }
             *rs = if eps > 0.0 {
                 artificial_stress(&sigma, eps / rho2)

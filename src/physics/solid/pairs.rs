@@ -26,7 +26,7 @@
 use super::dynamics::{self, SolidScratch, Viscosity};
 use crate::cells::{HalfView, Window};
 use crate::kernel::sizes::PairKernel;
-use crate::particles::Particles;
+use crate::particles::{Particles, Sym};
 use crate::physics::batch::{batched, slot_of};
 use crate::physics::pairs::{run_homes, Home, PairScratch};
 use crate::physics::Model;
@@ -67,7 +67,7 @@ pub fn correction<const D: usize>(
         out[..n].par_iter_mut().enumerate().for_each(|(i, b)| {
             if p.kind[i].is_solid() {
                 let sum = tensor_at::<D>(&acc[half.entry(i) * D * D..]);
-                b.0 = dynamics::inverse_moment(sum, p.rho[i]);
+                *b = Sym::from_upper(&dynamics::inverse_moment(sum, p.rho[i]));
             }
         });
     }
