@@ -59,6 +59,7 @@ VARIANTS = {
     "riemann_cfl_0.2": ["time.cfl=0.2"],
     "riemann_cfl_0.3": ["time.cfl=0.3"],
     "riemann_shifting": ['physics.shifting="delta_plus"', "discretisation.h_over_dx=2.0"],
+    "riemann_shifting_h13": ['physics.shifting="delta_plus"'],
     "riemann_h2": ["discretisation.h_over_dx=2.0"],
     "riemann_h17": ["discretisation.h_over_dx=1.7"],
     "riemann_alpha_0": ["physics.artificial_viscosity=0.0"],
@@ -83,6 +84,9 @@ VARIANTS = {
     "difference_refine_2_global": ['physics.pressure_gradient="difference"'],
     "riemann_refine_2_tall_global": [],
     "riemann_refine_2_global_h2": ["discretisation.h_over_dx=2.0"],
+    "riemann_refine_2_global_h2_shifting": ["discretisation.h_over_dx=2.0", 'physics.shifting="delta_plus"'],
+    "riemann_refine_2_global_shifting": ['physics.shifting="delta_plus"'],
+    "riemann_refine_1_global_shifting": ['physics.shifting="delta_plus"'],
 }
 
 # Variants that refine the downstream corner (docs/pressure.md §2e): an adaptive region over
@@ -107,7 +111,10 @@ REGIONS = {"riemann_refine_1": (1, None, *CORNER), "riemann_refine_1_t4": (1, 0.
            "riemann_refine_2_global_max": (2, None, *CORNER),
            "difference_refine_2_global": (2, None, *CORNER),
            "riemann_refine_2_tall_global": (2, None, *TALL),
-           "riemann_refine_2_global_h2": (2, None, *CORNER)}
+           "riemann_refine_2_global_h2": (2, None, *CORNER),
+           "riemann_refine_2_global_h2_shifting": (2, None, *CORNER),
+           "riemann_refine_2_global_shifting": (2, None, *CORNER),
+           "riemann_refine_1_global_shifting": (1, None, *CORNER)}
 # Variants whose fluid region adapts at the level's h while a second, static region refines the
 # tank's walls at the same level with the scene's h
 SPLIT_WALL = {"riemann_refine_2_wall_scene_h"}
