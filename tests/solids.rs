@@ -279,11 +279,12 @@ fn impact_same_bits_on_any_rank_count_and_across_a_restart() {
     assert_same(&one, &b, "4 -> 3 restart");
 }
 
-/// Pair mode for solids (issue 85, `--interactions pairs`): each pair of solid particles is
-/// visited once over the half lists and both get their share. The impact then gives its own
-/// bits on 1, 3 and 8 ranks and on 2 ranks × 2 threads, conserves momentum to round-off (no
-/// gravity, no wall: every pair term is equal and opposite), holds less than a third of
-/// gather mode's lists, and stays within round-off grown over the run of gather mode.
+/// Pair mode for solids (issue 85, `--interactions pairs`, the impact's own mode): each pair
+/// of solid particles is visited once over the half lists and both get their share. The impact
+/// then gives its own bits on 1, 3 and 8 ranks and on 2 ranks × 2 threads, conserves momentum
+/// to round-off (no gravity, no wall: every pair term is equal and opposite), holds less than
+/// a third of gather mode's lists, and stays within round-off grown over the run of gather
+/// mode.
 #[test]
 fn impact_in_pair_mode_gives_the_same_bits_on_any_layout_and_stays_near_gather() {
     let dir = common::temp_dir("impact-pairs");
@@ -320,7 +321,7 @@ fn impact_in_pair_mode_gives_the_same_bits_on_any_layout_and_stays_near_gather()
         }
     }
     let gather = dir.join("gather");
-    let (code, err) = impact_run(&gather, "1", "1", &[]);
+    let (code, err) = impact_run(&gather, "1", "1", &["--interactions", "gather"]);
     assert_eq!(code, 0, "{err}");
     let lists = |d: &std::path::Path| {
         let s = common::summary(d);

@@ -504,8 +504,12 @@ impl<'a, const D: usize> HalfView<'a, D> {
         home: impl Fn(usize, &mut Window<'_, A>) + Sync,
     ) {
         let entry = self.entries();
+        let len = entry[self.half.slots] as usize * stride;
         acc.clear();
-        acc.resize(entry[self.half.slots] as usize * stride, zero);
+        // exactly what the largest pass needs: passes of several strides share the buffer, and
+        // growth by doubling would hold up to twice the largest
+        acc.reserve_exact(len);
+        acc.resize(len, zero);
         // the entries of a range of slots
         let entries = |r: Range<usize>| entry[r.start] as usize..entry[r.end] as usize;
         let (nx, ny) = (self.grid.dims[0], self.grid.dims[1]);
