@@ -87,6 +87,7 @@ VARIANTS = {
     "riemann_refine_2_global_h2_shifting": ["discretisation.h_over_dx=2.0", 'physics.shifting="delta_plus"'],
     "riemann_refine_2_global_shifting": ['physics.shifting="delta_plus"'],
     "riemann_refine_1_global_shifting": ['physics.shifting="delta_plus"'],
+    "riemann_refine_2_shifting": ['time.stepping="local"', 'physics.shifting="delta_plus"'],
 }
 
 # Variants that refine the downstream corner (docs/pressure.md §2e): an adaptive region over
@@ -114,7 +115,8 @@ REGIONS = {"riemann_refine_1": (1, None, *CORNER), "riemann_refine_1_t4": (1, 0.
            "riemann_refine_2_global_h2": (2, None, *CORNER),
            "riemann_refine_2_global_h2_shifting": (2, None, *CORNER),
            "riemann_refine_2_global_shifting": (2, None, *CORNER),
-           "riemann_refine_1_global_shifting": (1, None, *CORNER)}
+           "riemann_refine_1_global_shifting": (1, None, *CORNER),
+           "riemann_refine_2_shifting": (2, None, *CORNER)}
 # Variants whose fluid region adapts at the level's h while a second, static region refines the
 # tank's walls at the same level with the scene's h
 SPLIT_WALL = {"riemann_refine_2_wall_scene_h"}

@@ -194,6 +194,24 @@ impl<const D: usize> Model<D> {
         }
     }
 
+    /// The artificial stress's pair factor f_ijⁿ = (W_ij(r)/W_ij(Δp_ij))⁴ (Monaghan 2000,
+    /// n = 4; dimensionless) of the pair (i, j) at distance `r` (m), whose kernel is `k`;
+    /// `uniform` as for [`Model::pair_w_dp`].
+    #[inline(always)]
+    pub fn artificial_factor(
+        &self,
+        p: &Particles<D>,
+        i: usize,
+        j: usize,
+        k: &Kernel,
+        r: f64,
+        uniform: f64,
+    ) -> f64 {
+        let f = k.w(r) / self.pair_w_dp(p, i, j, k, uniform);
+        let f2 = f * f;
+        f2 * f2
+    }
+
     /// Refinement level of particle `i` (0 for a scene of one size).
     #[inline(always)]
     pub fn level(&self, p: &Particles<D>, i: usize) -> u16 {

@@ -315,7 +315,7 @@ impl<const D: usize> Simulation<D> {
         let model = Model::<D>::new(scene);
         let pair_mode = scene.performance.interactions == crate::scene::Interactions::Pairs;
         crate::physics::passes::check_pair_mode(&model, pair_mode)?;
-        multirate::check(scene, &model, &schedule(&model))?;
+        multirate::check(scene, &model)?;
         let space = image_space::<D>(scene);
         let support = model.kernel.support;
         // one rank without periodic axes or mirror planes has no ghost to keep: no skin, and

@@ -22,6 +22,9 @@
 //!    its own, so the two parts give what one run would: `Pass::splits`). The continuity
 //!    equation's half-step positions x − ½dt v are then each particle's own: a C home's
 //!    partners sit at t_n + δ, which is where an F partner was before its last drift.
+//!    A pass that reads what it writes (shifting, [`once_a_cycle`]) runs only here, once,
+//!    over every particle: δ⁺ shifting then moves each particle once a cycle, as a global
+//!    step of Δ would.
 //!
 //! The pair (F, C) breaks Newton's third law at the middle (only F accumulates); masses are
 //! untouched, so Σm stays exact. Balance checks, migrations and ghost builds may fall on either
@@ -57,9 +60,9 @@ pub enum Substep {
 pub const CYCLE_RATIO: f64 = 1.5;
 
 /// Input check of `time.stepping = "local"`: it needs particles of several smoothing lengths,
-/// the CFL step, the gather kernels, no solid, and passes that run over a part of the particles
-/// with the bits of one run; otherwise an input error naming what to change.
-pub fn check<const D: usize>(scene: &Scene, model: &Model<D>, schedule: &[Pass]) -> Result<()> {
+/// the CFL step, the gather kernels and no solid; otherwise an input error naming what to
+/// change.
+pub fn check<const D: usize>(scene: &Scene, model: &Model<D>) -> Result<()> {
     if scene.time.stepping == Stepping::Global {
         return Ok(());
     }
@@ -88,14 +91,16 @@ pub fn check<const D: usize>(scene: &Scene, model: &Model<D>, schedule: &[Pass])
              \"global\"",
         );
     }
-    if let Some(p) = schedule.iter().find(|p| p.walks_neighbours() && !p.splits()) {
-        return refuse(&format!(
-            "runs every pass over the fine particles, then the coarse ones, and the pass `{}` \
-             reads what it writes (physics.shifting); remove it, or use stepping = \"global\"",
-            p.name()
-        ));
-    }
     Ok(())
+}
+
+/// True if `pass` runs once a cycle, over every particle at the cycle's end (at dt = Δ), and
+/// not in its middle: a pass that walks neighbours and reads what it writes (shifting moves
+/// the positions it reads), so that it cannot run over the fine particles and then the coarse
+/// ones with the bits of one run (`Pass::splits`).
+#[inline]
+pub(super) fn once_a_cycle(pass: Pass) -> bool {
+    pass.walks_neighbours() && !pass.splits()
 }
 
 /// True if particle `i` (of kind `kind`, smoothing lengths `h`) is coarse: a fluid or wall

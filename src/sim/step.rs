@@ -9,7 +9,7 @@
 //! build, else a refresh of the kept ghosts; then the neighbour lists. Before each pass the
 //! ghosts get exactly the fields it reads that are stale ([`crate::physics::passes`]).
 
-use super::multirate::Substep;
+use super::multirate::{once_a_cycle, Substep};
 use super::timers::Timer;
 use super::Simulation;
 use crate::boundary::geometry::WallMove;
@@ -282,6 +282,9 @@ impl<const D: usize> Simulation<D> {
     /// ([`Simulation::overlaps`]) the refresh is sent, the interior computed while it travels,
     /// then received and the rest computed: the bits of one run (`Pass::splits`).
     fn run_pass(&mut self, pass: Pass, dt: f64, comm: &dyn Comm) -> Result<()> {
+        if self.substep == Substep::Mid && once_a_cycle(pass) {
+            return Ok(());
+        }
         let need = self.fresh.before(pass);
         if !need.0.is_empty() && self.overlaps(pass) {
             let t0 = Instant::now();
@@ -317,11 +320,13 @@ impl<const D: usize> Simulation<D> {
     /// Run `pass`'s row over every owned particle (`part` = `None`), or over the interior
     /// (`Some(true)`) or the rest (`Some(false)`) of [`Simulation::interior`]; in a cycle's
     /// substeps over the fine particles at `dt` and, at its end, the coarse ones at 2`dt`
-    /// ([`super::multirate`]).
+    /// ([`super::multirate`]), but for a pass that runs once a cycle ([`once_a_cycle`]): over
+    /// every particle at the cycle's end.
     fn compute(&mut self, pass: Pass, dt: f64, part: Option<bool>) {
         match self.substep {
             Substep::Whole => self.compute_over(pass, dt, part.map(|b| (false, b))),
             Substep::Mid => self.compute_over(pass, dt, Some((true, true))),
+            Substep::End if once_a_cycle(pass) => self.compute_over(pass, 2.0 * dt, None),
             Substep::End => {
                 self.compute_over(pass, dt, Some((true, true)));
                 self.compute_over(pass, 2.0 * dt, Some((true, false)));

@@ -262,9 +262,8 @@ fn rates_of<const D: usize, N: Neighbours, K: PairKernel>(
         let pi = visc.pi(&k, vij.dot(&mid), r2, c[i], c[j], rhoi, p.rho[j]);
         visc_work += mj * pi * vij.dot(&gw);
         if stress_art && (tensile[i] || tensile[j]) {
-            let f = k.w(r2.sqrt()) / model.pair_w_dp(p, i, j, &k, w_dp);
-            let f2 = f * f;
-            stress_work += mj * (f2 * f2) * vij.dot(&((rs[i] + rs[j]) * gw));
+            let fn4 = model.artificial_factor(p, i, j, &k, r2.sqrt(), w_dp);
+            stress_work += mj * fn4 * vij.dot(&((rs[i] + rs[j]) * gw));
         }
     }
     rates_from(p, model, i, grad, visc_work, stress_work)
@@ -476,9 +475,7 @@ fn momentum_of<const D: usize, N: Neighbours, K: PairKernel>(
         // viscosity and artificial stress
         let mut t = sig_bi + sig[j] - Tensor::<D>::identity() * pi;
         if stress_art && (tensile[i] || tensile[j]) {
-            let f = k.w(r) / model.pair_w_dp(p, i, j, &k, w_dp);
-            let f2 = f * f;
-            t += (rs[i] + rs[j]) * (f2 * f2);
+            t += (rs[i] + rs[j]) * model.artificial_factor(p, i, j, &k, r, w_dp);
         }
         a += (t * gw) * p.mass[j];
     }

@@ -214,9 +214,8 @@ impl<const D: usize, K: PairKernel> Home<f64> for Rates<'_, '_, D, K> {
                     .pi(&kab, vab.dot(&mid), r2, self.c[a], self.c[b], rhoa, p.rho[b]);
                 let visc = pi * vdot;
                 let art = if stress_art && (self.tensile[a] || self.tensile[b]) {
-                    let fw = kab.w(r2.sqrt()) / model.pair_w_dp(p, a, b, &kab, w_dp);
-                    let f2 = fw * fw;
-                    (f2 * f2) * vab.dot(&((self.rs[a] + self.rs[b]) * gw))
+                    let fn4 = model.artificial_factor(p, a, b, &kab, r2.sqrt(), w_dp);
+                    fn4 * vab.dot(&((self.rs[a] + self.rs[b]) * gw))
                 } else {
                     0.0
                 };
@@ -315,9 +314,7 @@ impl<const D: usize, K: PairKernel> Home<f64> for Momentum<'_, '_, D, K> {
                     .pi(&kab, vab.dot(&xab), r2, self.c[a], self.c[b], rhoa, p.rho[b]);
                 let mut tt = self.sig[a] + self.sig[b] - Tensor::<D>::identity() * pi;
                 if stress_art && (self.tensile[a] || self.tensile[b]) {
-                    let fw = kab.w(r2.sqrt()) / model.pair_w_dp(p, a, b, &kab, w_dp);
-                    let f2 = fw * fw;
-                    tt += (self.rs[a] + self.rs[b]) * (f2 * f2);
+                    tt += (self.rs[a] + self.rs[b]) * model.artificial_factor(p, a, b, &kab, r2.sqrt(), w_dp);
                 }
                 let tg = tt * gw;
                 sum += tg * p.mass[b];
