@@ -72,6 +72,8 @@ pub const MAX_BENCH_STEPS: u64 = 1_000_000;
 pub const MAX_REPEAT: usize = 1000;
 /// Most child runs `hsph validate --jobs` starts at once.
 pub const MAX_JOBS: usize = 256;
+/// Most flow frames a run writes (`output.frames`): each is a whole gathered state.
+pub const MAX_FRAMES: usize = 100;
 /// Most cells across a validation case's length scale (`hsph validate --resolutions`).
 pub const MAX_RESOLUTION: u32 = 4096;
 

@@ -17,6 +17,7 @@ mod conservation;
 mod determinism;
 mod docs;
 mod fidelity;
+mod frames;
 mod fuzz;
 mod geometry;
 mod hardening;

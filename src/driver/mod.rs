@@ -17,6 +17,7 @@
 //! - `start.rs`: the set-up (fresh or from a checkpoint) up to the first output step.
 //! - `banner.rs`: what a run says as it starts: banner, layout against the job's plan, warnings.
 //! - `steps.rs`: the step loop, output steps, removals, the stop at a step boundary.
+//! - `frames.rs`: the flow frames of `output.frames`, written by every rank without a gather.
 //! - `fault.rs`: test-only fault injection ([`Fault`]).
 //! - `checkpoint.rs`: when a checkpoint is due, writing it, continuing from it.
 //! - `restart.rs`: a restart as a transaction: everything checked before anything changes.
@@ -30,6 +31,7 @@ mod checkpoint;
 mod checks;
 mod diagnostics;
 mod fault;
+pub mod frames;
 mod launch;
 mod provenance;
 mod rank;

@@ -1,5 +1,6 @@
 //! The step loop: steps, removals under `outflow = "remove"`, the reference tracker, output
-//! steps with their traffic, and the stop at a step boundary (signal, wall clock, end).
+//! steps with their traffic, flow frames, and the stop at a step boundary (signal, wall clock,
+//! end).
 
 use super::diagnostics::{diag_row, reduce};
 use super::rank::RankRun;
@@ -24,6 +25,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
         while !self.sim.done() {
             self.inject_fault();
             let before = (self.sim.resized, self.removed);
+            let t0 = self.sim.t;
             self.sim.advance(self.comm)?;
             self.report_removals()?;
             self.count_population(before);
@@ -40,6 +42,7 @@ impl<'a, const D: usize> RankRun<'a, D> {
                 crate::probes::advance_past(&mut self.next_out, interval, self.sim.t);
                 self.traffic(self.sim.step)?;
             }
+            self.write_frames(t0)?;
             progress.update(
                 self.sim.step,
                 self.sim.t,

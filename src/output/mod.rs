@@ -72,7 +72,7 @@ pub const RUN_FILES: &[&str] = &[
 ];
 /// The folders a run writes into (`--force` removes the files a run wrote there, by
 /// [`names`], and a folder only once nothing else is left in it).
-pub const RUN_FOLDERS: &[&str] = &["probes", "snapshots", "checkpoints", "final", "report"];
+pub const RUN_FOLDERS: &[&str] = &["probes", "snapshots", "checkpoints", "final", "frames", "report"];
 /// The lock a run holds on its directory while it runs (an empty file, kept).
 pub const LOCK_FILE: &str = ".hsph.lock";
 

@@ -3,8 +3,9 @@
 //! (README, "Output"). A file is a run's by its name alone: a name of [`super::RUN_FILES`] at
 //! the top, a probe's series under `probes/`, a snapshot's index or piece under `snapshots/`, a
 //! checkpoint's manifest or part under `checkpoints/step-NNNNNNNNNN/`, a rank's final state
-//! under `final/`, a chart or page of `hsph report` under `report/`; and the `.tmp` of any of
-//! them (an atomic write that was cut short).
+//! under `final/`, a flow frame's index under `frames/` and its pieces under
+//! `frames/frame_KK/`, a chart or page of `hsph report` under `report/`; and the `.tmp` of any
+//! of them (an atomic write that was cut short).
 
 use super::{LOCK_FILE, RUN_FILES, RUN_FOLDERS};
 use crate::error::{Error, Result};
@@ -21,6 +22,8 @@ pub const REPORT_STEMS: &[&str] = &[
     "compare",
     "impact_top",
     "impact_side",
+    "pressure_traces",
+    "flow_final",
 ];
 /// The pages `hsph report` writes into `report/`.
 const REPORT_PAGES: &[&str] = &["report.md", "compare.md"];
@@ -62,11 +65,14 @@ pub fn is_folder_file(folder: &str, sub: Option<&str>, name: &str, probes: &[Str
                 || numbered(name, "part-", 5, "")
         }
         ("final", None) => numbered(name, "rank_", 4, ".csv"),
+        ("frames", None) => numbered(name, "frame_", 2, ".json"),
+        ("frames", Some(_)) => numbered(name, "rank_", 4, ".csv"),
         ("report", None) => {
             REPORT_PAGES.contains(&name)
-                || REPORT_STEMS
-                    .iter()
-                    .any(|s| name == format!("{s}.png") || name == format!("{s}.svg"))
+                || [".png", ".svg"].iter().any(|ext| {
+                    REPORT_STEMS.iter().any(|s| name == format!("{s}{ext}"))
+                        || numbered(name, "flow_", 2, ext)
+                })
         }
         _ => false,
     }
@@ -77,6 +83,7 @@ pub fn is_subfolder(folder: &str, name: &str) -> bool {
     match folder {
         "snapshots" => numbered(name, "snapshot_", 5, ""),
         "checkpoints" => numbered(name, "step-", 10, ""),
+        "frames" => numbered(name, "frame_", 2, ""),
         _ => false,
     }
 }
@@ -280,5 +287,18 @@ mod tests {
         assert!(is_folder_file("final", None, "rank_0000.csv", &probes));
         assert!(is_folder_file("report", None, "phase_times.svg", &probes));
         assert!(!is_folder_file("report", None, "my_plot.png", &probes));
+        assert!(is_folder_file("report", None, "flow_03.png", &probes));
+        assert!(is_folder_file("report", None, "flow_final.svg", &probes));
+        assert!(is_folder_file("report", None, "pressure_traces.png", &probes));
+        assert!(!is_folder_file("report", None, "flow_x.png", &probes));
+        assert!(is_folder_file("frames", None, "frame_00.json", &probes));
+        assert!(is_folder_file(
+            "frames",
+            Some("frame_00"),
+            "rank_0002.csv",
+            &probes
+        ));
+        assert!(!is_folder_file("frames", None, "frame_0.json", &probes));
+        assert!(is_subfolder("frames", "frame_12") && !is_subfolder("frames", "mine"));
     }
 }

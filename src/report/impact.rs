@@ -3,96 +3,12 @@
 //! fitted ellipse) and the debris cloud seen across the impact plane.
 
 use super::charts::{both, font, register_font, viridis, Res};
-use crate::error::{Error, Result};
-use crate::particles::{Kind, Particles, Record};
+use super::state::{read_state, scale, State};
+use crate::error::Result;
 use crate::probes::hole::{cell_size, in_plane_axes, measure_with_cells, HoleSetup};
 use crate::scene::{load_scene, Scene};
-use crate::Vector;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
-
-/// The final state as the pictures need it: particles and the colouring column.
-struct Final {
-    p: Particles<3>,
-    values: Vec<f64>,
-}
-
-/// Read `final.csv` (3D): kind, body, position and the column `field`, through the bounded
-/// reader; every row has the header's fields, every number is checked where it is read (a
-/// kind hsph writes, a body index, finite positions), exit 2 naming the line and column.
-fn read_final(path: &Path, field: &str) -> Result<Final> {
-    use crate::limits::{FileNumbers, Number};
-    let mut head: Vec<String> = Vec::new();
-    let mut cols: Option<[usize; 5]> = None;
-    let mut failed = None;
-    let mut p = Particles::<3>::default();
-    let mut values = Vec::new();
-    crate::limits::read_lines(path, "final.csv", |n, line| {
-        if head.is_empty() {
-            head = line.split(',').map(str::to_string).collect();
-            let col = |name: &str| head.iter().position(|h| h == name);
-            failed = col("failed");
-            let (Some(id), Some(kind), Some(body), Some(x)) = (col("id"), col("kind"), col("body"), col("x"))
-            else {
-                return Err(Error::run(format!(
-                    "{}: not a final.csv with id, kind, body, x",
-                    path.display()
-                )));
-            };
-            let Some(f) = col(field) else {
-                return Err(Error::input(
-                    "--field",
-                    format!(
-                        "`{field}` is not a column of {}; columns: {}",
-                        path.display(),
-                        head.join(", ")
-                    ),
-                ));
-            };
-            if x + 2 >= head.len() {
-                return Err(FileNumbers::at(path, n).error("x", "needs the columns x, y, z".into()));
-            }
-            cols = Some([id, kind, body, x, f]);
-            return Ok(());
-        }
-        let Some([id, kind, body, x, f]) = cols else {
-            return Ok(());
-        };
-        let c: Vec<&str> = line.split(',').collect();
-        let at = FileNumbers::at(path, n);
-        if c.len() != head.len() {
-            return Err(at.error("", format!("{} fields, the header has {}", c.len(), head.len())));
-        }
-        let num = |k: usize| Number::Text(c[k]);
-        let code = at.count("kind", num(kind), (0, 255))? as u8;
-        let Some(k) = Kind::from_code(code) else {
-            return Err(at.error("kind", format!("{code} is not a particle kind of hsph (0 to 4)")));
-        };
-        let body_i = at.count("body", num(body), (0, u16::MAX as u64))? as u16;
-        let any = (f64::MIN, f64::MAX);
-        let pos = Vector::<3>::new(
-            at.real("x", num(x), any)?,
-            at.real(&head[x + 1], num(x + 1), any)?,
-            at.real(&head[x + 2], num(x + 2), any)?,
-        );
-        let id_v = at.count("id", num(id), (0, 1u64 << 53))?;
-        let mut r = Record::new(id_v, k, body_i, 0, pos, Vector::zeros(), 0.0, 0.0);
-        if let Some(fl) = failed {
-            r.failed = at.count("failed", num(fl), (0, u16::MAX as u64))? as u16;
-        }
-        p.push_owned(r);
-        // the colouring column may hold a NaN; the colour scale leaves it out
-        values.push(c[f].parse().unwrap_or(f64::NAN));
-        Ok(())
-    })?;
-    if cols.is_none() {
-        return Err(Error::run(format!(
-            "{}: not a final.csv with id, kind, body, x",
-            path.display()
-        )));
-    }
-    Ok(Final { p, values })
-}
 
 /// The run's hole probe (plate, projectile), if its scene has one.
 fn hole_probe(scene: &Scene) -> Option<(String, String)> {
@@ -101,23 +17,6 @@ fn hole_probe(scene: &Scene) -> Option<(String, String)> {
         .iter()
         .find_map(|p| p.hole_bodies())
         .map(|(plate, projectile)| (plate.to_string(), projectile.to_string()))
-}
-
-/// Colour scale of `values` (5th to 95th percentile, so that a few extreme particles do not
-/// wash the picture out).
-fn scale(values: &[f64]) -> (f64, f64) {
-    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
-        return (0.0, 1.0);
-    }
-    v.sort_by(f64::total_cmp);
-    let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
-    let (lo, hi) = (at(0.05), at(0.95));
-    if hi > lo {
-        (lo, hi)
-    } else {
-        (lo, lo + 1.0)
-    }
 }
 
 /// `impact_top` and `impact_side` into `out` for the 3D run in `run` with a hole probe; no
@@ -135,11 +34,14 @@ pub fn charts(run: &Path, out: &Path, field: &str) -> Result<Vec<PathBuf>> {
     if scene.dimension != 3 {
         return Ok(Vec::new());
     }
-    let fin = read_final(&final_path, field)?;
+    let fin = read_state::<3>(&[final_path], field)?;
     let setup = HoleSetup::<3>::of(&scene, &plate, &projectile);
     let ids: Vec<usize> = (0..fin.p.n_owned).filter(|&i| fin.p.kind[i].is_solid()).collect();
     let (hole, cells) = measure_with_cells(&fin.p, &ids, &setup);
-    let range = scale(&ids.iter().map(|&i| fin.values[i]).collect::<Vec<_>>());
+    let range = scale(
+        &ids.iter().map(|&i| fin.values[i]).collect::<Vec<_>>(),
+        (0.05, 0.95),
+    );
     let view = View {
         fin: &fin,
         ids: &ids,
@@ -155,7 +57,7 @@ pub fn charts(run: &Path, out: &Path, field: &str) -> Result<Vec<PathBuf>> {
 
 /// What both pictures draw.
 struct View<'a> {
-    fin: &'a Final,
+    fin: &'a State<3>,
     ids: &'a [usize],
     setup: &'a HoleSetup<3>,
     hole: &'a crate::probes::hole::Hole,

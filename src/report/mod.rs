@@ -6,14 +6,20 @@
 //! imbalance per output step) and `traffic.csv` (optional: runs made before traffic accounting
 //! have none; the traffic charts are then left out and `report.md` says so).
 //!
+//! For a run with fluid it draws the flow itself, each flow frame (`output.frames`) and the
+//! final state coloured by pressure ([`flow`], reading the states through [`state`]); for a
+//! run with a hole probe the impact's pictures ([`impact`]).
+//!
 //! Charts are drawn by [`charts`] with plotters' pure-Rust bitmap and SVG back ends and DejaVu
 //! Sans compiled into the binary, so no system font library is needed.
 
 pub mod charts;
+mod flow;
 mod impact;
 mod load;
 mod pressure;
 pub mod preview;
+mod state;
 
 pub use load::{Diagnostics, Run, TrafficRow};
 
@@ -93,9 +99,17 @@ pub fn write_run(run: &Run, dir: &Path) -> Result<Vec<PathBuf>> {
     if !traces.is_empty() {
         files.extend(traces);
         charts_done.push((
-            "pressure_traces",
-            "Wall pressure at each compared sensor: the run (raw, and through its box filter) over the experiment",
+            "pressure_traces".into(),
+            "Wall pressure at each compared sensor: the run (raw, and through its box filter) over the experiment"
+                .into(),
         ));
+    }
+    // and the flow itself: each frame and the final state coloured by pressure
+    for (file, stem, caption) in flow::charts(&run.dir, &run.summary, dir)? {
+        if file.extension().is_some_and(|e| e == "png") {
+            charts_done.push((stem, format!("The flow, {caption}")));
+        }
+        files.push(file);
     }
     if let Some(traffic) = &run.traffic {
         let nodes = run.rank_nodes();
@@ -103,19 +117,25 @@ pub fn write_run(run: &Run, dir: &Path) -> Result<Vec<PathBuf>> {
         if has_inter_rank_traffic(run.ranks(), traffic) {
             files.extend(charts::traffic_heatmap(dir, run.ranks(), &nodes, traffic)?);
             charts_done.push((
-                "traffic_heatmap",
-                "Rank-pair traffic (bytes, all phases; lines: node boundaries)",
+                "traffic_heatmap".into(),
+                "Rank-pair traffic (bytes, all phases; lines: node boundaries)".into(),
             ));
         }
         files.extend(charts::traffic_time(dir, &traffic_by_interval(traffic))?);
-        charts_done.push(("traffic_time", "Intra- and inter-node bytes per output interval"));
+        charts_done.push((
+            "traffic_time".into(),
+            "Intra- and inter-node bytes per output interval".into(),
+        ));
     }
     files.extend(charts::ghosts_imbalance(dir, &run.diag)?);
-    charts_done.push(("ghosts_imbalance", "Ghost fraction and load imbalance over time"));
+    charts_done.push((
+        "ghosts_imbalance".into(),
+        "Ghost fraction and load imbalance over time".into(),
+    ));
     files.extend(charts::phase_times(dir, &run.diag, &run.phase_totals())?);
     charts_done.push((
-        "phase_times",
-        "Time per phase: per output interval (mean over ranks) and in total (min–max over ranks)",
+        "phase_times".into(),
+        "Time per phase: per output interval (mean over ranks) and in total (min–max over ranks)".into(),
     ));
     let md = dir.join("report.md");
     let text = run_markdown(run, &charts_done);
@@ -209,7 +229,7 @@ fn layout(run: &Run) -> String {
 }
 
 /// The markdown summary of one run; `charts` lists (file stem, caption) of the charts drawn.
-pub fn run_markdown(run: &Run, charts: &[(&str, &str)]) -> String {
+pub fn run_markdown(run: &Run, charts: &[(String, String)]) -> String {
     let s = &run.summary;
     let mut w = String::new();
     let text = |k: &str| s.get(k).and_then(|v| v.as_str()).unwrap_or("—").to_string();
@@ -379,7 +399,7 @@ fn time_per_phase(w: &mut String, run: &Run) {
 }
 
 /// The charts, and why a missing one is missing.
-fn charts_section(w: &mut String, run: &Run, charts: &[(&str, &str)]) {
+fn charts_section(w: &mut String, run: &Run, charts: &[(String, String)]) {
     let _ = writeln!(w, "\n## Charts\n");
     if run.traffic.is_none() {
         let _ = writeln!(
@@ -387,7 +407,7 @@ fn charts_section(w: &mut String, run: &Run, charts: &[(&str, &str)]) {
             "No `traffic.csv` in the run directory (a run from before traffic accounting): the \
              traffic heat map and the intra/inter-node chart are left out.\n"
         );
-    } else if !charts.iter().any(|(stem, _)| *stem == "traffic_heatmap") {
+    } else if !charts.iter().any(|(stem, _)| stem == "traffic_heatmap") {
         let _ = writeln!(
             w,
             "No rank-pair heat map: this run's {} rank(s) exchanged no bytes with another rank (a \

@@ -197,7 +197,7 @@ fn section<const D: usize>(
 
 /// Pixels for a picture of the extents `a` × `b` (m): 1000 wide, the height in proportion
 /// within 300..1000, plus room for the caption and axes.
-fn picture_size(a: f64, b: f64) -> (u32, u32) {
+pub(super) fn picture_size(a: f64, b: f64) -> (u32, u32) {
     let h = (1000.0 * b / a).clamp(300.0, 1000.0);
     (1000, h as u32 + 90)
 }

@@ -911,6 +911,17 @@ pub fn scene_warnings<const D: usize>(s: &Scene) -> Vec<String> {
     if let Some(w) = undamped_warning(s) {
         out.push(w);
     }
+    let frames = s.output.frames.as_deref().unwrap_or_default();
+    if let Some(j) = frames.iter().position(|&t| t > s.time.t_end) {
+        let later = match frames.len() - j - 1 {
+            0 => String::new(),
+            n => format!(" (nor at the {n} later times)"),
+        };
+        out.push(format!(
+            "output.frames[{j}] = {} s lies past time.t_end = {} s: the run writes no frame there{later}",
+            frames[j], s.time.t_end,
+        ));
+    }
     if s.physics.shifting == super::ShiftingKind::DeltaPlus && s.discretisation.h_over_dx < 1.8 {
         out.push(format!(
             "physics.shifting = \"delta_plus\" with discretisation.h_over_dx = {}: shifting is made \

@@ -947,6 +947,12 @@ pub struct Output {
     /// writes its own `final/rank_000r.csv`. Snapshots are always written per rank.
     #[serde(default = "default_gather_limit")]
     pub gather_limit: usize,
+    /// Times (s) at which the run writes the whole state as a flow frame
+    /// (`frames/frame_NN.csv`, as `final.csv`; `hsph report` draws each coloured by pressure):
+    /// the first step at or past each. Left out: ¼, ½ and ¾ of `time.t_end` for a scene with
+    /// fluid, none otherwise; `[]` writes none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frames: Option<Vec<f64>>,
 }
 
 fn default_gather_limit() -> usize {
@@ -970,6 +976,7 @@ impl Default for Output {
             format: default_format(),
             fields: default_fields(),
             gather_limit: default_gather_limit(),
+            frames: None,
         }
     }
 }

@@ -10,8 +10,8 @@ use super::walls::validate_walls;
 use super::*;
 use crate::error::{Error, Result};
 use crate::limits::{
-    MAX_BODY_FORCE, MAX_CELLS, MAX_COEFFICIENT, MAX_EXPR_TOTAL_CHARS, MAX_PARTICLES, MAX_STEPS, MAX_T_END,
-    MAX_VISCOSITY, SOUND_SPEED_RANGE,
+    MAX_BODY_FORCE, MAX_CELLS, MAX_COEFFICIENT, MAX_EXPR_TOTAL_CHARS, MAX_FRAMES, MAX_PARTICLES, MAX_STEPS,
+    MAX_T_END, MAX_VISCOSITY, SOUND_SPEED_RANGE,
 };
 
 /// Most iterations of the set-up relaxation (`discretisation.relax`): each is a ghost build and a
@@ -616,6 +616,7 @@ fn validate_time_output(s: &mut Scene) -> Result<()> {
     if s.output.interval == 0.0 {
         s.output.interval = s.time.t_end / 50.0;
     }
+    validate_frames(s)?;
     if s.output.format == SnapshotFormat::Netcdf4 && !cfg!(feature = "netcdf") {
         return Err(Error::missing_feature("output.format", "netcdf"));
     }
@@ -644,6 +645,48 @@ fn validate_time_output(s: &mut Scene) -> Result<()> {
             );
         }
     }
+    Ok(())
+}
+
+/// `output.frames`: each time finite and positive, at most [`MAX_FRAMES`]; resolved to
+/// ascending times without repeats, the default (¼, ½, ¾ of t_end with fluid) written out. A
+/// time past t_end is kept (a run shortened with `--set time.t_end` keeps its scene's frames)
+/// and warned ([`crate::scene::lattice`]'s warnings).
+fn validate_frames(s: &mut Scene) -> Result<()> {
+    let t_end = s.time.t_end;
+    let Some(frames) = &mut s.output.frames else {
+        let auto = match s.fluids.is_empty() {
+            true => Vec::new(),
+            false => vec![0.25 * t_end, 0.5 * t_end, 0.75 * t_end],
+        };
+        s.output.frames = Some(auto);
+        return Ok(());
+    };
+    if frames.len() > MAX_FRAMES {
+        return err(
+            "output.frames".to_string(),
+            format!(
+                "names {} times, more than the {MAX_FRAMES} frames a run writes (MAX_FRAMES): \
+                 each frame is the whole state; use snapshots (output.interval) for a film",
+                frames.len()
+            ),
+        );
+    }
+    for (j, &t) in frames.iter().enumerate() {
+        if !(t.is_finite() && t > 0.0 && t <= MAX_T_END) {
+            return err(
+                format!("output.frames[{j}]"),
+                format!(
+                    "must be a time in (0, {MAX_T_END:e}] s (MAX_T_END), got {t}; e.g. frames = \
+                     [{:.3}, {:.3}]",
+                    0.5 * t_end,
+                    t_end
+                ),
+            );
+        }
+    }
+    frames.sort_by(f64::total_cmp);
+    frames.dedup();
     Ok(())
 }
 
