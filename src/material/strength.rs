@@ -72,12 +72,16 @@ pub fn rate_and_spin<const D: usize>(grad_v: &Tensor<D>) -> (Tensor<D>, Tensor<D
 ///   dS/dt = 2G (ε̇ − ⅓ tr(ε̇) I) + Ω S − S Ω                                         (5)
 ///
 /// with ε̇ and Ω from [`rate_and_spin`] (Gray, Monaghan & Swift 2001, eq. 2.8, whose
-/// S^{ac}R^{bc} + R^{ac}S^{cb} is S Ωᵀ + Ω S = Ω S − S Ω since Ω is antisymmetric). In 2D this
-/// is plane strain: tr(ε̇) over the two in-plane axes.
+/// S^{ac}R^{bc} + R^{ac}S^{cb} is S Ωᵀ + Ω S = Ω S − S Ω since Ω is antisymmetric). For a
+/// symmetric S, S Ω = −(Ω S)ᵀ, so the rotation term is computed as Ω S + (Ω S)ᵀ: one product
+/// instead of two, and the rate is symmetric to the bit (each pair of off-diagonal entries
+/// adds the same two numbers), so it is stored as its D(D+1)/2 distinct components. In 2D
+/// this is plane strain: tr(ε̇) over the two in-plane axes.
 pub fn jaumann_rate<const D: usize>(s: &Tensor<D>, grad_v: &Tensor<D>, g: f64) -> Tensor<D> {
     let (rate, spin) = rate_and_spin(grad_v);
     let dev = rate - Tensor::<D>::identity() * (rate.trace() / 3.0);
-    dev * (2.0 * g) + spin * s - s * spin
+    let rot = spin * s;
+    dev * (2.0 * g) + (rot + rot.transpose())
 }
 
 /// Von Mises equivalent stress √(3 J2), J2 = ½ S:S (Pa). In 2D (plane strain) S holds the
@@ -207,6 +211,28 @@ mod tests {
         assert!(ds[(0, 0)].abs() < 1e-6 && ds[(1, 1)].abs() < 1e-6);
         // the rotation keeps J2 to first order: S:dS/dt = 0
         assert!(s.component_mul(&ds).sum().abs() < 1e-3);
+    }
+
+    /// In 3D, for a symmetric S and a general velocity gradient, the rate equals
+    /// 2G ε̇_dev + Ω S − S Ω to round-off and is symmetric to the bit (it is stored as its six
+    /// distinct components).
+    #[test]
+    fn the_jaumann_rate_is_symmetric_to_the_bit() {
+        let g = 26.0e9;
+        let s = Tensor::<3>::new(1.3e8, -2.1e7, 4.4e7, -2.1e7, -0.7e8, 9.1e6, 4.4e7, 9.1e6, -0.6e8);
+        let grad = Tensor::<3>::new(310.0, -1270.0, 55.5, 883.0, -41.0, 2.2e3, -977.0, 12.5, 77.0);
+        let ds = jaumann_rate(&s, &grad, g);
+        let (rate, spin) = rate_and_spin(&grad);
+        let want = (rate - Tensor::<3>::identity() * (rate.trace() / 3.0)) * (2.0 * g) + spin * s - s * spin;
+        for a in 0..3 {
+            for b in 0..3 {
+                assert_eq!(ds[(a, b)].to_bits(), ds[(b, a)].to_bits(), "({a}, {b})");
+                assert!(
+                    (ds[(a, b)] - want[(a, b)]).abs() <= 1e-12 * want.abs().max(),
+                    "({a}, {b})"
+                );
+            }
+        }
     }
 
     #[test]

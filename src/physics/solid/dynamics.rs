@@ -42,8 +42,10 @@ use rayon::prelude::*;
 /// allocated in the step loop once the sizes have settled.
 #[derive(Debug, Clone, Default)]
 pub struct SolidScratch<const D: usize> {
-    /// dS/dt of owned particles (Pa/s).
-    pub ds: Vec<Tensor<D>>,
+    /// dS/dt of owned particles (Pa/s): symmetric, as the Jaumann rate 2G ε̇' + ΩS − SΩ of a
+    /// symmetric S is (to the bit: (ΩS − SΩ)_ab and _ba add the same two products), so its
+    /// D(D+1)/2 distinct components.
+    pub ds: Vec<Sym<D>>,
     /// de/dt of owned particles (W/kg).
     pub de: Vec<f64>,
     /// Equivalent strain rate √(⅔ ε̇_dev:ε̇_dev) of owned particles (1/s), the Johnson–Cook
@@ -62,10 +64,12 @@ pub struct SolidScratch<const D: usize> {
 }
 
 impl<const D: usize> SolidScratch<D> {
-    /// Bytes this scratch holds per solid particle once sized (B; the memory estimate): three
-    /// tensors, three scalars and a flag.
-    pub const BYTES_PER_PARTICLE: usize =
-        3 * std::mem::size_of::<Tensor<D>>() + 3 * std::mem::size_of::<f64>() + 1;
+    /// Bytes this scratch holds per solid particle once sized (B; the memory estimate): two
+    /// tensors, a symmetric one, three scalars and a flag.
+    pub const BYTES_PER_PARTICLE: usize = 2 * std::mem::size_of::<Tensor<D>>()
+        + std::mem::size_of::<Sym<D>>()
+        + 3 * std::mem::size_of::<f64>()
+        + 1;
 
     /// Bytes this scratch holds, by capacity.
     pub fn bytes_held(&self) -> usize {
@@ -201,7 +205,7 @@ pub fn rates<const D: usize, N: Neighbours>(
     if model.artificial_stress > 0.0 {
         stress_terms(p, model, scratch, false);
     }
-    scratch.ds.resize(n, Tensor::zeros());
+    scratch.ds.resize(n, Sym::default());
     scratch.de.resize(n, 0.0);
     scratch.rate.resize(n, 0.0);
     let mut drho = std::mem::take(&mut p.drho);
@@ -239,7 +243,7 @@ fn rates_of<const D: usize, N: Neighbours, K: PairKernel>(
     visc: &Viscosity,
     half_dt: f64,
     i: usize,
-) -> (f64, Tensor<D>, f64, f64) {
+) -> (f64, Sym<D>, f64, f64) {
     let (xi, vi, rhoi) = (p.x[i], p.v[i], p.rho[i]);
     let mut grad = Tensor::<D>::zeros(); // Σ m_j v_ij ⊗ ∇W
     let mut visc_work = 0.0; // Σ m_j Π_ij v_ij·∇W
@@ -280,9 +284,9 @@ pub(super) fn rates_from<const D: usize>(
     grad: Tensor<D>,
     visc_work: f64,
     stress_work: f64,
-) -> (f64, Tensor<D>, f64, f64) {
+) -> (f64, Sym<D>, f64, f64) {
     let Some(solid) = model.materials[p.mat[i] as usize].solid() else {
-        return (0.0, Tensor::zeros(), 0.0, 0.0);
+        return (0.0, Sym::default(), 0.0, 0.0);
     };
     let rhoi = p.rho[i];
     let l = grad * p.correction[i].tensor() * (-1.0 / rhoi);
@@ -291,9 +295,9 @@ pub(super) fn rates_from<const D: usize>(
     let s = p.stress[i].tensor();
     let failed = p.failed[i] != 0;
     let ds = if failed {
-        Tensor::zeros()
+        Sym::default()
     } else {
-        jaumann_rate(&s, &l, solid.shear)
+        Sym::from_upper(&jaumann_rate(&s, &l, solid.shear))
     };
     let dev = eps - Tensor::<D>::identity() * (eps.trace() / 3.0);
     // plane strain: ε̇_zz = 0, so the deviator has −tr/3 out of plane too
@@ -352,7 +356,7 @@ pub fn update<const D: usize>(p: &mut Particles<D>, model: &Model<D>, dt: f64, s
                 *e += dt * scratch.de[i];
                 // the Jaumann rate is symmetric only up to rounding: keep S symmetric to the
                 // last bit, as ghosts receive its upper triangle
-                st = symmetric(&(st + scratch.ds[i] * dt));
+                st = symmetric(&(st + scratch.ds[i].tensor() * dt));
             }
             if *failed != 0 {
                 st = Tensor::zeros();

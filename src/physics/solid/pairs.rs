@@ -143,7 +143,7 @@ pub fn rates<const D: usize>(
         };
         run_homes(half, s.flat(), stride, 0.0, true, &pass);
     });
-    scratch.ds.resize(n, Tensor::zeros());
+    scratch.ds.resize(n, Sym::default());
     scratch.de.resize(n, 0.0);
     scratch.rate.resize(n, 0.0);
     let mut drho = std::mem::take(&mut p.drho);
