@@ -142,7 +142,8 @@ pub struct Parts {
     pub lists: f64,
     /// The cell list: a slot per particle and the grid's cells over the whole domain.
     pub cells: f64,
-    /// The solids' per-particle scratch.
+    /// The passes' scratch: pair mode's accumulators (fluid and solid) and the solids'
+    /// per-particle rates and stress terms.
     pub scratch: f64,
 }
 

@@ -95,7 +95,7 @@ pub(super) fn estimate_report(
         "estimate    {} particles; {ranks} rank(s) in one process need about {} (set-up peak {} per rank, \
          {} per rank running); available {avail}\n\
          {:12}a rank running, in B per owned particle: table {:.0}, ghosts and halo buffers {:.0}, lists {:.0}, \
-         cells {:.0}, solids' scratch {:.0}; the process itself {}\n",
+         cells {:.0}, scratch (pair accumulators, solids' rates) {:.0}; the process itself {}\n",
         est.particles,
         human(est.process),
         human(est.rank_setup),
