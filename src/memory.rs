@@ -217,6 +217,14 @@ pub fn estimate<const D: usize>(
         true => 16.0 + fluid * 8.0 * (D * D + D) as f64 + solids * 8.0 * (D * D + 2) as f64,
         false => 0.0,
     };
+    // δ⁺ shifting keeps each owned particle's displacement and Taylor increments (2D + 1
+    // values) between steps
+    let shift_bytes = match scene.physics.shifting {
+        crate::scene::ShiftingKind::DeltaPlus => {
+            std::mem::size_of::<crate::physics::shifting::Shift<D>>() as f64
+        }
+        crate::scene::ShiftingKind::None => 0.0,
+    };
     let grid = grid_bytes::<D>(scene, &sites, scene.discretisation.support() * reach);
     let layers = (scene.discretisation.support() * reach / scene.discretisation.dx).ceil();
     let per_rank = |owned: f64| {
@@ -236,7 +244,8 @@ pub fn estimate<const D: usize>(
             lists: owned * listed * entry_bytes + (owned + ghosts) * slot_bytes,
             cells: grid + (owned + ghosts) * 8.0,
             scratch: (owned + ghosts)
-                * (solids * SolidScratch::<D>::BYTES_PER_PARTICLE as f64 + pair_scratch),
+                * (solids * SolidScratch::<D>::BYTES_PER_PARTICLE as f64 + pair_scratch)
+                + owned * shift_bytes,
         };
         let run = parts.table + parts.ghosts + parts.lists + parts.cells + parts.scratch + counts;
         (setup, run, parts)

@@ -46,13 +46,22 @@ pub struct PairScratch<const D: usize> {
     vol: Vec<f64>,
     /// p_j/ρ_j² of every particle.
     p_rho2: Vec<f64>,
+    /// The shifting pass's displacements and Taylor increments of owned particles
+    /// ([`crate::physics::shifting::shifts`]).
+    shift: Vec<crate::physics::shifting::Shift<D>>,
 }
 
 impl<const D: usize> PairScratch<D> {
     /// Bytes these accumulators hold, by capacity.
     pub fn bytes_held(&self) -> usize {
         use crate::cells::held;
-        held(&self.flat) + held(&self.vol) + held(&self.p_rho2)
+        held(&self.flat) + held(&self.vol) + held(&self.p_rho2) + held(&self.shift)
+    }
+
+    /// The shifting pass's kept buffers: the volumes (the gather passes' buffer) and the
+    /// shifts.
+    pub fn shift_buffers(&mut self) -> (&mut Vec<f64>, &mut Vec<crate::physics::shifting::Shift<D>>) {
+        (&mut self.vol, &mut self.shift)
     }
 
     /// The pair passes' accumulators (the solids' pair passes share them:

@@ -154,20 +154,25 @@ impl<const D: usize> Default for Shift<D> {
     }
 }
 
-/// The shift of every owned particle into `out` (zero for all but fluid particles), from the
-/// current positions, densities and velocities of owned particles and ghosts.
+/// The shift of every owned particle into `out` (resized to the owned count; zero for all but
+/// fluid particles), from the current positions, densities and velocities of owned particles
+/// and ghosts. `vol` is a kept buffer for the volumes V_j = m_j/ρ_j (m³): the pass allocates
+/// nothing once the buffers have grown to the run's size.
 pub fn shifts<const D: usize, N: Neighbours>(
     p: &Particles<D>,
     nl: &N,
     model: &Model<D>,
     s: &Shifting,
-    out: &mut [Shift<D>],
+    (vol, out): (&mut Vec<f64>, &mut Vec<Shift<D>>),
 ) {
-    let vol = super::fluid::volumes(p);
+    super::fluid::volumes_into(p, vol);
+    out.clear();
+    out.resize(p.n_owned, Shift::default());
+    let vol = &vol[..];
     crate::with_pair_kernel!(model.varying(), model.kernel, D, kern => {
         out.par_iter_mut().enumerate().for_each(|(i, o)| {
             if nl.visits(i) {
-                *o = shift_of(p, nl, model, kern, s, &vol, i);
+                *o = shift_of(p, nl, model, kern, s, vol, i);
             }
         })
     });

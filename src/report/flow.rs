@@ -4,8 +4,8 @@
 //! 2D run shows every particle; a 3D run the slab one spacing thick about the domain's middle
 //! across its second axis (y), in x and z.
 
-use super::charts::{both, font, register_font, viridis, Res};
-use super::preview::picture_size;
+use super::charts::{both, register_font, viridis, Res};
+use super::preview::{legend, Plane};
 use super::state::{read_state, scale, State};
 use crate::error::Result;
 use crate::scene::{load_scene, Scene};
@@ -143,8 +143,8 @@ fn draw<const D: usize>(
     let shown: Vec<usize> = (0..s.p.n_owned)
         .filter(|&i| D == 2 || (s.p.x[i][1] - mid).abs() < 0.5 * dx)
         .collect();
-    let (w, h) = picture_size(hi[u] - lo[u], hi[v] - lo[v]);
-    let radius = ((dx / (hi[u] - lo[u]) * f64::from(w) * 0.45).round() as i32).clamp(1, 12);
+    let plane = Plane::of(scene, (u, v));
+    let radius = plane.radius;
     let kpa = |p: f64| format!("{:.3} kPa", p * 1e-3);
     let title = match D {
         2 => format!("{caption}; pressure {} to {}", kpa(range.0), kpa(range.1)),
@@ -155,21 +155,8 @@ fn draw<const D: usize>(
         ),
     };
     let colour = |x: f64| viridis(((x - range.0) / (range.1 - range.0)).clamp(0.0, 1.0));
-    const AXES: [&str; 3] = ["x", "y", "z"];
-    both!(out, stem, (w, h), |root| {
-        root.fill(&WHITE)?;
-        let mut ch = ChartBuilder::on(root)
-            .caption(&title, font(14))
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(60)
-            .build_cartesian_2d(lo[u]..hi[u], lo[v]..hi[v])?;
-        ch.configure_mesh()
-            .x_desc(format!("{} (m)", AXES[u]))
-            .y_desc(format!("{} (m)", AXES[v]))
-            .label_style(font(12))
-            .axis_desc_style(font(14))
-            .draw()?;
+    both!(out, stem, plane.size, |root| {
+        let mut ch = plane.chart(root, &title)?;
         let grey = RGBColor(170, 170, 170);
         ch.draw_series(
             shown
@@ -193,11 +180,6 @@ fn draw<const D: usize>(
                 .label(format!("{label}: {}", kpa(x)))
                 .legend(move |(x, y)| Circle::new((x, y), 4, c.filled()));
         }
-        ch.configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(font(12))
-            .draw()?;
-        Ok(())
+        legend(&mut ch)
     })
 }

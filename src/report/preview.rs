@@ -138,9 +138,8 @@ fn section<const D: usize>(
     let shown: Vec<usize> = (0..p.n_owned)
         .filter(|&i| at.is_none_or(|(n, c)| (p.x[i][n] - c).abs() < 0.5 * dx))
         .collect();
-    let (w, h) = picture_size(hi[u] - lo[u], hi[v] - lo[v]);
-    // each particle a disc about a spacing across, at least a pixel
-    let radius = ((dx / (hi[u] - lo[u]) * f64::from(w) * 0.45).round() as i32).clamp(1, 12);
+    let plane = Plane::of(scene, (u, v));
+    let radius = plane.radius;
     let (stem, caption) = match at {
         None => (
             "preview".to_string(),
@@ -161,20 +160,8 @@ fn section<const D: usize>(
         ),
     };
     let colour = |k: usize| PALETTE[k % PALETTE.len()];
-    both!(dir, stem, (w, h), |root| {
-        root.fill(&WHITE)?;
-        let mut ch = ChartBuilder::on(root)
-            .caption(&caption, font(14))
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(60)
-            .build_cartesian_2d(lo[u]..hi[u], lo[v]..hi[v])?;
-        ch.configure_mesh()
-            .x_desc(format!("{} (m)", AXES[u]))
-            .y_desc(format!("{} (m)", AXES[v]))
-            .label_style(font(12))
-            .axis_desc_style(font(14))
-            .draw()?;
+    both!(dir, stem, plane.size, |root| {
+        let mut ch = plane.chart(root, &caption)?;
         for (k, name) in names.iter().enumerate() {
             let c = colour(k);
             ch.draw_series(
@@ -186,18 +173,88 @@ fn section<const D: usize>(
             .label(name.as_str())
             .legend(move |(x, y)| Circle::new((x, y), 4, c.filled()));
         }
-        ch.configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(font(12))
-            .draw()?;
-        Ok(())
+        legend(&mut ch)
     })
+}
+
+/// A particle picture's coordinates: metres on both axes.
+type XY = Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>;
+
+/// The plane a particle picture draws (the preview's sections, the report's flow pictures):
+/// the domain on axes `u` (across) and `v` (up), the picture's size in pixels and the radius
+/// of a particle's disc.
+pub(super) struct Plane {
+    u: usize,
+    v: usize,
+    lo: [f64; 2],
+    hi: [f64; 2],
+    /// Pixels (width, height).
+    pub size: (u32, u32),
+    /// A particle's disc, about a spacing across and at least a pixel (pixels).
+    pub radius: i32,
+}
+
+impl Plane {
+    /// The domain of `scene` on axes (`u`, `v`).
+    pub(super) fn of(scene: &Scene, (u, v): (usize, usize)) -> Plane {
+        let (lo, hi, dx) = (&scene.domain.min, &scene.domain.max, scene.discretisation.dx);
+        let size = picture_size(hi[u] - lo[u], hi[v] - lo[v]);
+        let radius = ((dx / (hi[u] - lo[u]) * f64::from(size.0) * 0.45).round() as i32).clamp(1, 12);
+        Plane {
+            u,
+            v,
+            lo: [lo[u], lo[v]],
+            hi: [hi[u], hi[v]],
+            size,
+            radius,
+        }
+    }
+
+    /// The chart on `root` (filled white): `caption` above, the axes named with their unit.
+    pub(super) fn chart<'a, DB>(
+        &self,
+        root: &'a DrawingArea<DB, plotters::coord::Shift>,
+        caption: &str,
+    ) -> std::result::Result<ChartContext<'a, DB, XY>, Box<dyn std::error::Error>>
+    where
+        DB: DrawingBackend + 'a,
+        DB::ErrorType: 'static,
+    {
+        const AXES: [&str; 3] = ["x", "y", "z"];
+        root.fill(&WHITE)?;
+        let mut ch = ChartBuilder::on(root)
+            .caption(caption, font(14))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(self.lo[0]..self.hi[0], self.lo[1]..self.hi[1])?;
+        ch.configure_mesh()
+            .x_desc(format!("{} (m)", AXES[self.u]))
+            .y_desc(format!("{} (m)", AXES[self.v]))
+            .label_style(font(12))
+            .axis_desc_style(font(14))
+            .draw()?;
+        Ok(ch)
+    }
+}
+
+/// A particle picture's legend box, drawn over the chart.
+pub(super) fn legend<'a, DB>(ch: &mut ChartContext<'a, DB, XY>) -> Res
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+{
+    ch.configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(font(12))
+        .draw()?;
+    Ok(())
 }
 
 /// Pixels for a picture of the extents `a` × `b` (m): 1000 wide, the height in proportion
 /// within 300..1000, plus room for the caption and axes.
-pub(super) fn picture_size(a: f64, b: f64) -> (u32, u32) {
+fn picture_size(a: f64, b: f64) -> (u32, u32) {
     let h = (1000.0 * b / a).clamp(300.0, 1000.0);
     (1000, h as u32 + 90)
 }

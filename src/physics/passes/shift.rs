@@ -40,8 +40,9 @@ impl Row for Shift {
             return;
         }
         let n = c.p.n_owned;
-        let mut out = vec![shifting::Shift::<D>::default(); n];
-        shifting::shifts(c.p, nb, c.model, &s, &mut out);
+        let (vol, out) = c.pair.shift_buffers();
+        shifting::shifts(c.p, nb, c.model, &s, (&mut *vol, &mut *out));
+        let out = &out[..];
         let space = c.space;
         let planes = &space.planes;
         let p = &mut *c.p;
