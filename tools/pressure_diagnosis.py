@@ -88,7 +88,17 @@ VARIANTS = {
     "riemann_refine_2_global_shifting": ['physics.shifting="delta_plus"'],
     "riemann_refine_1_global_shifting": ['physics.shifting="delta_plus"'],
     "riemann_refine_2_shifting": ['time.stepping="local"', 'physics.shifting="delta_plus"'],
+    "riemann_blocks": [],
+    "riemann_floor_no_slip": [],
+    "riemann_floor_no_slip_h17": ["discretisation.h_over_dx=1.7"],
 }
+
+# Variants whose tank is three wall blocks (floor under both corners, upstream and downstream
+# walls), each three layers thick, instead of the container: name -> the floor's slip. With a
+# free-slip floor the particles are the container's; a no-slip floor slows the surge's tip on
+# the bed without slowing the run-up on the downstream wall.
+BLOCKS = {"riemann_blocks": "free_slip", "riemann_floor_no_slip": "no_slip",
+          "riemann_floor_no_slip_h17": "no_slip"}
 
 # Variants that refine the downstream corner (docs/pressure.md §2e): an adaptive region over
 # x in [1.46, 1.66] m, y < 0.2 m (S1-S4 and the run-up's root), at `level` (dx / 2^level, the
@@ -146,6 +156,24 @@ def scene_with_region(level, transition, x0, y1, tmp, walls_only=False, scene_h=
         text += f"transition = {transition}\n"
     path = os.path.join(tmp, f"lobovsky_refine_{level}_{x0}_{y1}_{bodies.count(',')}_{scene_h}_{split_wall}.toml")
     open(path, "w").write(text)
+    return path
+
+
+def scene_with_blocks(floor_slip, dx, tmp):
+    """The shipped scene with its container replaced by three blocks of three layers at `dx`
+    (m): the floor, of slip `floor_slip`, under both corners; the two end walls free-slip."""
+    text = open("inputs/dam_break_lobovsky.toml").read()
+    start = text.index("[[wall]]")
+    end = text.index("[reference]")
+    d = 3 * dx
+    blocks = ""
+    for name, lo, hi, slip in (("floor", [-d, -d], [1.61 + d, 0.0], floor_slip),
+                               ("upstream", [-d, 0.0], [0.0, 0.8], "free_slip"),
+                               ("downstream", [1.61, 0.0], [1.61 + d, 0.8], "free_slip")):
+        blocks += (f'[[wall]]\nname = "{name}"\nshape = "block"\nmin = [{lo[0]!r}, {lo[1]!r}]\n'
+                   f'max = [{hi[0]!r}, {hi[1]!r}]\nmethod = "dummy"\nslip = "{slip}"\n\n')
+    path = os.path.join(tmp, f"lobovsky_blocks_{floor_slip}_{dx}.toml")
+    open(path, "w").write(text[:start] + blocks + text[end:])
     return path
 
 
@@ -225,6 +253,7 @@ def main():
             scene = (scene_with_region(*REGIONS[n], tmp, walls_only=n in WALL_ONLY, scene_h=n in SCENE_H,
                                        split_wall=n in SPLIT_WALL)
                      if n in REGIONS
+                     else scene_with_blocks(BLOCKS[n], a.dx, tmp) if n in BLOCKS
                      else "inputs/dam_break_lobovsky.toml")
             if a.surge_probes:
                 scene = with_surge_probes(scene, tmp, n)
