@@ -182,6 +182,50 @@ fn sensors_within_a_support_of_a_corner_or_narrower_than_dx_are_warned() {
     );
 }
 
+/// A sensor inside a `[[refine]]` region is judged by the region's particles: the adaptive
+/// Lobovsky scene (dx = 10 mm, a level-1 region with the level's h over the downstream wall)
+/// warns of S1 alone, 3 mm from the corner, within the region's support of 13 mm (the uniform
+/// 10 mm scene warns of S1's 6 mm face and of S2 too, within the scene's 26 mm); a region with
+/// the scene's h (with global steps: local steps need particles of a smaller h) keeps the 26 mm
+/// support but its 5 mm spacing, so S2 is warned again and S1's face is not.
+#[test]
+fn sensors_in_a_refinement_region_are_judged_by_its_particles() {
+    let warned = |sets: &[&str]| -> Vec<String> {
+        let mut args = vec!["check", "inputs/dam_break_lobovsky_adaptive.toml"];
+        for s in sets {
+            args.extend(["--set", s]);
+        }
+        let o = hsph_out(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .filter(|l| l.contains("warning: probe["))
+            .map(str::to_string)
+            .collect()
+    };
+    let w = warned(&[]);
+    assert_eq!(w.len(), 1, "{w:#?}");
+    assert!(
+        w[0].contains("`S1`")
+            && w[0].contains("3.000 mm from a corner")
+            && w[0].contains("(13.000 mm in refine[0])"),
+        "{w:#?}"
+    );
+    let w = warned(&["refine[0].smoothing_length=\"scene\"", "time.stepping=\"global\""]);
+    assert_eq!(w.len(), 2, "{w:#?}");
+    assert!(w.iter().all(|l| l.contains("(26.000 mm in refine[0])")), "{w:#?}");
+    assert!(w
+        .iter()
+        .any(|l| l.contains("`S2`") && l.contains("15.000 mm from a corner")));
+    // moved out of the region, S1 is judged at the scene's dx again
+    let w = warned(&["refine[0].min=[1.62,-0.04]"]);
+    assert!(
+        w.iter()
+            .any(|l| l.contains("`S1`") && l.contains("face (6.000 mm) is narrower than dx (10.000 mm)")),
+        "{w:#?}"
+    );
+}
+
 /// A wall-pressure reference names pressure probes that are sensors of its experiment: an
 /// unknown sensor, or a sensor without its probe, is exit 2 naming the key and the choices.
 #[test]

@@ -473,36 +473,89 @@ fn check_pressure(
 }
 
 /// Warnings about pressure sensors that read the discretisation more than the flow: a face
-/// narrower than dx (it averages less than one particle's width), and a sensor within one
-/// kernel support of a corner where two closed faces of a wall meet (its reading includes the
-/// corner's error; docs/pressure.md §2).
+/// narrower than the fluid's spacing there (it averages less than one particle's width), and a
+/// sensor within one kernel support of a corner where two closed faces of a wall meet (its
+/// reading includes the corner's error; docs/pressure.md §2). Spacing and support are those
+/// at the sensor ([`Resolution::at`]): a sensor inside a `[[refine]]` region is judged by the
+/// region's finer particles, not the scene's.
 pub(super) fn sensor_warnings(s: &Scene) -> Vec<String> {
-    let (d, dx, support) = (s.dimension, s.discretisation.dx, s.discretisation.support());
+    let d = s.dimension;
     let mut out = Vec::new();
     for (k, probe) in s.probes.iter().enumerate() {
         let Some(x) = probe.sensor_point() else {
             continue;
         };
         let name = probe.name();
-        if let Some((diameter, _)) = probe.face().filter(|f| f.0 < dx) {
+        let here = Resolution::at(s, x);
+        if let Some((diameter, _)) = probe.face().filter(|f| f.0 < here.dx) {
             out.push(format!(
-                "probe[{k}] `{name}`: its face ({:.3} mm) is narrower than dx ({:.3} mm), so it \
+                "probe[{k}] `{name}`: its face ({:.3} mm) is narrower than {} ({:.3} mm), so it \
                  averages less than one particle's width; widen `diameter` or refine",
                 1e3 * diameter,
-                1e3 * dx
+                here.spacing_name(),
+                1e3 * here.dx
             ));
         }
-        if let Some((wall, dist)) = nearest_corner(s, x, d).filter(|c| c.1 < support) {
+        if let Some((wall, dist)) = nearest_corner(s, x, d).filter(|c| c.1 < here.support) {
             out.push(format!(
                 "probe[{k}] `{name}`: the sensor lies {:.3} mm from a corner of wall `{wall}`, \
-                 within one kernel support ({:.3} mm): its reading includes the corner's error \
+                 within one kernel support ({:.3} mm{}): its reading includes the corner's error \
                  (docs/pressure.md §2); move it or refine",
                 1e3 * dist,
-                1e3 * support
+                1e3 * here.support,
+                match here.region {
+                    Some((r, _)) => format!(" in refine[{r}]"),
+                    None => String::new(),
+                }
             ));
         }
     }
     out
+}
+
+/// The fluid's spacing and kernel support at a point.
+struct Resolution {
+    /// Particle spacing (m).
+    dx: f64,
+    /// Kernel support radius κh (m).
+    support: f64,
+    /// The refinement region that sets them (its index and level), if any.
+    region: Option<(usize, u32)>,
+}
+
+impl Resolution {
+    /// At `x` (m): those of the finest `[[refine]]` region that holds `x` and refines some
+    /// fluid (spacing dx/2^ℓ; the support follows the smoothing length its particles take
+    /// there, [`super::refine::Refine::smoothing_length`]), else the scene's.
+    fn at(s: &Scene, x: &[f64]) -> Resolution {
+        let disc = &s.discretisation;
+        let finest = (s.refine.iter().enumerate())
+            .filter(|(_, r)| r.contains(x) && s.fluids.iter().any(|f| r.applies_to(&f.name)))
+            .max_by_key(|(i, r)| (r.level, std::cmp::Reverse(*i)));
+        let Some((i, r)) = finest else {
+            return Resolution {
+                dx: disc.dx,
+                support: disc.support(),
+                region: None,
+            };
+        };
+        let h = disc.h_over_dx * disc.dx;
+        let fine = f64::powi(2.0, r.level as i32);
+        let local_h = r.smoothing_length(x, &super::refine::Bounds::of(s), h, h / fine);
+        Resolution {
+            dx: disc.dx / fine,
+            support: disc.support() * local_h / h,
+            region: Some((i, r.level)),
+        }
+    }
+
+    /// How a message names the spacing: `dx`, or the region's level spacing.
+    fn spacing_name(&self) -> String {
+        match self.region {
+            None => "dx".to_string(),
+            Some((r, level)) => format!("the spacing of refine[{r}] (dx/2^{level})"),
+        }
+    }
 }
 
 /// The nearest corner to `x` (m) of any wall with particles or images: where two closed faces
