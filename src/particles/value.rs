@@ -118,6 +118,20 @@ impl<const D: usize> Sym<D> {
     }
 }
 
+impl<const D: usize> std::ops::Add for Sym<D> {
+    type Output = Sym<D>;
+
+    /// Component by component: the same sums as the two tensors' (`(a + b).tensor() ==
+    /// a.tensor() + b.tensor()` to the bit).
+    #[inline(always)]
+    fn add(self, o: Sym<D>) -> Sym<D> {
+        Sym {
+            diag: std::array::from_fn(|a| self.diag[a] + o.diag[a]),
+            off: std::array::from_fn(|a| self.off[a] + o.off[a]),
+        }
+    }
+}
+
 /// Row and column of component `k` of a symmetric tensor's upper triangle (xx, xy[, xz], yy[,
 /// yz, zz]).
 pub fn tensor_component<const D: usize>(k: usize) -> (usize, usize) {

@@ -53,8 +53,9 @@ pub struct SolidScratch<const D: usize> {
     pub rate: Vec<f64>,
     /// σ_j B_j/ρ_j² of every particle (the corrected stress term of the momentum equation).
     pub(super) sig: Vec<Tensor<D>>,
-    /// Artificial stress R_j of every particle (same units as `sig`).
-    pub(super) rs: Vec<Tensor<D>>,
+    /// Artificial stress R_j of every particle (same units as `sig`): symmetric to the bit
+    /// ([`artificial_stress`]), so its D(D+1)/2 distinct components.
+    pub(super) rs: Vec<Sym<D>>,
     /// R_j ≠ 0 (a tensile principal stress) for every particle: a pair of two particles
     /// without one skips the artificial-stress term, whose (R_i + R_j) f_ijⁿ is then exactly
     /// zero (most particles of an impact are in compression most of the time).
@@ -64,10 +65,10 @@ pub struct SolidScratch<const D: usize> {
 }
 
 impl<const D: usize> SolidScratch<D> {
-    /// Bytes this scratch holds per solid particle once sized (B; the memory estimate): two
-    /// tensors, a symmetric one, three scalars and a flag.
-    pub const BYTES_PER_PARTICLE: usize = 2 * std::mem::size_of::<Tensor<D>>()
-        + std::mem::size_of::<Sym<D>>()
+    /// Bytes this scratch holds per solid particle once sized (B; the memory estimate): a
+    /// tensor, two symmetric ones, three scalars and a flag.
+    pub const BYTES_PER_PARTICLE: usize = std::mem::size_of::<Tensor<D>>()
+        + 2 * std::mem::size_of::<Sym<D>>()
         + 3 * std::mem::size_of::<f64>()
         + 1;
 
@@ -86,7 +87,7 @@ impl<const D: usize> SolidScratch<D> {
 
 /// The artificial stress R_j of every particle and whether it is non-zero
 /// ([`SolidScratch`]'s `rs` and `tensile`).
-pub(super) type Artificial<'a, const D: usize> = (&'a [Tensor<D>], &'a [bool]);
+pub(super) type Artificial<'a, const D: usize> = (&'a [Sym<D>], &'a [bool]);
 
 /// The artificial-viscosity constants of a pass.
 #[derive(Clone, Copy)]
@@ -267,7 +268,7 @@ fn rates_of<const D: usize, N: Neighbours, K: PairKernel>(
         visc_work += mj * pi * vij.dot(&gw);
         if stress_art && (tensile[i] || tensile[j]) {
             let fn4 = model.artificial_factor(p, i, j, &k, r2.sqrt(), w_dp);
-            stress_work += mj * fn4 * vij.dot(&((rs[i] + rs[j]) * gw));
+            stress_work += mj * fn4 * vij.dot(&((rs[i] + rs[j]).tensor() * gw));
         }
     }
     rates_from(p, model, i, grad, visc_work, stress_work)
@@ -419,7 +420,7 @@ pub(super) fn stress_terms<const D: usize>(
 ) {
     let eps = model.artificial_stress;
     scratch.sig.resize(p.len(), Tensor::zeros());
-    scratch.rs.resize(p.len(), Tensor::zeros());
+    scratch.rs.resize(p.len(), Sym::default());
     scratch.tensile.resize(p.len(), false);
     scratch
         .sig
@@ -438,11 +439,11 @@ pub(super) fn stress_terms<const D: usize>(
                 *sig = (sigma / rho2) * p.correction[j].tensor();
             }
             *rs = if eps > 0.0 {
-                artificial_stress(&sigma, eps / rho2)
+                Sym::from_upper(&artificial_stress(&sigma, eps / rho2))
             } else {
-                Tensor::zeros()
+                Sym::default()
             };
-            *tensile = *rs != Tensor::<D>::zeros();
+            *tensile = *rs != Sym::default();
         });
 }
 
@@ -479,7 +480,7 @@ fn momentum_of<const D: usize, N: Neighbours, K: PairKernel>(
         // viscosity and artificial stress
         let mut t = sig_bi + sig[j] - Tensor::<D>::identity() * pi;
         if stress_art && (tensile[i] || tensile[j]) {
-            t += (rs[i] + rs[j]) * model.artificial_factor(p, i, j, &k, r, w_dp);
+            t += (rs[i] + rs[j]).tensor() * model.artificial_factor(p, i, j, &k, r, w_dp);
         }
         a += (t * gw) * p.mass[j];
     }

@@ -175,7 +175,7 @@ struct Rates<'a, 'h, const D: usize, K> {
     /// Bulk sound speed of every particle (m/s).
     c: &'a [f64],
     /// Artificial stress R of every particle, and whether it is non-zero.
-    rs: &'a [Tensor<D>],
+    rs: &'a [Sym<D>],
     tensile: &'a [bool],
     visc: Viscosity,
     /// Half the step (s), for the mid-drift separation.
@@ -215,7 +215,7 @@ impl<const D: usize, K: PairKernel> Home<f64> for Rates<'_, '_, D, K> {
                 let visc = pi * vdot;
                 let art = if stress_art && (self.tensile[a] || self.tensile[b]) {
                     let fn4 = model.artificial_factor(p, a, b, &kab, r2.sqrt(), w_dp);
-                    fn4 * vab.dot(&((self.rs[a] + self.rs[b]) * gw))
+                    fn4 * vab.dot(&((self.rs[a] + self.rs[b]).tensor() * gw))
                 } else {
                     0.0
                 };
@@ -281,7 +281,7 @@ struct Momentum<'a, 'h, const D: usize, K> {
     /// σ B/ρ² of every particle.
     sig: &'a [Tensor<D>],
     /// Artificial stress R of every particle, and whether it is non-zero.
-    rs: &'a [Tensor<D>],
+    rs: &'a [Sym<D>],
     tensile: &'a [bool],
     visc: Viscosity,
 }
@@ -314,7 +314,8 @@ impl<const D: usize, K: PairKernel> Home<f64> for Momentum<'_, '_, D, K> {
                     .pi(&kab, vab.dot(&xab), r2, self.c[a], self.c[b], rhoa, p.rho[b]);
                 let mut tt = self.sig[a] + self.sig[b] - Tensor::<D>::identity() * pi;
                 if stress_art && (self.tensile[a] || self.tensile[b]) {
-                    tt += (self.rs[a] + self.rs[b]) * model.artificial_factor(p, a, b, &kab, r2.sqrt(), w_dp);
+                    tt += (self.rs[a] + self.rs[b]).tensor()
+                        * model.artificial_factor(p, a, b, &kab, r2.sqrt(), w_dp);
                 }
                 let tg = tt * gw;
                 sum += tg * p.mass[b];
