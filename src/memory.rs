@@ -211,10 +211,11 @@ pub fn estimate<const D: usize>(
     // slots before it too
     let slot_bytes = 8.0 * D as f64 + 10.0 + if pairs && solids > 0.0 { 4.0 } else { 0.0 };
     // pair mode: V_j and p_j/ρ_j² per slot, and per receiving slot the largest pass's
-    // accumulators (fluid: the gradient's matrix and vector, D² + D values; solid: the rates'
-    // velocity gradient and two works, D² + 2)
+    // accumulators (fluid: dv/dt with the gradient's symmetric matrix and vector, D + D(D+1)/2
+    // + D values; solid: the rates' velocity gradient and two works, D² + 2)
+    let fluid_acc = (D + D * (D + 1) / 2 + D) as f64;
     let pair_scratch = match pairs {
-        true => 16.0 + fluid * 8.0 * (D * D + D) as f64 + solids * 8.0 * (D * D + 2) as f64,
+        true => 16.0 + fluid * 8.0 * fluid_acc + solids * 8.0 * (D * D + 2) as f64,
         false => 0.0,
     };
     // δ⁺ shifting keeps each owned particle's displacement and Taylor increments (2D + 1
