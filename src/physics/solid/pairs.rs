@@ -131,7 +131,14 @@ pub fn rates<const D: usize>(
     let stride = rates_stride(D);
     crate::with_pair_kernel!(model.varying(), model.kernel, D, k => {
         let pass = Rates {
-            on: Inputs::of(k, p, half, model, scratch),
+            kern: k,
+            p: &*p,
+            half,
+            model,
+            c: &scratch.c,
+            rs: &scratch.rs,
+            tensile: &scratch.tensile,
+            visc: Viscosity::of(model),
             half_dt: 0.5 * dt,
         };
         run_homes(half, s.flat(), stride, 0.0, true, &pass);
@@ -159,8 +166,8 @@ pub fn rates<const D: usize>(
     p.drho = drho;
 }
 
-/// What the rates and momentum passes read alike.
-struct Inputs<'a, 'h, const D: usize, K> {
+/// The rates pass's inputs.
+struct Rates<'a, 'h, const D: usize, K> {
     kern: K,
     p: &'a Particles<D>,
     half: &'a HalfView<'h, D>,
@@ -171,55 +178,6 @@ struct Inputs<'a, 'h, const D: usize, K> {
     rs: &'a [Sym<D>],
     tensile: &'a [bool],
     visc: Viscosity,
-    /// W(Δp) of the scene's spacing, for the artificial stress's factor fⁿ.
-    w_dp: f64,
-}
-
-impl<'a, 'h, const D: usize, K: PairKernel> Inputs<'a, 'h, D, K> {
-    fn of(
-        kern: K,
-        p: &'a Particles<D>,
-        half: &'a HalfView<'h, D>,
-        model: &'a Model<D>,
-        scratch: &'a SolidScratch<D>,
-    ) -> Self {
-        Inputs {
-            kern,
-            p,
-            half,
-            model,
-            c: &scratch.c,
-            rs: &scratch.rs,
-            tensile: &scratch.tensile,
-            visc: Viscosity::of(model),
-            w_dp: model.kernel.w(model.dx),
-        }
-    }
-
-    /// The artificial stress of the pair (a, b) at distance `r` (m), whose kernel is `kab`:
-    /// R_a + R_b and the factor fⁿ, apart (each pass multiplies them in its own order, as its
-    /// gather twin does), or `None` where neither particle is in tension (the term is then
-    /// exactly zero) or the scene has none.
-    #[inline(always)]
-    fn artificial(
-        &self,
-        a: usize,
-        b: usize,
-        kab: &crate::kernel::Kernel,
-        r: f64,
-    ) -> Option<(Tensor<D>, f64)> {
-        (self.model.artificial_stress > 0.0 && (self.tensile[a] || self.tensile[b])).then(|| {
-            (
-                (self.rs[a] + self.rs[b]).tensor(),
-                self.model.artificial_factor(self.p, a, b, kab, r, self.w_dp),
-            )
-        })
-    }
-}
-
-/// The rates pass's inputs.
-struct Rates<'a, 'h, const D: usize, K> {
-    on: Inputs<'a, 'h, D, K>,
     /// Half the step (s), for the mid-drift separation.
     half_dt: f64,
 }
@@ -227,16 +185,17 @@ struct Rates<'a, 'h, const D: usize, K> {
 impl<const D: usize, K: PairKernel> Home<f64> for Rates<'_, '_, D, K> {
     #[inline]
     fn home<I: Iterator<Item = u32>>(&self, k: usize, w: &mut Window<'_, f64>, partners: I) {
-        let on = &self.on;
-        let p = on.p;
-        let order = on.half.order();
+        let (p, model) = (self.p, self.model);
+        let order = self.half.order();
         let a = order[k] as usize;
         let (xa, va, ma, rhoa) = (p.x[a], p.v[a], p.mass[a], p.rho[a]);
+        let stress_art = model.artificial_stress > 0.0;
+        let w_dp = model.kernel.w(model.dx);
         let mid_of = |b: usize| (xa - p.x[b]) - (va - p.v[b]) * self.half_dt;
         let mut grad = Tensor::<D>::zeros();
         let (mut visc_work, mut stress_work) = (0.0, 0.0);
         batched(
-            &on.kern,
+            &self.kern,
             &p.h,
             a,
             partners,
@@ -246,17 +205,20 @@ impl<const D: usize, K: PairKernel> Home<f64> for Rates<'_, '_, D, K> {
                 let vab = va - p.v[b];
                 let mid = mid_of(b);
                 let r2 = mid.norm_squared();
-                let kab = on.kern.of(&p.h, a, b);
+                let kab = self.kern.of(&p.h, a, b);
                 let gw = mid * f;
                 let outer = vab * gw.transpose();
                 let vdot = vab.dot(&gw);
-                let pi = on
+                let pi = self
                     .visc
-                    .pi(&kab, vab.dot(&mid), r2, on.c[a], on.c[b], rhoa, p.rho[b]);
+                    .pi(&kab, vab.dot(&mid), r2, self.c[a], self.c[b], rhoa, p.rho[b]);
                 let visc = pi * vdot;
-                let art = on
-                    .artificial(a, b, &kab, r2.sqrt())
-                    .map_or(0.0, |(rsum, fn4)| fn4 * vab.dot(&(rsum * gw)));
+                let art = if stress_art && (self.tensile[a] || self.tensile[b]) {
+                    let fn4 = model.artificial_factor(p, a, b, &kab, r2.sqrt(), w_dp);
+                    fn4 * vab.dot(&((self.rs[a] + self.rs[b]).tensor() * gw))
+                } else {
+                    0.0
+                };
                 let mb = p.mass[b];
                 grad += outer * mb;
                 visc_work += mb * visc;
@@ -287,8 +249,15 @@ pub fn momentum<const D: usize>(
     dynamics::stress_terms(p, model, scratch, true);
     crate::with_pair_kernel!(model.varying(), model.kernel, D, k => {
         let pass = Momentum {
-            on: Inputs::of(k, p, half, model, scratch),
+            kern: k,
+            p: &*p,
+            half,
+            model,
+            c: &scratch.c,
             sig: &scratch.sig,
+            rs: &scratch.rs,
+            tensile: &scratch.tensile,
+            visc: Viscosity::of(model),
         };
         run_homes(half, s.flat(), D, 0.0, true, &pass);
     });
@@ -303,22 +272,32 @@ pub fn momentum<const D: usize>(
 
 /// The momentum pass's inputs.
 struct Momentum<'a, 'h, const D: usize, K> {
-    on: Inputs<'a, 'h, D, K>,
+    kern: K,
+    p: &'a Particles<D>,
+    half: &'a HalfView<'h, D>,
+    model: &'a Model<D>,
+    /// Bulk sound speed of every particle (m/s).
+    c: &'a [f64],
     /// σ B/ρ² of every particle.
     sig: &'a [Tensor<D>],
+    /// Artificial stress R of every particle, and whether it is non-zero.
+    rs: &'a [Sym<D>],
+    tensile: &'a [bool],
+    visc: Viscosity,
 }
 
 impl<const D: usize, K: PairKernel> Home<f64> for Momentum<'_, '_, D, K> {
     #[inline]
     fn home<I: Iterator<Item = u32>>(&self, k: usize, w: &mut Window<'_, f64>, partners: I) {
-        let on = &self.on;
-        let p = on.p;
-        let order = on.half.order();
+        let (p, model) = (self.p, self.model);
+        let order = self.half.order();
         let a = order[k] as usize;
         let (xa, va, ma, rhoa) = (p.x[a], p.v[a], p.mass[a], p.rho[a]);
+        let stress_art = model.artificial_stress > 0.0;
+        let w_dp = model.kernel.w(model.dx);
         let mut sum = Vector::<D>::zeros();
         batched(
-            &on.kern,
+            &self.kern,
             &p.h,
             a,
             partners,
@@ -327,15 +306,16 @@ impl<const D: usize, K: PairKernel> Home<f64> for Momentum<'_, '_, D, K> {
             |t, b, f| {
                 let xab = xa - p.x[b];
                 let r2 = xab.norm_squared();
-                let kab = on.kern.of(&p.h, a, b);
+                let kab = self.kern.of(&p.h, a, b);
                 let gw = xab * f;
                 let vab = va - p.v[b];
-                let pi = on
+                let pi = self
                     .visc
-                    .pi(&kab, vab.dot(&xab), r2, on.c[a], on.c[b], rhoa, p.rho[b]);
+                    .pi(&kab, vab.dot(&xab), r2, self.c[a], self.c[b], rhoa, p.rho[b]);
                 let mut tt = self.sig[a] + self.sig[b] - Tensor::<D>::identity() * pi;
-                if let Some((rsum, fn4)) = on.artificial(a, b, &kab, r2.sqrt()) {
-                    tt += rsum * fn4;
+                if stress_art && (self.tensile[a] || self.tensile[b]) {
+                    tt += (self.rs[a] + self.rs[b]).tensor()
+                        * model.artificial_factor(p, a, b, &kab, r2.sqrt(), w_dp);
                 }
                 let tg = tt * gw;
                 sum += tg * p.mass[b];
