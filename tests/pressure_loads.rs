@@ -142,25 +142,29 @@ fn bad_series_and_flags_for_hsph_loads_are_exit_2_naming_them() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
 
+/// The probe warnings `hsph check` prints for `scene` under the `--set` overrides `sets` (the
+/// check must succeed).
+fn probe_warnings(scene: &str, sets: &[&str]) -> Vec<String> {
+    let mut args = vec!["check", scene];
+    for s in sets {
+        args.extend(["--set", s]);
+    }
+    let o = hsph_out(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .filter(|l| l.contains("warning: probe["))
+        .map(str::to_string)
+        .collect()
+}
+
 /// `check` warns of a pressure sensor within one kernel support of a corner where two closed
 /// faces meet, and of a face narrower than dx. On the Lobovsky tank (the corner at the foot of
 /// the downstream wall): at dx = 5 mm (support 13 mm) S1, 3 mm up, alone; at 10 mm (26 mm) S1
 /// and S2 (15 mm) but not S3 (30 mm), and S1's 6 mm face.
 #[test]
 fn sensors_within_a_support_of_a_corner_or_narrower_than_dx_are_warned() {
-    let warned = |sets: &[&str]| -> Vec<String> {
-        let mut args = vec!["check", "inputs/dam_break_lobovsky.toml"];
-        for s in sets {
-            args.extend(["--set", s]);
-        }
-        let o = hsph_out(&args);
-        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-        String::from_utf8_lossy(&o.stdout)
-            .lines()
-            .filter(|l| l.contains("warning: probe["))
-            .map(str::to_string)
-            .collect()
-    };
+    let warned = |sets: &[&str]| probe_warnings("inputs/dam_break_lobovsky.toml", sets);
     let w = warned(&[]);
     assert_eq!(w.len(), 1, "{w:#?}");
     assert!(w[0].contains("`S1`") && w[0].contains("3.000 mm from a corner") && w[0].contains("13.000 mm"));
@@ -190,19 +194,7 @@ fn sensors_within_a_support_of_a_corner_or_narrower_than_dx_are_warned() {
 /// support but its 5 mm spacing, so S2 is warned again and S1's face is not.
 #[test]
 fn sensors_in_a_refinement_region_are_judged_by_its_particles() {
-    let warned = |sets: &[&str]| -> Vec<String> {
-        let mut args = vec!["check", "inputs/dam_break_lobovsky_adaptive.toml"];
-        for s in sets {
-            args.extend(["--set", s]);
-        }
-        let o = hsph_out(&args);
-        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-        String::from_utf8_lossy(&o.stdout)
-            .lines()
-            .filter(|l| l.contains("warning: probe["))
-            .map(str::to_string)
-            .collect()
-    };
+    let warned = |sets: &[&str]| probe_warnings("inputs/dam_break_lobovsky_adaptive.toml", sets);
     let w = warned(&[]);
     assert_eq!(w.len(), 1, "{w:#?}");
     assert!(
