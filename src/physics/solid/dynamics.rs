@@ -42,17 +42,20 @@ use rayon::prelude::*;
 /// allocated in the step loop once the sizes have settled.
 #[derive(Debug, Clone, Default)]
 pub struct SolidScratch<const D: usize> {
-    /// dS/dt of owned particles (Pa/s): symmetric, as the Jaumann rate 2G ε̇' + ΩS − SΩ of a
-    /// symmetric S is (to the bit: (ΩS − SΩ)_ab and _ba add the same two products), so its
-    /// D(D+1)/2 distinct components.
-    pub ds: Vec<Sym<D>>,
-    /// de/dt of owned particles (W/kg).
-    pub de: Vec<f64>,
-    /// Equivalent strain rate √(⅔ ε̇_dev:ε̇_dev) of owned particles (1/s), the Johnson–Cook
-    /// rate.
-    pub rate: Vec<f64>,
-    /// σ_j B_j/ρ_j² of every particle (the corrected stress term of the momentum equation).
-    pub(super) sig: Vec<Tensor<D>>,
+    /// [`work_stride`]`(D)` values per particle, holding in turn ([`Holds`]) what two passes
+    /// never need at once, as the schedule runs rates → update → momentum:
+    /// - the rates pass's results for owned particles until the update reads them: dS/dt
+    ///   (Pa/s; symmetric, as the Jaumann rate 2G ε̇' + ΩS − SΩ of a symmetric S is, to the
+    ///   bit: (ΩS − SΩ)_ab and _ba add the same two products), its D(D+1)/2 distinct
+    ///   components, then de/dt (W/kg) and the equivalent strain rate √(⅔ ε̇_dev:ε̇_dev) (1/s),
+    ///   the Johnson–Cook rate;
+    /// - the momentum pass's σ_j B_j/ρ_j² of every particle (the corrected stress term of
+    ///   eq. S5), a D×D tensor in column order.
+    ///
+    /// One buffer instead of four: 64 B a particle less in 3D.
+    work: Vec<f64>,
+    /// What `work` holds now.
+    holds: Holds,
     /// Artificial stress R_j of every particle (same units as `sig`): symmetric to the bit
     /// ([`artificial_stress`]), so its D(D+1)/2 distinct components.
     pub(super) rs: Vec<Sym<D>>,
@@ -64,24 +67,123 @@ pub struct SolidScratch<const D: usize> {
     pub(super) c: Vec<f64>,
 }
 
+/// What [`SolidScratch`]'s shared buffer holds.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(super) enum Holds {
+    /// Nothing yet.
+    #[default]
+    Nothing,
+    /// The rates pass's results for owned particles.
+    Rates,
+    /// σ_j B_j/ρ_j² of every particle.
+    Sig,
+}
+
+/// Values per particle of [`SolidScratch`]'s shared buffer: the larger of a D×D tensor (σB/ρ²)
+/// and the rates (D(D+1)/2 components of dS/dt, de/dt, the strain rate): 9 in 3D, 5 in 2D.
+pub const fn work_stride(d: usize) -> usize {
+    let (tensor, rates) = (d * d, d * (d + 1) / 2 + 2);
+    if tensor > rates {
+        tensor
+    } else {
+        rates
+    }
+}
+
 impl<const D: usize> SolidScratch<D> {
-    /// Bytes this scratch holds per solid particle once sized (B; the memory estimate): a
-    /// tensor, two symmetric ones, three scalars and a flag.
-    pub const BYTES_PER_PARTICLE: usize = std::mem::size_of::<Tensor<D>>()
-        + 2 * std::mem::size_of::<Sym<D>>()
-        + 3 * std::mem::size_of::<f64>()
+    /// Values per particle of the shared buffer.
+    const STRIDE: usize = work_stride(D);
+
+    /// Bytes this scratch holds per solid particle once sized (B; the memory estimate): the
+    /// shared buffer, a symmetric tensor (R), a scalar (c) and a flag.
+    pub const BYTES_PER_PARTICLE: usize = Self::STRIDE * std::mem::size_of::<f64>()
+        + std::mem::size_of::<Sym<D>>()
+        + std::mem::size_of::<f64>()
         + 1;
 
     /// Bytes this scratch holds, by capacity.
     pub fn bytes_held(&self) -> usize {
         use crate::cells::held;
-        held(&self.ds)
-            + held(&self.de)
-            + held(&self.rate)
-            + held(&self.sig)
-            + held(&self.rs)
-            + held(&self.c)
-            + held(&self.tensile)
+        held(&self.work) + held(&self.rs) + held(&self.c) + held(&self.tensile)
+    }
+
+    /// Write one particle's rates into its row: dS/dt's upper triangle, de/dt, the strain rate.
+    #[inline]
+    pub(super) fn put_rates(row: &mut [f64], (ds, de, rate): (Sym<D>, f64, f64)) {
+        let mut k = 0;
+        for r in 0..D {
+            for c in r..D {
+                row[k] = ds.get(r, c);
+                k += 1;
+            }
+        }
+        row[k] = de;
+        row[k + 1] = rate;
+    }
+
+    /// Owned particle `i`'s rates (dS/dt, de/dt, strain rate) as the rates pass left them;
+    /// zero before any rates pass (the set-up's update at dt = 0).
+    #[inline]
+    fn rates_at(&self, i: usize) -> (Sym<D>, f64, f64) {
+        if self.holds != Holds::Rates {
+            return (Sym::default(), 0.0, 0.0);
+        }
+        let row = &self.work[i * Self::STRIDE..][..Self::STRIDE];
+        let mut t = Tensor::<D>::zeros();
+        let mut k = 0;
+        for r in 0..D {
+            for c in r..D {
+                t[(r, c)] = row[k];
+                k += 1;
+            }
+        }
+        (Sym::from_upper(&t), row[k], row[k + 1])
+    }
+
+    /// The rows of the first `n` particles of the shared buffer, which will hold `now`
+    /// ([`rows_of`]).
+    pub(super) fn rows(&mut self, now: Holds, n: usize) -> &mut [f64] {
+        rows_of::<D>(&mut self.work, &mut self.holds, now, n)
+    }
+
+    /// σ_j B_j/ρ_j² of every particle, as the momentum pass's [`stress_terms`] left them.
+    pub(super) fn sig(&self) -> Sig<'_, D> {
+        debug_assert_eq!(
+            self.holds,
+            Holds::Sig,
+            "σB/ρ² read before the momentum pass wrote it"
+        );
+        Sig(&self.work)
+    }
+}
+
+/// The rows of the first `n` particles of [`SolidScratch`]'s shared buffer (`work`), which
+/// will hold `now`: the rates pass's results (each row filled by [`SolidScratch::put_rates`];
+/// a row not filled is not read) or σ_j B_j/ρ_j².
+pub(super) fn rows_of<'a, const D: usize>(
+    work: &'a mut Vec<f64>,
+    holds: &mut Holds,
+    now: Holds,
+    n: usize,
+) -> &'a mut [f64] {
+    let len = n * work_stride(D);
+    if work.len() < len {
+        work.resize(len, 0.0);
+    }
+    *holds = now;
+    &mut work[..len]
+}
+
+/// σ_j B_j/ρ_j² of every particle (the corrected stress term of eq. S5), read from
+/// [`SolidScratch`]'s shared buffer.
+#[derive(Clone, Copy)]
+pub(super) struct Sig<'a, const D: usize>(&'a [f64]);
+
+impl<const D: usize> Sig<'_, D> {
+    /// Particle `j`'s σ_j B_j/ρ_j².
+    #[inline(always)]
+    pub(super) fn at(&self, j: usize) -> Tensor<D> {
+        Tensor::<D>::from_column_slice(&self.0[j * work_stride(D)..][..D * D])
     }
 }
 
@@ -206,25 +308,31 @@ pub fn rates<const D: usize, N: Neighbours>(
     if model.artificial_stress > 0.0 {
         stress_terms(p, model, scratch, false);
     }
-    scratch.ds.resize(n, Sym::default());
-    scratch.de.resize(n, 0.0);
-    scratch.rate.resize(n, 0.0);
     let mut drho = std::mem::take(&mut p.drho);
     {
         let p = &*p;
-        let (c, rs) = (&scratch.c, (&scratch.rs[..], &scratch.tensile[..]));
+        let SolidScratch {
+            work,
+            holds,
+            c,
+            rs,
+            tensile,
+        } = scratch;
+        let rows = rows_of::<D>(work, holds, Holds::Rates, n);
+        let (c, rs) = (&c[..], (&rs[..], &tensile[..]));
         let visc = Viscosity::of(model);
         let half_dt = 0.5 * dt;
         crate::with_pair_kernel!(model.varying(), model.kernel, D, kern => {
             drho[..n]
                 .par_iter_mut()
-                .zip(scratch.ds.par_iter_mut())
-                .zip(scratch.de.par_iter_mut().zip(scratch.rate.par_iter_mut()))
+                .zip(rows.par_chunks_mut(SolidScratch::<D>::STRIDE))
                 .enumerate()
-                .for_each(|(i, ((dr, ds), (de, rate)))| {
+                .for_each(|(i, (dr, row))| {
                     // a fluid particle keeps the continuity pass's dρ/dt (a scene may hold both)
                     if nl.visits(i) && p.kind[i].is_solid() {
-                        (*dr, *ds, *de, *rate) = rates_of(p, nl, model, kern, (c, rs), &visc, half_dt, i);
+                        let (div, ds, de, rate) = rates_of(p, nl, model, kern, (c, rs), &visc, half_dt, i);
+                        *dr = div;
+                        SolidScratch::<D>::put_rates(row, (ds, de, rate));
                     }
                 })
         });
@@ -341,6 +449,7 @@ pub fn update<const D: usize>(p: &mut Particles<D>, model: &Model<D>, dt: f64, s
                 return;
             };
             let mut st = s.tensor();
+            let (ds, de, rate) = scratch.rates_at(i);
             if dt > 0.0 {
                 // d ln ρ/dt = −tr L integrated exactly over the step: the same to first order
                 // as ρ += dt dρ/dt, and positive however fast a fragment expands (an explicit
@@ -354,16 +463,16 @@ pub fn update<const D: usize>(p: &mut Particles<D>, model: &Model<D>, dt: f64, s
                     Some(z) => z.kernel::<D>(own_h[i], own_h[i]).w(0.0),
                 };
                 *rho = rho.max(mass[i] * w0);
-                *e += dt * scratch.de[i];
+                *e += dt * de;
                 // the Jaumann rate is symmetric only up to rounding: keep S symmetric to the
                 // last bit, as ghosts receive its upper triangle
-                st = symmetric(&(st + scratch.ds[i].tensor() * dt));
+                st = symmetric(&(st + ds.tensor() * dt));
             }
             if *failed != 0 {
                 st = Tensor::zeros();
             } else if let Some(jc) = &solid.strength {
                 let t = temperature(*e, solid.specific_heat, solid.t_room);
-                let y = jc.flow_stress(*eps_p, scratch.rate.get(i).copied().unwrap_or(0.0), t);
+                let y = jc.flow_stress(*eps_p, rate, t);
                 *eps_p += radial_return(&mut st, y, solid.shear);
             }
             *pr = solid.eos.pressure(*rho, *e);
@@ -398,7 +507,11 @@ pub fn momentum<const D: usize, N: Neighbours>(
     {
         let p = &*p;
         let visc = Viscosity::of(model);
-        let (sig, rs, c) = (&scratch.sig, (&scratch.rs[..], &scratch.tensile[..]), &scratch.c);
+        let (sig, rs, c) = (
+            scratch.sig(),
+            (&scratch.rs[..], &scratch.tensile[..]),
+            &scratch.c[..],
+        );
         crate::with_pair_kernel!(model.varying(), model.kernel, D, kern => {
             acc[..n].par_iter_mut().enumerate().for_each(|(i, a)| {
                 if p.kind[i].is_solid() && nl.visits(i) {
@@ -419,27 +532,38 @@ pub(super) fn stress_terms<const D: usize>(
     with_sig: bool,
 ) {
     let eps = model.artificial_stress;
-    scratch.sig.resize(p.len(), Tensor::zeros());
-    scratch.rs.resize(p.len(), Sym::default());
-    scratch.tensile.resize(p.len(), false);
-    scratch
-        .sig
-        .par_iter_mut()
-        .zip(scratch.rs.par_iter_mut().zip(scratch.tensile.par_iter_mut()))
+    let total = |j: usize| p.stress[j].tensor() - Tensor::<D>::identity() * p.p[j];
+    let SolidScratch {
+        work,
+        holds,
+        rs,
+        tensile,
+        ..
+    } = scratch;
+    if with_sig {
+        // σ_j B_j/ρ_j² once per particle, not a matrix product per pair
+        let rows = rows_of::<D>(work, holds, Holds::Sig, p.len());
+        rows.par_chunks_mut(SolidScratch::<D>::STRIDE)
+            .enumerate()
+            .for_each(|(j, row)| {
+                if p.kind[j].is_solid() {
+                    let sig = (total(j) / (p.rho[j] * p.rho[j])) * p.correction[j].tensor();
+                    row[..D * D].copy_from_slice(sig.as_slice());
+                }
+            });
+    }
+    rs.resize(p.len(), Sym::default());
+    tensile.resize(p.len(), false);
+    rs.par_iter_mut()
+        .zip(tensile.par_iter_mut())
         .enumerate()
-        .for_each(|(j, (sig, (rs, tensile)))| {
+        .for_each(|(j, (rs, tensile))| {
             if !p.kind[j].is_solid() {
                 *tensile = false;
                 return;
             }
-            let rho2 = p.rho[j] * p.rho[j];
-            let sigma = p.stress[j].tensor() - Tensor::<D>::identity() * p.p[j];
-            if with_sig {
-                // σ_j B_j/ρ_j² once per particle, not a matrix product per pair
-                *sig = (sigma / rho2) * p.correction[j].tensor();
-            }
             *rs = if eps > 0.0 {
-                Sym::from_upper(&artificial_stress(&sigma, eps / rho2))
+                Sym::from_upper(&artificial_stress(&total(j), eps / (p.rho[j] * p.rho[j])))
             } else {
                 Sym::default()
             };
@@ -456,13 +580,13 @@ fn momentum_of<const D: usize, N: Neighbours, K: PairKernel>(
     model: &Model<D>,
     kern: K,
     visc: &Viscosity,
-    (sig, (rs, tensile), c): (&[Tensor<D>], Artificial<'_, D>, &[f64]),
+    (sig, (rs, tensile), c): (Sig<'_, D>, Artificial<'_, D>, &[f64]),
     w_dp: f64,
     i: usize,
 ) -> Vector<D> {
     let (xi, vi, rhoi) = (p.x[i], p.v[i], p.rho[i]);
     let stress_art = model.artificial_stress > 0.0;
-    let sig_bi = sig[i];
+    let sig_bi = sig.at(i);
     let mut a = Vector::<D>::zeros();
     for j in nl.iter(i) {
         let j = j as usize;
@@ -478,7 +602,7 @@ fn momentum_of<const D: usize, N: Neighbours, K: PairKernel>(
         let pi = visc.pi(&k, vij.dot(&xij), r2, c[i], c[j], rhoi, p.rho[j]);
         // corrected stress terms (the duals of the corrected velocity gradient), plain
         // viscosity and artificial stress
-        let mut t = sig_bi + sig[j] - Tensor::<D>::identity() * pi;
+        let mut t = sig_bi + sig.at(j) - Tensor::<D>::identity() * pi;
         if stress_art && (tensile[i] || tensile[j]) {
             t += (rs[i] + rs[j]).tensor() * model.artificial_factor(p, i, j, &k, r, w_dp);
         }

@@ -23,7 +23,7 @@
 //! As in gather mode, the rates use the mid-drift separation x_ab − ½ dt v_ab, and pairs of
 //! Verlet lists beyond the support add exact zeros (every term carries F).
 
-use super::dynamics::{self, SolidScratch, Viscosity};
+use super::dynamics::{self, work_stride, Holds, Sig, SolidScratch, Viscosity};
 use crate::cells::{HalfView, Window};
 use crate::kernel::sizes::PairKernel;
 use crate::particles::{Particles, Sym};
@@ -143,23 +143,22 @@ pub fn rates<const D: usize>(
         };
         run_homes(half, s.flat(), stride, 0.0, true, &pass);
     });
-    scratch.ds.resize(n, Sym::default());
-    scratch.de.resize(n, 0.0);
-    scratch.rate.resize(n, 0.0);
     let mut drho = std::mem::take(&mut p.drho);
     {
         let (acc, p) = (&*s.flat(), &*p);
+        let rows = scratch.rows(Holds::Rates, n);
         drho[..n]
             .par_iter_mut()
-            .zip(scratch.ds.par_iter_mut())
-            .zip(scratch.de.par_iter_mut().zip(scratch.rate.par_iter_mut()))
+            .zip(rows.par_chunks_mut(work_stride(D)))
             .enumerate()
-            .for_each(|(i, ((dr, ds), (de, rate)))| {
+            .for_each(|(i, (dr, row))| {
                 // a fluid particle keeps the continuity pass's dρ/dt
                 if p.kind[i].is_solid() {
                     let v = &acc[half.entry(i) * stride..][..stride];
                     let grad = tensor_at::<D>(v);
-                    (*dr, *ds, *de, *rate) = dynamics::rates_from(p, model, i, grad, v[D * D], v[D * D + 1]);
+                    let (div, ds, de, rate) = dynamics::rates_from(p, model, i, grad, v[D * D], v[D * D + 1]);
+                    *dr = div;
+                    SolidScratch::<D>::put_rates(row, (ds, de, rate));
                 }
             });
     }
@@ -254,7 +253,7 @@ pub fn momentum<const D: usize>(
             half,
             model,
             c: &scratch.c,
-            sig: &scratch.sig,
+            sig: scratch.sig(),
             rs: &scratch.rs,
             tensile: &scratch.tensile,
             visc: Viscosity::of(model),
@@ -279,7 +278,7 @@ struct Momentum<'a, 'h, const D: usize, K> {
     /// Bulk sound speed of every particle (m/s).
     c: &'a [f64],
     /// σ B/ρ² of every particle.
-    sig: &'a [Tensor<D>],
+    sig: Sig<'a, D>,
     /// Artificial stress R of every particle, and whether it is non-zero.
     rs: &'a [Sym<D>],
     tensile: &'a [bool],
@@ -312,7 +311,7 @@ impl<const D: usize, K: PairKernel> Home<f64> for Momentum<'_, '_, D, K> {
                 let pi = self
                     .visc
                     .pi(&kab, vab.dot(&xab), r2, self.c[a], self.c[b], rhoa, p.rho[b]);
-                let mut tt = self.sig[a] + self.sig[b] - Tensor::<D>::identity() * pi;
+                let mut tt = self.sig.at(a) + self.sig.at(b) - Tensor::<D>::identity() * pi;
                 if stress_art && (self.tensile[a] || self.tensile[b]) {
                     tt += (self.rs[a] + self.rs[b]).tensor()
                         * model.artificial_factor(p, a, b, &kab, r2.sqrt(), w_dp);
