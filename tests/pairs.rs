@@ -130,110 +130,121 @@ fn max_difference(a: &str, b: &str) -> f64 {
     m
 }
 
+/// A scene file, its `--set` overrides and the layouts (ranks, threads) it runs on.
+type Case = (&'static str, &'static [&'static str], &'static [(usize, usize)]);
+
+/// The scenes pair mode is checked on: 2D dam break (walls, free surface, δ-SPH) and 3D dam
+/// break, each long enough that the ranks rebalance and particles migrate, and the methods
+/// below; each with the `--set` overrides and the layouts (ranks, threads) it runs on, the
+/// first the reference.
+const PAIR_CASES: [Case; 8] = [
+    (
+        "inputs/dam_break_2d.toml",
+        &["time.t_end=0.05"],
+        &[(1, 1), (1, 2), (3, 1), (3, 2), (4, 2)],
+    ),
+    // Fourtakas's density diffusion (no gradient pass, no ⟨∇ρ⟩ field)
+    (
+        "inputs/dam_break_2d.toml",
+        &["time.t_end=0.05", "physics.density_diffusion=\"fourtakas\""],
+        &[(1, 1), (3, 2)],
+    ),
+    // the Riemann solver's pressure and density terms (docs/pressure.md), on 1, 3 and 8
+    // ranks
+    (
+        "inputs/dam_break_2d.toml",
+        &[
+            "time.t_end=0.05",
+            "physics.density_diffusion=\"riemann\"",
+            "physics.pressure_gradient=\"riemann\"",
+        ],
+        &[(1, 1), (3, 2), (8, 1)],
+    ),
+    (
+        "inputs/dam_break_3d.toml",
+        &["time.max_steps=40", "balance.check_every=5"],
+        &[(1, 2), (3, 1), (4, 2)],
+    ),
+    // periodic images and laminar viscosity; mirror images
+    (
+        "inputs/poiseuille_2d.toml",
+        &["time.max_steps=200"],
+        &[(1, 1), (3, 2)],
+    ),
+    // the renormalised viscous operator (its lattice-moment pass and ghost refresh) and
+    // Morris's no-slip walls
+    (
+        "inputs/poiseuille_2d.toml",
+        &[
+            "time.max_steps=200",
+            "physics.viscous_operator=\"renormalised\"",
+            "wall[0].no_slip=\"morris\"",
+            "wall[1].no_slip=\"morris\"",
+            "discretisation.kernel=\"wendland_c2\"",
+            "discretisation.h_over_dx=1.2",
+        ],
+        &[(1, 1), (3, 2)],
+    ),
+    // Morris's no-slip between mirror plates: images across two planes, one of them
+    // moving (the Couette lid), seen from either side of a pair
+    (
+        "inputs/couette_2d_mirror.toml",
+        &[
+            "time.max_steps=200",
+            "physics.viscous_operator=\"renormalised\"",
+            "wall[0].no_slip=\"morris\"",
+            "wall[1].no_slip=\"morris\"",
+        ],
+        &[(1, 1), (3, 2)],
+    ),
+    (
+        "inputs/wall_impact_2d.toml",
+        // the block starts 1 cm from the mirror wall, so that it hits it
+        &[
+            "time.max_steps=150",
+            "fluid[0].min=[0.79, 0.15]",
+            "fluid[0].max=[0.99, 0.35]",
+            "wall[0].method=\"mirror\"",
+        ],
+        &[(1, 2), (2, 1)],
+    ),
+];
+
+/// Pair mode on `file` with `extra`: the same `final.csv` on every layout, and the flow of
+/// gather mode to round-off.
+fn check_pair_case(k: usize, (file, extra, layouts): Case) {
+    let mut with_pairs: Vec<&str> = extra.to_vec();
+    with_pairs.push("performance.interactions=\"pairs\"");
+    let pairs = scene(file, &with_pairs);
+    let gather = scene(file, extra);
+    let name = format!(
+        "{}{k}",
+        file.trim_start_matches("inputs/").trim_end_matches(".toml")
+    );
+    let reference = run(&pairs, layouts[0].0, layouts[0].1, &format!("pairs-{name}-ref"));
+    for &(ranks, threads) in &layouts[1..] {
+        let tag = format!("pairs-{name}-r{ranks}t{threads}");
+        let other = run(&pairs, ranks, threads, &tag);
+        assert!(
+            other == reference,
+            "{tag}: final.csv differs from {} rank(s) × {} thread(s)",
+            layouts[0].0,
+            layouts[0].1
+        );
+    }
+    // the same flow as gather mode (positions in m, speeds in m/s, densities, pressures):
+    // round-off grown over the run, not a different flow
+    let g = run(&gather, 1, 2, &format!("pairs-{name}-gather"));
+    let d = max_difference(&reference, &g);
+    eprintln!("{name}: largest relative difference from gather {d:.2e}");
+    assert!(d < 1e-8, "{name}: differs from gather by {d}");
+    assert!(reference != g, "{name}: pair mode ran as gather mode");
+}
+
 #[test]
 fn pairs_mode_gives_the_same_bits_on_any_ranks_and_threads_and_stays_near_gather() {
-    // 2D dam break (walls, free surface, δ-SPH) and 3D dam break, each long enough that the
-    // ranks rebalance and particles migrate
-    type Case<'a> = (&'a str, &'a [&'a str], &'a [(usize, usize)]);
-    let cases: [Case; 8] = [
-        (
-            "inputs/dam_break_2d.toml",
-            &["time.t_end=0.05"],
-            &[(1, 1), (1, 2), (3, 1), (3, 2), (4, 2)],
-        ),
-        // Fourtakas's density diffusion (no gradient pass, no ⟨∇ρ⟩ field)
-        (
-            "inputs/dam_break_2d.toml",
-            &["time.t_end=0.05", "physics.density_diffusion=\"fourtakas\""],
-            &[(1, 1), (3, 2)],
-        ),
-        // the Riemann solver's pressure and density terms (docs/pressure.md), on 1, 3 and 8
-        // ranks
-        (
-            "inputs/dam_break_2d.toml",
-            &[
-                "time.t_end=0.05",
-                "physics.density_diffusion=\"riemann\"",
-                "physics.pressure_gradient=\"riemann\"",
-            ],
-            &[(1, 1), (3, 2), (8, 1)],
-        ),
-        (
-            "inputs/dam_break_3d.toml",
-            &["time.max_steps=40", "balance.check_every=5"],
-            &[(1, 2), (3, 1), (4, 2)],
-        ),
-        // periodic images and laminar viscosity; mirror images
-        (
-            "inputs/poiseuille_2d.toml",
-            &["time.max_steps=200"],
-            &[(1, 1), (3, 2)],
-        ),
-        // the renormalised viscous operator (its lattice-moment pass and ghost refresh) and
-        // Morris's no-slip walls
-        (
-            "inputs/poiseuille_2d.toml",
-            &[
-                "time.max_steps=200",
-                "physics.viscous_operator=\"renormalised\"",
-                "wall[0].no_slip=\"morris\"",
-                "wall[1].no_slip=\"morris\"",
-                "discretisation.kernel=\"wendland_c2\"",
-                "discretisation.h_over_dx=1.2",
-            ],
-            &[(1, 1), (3, 2)],
-        ),
-        // Morris's no-slip between mirror plates: images across two planes, one of them
-        // moving (the Couette lid), seen from either side of a pair
-        (
-            "inputs/couette_2d_mirror.toml",
-            &[
-                "time.max_steps=200",
-                "physics.viscous_operator=\"renormalised\"",
-                "wall[0].no_slip=\"morris\"",
-                "wall[1].no_slip=\"morris\"",
-            ],
-            &[(1, 1), (3, 2)],
-        ),
-        (
-            "inputs/wall_impact_2d.toml",
-            // the block starts 1 cm from the mirror wall, so that it hits it
-            &[
-                "time.max_steps=150",
-                "fluid[0].min=[0.79, 0.15]",
-                "fluid[0].max=[0.99, 0.35]",
-                "wall[0].method=\"mirror\"",
-            ],
-            &[(1, 2), (2, 1)],
-        ),
-    ];
-    for (k, (file, extra, layouts)) in cases.into_iter().enumerate() {
-        let mut with_pairs: Vec<&str> = extra.to_vec();
-        with_pairs.push("performance.interactions=\"pairs\"");
-        let pairs = scene(file, &with_pairs);
-        let gather = scene(file, extra);
-        let name = format!(
-            "{}{k}",
-            file.trim_start_matches("inputs/").trim_end_matches(".toml")
-        );
-        let reference = run(&pairs, layouts[0].0, layouts[0].1, &format!("pairs-{name}-ref"));
-        for &(ranks, threads) in &layouts[1..] {
-            let tag = format!("pairs-{name}-r{ranks}t{threads}");
-            let other = run(&pairs, ranks, threads, &tag);
-            assert!(
-                other == reference,
-                "{tag}: final.csv differs from {} rank(s) × {} thread(s)",
-                layouts[0].0,
-                layouts[0].1
-            );
-        }
-        // the same flow as gather mode (positions in m, speeds in m/s, densities, pressures):
-        // round-off grown over the run, not a different flow
-        let g = run(&gather, 1, 2, &format!("pairs-{name}-gather"));
-        let d = max_difference(&reference, &g);
-        eprintln!("{name}: largest relative difference from gather {d:.2e}");
-        assert!(d < 1e-8, "{name}: differs from gather by {d}");
-        assert!(reference != g, "{name}: pair mode ran as gather mode");
+    for (k, case) in PAIR_CASES.into_iter().enumerate() {
+        check_pair_case(k, case);
     }
 }
 
