@@ -40,7 +40,7 @@ use rayon::prelude::*;
 /// Per-step scratch of the solid passes: owned-particle rates and per-particle (owned and
 /// ghost) terms computed once rather than per pair. Kept between steps so nothing is
 /// allocated in the step loop once the sizes have settled.
-#[derive(Debug, Clone, Default)]
+#[derive(Clone, Default)]
 pub struct SolidScratch<const D: usize> {
     /// [`work_stride`]`(D)` values per particle, holding in turn ([`Holds`]) what two passes
     /// never need at once, as the schedule runs rates → update → momentum:
@@ -65,6 +65,20 @@ pub struct SolidScratch<const D: usize> {
     pub(super) tensile: Vec<bool>,
     /// Bulk sound speed c_j of every particle (m/s).
     pub(super) c: Vec<f64>,
+}
+
+/// The values the scratch holds, not what its shared buffer is holding them for (`holds`):
+/// a pass over a part of the particles with none in it changes no value, though the buffer
+/// then stands for that pass's results (`sim::step`'s split-pass test compares these).
+impl<const D: usize> std::fmt::Debug for SolidScratch<D> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SolidScratch")
+            .field("work", &self.work)
+            .field("rs", &self.rs)
+            .field("tensile", &self.tensile)
+            .field("c", &self.c)
+            .finish()
+    }
 }
 
 /// What [`SolidScratch`]'s shared buffer holds.
